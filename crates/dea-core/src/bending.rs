@@ -1,0 +1,154 @@
+//! Bending rigidity by torsional springs at interior nodes, seed eqs (5-1)…(5-5).
+
+use crate::ids::NONE;
+use crate::nodes::{Elements, Nodes};
+use crate::{FibreSection, Vec3};
+
+/// Per-node bending scratch: the spring at node i pushes on its previous node, itself and its
+/// next node; the moment vector feeds the element shear (5-4).
+#[derive(Clone, Debug, Default)]
+pub struct BendingScratch {
+    /// force of the spring at node i on node prev[i] [N]
+    pub on_prev: Vec<Vec3>,
+    /// force of the spring at node i on node next[i] [N]
+    pub on_next: Vec<Vec3>,
+    /// bending moment vector M_i = K_t theta_i n_i (5-1) [N m]
+    pub moment: Vec<Vec3>,
+    /// turning angle theta_i between the two elements at node i [rad]
+    pub angle: Vec<f64>,
+}
+
+impl BendingScratch {
+    pub fn resize(&mut self, n: usize) {
+        self.on_prev.resize(n, Vec3::zeros());
+        self.on_next.resize(n, Vec3::zeros());
+        self.moment.resize(n, Vec3::zeros());
+        self.angle.resize(n, 0.0);
+    }
+}
+
+/// theta / sin(theta), finite at theta -> 0.
+#[inline]
+fn theta_over_sine(theta: f64, sine: f64) -> f64 {
+    if sine < 1e-6 {
+        1.0 + theta * theta / 6.0
+    } else {
+        theta / sine
+    }
+}
+
+/// Forces of one torsional spring with rigidity `k_t` at a node joining element vectors
+/// `a = x_i - x_prev` and `b = x_next - x_i`, from the exact gradient of `U = K_t theta^2 / 2`
+/// (seed 5-1). Returns (force on prev, force on next, theta, unit normal of the bending plane).
+#[inline]
+pub fn torsional_spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
+    let (la, lb) = (a.norm(), b.norm());
+    let (ua, ub) = (a / la, b / lb);
+    let cross = ua.cross(&ub);
+    let sine = cross.norm();
+    let cosine = ua.dot(&ub);
+    let theta = sine.atan2(cosine);
+    let factor = k_t * theta_over_sine(theta, sine);
+    let on_prev = (ua * cosine - ub) * (factor / la);
+    let on_next = (ua - ub * cosine) * (factor / lb);
+    let normal = if sine > 0.0 { cross / sine } else { Vec3::zeros() };
+    (on_prev, on_next, theta, normal)
+}
+
+/// Evaluates the torsional spring at every local node whose two elements are intact.
+pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
+    for i in 0..nodes.len() {
+        let (p, n) = (nodes.prev[i], nodes.next[i]);
+        let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
+        if p == NONE || n == NONE || k_t == 0.0 || !elements.is_intact(nodes, p as usize) || !elements.is_intact(nodes, i) {
+            scratch.on_prev[i].fill(0.0);
+            scratch.on_next[i].fill(0.0);
+            scratch.moment[i].fill(0.0);
+            scratch.angle[i] = 0.0;
+            continue;
+        }
+        let a = nodes.position[i] - nodes.position[p as usize];
+        let b = nodes.position[n as usize] - nodes.position[i];
+        let (on_prev, on_next, theta, normal) = torsional_spring(a, b, k_t);
+        scratch.on_prev[i] = on_prev;
+        scratch.on_next[i] = on_next;
+        scratch.moment[i] = normal * (k_t * theta);
+        scratch.angle[i] = theta;
+    }
+}
+
+/// Adds bending forces to owned nodes, gathered in a fixed order: own spring, spring at the
+/// previous node, spring at the next node.
+pub fn add_bending_forces(nodes: &mut Nodes, scratch: &BendingScratch) {
+    for i in 0..nodes.n_owned {
+        let mut force = -(scratch.on_prev[i] + scratch.on_next[i]);
+        let p = nodes.prev[i];
+        if p != NONE {
+            force += scratch.on_next[p as usize];
+        }
+        let n = nodes.next[i];
+        if n != NONE {
+            force += scratch.on_prev[n as usize];
+        }
+        nodes.force[i] += force;
+    }
+}
+
+/// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N].
+#[inline]
+pub fn element_shear_force(nodes: &Nodes, elements: &Elements, scratch: &BendingScratch, i: usize) -> f64 {
+    let j = nodes.next[i] as usize;
+    (scratch.moment[i] - scratch.moment[j]).norm() / elements.rest_length[i]
+}
+
+/// Maximum shear stress of a circular section, seed (5-5): `tau = 4 Q / (3 A)` [Pa].
+#[inline]
+pub fn max_shear_stress(shear_force: f64, area: f64) -> f64 {
+    4.0 * shear_force / (3.0 * area)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64) -> f64 {
+        let (a, b) = (xi - xp, xn - xi);
+        let theta = a.cross(&b).norm().atan2(a.dot(&b));
+        0.5 * k_t * theta * theta
+    }
+
+    #[test]
+    fn spring_forces_are_the_exact_gradient_of_the_bending_energy() {
+        let (xp, xi, xn) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2));
+        let k_t = 2.5;
+        let (on_prev, on_next, _, _) = torsional_spring(xi - xp, xn - xi, k_t);
+        let on_self = -(on_prev + on_next);
+        let h = 1e-6;
+        for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
+            for axis in 0..3 {
+                let mut plus = [xp, xi, xn];
+                let mut minus = [xp, xi, xn];
+                plus[node][axis] += h;
+                minus[node][axis] -= h;
+                let numeric = -(energy(plus[0], plus[1], plus[2], k_t) - energy(minus[0], minus[1], minus[2], k_t)) / (2.0 * h);
+                assert!((numeric - analytic[axis]).abs() < 1e-6, "node {node} axis {axis}: {numeric} vs {}", analytic[axis]);
+            }
+        }
+    }
+
+    #[test]
+    fn straight_chain_carries_no_bending_force_and_moment_matches_5_1() {
+        let (on_prev, on_next, theta, _) = torsional_spring(Vec3::x(), Vec3::x() * 2.0, 3.0);
+        assert_eq!(theta, 0.0);
+        assert_eq!(on_prev.norm() + on_next.norm(), 0.0);
+        // 90 degree bend: M = K_t theta (5-1)
+        let (_, _, theta, normal) = torsional_spring(Vec3::x(), Vec3::y(), 3.0);
+        assert!((theta - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        assert!((normal - Vec3::z()).norm() < 1e-15);
+    }
+
+    #[test]
+    fn shear_stress_of_circular_section_is_four_thirds_mean() {
+        assert!((max_shear_stress(3.0, 2.0) - 2.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,26 @@
+//! Central-difference integration, seed eqs (4-18)…(4-20), written as kick–drift–kick:
+//! `v(n+1/2) = v(n) + a(n) dt/2`, `x(n+1) = x(n) + v(n+1/2) dt`, `v(n+1) = v(n+1/2) + a(n+1) dt/2`.
+//! The positions are exactly those of (4-19), (4-20) with `v(1/2) = v(0) + a(0) dt/2`; the
+//! synchronous velocities make the energy balance exact to the scheme's order.
+
+use crate::nodes::Nodes;
+
+/// `v += F/m * h` for owned nodes (4-18, 4-19); clamped nodes keep zero velocity.
+pub fn kick(nodes: &mut Nodes, h: f64) {
+    for i in 0..nodes.n_owned {
+        if nodes.clamped[i] {
+            nodes.velocity[i].fill(0.0);
+        } else {
+            let acceleration = nodes.force[i] / nodes.mass[i]; // (4-18)
+            nodes.velocity[i] += acceleration * h;
+        }
+    }
+}
+
+/// `x += v * dt` for owned nodes (4-20).
+pub fn drift(nodes: &mut Nodes, dt: f64) {
+    for i in 0..nodes.n_owned {
+        let v = nodes.velocity[i];
+        nodes.position[i] += v * dt;
+    }
+}

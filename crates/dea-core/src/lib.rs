@@ -1,0 +1,30 @@
+//! Digital-element physics kernels (modified DEA, seed chapters 4–5).
+//!
+//! Everything here is MPI-free: a kernel sees a local node set (owned nodes first, ghosts
+//! after), reads positions and parameters, and adds into a force slice. Every per-node sum is
+//! a gather in a fixed order (rod, bending, contacts sorted by partner global id, projectile),
+//! so the result for a node never depends on how the problem is partitioned.
+
+pub mod bending;
+pub mod contact;
+pub mod domain;
+pub mod energy;
+pub mod failure;
+pub mod friction;
+pub mod ids;
+pub mod integrate;
+pub mod material;
+pub mod neighbour;
+pub mod nodes;
+pub mod projectile;
+pub mod rod;
+pub mod stability;
+pub mod weibull;
+
+pub use domain::{Domain, DomainError};
+pub use ids::{FibreId, GlobalNodeId, NONE};
+pub use material::{FibreMaterial, FibreSection};
+pub use nodes::{Elements, Nodes};
+
+/// 3-vector of f64 used for every position, velocity and force.
+pub type Vec3 = nalgebra::Vector3<f64>;

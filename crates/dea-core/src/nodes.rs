@@ -1,0 +1,135 @@
+//! Structure-of-arrays storage of nodes and rod elements.
+//!
+//! A digital fibre is a chain of nodes. Element `i` joins local node `i` to `next[i]` and is
+//! named by the global id of node `i`; it exists when `next[i] != NONE`. Owned nodes come
+//! first (ascending global id), ghosts after.
+
+use crate::ids::{FibreId, GlobalNodeId, NONE};
+use crate::Vec3;
+
+/// Nodes of one domain (owned, then ghosts).
+#[derive(Clone, Debug, Default)]
+pub struct Nodes {
+    /// number of owned nodes; indices `n_owned..len()` are ghosts
+    pub n_owned: usize,
+    /// global id of each node
+    pub gid: Vec<GlobalNodeId>,
+    /// position [m]
+    pub position: Vec<Vec3>,
+    /// velocity [m/s]
+    pub velocity: Vec<Vec3>,
+    /// force accumulated in the current step [N]
+    pub force: Vec<Vec3>,
+    /// lumped mass [kg]
+    pub mass: Vec<f64>,
+    /// fibre the node belongs to
+    pub fibre: Vec<FibreId>,
+    /// position of the node along its fibre (0 at the first node)
+    pub along: Vec<u32>,
+    /// index into the domain's section table
+    pub section: Vec<u16>,
+    /// local index of the previous node on the fibre, or `NONE`
+    pub prev: Vec<u32>,
+    /// local index of the next node on the fibre, or `NONE`
+    pub next: Vec<u32>,
+    /// clamped nodes never move (fixed boundary)
+    pub clamped: Vec<bool>,
+}
+
+/// Why an element failed (seed eq. 5-6 split by the dominant term).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum FailureMode {
+    #[default]
+    Intact = 0,
+    /// shear term below 10% of the criterion
+    Tension = 1,
+    /// tension term below 10% of the criterion
+    Shear = 2,
+    /// both terms matter
+    Combined = 3,
+}
+
+/// Per-element state, indexed by the local index of the element's first node.
+#[derive(Clone, Debug, Default)]
+pub struct Elements {
+    /// rest length l0 [m]
+    pub rest_length: Vec<f64>,
+    /// tensile strength sigma_u of this element [Pa]
+    pub tensile_strength: Vec<f64>,
+    /// failure state (Intact while the element carries force)
+    pub failure: Vec<FailureMode>,
+    /// engineering strain (l - l0) / l0 of the current step [-] (scratch)
+    pub strain: Vec<f64>,
+    /// axial force the element exerts on its first node [N] (scratch)
+    pub tension: Vec<Vec3>,
+}
+
+impl Nodes {
+    /// Number of local nodes (owned + ghosts).
+    pub fn len(&self) -> usize {
+        self.gid.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.gid.is_empty()
+    }
+
+    /// Appends one node; chain links are set by [`Nodes::link_chains`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(&mut self, gid: GlobalNodeId, position: Vec3, velocity: Vec3, mass: f64, fibre: FibreId, along: u32, section: u16, clamped: bool) {
+        self.gid.push(gid);
+        self.position.push(position);
+        self.velocity.push(velocity);
+        self.force.push(Vec3::zeros());
+        self.mass.push(mass);
+        self.fibre.push(fibre);
+        self.along.push(along);
+        self.section.push(section);
+        self.prev.push(NONE);
+        self.next.push(NONE);
+        self.clamped.push(clamped);
+    }
+
+    /// Sets `prev`/`next` from (fibre, along): consecutive positions on one fibre are linked.
+    /// Works for any local order, so ghosts can sit anywhere after the owned nodes.
+    pub fn link_chains(&mut self) {
+        let mut order: Vec<u32> = (0..self.len() as u32).collect();
+        order.sort_unstable_by_key(|&i| (self.fibre[i as usize], self.along[i as usize]));
+        self.prev.fill(NONE);
+        self.next.fill(NONE);
+        for pair in order.windows(2) {
+            let (a, b) = (pair[0] as usize, pair[1] as usize);
+            if self.fibre[a] == self.fibre[b] && self.along[a] + 1 == self.along[b] {
+                self.next[a] = b as u32;
+                self.prev[b] = a as u32;
+            }
+        }
+    }
+}
+
+impl Elements {
+    /// Elements for `nodes` with rest length taken from the current geometry.
+    pub fn from_geometry(nodes: &Nodes, tensile_strength: f64) -> Self {
+        let n = nodes.len();
+        let rest_length = (0..n)
+            .map(|i| match nodes.next[i] {
+                NONE => 0.0,
+                j => (nodes.position[j as usize] - nodes.position[i]).norm(),
+            })
+            .collect();
+        Self {
+            rest_length,
+            tensile_strength: vec![tensile_strength; n],
+            failure: vec![FailureMode::Intact; n],
+            strain: vec![0.0; n],
+            tension: vec![Vec3::zeros(); n],
+        }
+    }
+
+    /// True when element `i` exists and carries force.
+    #[inline]
+    pub fn is_intact(&self, nodes: &Nodes, i: usize) -> bool {
+        nodes.next[i] != NONE && self.failure[i] == FailureMode::Intact
+    }
+}

@@ -1,0 +1,54 @@
+//! Stable time step of the central-difference scheme (seed §4.2.5): below the critical step
+//! of the stiffest of rod axial, bending and contact stiffness.
+
+use crate::contact::{ContactGeometry, NormalLaw};
+use crate::{FibreMaterial, FibreSection};
+
+/// Neighbours a node may touch at once (close packing of parallel fibres plus crossings).
+pub const DESIGN_CONTACTS_PER_NODE: f64 = 12.0;
+/// Transverse strain at which the contact stiffness enters the estimate (30 % of a diameter).
+pub const DESIGN_CONTACT_STRAIN: f64 = 0.3;
+
+/// Highest angular frequency of a node of `section` [rad/s]:
+/// `omega^2 = (4 k_axial + 16 K_t / l0^2 + n_c (1 + mu) k_contact) / m`.
+/// A chain of masses m and springs k has omega_max = 2 sqrt(k/m); the bending stencil
+/// (1, -2, 1) applied twice gives the factor 16; contact stiffness is the law's tangent at
+/// [`DESIGN_CONTACT_STRAIN`] (unloading slope where that is steeper), times the friction
+/// spring mu k_n, for [`DESIGN_CONTACTS_PER_NODE`] partners.
+pub fn highest_frequency(material: &FibreMaterial, section: &FibreSection, law: &NormalLaw, friction_coefficient: f64) -> f64 {
+    let l0 = section.element_length;
+    let mass = section.node_mass(material);
+    let axial = material.longitudinal_modulus * section.area / l0;
+    let bending = section.torsional_stiffness / (l0 * l0);
+    let geometry = ContactGeometry { radius: 0.5 * section.diameter, element_length: l0, reference_length: section.diameter };
+    let overlap = DESIGN_CONTACT_STRAIN * section.diameter;
+    let (loading, _) = law.evaluate(&geometry, overlap, 0.0);
+    let (unloading, _) = law.evaluate(&geometry, overlap * 0.999, overlap);
+    let contact = loading.stiffness.max(unloading.stiffness);
+    ((4.0 * axial + 16.0 * bending + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+}
+
+/// Stable time step `safety * 2 / omega_max` over all sections [s].
+pub fn stable_time_step(material: &FibreMaterial, sections: &[FibreSection], law: &NormalLaw, friction_coefficient: f64, safety: f64) -> f64 {
+    let omega = sections.iter().map(|s| highest_frequency(material, s, law, friction_coefficient)).fold(0.0, f64::max);
+    safety * 2.0 / omega
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::InertiaModel;
+
+    #[test]
+    fn axial_limit_alone_is_element_length_over_wave_speed() {
+        let material = FibreMaterial::kevlar_km2();
+        let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None, 0.0);
+        let no_contact = NormalLaw::Elastic { transverse_modulus: 0.0 };
+        let dt = stable_time_step(&material, &[section.clone()], &no_contact, 0.0, 1.0);
+        let expected = section.element_length / material.wave_speed();
+        assert!((dt - expected).abs() < 1e-12 * expected);
+        // contact and bending only ever shorten it
+        let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked, 0.3);
+        assert!(stable_time_step(&material, &[with_all], &NormalLaw::ElastoPlasticKm2, 0.3, 1.0) < dt);
+    }
+}
