@@ -185,6 +185,7 @@ impl Domain {
         };
         domain.rebuild_neighbours();
         domain.compute_forces()?;
+        domain.set_projectile_load(domain.projectile_load());
         Ok(domain)
     }
 
@@ -200,6 +201,7 @@ impl Domain {
             self.rebuild_neighbours();
         }
         self.compute_forces()?;
+        self.set_projectile_load(self.projectile_load());
         let clock = Instant::now();
         self.kick(half);
         self.time += self.time_step;
@@ -385,6 +387,15 @@ impl Domain {
         contacts.candidates.iter().fold((Vec3::zeros(), Vec3::zeros()), |(f, t), &i| {
             (f - contacts.force_on_node[i as usize], t + contacts.torque_on_projectile[i as usize])
         })
+    }
+
+    /// Sets the contact force and torque the projectile feels in this step (the total over
+    /// all ranks, reduced in global-id order by the driver).
+    pub fn set_projectile_load(&mut self, (force, torque): (Vec3, Vec3)) {
+        if let Some(projectile) = &mut self.projectile {
+            projectile.force = force;
+            projectile.torque = torque;
+        }
     }
 
     /// Applies the combined criterion (5-6) to owned elements and books the strain and bending
