@@ -106,7 +106,7 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
     }
     let report = domain.energies();
     assert!(peak_contact > 0.0 && report.axial > 1e-3 * initial, "the sphere really loads the fibre: {report:?}");
-    assert!(report.projectile_kinetic < 0.99 * initial, "the sphere slows down");
+    assert!(report.projectile_kinetic < 0.999 * initial, "the sphere slows down");
     assert!(worst < 0.005, "energy drift {worst} of the total");
     assert!(worst_of_exchanged < 0.005, "energy drift {worst_of_exchanged} of the energy exchanged");
 }
