@@ -1,0 +1,504 @@
+//! The case file: everything a user sets, in SI units. Unknown fields are rejected and every
+//! error names the field path (`target.fibres_per_yarn: must be >= 1, got 0`).
+
+use dea_core::contact::NormalLaw;
+use dea_core::material::InertiaModel;
+use dea_core::projectile::RigidShape;
+use dea_core::weibull::{WeibullMode, WeibullStrength};
+use dea_core::FibreMaterial;
+use serde::{Deserialize, Serialize};
+
+/// A case error: where and why.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{path}: {message}")]
+pub struct CaseError {
+    /// dotted field path, or the file name for errors about the file itself
+    pub path: String,
+    pub message: String,
+}
+
+fn invalid(path: &str, message: impl Into<String>) -> CaseError {
+    CaseError { path: path.to_string(), message: message.into() }
+}
+
+/// A whole case.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// a name for the run
+    pub name: String,
+    /// fibre material preset, optionally with overrides
+    #[serde(default)]
+    pub material: MaterialSpec,
+    /// what is struck
+    pub target: TargetSpec,
+    /// bending model (5-7)…(5-10); default: effective with k1 = 0.8, k2 = 1 (seed §5.3)
+    #[serde(default = "default_bending")]
+    pub bending: InertiaModel,
+    pub contact: ContactSpec,
+    pub failure: FailureSpec,
+    pub projectile: ProjectileSpec,
+    pub run: RunSpec,
+}
+
+fn default_bending() -> InertiaModel {
+    InertiaModel::Effective { k1: 0.8, k2: 1.0 }
+}
+
+/// Material: a preset name plus optional overrides of single properties.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// "kevlar_km2" (seed Table 4-1)
+    pub preset: String,
+    /// E_L [Pa]
+    pub longitudinal_modulus_pa: Option<f64>,
+    /// E_T [Pa]
+    pub transverse_modulus_pa: Option<f64>,
+    /// density [kg/m^3]
+    pub density_kg_m3: Option<f64>,
+    /// compressive / tensile axial stiffness [-]
+    pub compressive_stiffness_ratio: Option<f64>,
+    /// real filament diameter [m]
+    pub filament_diameter_m: Option<f64>,
+}
+
+impl Default for MaterialSpec {
+    fn default() -> Self {
+        Self {
+            preset: "kevlar_km2".into(),
+            longitudinal_modulus_pa: None,
+            transverse_modulus_pa: None,
+            density_kg_m3: None,
+            compressive_stiffness_ratio: None,
+            filament_diameter_m: None,
+        }
+    }
+}
+
+/// What the projectile strikes (woven panels arrive with the fabric generator).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TargetSpec {
+    /// one fibre of circular section along x, both ends clamped (seed §6.1)
+    SingleFibre {
+        /// [m]
+        length_m: f64,
+        /// [m]
+        diameter_m: f64,
+        /// element length / fibre diameter [-]
+        element_length_ratio: f64,
+    },
+    /// a straight yarn of hexagonally packed digital fibres along x, ends clamped
+    StraightYarn {
+        /// yarn preset: "km2_600_denier" (area 4.63e-8 m^2, ~400 filaments)
+        yarn: String,
+        /// digital fibres per yarn
+        fibres_per_yarn: usize,
+        /// [m]
+        length_m: f64,
+        /// element length / digital fibre diameter [-]
+        element_length_ratio: f64,
+    },
+}
+
+/// KM2 600 denier: 600 g per 9000 m at 1440 kg/m^3 (PHYSICS.md §6).
+pub const KM2_600_DENIER_AREA: f64 = 0.6 / 9000.0 / 1440.0;
+
+/// Contact model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// "elastic" (4-8) or "elasto_plastic_km2" (4-9, 4-10)
+    pub law: String,
+    /// inter-fibre friction coefficient [-] (seed: 0.3)
+    pub friction_coefficient: f64,
+    /// fibre–projectile friction coefficient [-]
+    pub projectile_friction_coefficient: f64,
+    /// Verlet skin [m]; default a quarter of the largest contact diameter
+    pub skin_m: Option<f64>,
+}
+
+/// Failure model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FailureSpec {
+    /// "none", "deterministic" (one strength) or "weibull" (per-element strengths)
+    pub mode: String,
+    /// deterministic tensile strength [Pa] (Table 4-1: 3.8e9)
+    pub tensile_strength_pa: Option<f64>,
+    /// shear strength tau_u [Pa] (seed §5.2.2: 0.7672e9)
+    pub shear_strength_pa: Option<f64>,
+    /// bimodal Weibull law (2-1) for mode "weibull"
+    pub weibull: Option<WeibullSpec>,
+    /// seed of the strength streams
+    #[serde(default)]
+    pub seed: u64,
+}
+
+/// Parameters of (2-1); the seed gives none (docs/theory.md).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeibullSpec {
+    /// gauge length L0 [m]
+    pub gauge_length_m: f64,
+    pub shape_1: f64,
+    /// [Pa]
+    pub scale_1_pa: f64,
+    pub shape_2: Option<f64>,
+    /// [Pa]
+    pub scale_2_pa: Option<f64>,
+}
+
+/// Projectile: a preset ("table_4_2_sphere", "table_4_2_rcc") or an explicit shape.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectileSpec {
+    pub preset: Option<String>,
+    /// "sphere" or "cylinder" when no preset is given
+    pub shape: Option<String>,
+    /// [m]
+    pub diameter_m: Option<f64>,
+    /// cylinder height [m]
+    pub height_m: Option<f64>,
+    /// cylinder edge radius [m]
+    pub edge_radius_m: Option<f64>,
+    /// [kg]
+    pub mass_kg: Option<f64>,
+    /// striking speed, along -z [m/s]
+    pub velocity_m_s: f64,
+    /// lateral offset of the aim point from the target centre (x, y) [m]
+    #[serde(default)]
+    pub offset_m: [f64; 2],
+}
+
+/// Run control.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// simulated time at which the run ends [s]
+    pub end_time_s: f64,
+    /// fraction of the critical time step used [-]
+    #[serde(default = "default_safety")]
+    pub time_step_safety: f64,
+    /// steps between two history samples
+    #[serde(default = "default_history_interval")]
+    pub history_interval_steps: u64,
+    /// stop once the projectile has passed the whole target and moves away
+    #[serde(default = "default_true")]
+    pub stop_on_perforation: bool,
+}
+
+fn default_safety() -> f64 {
+    0.5
+}
+fn default_history_interval() -> u64 {
+    50
+}
+fn default_true() -> bool {
+    true
+}
+
+/// Projectile resolved to SI values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResolvedProjectile {
+    pub shape: RigidShape,
+    pub mass: f64,
+    pub speed: f64,
+    pub offset: [f64; 2],
+}
+
+/// Failure resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Strength {
+    None,
+    Deterministic(f64),
+    Weibull(WeibullStrength, u64),
+}
+
+/// Table 4-2 steel sphere: d = 5.56 mm, m = 0.692 g.
+pub fn table_4_2_sphere() -> (RigidShape, f64) {
+    (RigidShape::Sphere { radius: 5.56e-3 / 2.0 }, 0.692e-3)
+}
+
+/// Table 4-2 steel RCC: d = 3.4 mm, h = 3.7 mm, m = 0.2592 g; the seed gives no edge radius
+/// for it: 50 µm, the value of its single-yarn cylinder (§5.3).
+pub fn table_4_2_rcc() -> (RigidShape, f64) {
+    (RigidShape::Cylinder { radius: 3.4e-3 / 2.0, height: 3.7e-3, edge_radius: 50e-6 }, 0.2592e-3)
+}
+
+fn positive(path: &str, value: f64) -> Result<f64, CaseError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(invalid(path, format!("must be > 0, got {value}")))
+    }
+}
+
+fn non_negative(path: &str, value: f64) -> Result<f64, CaseError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(invalid(path, format!("must be >= 0, got {value}")))
+    }
+}
+
+fn required<T: Copy>(path: &str, value: Option<T>) -> Result<T, CaseError> {
+    value.ok_or_else(|| invalid(path, "is required here"))
+}
+
+impl Case {
+    /// Material with overrides applied.
+    pub fn material(&self) -> Result<FibreMaterial, CaseError> {
+        let m = &self.material;
+        let mut material = match m.preset.as_str() {
+            "kevlar_km2" => FibreMaterial::kevlar_km2(),
+            other => return Err(invalid("material.preset", format!("unknown preset {other:?}; known: \"kevlar_km2\""))),
+        };
+        if let Some(v) = m.longitudinal_modulus_pa {
+            material.longitudinal_modulus = positive("material.longitudinal_modulus_pa", v)?;
+        }
+        if let Some(v) = m.transverse_modulus_pa {
+            material.transverse_modulus = positive("material.transverse_modulus_pa", v)?;
+        }
+        if let Some(v) = m.density_kg_m3 {
+            material.density = positive("material.density_kg_m3", v)?;
+        }
+        if let Some(v) = m.compressive_stiffness_ratio {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(invalid("material.compressive_stiffness_ratio", format!("must be in [0, 1], got {v}")));
+            }
+            material.compressive_stiffness_ratio = v;
+        }
+        if let Some(v) = m.filament_diameter_m {
+            material.filament_diameter = positive("material.filament_diameter_m", v)?;
+        }
+        Ok(material)
+    }
+
+    /// Normal contact law.
+    pub fn normal_law(&self, material: &FibreMaterial) -> Result<NormalLaw, CaseError> {
+        match self.contact.law.as_str() {
+            "elastic" => Ok(NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }),
+            "elasto_plastic_km2" => Ok(NormalLaw::ElastoPlasticKm2),
+            other => Err(invalid("contact.law", format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""))),
+        }
+    }
+
+    /// Strength model.
+    pub fn strength(&self) -> Result<Strength, CaseError> {
+        let f = &self.failure;
+        match f.mode.as_str() {
+            "none" => Ok(Strength::None),
+            "deterministic" => Ok(Strength::Deterministic(positive("failure.tensile_strength_pa", required("failure.tensile_strength_pa", f.tensile_strength_pa)?)?)),
+            "weibull" => {
+                let w = f.weibull.as_ref().ok_or_else(|| invalid("failure.weibull", "is required when failure.mode is \"weibull\""))?;
+                let second = match (w.shape_2, w.scale_2_pa) {
+                    (None, None) => None,
+                    (Some(shape), Some(scale)) => Some(WeibullMode { shape: positive("failure.weibull.shape_2", shape)?, scale: positive("failure.weibull.scale_2_pa", scale)? }),
+                    _ => return Err(invalid("failure.weibull", "shape_2 and scale_2_pa go together")),
+                };
+                let law = WeibullStrength {
+                    gauge_length: positive("failure.weibull.gauge_length_m", w.gauge_length_m)?,
+                    first: WeibullMode { shape: positive("failure.weibull.shape_1", w.shape_1)?, scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)? },
+                    second,
+                };
+                Ok(Strength::Weibull(law, f.seed))
+            }
+            other => Err(invalid("failure.mode", format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""))),
+        }
+    }
+
+    /// Shear strength tau_u [Pa].
+    pub fn shear_strength(&self) -> Result<f64, CaseError> {
+        match self.failure.mode.as_str() {
+            "none" => Ok(self.failure.shear_strength_pa.unwrap_or(f64::INFINITY)),
+            _ => positive("failure.shear_strength_pa", required("failure.shear_strength_pa", self.failure.shear_strength_pa)?),
+        }
+    }
+
+    /// Projectile resolved from its preset or explicit shape.
+    pub fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
+        let p = &self.projectile;
+        let (shape, mass) = match (&p.preset, &p.shape) {
+            (Some(_), Some(_)) => return Err(invalid("projectile", "give either preset or shape, not both")),
+            (None, None) => return Err(invalid("projectile", "give a preset (\"table_4_2_sphere\", \"table_4_2_rcc\") or a shape")),
+            (Some(name), None) => {
+                let (shape, mass) = match name.as_str() {
+                    "table_4_2_sphere" => table_4_2_sphere(),
+                    "table_4_2_rcc" => table_4_2_rcc(),
+                    other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; known: \"table_4_2_sphere\", \"table_4_2_rcc\""))),
+                };
+                (shape, p.mass_kg.map(|m| positive("projectile.mass_kg", m)).transpose()?.unwrap_or(mass))
+            }
+            (None, Some(kind)) => {
+                let diameter = positive("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?)?;
+                let shape = match kind.as_str() {
+                    "sphere" => RigidShape::Sphere { radius: 0.5 * diameter },
+                    "cylinder" => {
+                        let height = positive("projectile.height_m", required("projectile.height_m", p.height_m)?)?;
+                        let edge = positive("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
+                        if edge > 0.5 * diameter.min(height) {
+                            return Err(invalid("projectile.edge_radius_m", format!("must not exceed half the diameter and half the height, got {edge}")));
+                        }
+                        RigidShape::Cylinder { radius: 0.5 * diameter, height, edge_radius: edge }
+                    }
+                    other => return Err(invalid("projectile.shape", format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\""))),
+                };
+                (shape, positive("projectile.mass_kg", required("projectile.mass_kg", p.mass_kg)?)?)
+            }
+        };
+        Ok(ResolvedProjectile { shape, mass, speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?, offset: p.offset_m })
+    }
+
+    /// Checks every field that parsing alone cannot.
+    pub fn validate(&self) -> Result<(), CaseError> {
+        let material = self.material()?;
+        self.normal_law(&material)?;
+        self.strength()?;
+        self.shear_strength()?;
+        self.projectile()?;
+        match &self.target {
+            TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
+                positive("target.length_m", *length_m)?;
+                positive("target.diameter_m", *diameter_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+            TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
+                yarn_area(yarn)?;
+                if *fibres_per_yarn < 1 || *fibres_per_yarn > 400 {
+                    return Err(invalid("target.fibres_per_yarn", format!("must be in 1..=400, got {fibres_per_yarn}")));
+                }
+                positive("target.length_m", *length_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+        }
+        match self.bending {
+            InertiaModel::Effective { k1, k2 } => {
+                positive("bending.k1", k1)?;
+                positive("bending.k2", k2)?;
+            }
+            InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
+        }
+        non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
+        non_negative("contact.projectile_friction_coefficient", self.contact.projectile_friction_coefficient)?;
+        if let Some(skin) = self.contact.skin_m {
+            positive("contact.skin_m", skin)?;
+        }
+        positive("run.end_time_s", self.run.end_time_s)?;
+        let safety = self.run.time_step_safety;
+        if !(safety > 0.0 && safety <= 1.0) {
+            return Err(invalid("run.time_step_safety", format!("must be in (0, 1], got {safety}")));
+        }
+        if self.run.history_interval_steps == 0 {
+            return Err(invalid("run.history_interval_steps", "must be >= 1, got 0"));
+        }
+        Ok(())
+    }
+}
+
+fn ratio(path: &str, value: f64) -> Result<f64, CaseError> {
+    if value.is_finite() && value > 0.0 && value <= 4.0 {
+        Ok(value)
+    } else {
+        Err(invalid(path, format!("must be in (0, 4], got {value}")))
+    }
+}
+
+/// Cross-section area of a yarn preset [m^2].
+pub fn yarn_area(name: &str) -> Result<f64, CaseError> {
+    match name {
+        "km2_600_denier" => Ok(KM2_600_DENIER_AREA),
+        other => Err(invalid("target.yarn", format!("unknown yarn {other:?}; known: \"km2_600_denier\""))),
+    }
+}
+
+/// Parses and validates case text; `source` names the file in errors.
+pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
+    let deserializer = &mut serde_json::Deserializer::from_str(text);
+    let case: Case = serde_path_to_error::deserialize(deserializer).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let path = if path == "." { source.to_string() } else { path };
+        CaseError { path, message: format!("{inner} (in {source})") }
+    })?;
+    case.validate().map_err(|e| CaseError { message: format!("{} (in {source})", e.message), ..e })?;
+    Ok(case)
+}
+
+/// Reads, parses and validates a case file.
+pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
+    let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
+    parse_case(&text, &path.display().to_string())
+}
+
+/// The built-in default case: a 19-fibre KM2 600 denier straight yarn, 1 in long, clamped,
+/// struck at its centre by the Table 4-2 sphere at 100 m/s.
+pub fn default_case() -> Case {
+    Case {
+        name: "default-straight-yarn".into(),
+        material: MaterialSpec::default(),
+        target: TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: 19, length_m: 0.0254, element_length_ratio: 0.5 },
+        bending: default_bending(),
+        contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
+        failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
+        projectile: ProjectileSpec {
+            preset: Some("table_4_2_sphere".into()),
+            shape: None,
+            diameter_m: None,
+            height_m: None,
+            edge_radius_m: None,
+            mass_kg: None,
+            velocity_m_s: 100.0,
+            offset_m: [0.0, 0.0],
+        },
+        run: RunSpec { end_time_s: 20e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn default_json() -> serde_json::Value {
+        serde_json::to_value(default_case()).unwrap()
+    }
+
+    fn error_for(edit: impl FnOnce(&mut serde_json::Value)) -> CaseError {
+        let mut value = default_json();
+        edit(&mut value);
+        parse_case(&value.to_string(), "case.json").unwrap_err()
+    }
+
+    #[test]
+    fn default_case_round_trips_and_validates() {
+        let text = serde_json::to_string_pretty(&default_case()).unwrap();
+        assert_eq!(parse_case(&text, "x").unwrap(), default_case());
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let e = error_for(|v| v["target"]["fibres_per_yarn"] = 0.into());
+        assert_eq!(e.path, "target.fibres_per_yarn");
+        assert!(e.message.contains("got 0"), "{e}");
+        let e = error_for(|v| v["run"]["bogus"] = 1.into());
+        assert_eq!(e.path, "run.bogus");
+        assert!(e.message.contains("unknown field"), "{e}");
+        let e = error_for(|v| v["contact"]["friction_coefficient"] = "high".into());
+        assert_eq!(e.path, "contact.friction_coefficient");
+        let e = error_for(|v| v["projectile"]["preset"] = "musket_ball".into());
+        assert_eq!(e.path, "projectile.preset");
+        let e = error_for(|v| v["failure"]["mode"] = "weibull".into());
+        assert_eq!(e.path, "failure.weibull");
+        let e = error_for(|v| v["run"]["end_time_s"] = (-1.0).into());
+        assert_eq!(e.path, "run.end_time_s");
+        let e = parse_case("{ not json", "broken.json").unwrap_err();
+        assert!(e.to_string().contains("broken.json"), "{e}");
+    }
+
+    #[test]
+    fn yarn_preset_is_600_denier() {
+        // 600 denier = 600 g / 9000 m; at 1440 kg/m^3 that is 4.63e-8 m^2 (PHYSICS.md §8)
+        assert!((KM2_600_DENIER_AREA - 4.63e-8).abs() < 0.01e-8);
+    }
+}

@@ -1,0 +1,170 @@
+//! HDF5 results: the case as run, time histories and the final state.
+//!
+//! Layout (docs/output.md):
+//! - attribute `case` (JSON text), attribute `format` = "dea-mpi results 1"
+//! - `history/time` [s], `history/projectile_position` (n x 3) [m],
+//!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_force` (n x 3) [N],
+//!   `history/energy/<kind>` [J], `history/broken/{tension,shear,combined}` [-]
+//! - `final/gid`, `final/position` (N x 3) [m], `final/velocity` (N x 3) [m/s],
+//!   `final/element_failure` (0 intact, 1 tension, 2 shear, 3 combined)
+
+use dea_core::energy::EnergyReport;
+use dea_core::Vec3;
+use hdf5::types::VarLenUnicode;
+
+/// Time histories sampled during a run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Histories {
+    /// [s]
+    pub time: Vec<f64>,
+    /// [m]
+    pub projectile_position: Vec<Vec3>,
+    /// [m/s]
+    pub projectile_velocity: Vec<Vec3>,
+    /// contact force on the projectile [N]
+    pub projectile_force: Vec<Vec3>,
+    pub energy: Vec<EnergyReport>,
+    /// cumulative broken elements by mode
+    pub broken_tension: Vec<u64>,
+    pub broken_shear: Vec<u64>,
+    pub broken_combined: Vec<u64>,
+}
+
+/// Final nodal state, in ascending global id.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FinalState {
+    pub gid: Vec<u64>,
+    /// [m]
+    pub position: Vec<Vec3>,
+    /// [m/s]
+    pub velocity: Vec<Vec3>,
+    /// failure mode code of the element starting at each node
+    pub element_failure: Vec<u8>,
+}
+
+/// Names of the energy datasets, in [`EnergyReport`] field order.
+pub const ENERGY_KINDS: [&str; 9] = [
+    "fibre_kinetic",
+    "projectile_kinetic",
+    "axial",
+    "bending",
+    "contact",
+    "friction_stored",
+    "friction_dissipated",
+    "plastic_dissipated",
+    "fracture_released",
+];
+
+fn energy_fields(e: &EnergyReport) -> [f64; 9] {
+    [e.fibre_kinetic, e.projectile_kinetic, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
+}
+
+fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
+    let flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
+    let dataset = group.new_dataset::<f64>().shape([values.len(), 3]).create(name)?;
+    dataset.write_raw(&flat)?;
+    write_text_attribute(&dataset, "units", unit)
+}
+
+fn write_scalars<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str, values: &[T], unit: &str) -> hdf5::Result<()> {
+    let dataset = group.new_dataset::<T>().shape([values.len()]).create(name)?;
+    dataset.write_raw(values)?;
+    write_text_attribute(&dataset, "units", unit)
+}
+
+fn write_text_attribute(location: &hdf5::Location, name: &str, text: &str) -> hdf5::Result<()> {
+    let value: VarLenUnicode = text.parse().map_err(|e| hdf5::Error::from(format!("{e:?}").as_str()))?;
+    location.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&value)
+}
+
+/// Writes a complete results file.
+pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories, final_state: &FinalState) -> hdf5::Result<()> {
+    let file = hdf5::File::create(path)?;
+    write_text_attribute(&file, "format", "dea-mpi results 1")?;
+    write_text_attribute(&file, "case", case_json)?;
+    let history = file.create_group("history")?;
+    write_scalars(&history, "time", &histories.time, "s")?;
+    write_vectors(&history, "projectile_position", &histories.projectile_position, "m")?;
+    write_vectors(&history, "projectile_velocity", &histories.projectile_velocity, "m/s")?;
+    write_vectors(&history, "projectile_force", &histories.projectile_force, "N")?;
+    let energy = history.create_group("energy")?;
+    for (k, name) in ENERGY_KINDS.iter().enumerate() {
+        let values: Vec<f64> = histories.energy.iter().map(|e| energy_fields(e)[k]).collect();
+        write_scalars(&energy, name, &values, "J")?;
+    }
+    let total: Vec<f64> = histories.energy.iter().map(EnergyReport::total).collect();
+    write_scalars(&energy, "total", &total, "J")?;
+    let broken = history.create_group("broken")?;
+    write_scalars(&broken, "tension", &histories.broken_tension, "elements")?;
+    write_scalars(&broken, "shear", &histories.broken_shear, "elements")?;
+    write_scalars(&broken, "combined", &histories.broken_combined, "elements")?;
+    let last = file.create_group("final")?;
+    write_scalars(&last, "gid", &final_state.gid, "-")?;
+    write_vectors(&last, "position", &final_state.position, "m")?;
+    write_vectors(&last, "velocity", &final_state.velocity, "m/s")?;
+    write_scalars(&last, "element_failure", &final_state.element_failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
+    file.flush()
+}
+
+/// Reads back the histories (used by tests and post-processing checks).
+pub fn read_histories(path: &std::path::Path) -> hdf5::Result<Histories> {
+    let file = hdf5::File::open(path)?;
+    let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> {
+        let flat: Vec<f64> = file.dataset(name)?.read_raw()?;
+        Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
+    };
+    let energies: Vec<Vec<f64>> = ENERGY_KINDS.iter().map(|k| file.dataset(&format!("history/energy/{k}"))?.read_raw()).collect::<hdf5::Result<_>>()?;
+    let time: Vec<f64> = file.dataset("history/time")?.read_raw()?;
+    let energy = (0..time.len())
+        .map(|s| {
+            let e = |k: usize| energies[k][s];
+            EnergyReport {
+                fibre_kinetic: e(0),
+                projectile_kinetic: e(1),
+                axial: e(2),
+                bending: e(3),
+                contact: e(4),
+                friction_stored: e(5),
+                friction_dissipated: e(6),
+                plastic_dissipated: e(7),
+                fracture_released: e(8),
+            }
+        })
+        .collect();
+    Ok(Histories {
+        projectile_position: vectors("history/projectile_position")?,
+        projectile_velocity: vectors("history/projectile_velocity")?,
+        projectile_force: vectors("history/projectile_force")?,
+        broken_tension: file.dataset("history/broken/tension")?.read_raw()?,
+        broken_shear: file.dataset("history/broken/shear")?.read_raw()?,
+        broken_combined: file.dataset("history/broken/combined")?.read_raw()?,
+        time,
+        energy,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histories_round_trip_through_hdf5() {
+        let dir = std::env::temp_dir().join(format!("dea-io-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("results.h5");
+        let histories = Histories {
+            time: vec![0.0, 1e-9],
+            projectile_position: vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 5.0, 6.0)],
+            projectile_velocity: vec![Vec3::zeros(), Vec3::x()],
+            projectile_force: vec![Vec3::y(), Vec3::z()],
+            energy: vec![EnergyReport { axial: 1.0, ..Default::default() }, EnergyReport { plastic_dissipated: 2.0, ..Default::default() }],
+            broken_tension: vec![0, 1],
+            broken_shear: vec![0, 2],
+            broken_combined: vec![0, 3],
+        };
+        let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2] };
+        write_results(&path, "{\"name\":\"t\"}", &histories, &state).unwrap();
+        assert_eq!(read_histories(&path).unwrap(), histories);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
