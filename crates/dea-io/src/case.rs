@@ -452,7 +452,7 @@ pub fn default_case() -> Case {
             velocity_m_s: 100.0,
             offset_m: [0.0, 0.0],
         },
-        run: RunSpec { end_time_s: 20e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true },
+        run: RunSpec { end_time_s: 60e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true },
     }
 }
 
