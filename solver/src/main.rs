@@ -84,13 +84,31 @@ fn single_rank(world: &comm::World) -> Result<(), ExitCode> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Check { case } => match load(Some(&case)) {
-            Ok(case) => {
-                println!("{}", serde_json::to_string_pretty(&case).expect("case serialises"));
-                ExitCode::SUCCESS
-            }
-            Err(code) => code,
-        },
+        Command::Check { case } => {
+            let case = match load(Some(&case)) {
+                Ok(case) => case,
+                Err(code) => return code,
+            };
+            let domain = match setup::build_domain(&case) {
+                Ok(domain) => domain,
+                Err(e) => return fail(Exit::Numerical, e),
+            };
+            let projectile = case.projectile().expect("validated case");
+            let resolved = serde_json::json!({
+                "case": case,
+                "resolved": {
+                    "material": domain.material,
+                    "sections": domain.sections,
+                    "projectile": { "shape": projectile.shape, "mass_kg": projectile.mass, "speed_m_s": projectile.speed },
+                    "nodes": domain.nodes.n_owned,
+                    "time_step_s": domain.time_step,
+                    "steps": (case.run.end_time_s / domain.time_step).ceil(),
+                    "skin_m": domain.pairs.skin,
+                }
+            });
+            println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+            ExitCode::SUCCESS
+        }
         Command::Run { case, out } => {
             let case = match load(case.as_ref()) {
                 Ok(case) => case,

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Sets up and runs the main job: the built-in default case under mpirun. Results go to
+# ./out (results.h5, summary.json). One rank until the domain decomposition lands.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+source scripts/mpi-env.sh
+ranks="${DEA_RANKS:-1}"
+"${MPIRUN[@]}" -np "$ranks" target/release/dea-mpi run --out "${1:-out}"

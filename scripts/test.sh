@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Sets up and runs every test: unit and physics tests (cargo), the command-line tests, and
+# the runs under mpirun.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+source scripts/mpi-env.sh
+cargo test --release --locked --workspace
+scripts/mpi-tests.sh

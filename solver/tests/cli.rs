@@ -1,0 +1,92 @@
+//! The command line as users and scripts see it: exit codes, error messages, outputs.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn dea(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dea-mpi")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn bad_case_names_the_field_and_exits_3() {
+    let dir = scratch("bad");
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
+    case["target"]["element_length_ratio"] = (-1.0).into();
+    let path = dir.join("bad.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("target.element_length_ratio") && stderr.contains("bad.json"), "{stderr}");
+    std::fs::write(&path, "{\"name\": 3}").unwrap();
+    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("name"));
+}
+
+#[test]
+fn missing_file_exits_4_and_usage_errors_exit_2() {
+    let out = dea(&["check", "/nonexistent/case.json"]);
+    assert_eq!(out.status.code(), Some(4));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/case.json"));
+    assert_eq!(dea(&["frobnicate"]).status.code(), Some(2));
+    assert_eq!(dea(&["run", "--bogus"]).status.code(), Some(2));
+    let help = dea(&["run", "--help"]);
+    assert!(help.status.success() && String::from_utf8_lossy(&help.stdout).contains("Examples"));
+}
+
+#[test]
+fn check_prints_the_resolved_case() {
+    let out = dea(&["check", "../cases/single_fibre_short.json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(printed["case"]["name"], "single-fibre-short");
+    assert_eq!(printed["resolved"]["material"]["longitudinal_modulus"], 84.6e9);
+    assert!(printed["resolved"]["nodes"].as_u64().unwrap() > 1000);
+    assert!(printed["resolved"]["time_step_s"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn run_writes_summary_and_hdf5_histories() {
+    let dir = scratch("run");
+    let out = dea(&["run", "../cases/single_fibre_short.json", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for key in ["steps", "simulated_time_s", "wall_s", "perforated", "residual_velocity_m_s", "max_projectile_force_n", "node_steps_per_s_per_core"] {
+        assert!(summary.get(key).is_some(), "summary lacks {key}");
+    }
+    assert!(summary["steps"].as_u64().unwrap() > 100);
+    assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the sphere reached the fibre");
+    assert!(summary["energy_balance_error"].as_f64().unwrap() < 1e-3);
+    let file = hdf5::File::open(dir.join("results.h5")).unwrap();
+    let time: Vec<f64> = file.dataset("history/time").unwrap().read_raw().unwrap();
+    assert!(time.len() > 2);
+    for name in ["history/projectile_position", "history/projectile_velocity", "history/projectile_force"] {
+        assert_eq!(file.dataset(name).unwrap().shape(), vec![time.len(), 3], "{name}");
+    }
+    for kind in ["fibre_kinetic", "projectile_kinetic", "axial", "bending", "contact", "friction_dissipated", "plastic_dissipated", "total"] {
+        let values: Vec<f64> = file.dataset(&format!("history/energy/{kind}")).unwrap().read_raw().unwrap();
+        assert_eq!(values.len(), time.len(), "{kind}");
+    }
+    let gid: Vec<u64> = file.dataset("final/gid").unwrap().read_raw().unwrap();
+    assert_eq!(gid.len() as u64, summary["nodes"].as_u64().unwrap());
+}
+
+#[test]
+fn bench_json_has_the_documented_keys() {
+    let out = dea(&["bench", "--json", "--nodes", "4000", "--steps", "20"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["nodes", "steps", "ranks", "wall_s", "ns_per_node_step", "ns_per_contact_pair", "ns_per_node_rods", "ns_per_node_rebuild", "contacts_per_node"] {
+        assert!(report.get(key).is_some(), "bench lacks {key}");
+    }
+    assert!(report["nodes"].as_u64().unwrap() >= 4000);
+    assert!(report["contacts_per_node"].as_f64().unwrap() > 1.0, "the bench yarn is in contact");
+}
