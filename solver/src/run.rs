@@ -37,29 +37,12 @@ pub struct Summary {
     pub stopped_by: String,
 }
 
+/// Stage times of the step plus the time spent sampling and writing output [s].
 #[derive(Clone, Debug, Serialize)]
 pub struct StageSeconds {
-    pub integrate: f64,
-    pub rebuild: f64,
-    pub rods: f64,
-    pub fibre_contacts: f64,
-    pub projectile_contacts: f64,
-    pub failure: f64,
+    #[serde(flatten)]
+    pub step: StageTimes,
     pub output: f64,
-}
-
-impl StageSeconds {
-    fn from(times: &StageTimes, output: f64) -> Self {
-        Self {
-            integrate: times.integrate,
-            rebuild: times.rebuild,
-            rods: times.rods,
-            fibre_contacts: times.fibre_contacts,
-            projectile_contacts: times.projectile_contacts,
-            failure: times.failure,
-            output,
-        }
-    }
 }
 
 fn sample(domain: &Domain, histories: &mut Histories) {
@@ -160,7 +143,7 @@ pub fn run(mut domain: Domain, case_name: &str, case_json: &str, end_time: f64, 
         broken_elements_combined: domain.broken.combined,
         energy_balance_error: (final_energy - initial_energy).abs() / initial_energy,
         node_steps_per_s_per_core: (n as f64 * domain.step as f64) / wall / ranks as f64,
-        stage_seconds: StageSeconds::from(&domain.times, output_seconds),
+        stage_seconds: StageSeconds { step: domain.times, output: output_seconds },
         stopped_by,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");

@@ -66,7 +66,7 @@ pub struct NodeLedger {
 }
 
 /// Wall time spent in each stage [s].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct StageTimes {
     pub integrate: f64,
     pub rebuild: f64,

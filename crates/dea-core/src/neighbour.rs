@@ -136,8 +136,7 @@ impl NeighbourList {
         for i in 0..nodes.n_owned {
             let xi = nodes.position[i];
             let [cx, cy, cz] = cell_coordinates(&xi, low, cell_size);
-            let section_i = &sections[nodes.section[i] as usize];
-            let exclusion = chain_exclusion(section_i);
+            let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
             scratch.row.clear();
             for x in cx.saturating_sub(1)..=(cx + 1).min(dims[0] - 1) {
                 for y in cy.saturating_sub(1)..=(cy + 1).min(dims[1] - 1) {
@@ -145,7 +144,7 @@ impl NeighbourList {
                         let c = cell_index([x, y, z], dims);
                         for &j in &scratch.sorted[scratch.cell_start[c] as usize..scratch.cell_start[c + 1] as usize] {
                             let j = j as usize;
-                            if j == i || (nodes.fibre[j] == nodes.fibre[i] && nodes.along[j].abs_diff(nodes.along[i]) <= exclusion) {
+                            if j == i || same_fibre_within(nodes, i, j, exclusion) {
                                 continue;
                             }
                             let reach = contact_distance(sections, nodes, i, j) + self.skin;
@@ -215,9 +214,15 @@ fn cell_index(c: [usize; 3], dims: [usize; 3]) -> usize {
     (c[0] * dims[1] + c[1]) * dims[2] + c[2]
 }
 
+/// True when `j` lies on the fibre of `i` within `exclusion` positions.
+#[inline]
+fn same_fibre_within(nodes: &Nodes, i: usize, j: usize, exclusion: u32) -> bool {
+    nodes.fibre[j] == nodes.fibre[i] && nodes.along[j].abs_diff(nodes.along[i]) <= exclusion
+}
+
 /// True when `j` is a chain neighbour of `i` that the contact search must skip.
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
-    nodes.fibre[j] == nodes.fibre[i] && nodes.along[j].abs_diff(nodes.along[i]) <= chain_exclusion(&sections[nodes.section[i] as usize])
+    same_fibre_within(nodes, i, j, chain_exclusion(&sections[nodes.section[i] as usize]))
 }
 
 
