@@ -431,7 +431,9 @@ impl Domain {
             let area = self.sections[nodes.section[i] as usize].area;
             let mut released = axial_energy(&self.material, area, self.elements.rest_length[i], self.elements.strain[i]);
             // the spring at the first node, and the one at the second unless the element
-            // after it also broke now (then that element books it)
+            // after it also broke now (then that element books it). When that element is
+            // owned by another rank its new state is only known after the next halo
+            // exchange: the domain-decomposition work must settle this booking.
             released += self.spring_energy(i);
             let next_also_broke = self.elements.failure[next] != FailureMode::Intact && self.newly_broken.binary_search(&(next as u32)).is_ok();
             if !next_also_broke {
