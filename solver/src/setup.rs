@@ -66,19 +66,13 @@ pub fn build_domain(case: &Case) -> Result<Domain, DomainError> {
     Domain::new(material, built.sections, built.nodes, built.elements, contact, failure, Some(body), dt)
 }
 
-/// Lowest point of the projectile along z [m].
+/// Lowest point of the projectile along z [m] (its bounding sphere: exact for a sphere,
+/// conservative for a tilted cylinder).
 pub fn projectile_bottom(projectile: &RigidProjectile) -> f64 {
-    match projectile.shape {
-        RigidShape::Sphere { radius } => projectile.position.z - radius,
-        // conservative for a tilted body: the bounding sphere
-        RigidShape::Cylinder { .. } => projectile.position.z - projectile.shape.bounding_radius(),
-    }
+    projectile.position.z - projectile.shape.bounding_radius()
 }
 
-/// Highest point of the projectile along z [m].
+/// Highest point of the projectile along z [m] (its bounding sphere).
 pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
-    match projectile.shape {
-        RigidShape::Sphere { radius } => projectile.position.z + radius,
-        RigidShape::Cylinder { .. } => projectile.position.z + projectile.shape.bounding_radius(),
-    }
+    projectile.position.z + projectile.shape.bounding_radius()
 }

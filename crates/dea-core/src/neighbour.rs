@@ -38,6 +38,7 @@ pub struct NeighbourList {
 struct BuildScratch {
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
+    cell_fill: Vec<u32>,
     sorted: Vec<u32>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
@@ -119,10 +120,11 @@ impl NeighbourList {
         }
         scratch.sorted.clear();
         scratch.sorted.resize(n, 0);
-        let mut fill = scratch.cell_start.clone();
+        scratch.cell_fill.clear();
+        scratch.cell_fill.extend_from_slice(&scratch.cell_start);
         for (i, &c) in scratch.cell_of.iter().enumerate() {
-            scratch.sorted[fill[c as usize] as usize] = i as u32;
-            fill[c as usize] += 1;
+            scratch.sorted[scratch.cell_fill[c as usize] as usize] = i as u32;
+            scratch.cell_fill[c as usize] += 1;
         }
 
         scratch.start.clear();
