@@ -23,15 +23,18 @@ pub struct BenchReport {
     pub ranks: i32,
     pub wall_s: f64,
     pub ns_per_node_step: f64,
-    /// fibre-contact stage time per touching pair entry per step (friction included)
+    /// fibre-contact stage time per touching pair entry, on the squeezed yarn held still
+    /// (every pair in reach touches; friction evaluated, sticking)
     pub ns_per_contact_pair: f64,
+    /// touching pair entries per node in that static measurement
+    pub static_contacts_per_node: f64,
     /// fibre-contact stage time per neighbour-list entry per step
     pub ns_per_listed_pair: f64,
     /// tension + bending + integration per node-step
     pub ns_per_node_rods: f64,
     /// one neighbour-list rebuild per node
     pub ns_per_node_rebuild: f64,
-    /// touching pair entries per owned node (each pair counted at both nodes)
+    /// touching pair entries per owned node during the run (each pair counted at both nodes)
     pub contacts_per_node: f64,
     pub listed_pairs_per_node: f64,
     pub node_steps_per_s_per_core: f64,
@@ -75,12 +78,19 @@ pub fn bench(min_nodes: usize, steps: u64, ranks: i32) -> Result<BenchReport, de
     let mut domain = bench_domain(min_nodes);
     let nodes = domain.nodes.n_owned;
     // rebuild cost, measured on its own
-    let rebuild_samples = 3;
+    let rebuild_samples = 10;
     let clock = Instant::now();
     for _ in 0..rebuild_samples {
         domain.rebuild_neighbours();
     }
     let ns_per_node_rebuild = clock.elapsed().as_secs_f64() * 1e9 / (rebuild_samples as f64 * nodes as f64);
+    let static_evaluations = 20;
+    domain.times = Default::default();
+    for _ in 0..static_evaluations {
+        domain.compute_forces()?;
+    }
+    let static_touching = domain.pairs.touching.iter().filter(|&&t| t).count() as f64;
+    let ns_per_contact_pair = domain.times.fibre_contacts * 1e9 / (static_touching * static_evaluations as f64);
     domain.times = Default::default();
     let builds_before = domain.pairs.builds;
     let (mut touching, mut listed, mut samples) = (0usize, 0usize, 0usize);
@@ -104,7 +114,8 @@ pub fn bench(min_nodes: usize, steps: u64, ranks: i32) -> Result<BenchReport, de
         ranks,
         wall_s: wall,
         ns_per_node_step: wall * 1e9 / node_steps,
-        ns_per_contact_pair: times.fibre_contacts * 1e9 / (mean_touching * steps as f64),
+        ns_per_contact_pair,
+        static_contacts_per_node: static_touching / nodes as f64,
         ns_per_listed_pair: times.fibre_contacts * 1e9 / (mean_listed * steps as f64),
         ns_per_node_rods: (times.rods + times.integrate) * 1e9 / node_steps,
         ns_per_node_rebuild,

@@ -37,25 +37,25 @@ fn theta_over_sine(theta: f64, sine: f64) -> f64 {
     }
 }
 
-/// Forces of one torsional spring with rigidity `k_t` at a node joining element vectors
-/// `a = x_i - x_prev` and `b = x_next - x_i`, from the exact gradient of `U = K_t theta^2 / 2`
-/// (seed 5-1). Returns (force on prev, force on next, theta, unit normal of the bending plane).
+/// Forces of one torsional spring with rigidity `k_t` at a node joining the elements
+/// `a = x_i - x_prev` and `b = x_next - x_i`, given as unit vectors and inverse lengths, from
+/// the exact gradient of `U = K_t theta^2 / 2` (seed 5-1). Returns (force on prev, force on
+/// next, theta, moment vector `K_t theta n`). The moment is `(a^ x b^) K_t theta / sin(theta)`,
+/// so the plane's normal needs no normalisation.
 #[inline]
-pub fn torsional_spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
-    let (la, lb) = (a.norm(), b.norm());
-    let (ua, ub) = (a / la, b / lb);
+pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
     let cross = ua.cross(&ub);
     let sine = cross.norm();
     let cosine = ua.dot(&ub);
     let theta = sine.atan2(cosine);
     let factor = k_t * theta_over_sine(theta, sine);
-    let on_prev = (ua * cosine - ub) * (factor / la);
-    let on_next = (ua - ub * cosine) * (factor / lb);
-    let normal = if sine > 0.0 { cross / sine } else { Vec3::zeros() };
-    (on_prev, on_next, theta, normal)
+    let on_prev = (ua * cosine - ub) * (factor * inverse_la);
+    let on_next = (ua - ub * cosine) * (factor * inverse_lb);
+    (on_prev, on_next, theta, cross * factor)
 }
 
 /// Evaluates the torsional spring at every local node whose two elements are intact.
+/// Reads the element directions of [`crate::rod::compute_element_tension`] (run it first).
 pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
     for i in 0..nodes.len() {
         let (p, n) = (nodes.prev[i], nodes.next[i]);
@@ -67,30 +67,13 @@ pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSect
             scratch.angle[i] = 0.0;
             continue;
         }
-        let a = nodes.position[i] - nodes.position[p as usize];
-        let b = nodes.position[n as usize] - nodes.position[i];
-        let (on_prev, on_next, theta, normal) = torsional_spring(a, b, k_t);
+        let p = p as usize;
+        let (on_prev, on_next, theta, moment) =
+            torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t);
         scratch.on_prev[i] = on_prev;
         scratch.on_next[i] = on_next;
-        scratch.moment[i] = normal * (k_t * theta);
+        scratch.moment[i] = moment;
         scratch.angle[i] = theta;
-    }
-}
-
-/// Adds bending forces to owned nodes, gathered in a fixed order: own spring, spring at the
-/// previous node, spring at the next node.
-pub fn add_bending_forces(nodes: &mut Nodes, scratch: &BendingScratch) {
-    for i in 0..nodes.n_owned {
-        let mut force = -(scratch.on_prev[i] + scratch.on_next[i]);
-        let p = nodes.prev[i];
-        if p != NONE {
-            force += scratch.on_next[p as usize];
-        }
-        let n = nodes.next[i];
-        if n != NONE {
-            force += scratch.on_prev[n as usize];
-        }
-        nodes.force[i] += force;
     }
 }
 
@@ -111,6 +94,10 @@ pub fn max_shear_stress(shear_force: f64, area: f64) -> f64 {
 mod tests {
     use super::*;
 
+    fn spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
+        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t)
+    }
+
     fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64) -> f64 {
         let (a, b) = (xi - xp, xn - xi);
         let theta = a.cross(&b).norm().atan2(a.dot(&b));
@@ -121,7 +108,7 @@ mod tests {
     fn spring_forces_are_the_exact_gradient_of_the_bending_energy() {
         let (xp, xi, xn) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2));
         let k_t = 2.5;
-        let (on_prev, on_next, _, _) = torsional_spring(xi - xp, xn - xi, k_t);
+        let (on_prev, on_next, _, _) = spring(xi - xp, xn - xi, k_t);
         let on_self = -(on_prev + on_next);
         let h = 1e-6;
         for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
@@ -138,13 +125,13 @@ mod tests {
 
     #[test]
     fn straight_chain_carries_no_bending_force_and_moment_matches_5_1() {
-        let (on_prev, on_next, theta, _) = torsional_spring(Vec3::x(), Vec3::x() * 2.0, 3.0);
+        let (on_prev, on_next, theta, _) = spring(Vec3::x(), Vec3::x() * 2.0, 3.0);
         assert_eq!(theta, 0.0);
         assert_eq!(on_prev.norm() + on_next.norm(), 0.0);
         // 90 degree bend: M = K_t theta (5-1)
-        let (_, _, theta, normal) = torsional_spring(Vec3::x(), Vec3::y(), 3.0);
+        let (_, _, theta, moment) = spring(Vec3::x(), Vec3::y(), 3.0);
         assert!((theta - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
-        assert!((normal - Vec3::z()).norm() < 1e-15);
+        assert!((moment - Vec3::z() * 3.0 * theta).norm() < 1e-14);
     }
 
     #[test]

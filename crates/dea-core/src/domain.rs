@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use crate::bending::{add_bending_forces, compute_bending, element_shear_force, max_shear_stress, BendingScratch};
+use crate::bending::{compute_bending, element_shear_force, max_shear_stress, BendingScratch};
 use crate::contact::{ContactGeometry, NormalLaw};
 use crate::energy::EnergyReport;
 use crate::failure::{combined_criterion, FailureParameters};
@@ -15,7 +15,7 @@ use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::projectile::RigidProjectile;
-use crate::rod::{add_rod_forces, axial_energy, compute_element_tension, element_strain_energy};
+use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::{FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
 /// Contact parameters of a case.
@@ -194,8 +194,7 @@ impl Domain {
     pub fn step(&mut self) -> Result<(), DomainError> {
         let half = 0.5 * self.time_step;
         let clock = Instant::now();
-        self.kick(half);
-        self.drift(self.time_step);
+        self.kick_drift(half, self.time_step);
         self.times.integrate += clock.elapsed().as_secs_f64();
         if self.rebuild_due() {
             self.rebuild_neighbours();
@@ -218,10 +217,11 @@ impl Domain {
         }
     }
 
-    /// Position update of owned nodes and the projectile.
-    pub fn drift(&mut self, dt: f64) {
-        integrate::drift(&mut self.nodes, dt);
+    /// Half-step velocity update, then position update, of owned nodes and the projectile.
+    pub fn kick_drift(&mut self, half_dt: f64, dt: f64) {
+        integrate::kick_drift(&mut self.nodes, half_dt, dt);
         if let Some(projectile) = &mut self.projectile {
+            projectile.kick(half_dt);
             projectile.drift(dt);
         }
     }
@@ -261,13 +261,9 @@ impl Domain {
     /// Forces on owned nodes, element failure and the projectile's contact load.
     pub fn compute_forces(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
-        for f in &mut self.nodes.force[..] {
-            f.fill(0.0);
-        }
         compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
         compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
-        add_rod_forces(&mut self.nodes, &self.elements);
-        add_bending_forces(&mut self.nodes, &self.bending);
+        set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
         let rods_done = Instant::now();
         self.times.rods += (rods_done - clock).as_secs_f64();
         self.add_fibre_contacts();

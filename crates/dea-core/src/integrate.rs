@@ -17,10 +17,16 @@ pub fn kick(nodes: &mut Nodes, h: f64) {
     }
 }
 
-/// `x += v * dt` for owned nodes (4-20).
-pub fn drift(nodes: &mut Nodes, dt: f64) {
+/// Half-step velocity update followed by the position update (4-19, 4-20), in one pass
+/// over the owned nodes; clamped nodes keep zero velocity and their position.
+pub fn kick_drift(nodes: &mut Nodes, h: f64, dt: f64) {
     for i in 0..nodes.n_owned {
-        let v = nodes.velocity[i];
-        nodes.position[i] += v * dt;
+        if nodes.clamped[i] {
+            nodes.velocity[i].fill(0.0);
+        } else {
+            let velocity = nodes.velocity[i] + nodes.force[i] * (h / nodes.mass[i]);
+            nodes.velocity[i] = velocity;
+            nodes.position[i] += velocity * dt;
+        }
     }
 }

@@ -40,6 +40,7 @@ struct BuildScratch {
     cell_start: Vec<u32>,
     cell_fill: Vec<u32>,
     sorted: Vec<u32>,
+    sorted_position: Vec<Vec3>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
     partner: Vec<u32>,
@@ -48,6 +49,9 @@ struct BuildScratch {
     touching: Vec<bool>,
     max_overlap: Vec<f64>,
 }
+
+/// Cells per contact reach (cutoff + skin) of the cell list.
+const CELLS_PER_REACH: usize = 1;
 
 /// Contact cutoff between two nodes: half the sum of the modified diameters (3-3) [m].
 #[inline]
@@ -97,7 +101,7 @@ impl NeighbourList {
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
         let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-        let mut cell_size = max_cutoff + self.skin;
+        let mut cell_size = (max_cutoff + self.skin) / CELLS_PER_REACH as f64;
         let (low, high) = bounding_box(&nodes.position);
         // cap the grid at a few cells per node: a sparse far-flung set must not allocate a
         // huge empty grid
@@ -118,14 +122,21 @@ impl NeighbourList {
         for c in 0..n_cells {
             scratch.cell_start[c + 1] += scratch.cell_start[c];
         }
+        // nodes and their positions in cell order: the scan below streams through memory
         scratch.sorted.clear();
         scratch.sorted.resize(n, 0);
+        scratch.sorted_position.clear();
+        scratch.sorted_position.resize(n, Vec3::zeros());
         scratch.cell_fill.clear();
         scratch.cell_fill.extend_from_slice(&scratch.cell_start);
         for (i, &c) in scratch.cell_of.iter().enumerate() {
-            scratch.sorted[scratch.cell_fill[c as usize] as usize] = i as u32;
+            let slot = scratch.cell_fill[c as usize] as usize;
+            scratch.sorted[slot] = i as u32;
+            scratch.sorted_position[slot] = nodes.position[i];
             scratch.cell_fill[c as usize] += 1;
         }
+        let single_section = sections.len() == 1;
+        let coarse_reach = max_cutoff + self.skin;
 
         scratch.start.clear();
         scratch.partner.clear();
@@ -140,19 +151,26 @@ impl NeighbourList {
             let [cx, cy, cz] = cell_coordinates(&xi, low, cell_size);
             let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
             scratch.row.clear();
-            for x in cx.saturating_sub(1)..=(cx + 1).min(dims[0] - 1) {
-                for y in cy.saturating_sub(1)..=(cy + 1).min(dims[1] - 1) {
-                    for z in cz.saturating_sub(1)..=(cz + 1).min(dims[2] - 1) {
-                        let c = cell_index([x, y, z], dims);
-                        for &j in &scratch.sorted[scratch.cell_start[c] as usize..scratch.cell_start[c + 1] as usize] {
-                            let j = j as usize;
-                            if j == i || same_fibre_within(nodes, i, j, exclusion) {
-                                continue;
-                            }
-                            let reach = contact_distance(sections, nodes, i, j) + self.skin;
-                            if (nodes.position[j] - xi).norm_squared() < reach * reach {
-                                scratch.row.push((nodes.gid[j], j as u32));
-                            }
+            let reach_cells = CELLS_PER_REACH;
+            let span = |c: usize, d: usize| c.saturating_sub(reach_cells)..=(c + reach_cells).min(d - 1);
+            let (z_low, z_high) = (cz.saturating_sub(reach_cells), (cz + reach_cells).min(dims[2] - 1));
+            for x in span(cx, dims[0]) {
+                for y in span(cy, dims[1]) {
+                    // the cells along z are adjacent in the cell order: one range
+                    let first = scratch.cell_start[cell_index([x, y, z_low], dims)] as usize;
+                    let last = scratch.cell_start[cell_index([x, y, z_high], dims) + 1] as usize;
+                    for k in first..last {
+                        let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
+                        if distance_squared >= coarse_reach * coarse_reach {
+                            continue;
+                        }
+                        let j = scratch.sorted[k] as usize;
+                        if j == i || same_fibre_within(nodes, i, j, exclusion) {
+                            continue;
+                        }
+                        let reach = contact_distance(sections, nodes, i, j) + self.skin;
+                        if single_section || distance_squared < reach * reach {
+                            scratch.row.push((nodes.gid[j], j as u32));
                         }
                     }
                 }

@@ -63,6 +63,10 @@ pub struct Elements {
     pub strain: Vec<f64>,
     /// axial force the element exerts on its first node [N] (scratch)
     pub tension: Vec<Vec3>,
+    /// unit vector from the first to the second node (scratch, reused by bending)
+    pub direction: Vec<Vec3>,
+    /// 1 / current length [1/m] (scratch, reused by bending)
+    pub inverse_length: Vec<f64>,
 }
 
 impl Nodes {
@@ -124,6 +128,8 @@ impl Elements {
             failure: vec![FailureMode::Intact; n],
             strain: vec![0.0; n],
             tension: vec![Vec3::zeros(); n],
+            direction: vec![Vec3::zeros(); n],
+            inverse_length: vec![0.0; n],
         }
     }
 

@@ -1,12 +1,14 @@
 //! Axial rod forces, seed eqs (4-2), (4-3).
 
+use crate::bending::BendingScratch;
 use crate::ids::NONE;
 use crate::nodes::{Elements, Nodes};
 use crate::{FibreMaterial, FibreSection};
 
 /// Computes strain and axial force of every intact element whose first node is local
 /// (seed 4-2: `f = E_L A (l - l0) / l0`; in compression the stiffness is scaled by
-/// `compressive_stiffness_ratio`). Stores the force on the first node in `elements.tension`.
+/// `compressive_stiffness_ratio`). Stores the force on the first node in `elements.tension`,
+/// and the element's direction and inverse length for the bending pass.
 pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
     for i in 0..nodes.len() {
         let j = nodes.next[i];
@@ -15,6 +17,10 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
         }
         let axis = nodes.position[j as usize] - nodes.position[i];
         let length = axis.norm();
+        let inverse_length = 1.0 / length;
+        let direction = axis * inverse_length;
+        elements.direction[i] = direction;
+        elements.inverse_length[i] = inverse_length;
         let rest = elements.rest_length[i];
         let strain = (length - rest) / rest;
         elements.strain[i] = strain;
@@ -25,20 +31,29 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
         let stiffness = material.longitudinal_modulus * sections[nodes.section[i] as usize].area;
         let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
         // force on the first node points along the element when stretched (4-2)
-        elements.tension[i] = axis * (scale * stiffness * strain / length);
+        elements.tension[i] = direction * (scale * stiffness * strain);
     }
 }
 
-/// Adds the axial forces to owned nodes: `F_i = f_m - f_n` (seed 4-3), gathered per node in
-/// the fixed order (element to the next node, then element from the previous node).
-pub fn add_rod_forces(nodes: &mut Nodes, elements: &Elements) {
+/// Sets the chain force of every owned node: the axial forces `F_i = f_m - f_n` (seed 4-3),
+/// then the bending springs (own spring, spring at the previous node, spring at the next
+/// node), gathered per node in that fixed order. Overwrites `nodes.force` of owned nodes, so
+/// it is the first force stage of a step.
+pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &BendingScratch) {
     for i in 0..nodes.n_owned {
-        let mut force = elements.tension[i];
-        let p = nodes.prev[i];
+        let (p, n) = (nodes.prev[i], nodes.next[i]);
+        let mut axial = elements.tension[i];
         if p != NONE {
-            force -= elements.tension[p as usize];
+            axial -= elements.tension[p as usize];
         }
-        nodes.force[i] += force;
+        let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
+        if p != NONE {
+            spring += bending.on_next[p as usize];
+        }
+        if n != NONE {
+            spring += bending.on_prev[n as usize];
+        }
+        nodes.force[i] = axial + spring;
     }
 }
 
