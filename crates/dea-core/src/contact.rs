@@ -35,13 +35,13 @@ pub struct ContactGeometry {
     pub element_length: f64,
     /// reference length L of the nominal strain delta / L [m]
     pub reference_length: f64,
+    /// `2 sqrt(r) l0 / L` [m^0.5], cached: force = this x integral of E_t(eps) sqrt(delta) d delta
+    area_factor: f64,
 }
 
 impl ContactGeometry {
-    /// `2 sqrt(r) l0 / L`: force = this x integral of E_t(eps) sqrt(delta) d delta.
-    #[inline]
-    fn area_factor(&self) -> f64 {
-        2.0 * self.radius.sqrt() * self.element_length / self.reference_length
+    pub fn new(radius: f64, element_length: f64, reference_length: f64) -> Self {
+        Self { radius, element_length, reference_length, area_factor: 2.0 * radius.sqrt() * element_length / reference_length }
     }
 }
 
@@ -67,21 +67,26 @@ impl NormalLaw {
         }
     }
 
-    /// Force on the loading curve: integral of E_t(delta / L) 2 sqrt(r delta) l0 / L [N].
-    /// Elastic: `4 E_T sqrt(r) l0 delta^(3/2) / (3 L)` (4-8).
+    /// Force and tangent stiffness on the loading curve: the force is the integral of
+    /// `E_t(delta / L) 2 sqrt(r delta) l0 / L`; elastic: `4 E_T sqrt(r) l0 delta^(3/2) / (3 L)`
+    /// (4-8). One square root per call.
     #[inline]
-    pub fn loading_force(&self, geometry: &ContactGeometry, overlap: f64) -> f64 {
+    fn loading(&self, geometry: &ContactGeometry, overlap: f64) -> NormalResponse {
         let s = overlap.sqrt();
-        let length = geometry.reference_length;
+        let strain = overlap / geometry.reference_length;
         let integral = match *self {
             NormalLaw::Elastic { transverse_modulus } => transverse_modulus * (2.0 / 3.0) * overlap * s,
             NormalLaw::ElastoPlasticKm2 => {
                 let [_, c1, c2, c3] = KM2_LOADING_GPA;
-                let d32 = overlap * s;
-                1e9 * d32 * ((6.0 / 7.0) * c3 * overlap * overlap / (length * length) + (4.0 / 5.0) * c2 * overlap / length + (2.0 / 3.0) * c1)
+                1e9 * overlap * s * ((6.0 / 7.0) * c3 * strain * strain + (4.0 / 5.0) * c2 * strain + (2.0 / 3.0) * c1)
             }
         };
-        geometry.area_factor() * integral
+        NormalResponse { force: geometry.area_factor * integral, stiffness: geometry.area_factor * self.loading_tangent(strain) * s }
+    }
+
+    /// Force on the loading curve [N] (see [`Self::evaluate`] for the full law).
+    pub fn loading_force(&self, geometry: &ContactGeometry, overlap: f64) -> f64 {
+        self.loading(geometry, overlap).force
     }
 
     /// Work done along the loading curve from 0 to `overlap` [J].
@@ -95,12 +100,7 @@ impl NormalLaw {
                 1e9 * d52 * ((12.0 / 63.0) * c3 * overlap * overlap / (length * length) + (8.0 / 35.0) * c2 * overlap / length + (4.0 / 15.0) * c1)
             }
         };
-        geometry.area_factor() * integral
-    }
-
-    #[inline]
-    fn loading_stiffness(&self, geometry: &ContactGeometry, overlap: f64) -> f64 {
-        geometry.area_factor() * self.loading_tangent(overlap / geometry.reference_length) * overlap.sqrt()
+        geometry.area_factor * integral
     }
 
     /// Unloading stiffness from the largest overlap reached [N/m]: slope (4-10) on the contact
@@ -111,7 +111,7 @@ impl NormalLaw {
         let strain = max_overlap / geometry.reference_length;
         let [k0, k1, k2] = KM2_UNLOADING_GPA;
         let slope = (k2 * strain * strain + k1 * strain + k0) * 1e9;
-        geometry.area_factor() * slope.max(self.loading_tangent(strain)) * max_overlap.sqrt()
+        geometry.area_factor * slope.max(self.loading_tangent(strain)) * max_overlap.sqrt()
     }
 
     /// Evaluates the law at `overlap` (> 0) given the largest overlap reached so far;
@@ -119,14 +119,8 @@ impl NormalLaw {
     #[inline]
     pub fn evaluate(&self, geometry: &ContactGeometry, overlap: f64, max_overlap: f64) -> (NormalResponse, f64) {
         match self {
-            NormalLaw::Elastic { .. } => (
-                NormalResponse { force: self.loading_force(geometry, overlap), stiffness: self.loading_stiffness(geometry, overlap) },
-                max_overlap.max(overlap),
-            ),
-            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => (
-                NormalResponse { force: self.loading_force(geometry, overlap), stiffness: self.loading_stiffness(geometry, overlap) },
-                overlap,
-            ),
+            NormalLaw::Elastic { .. } => (self.loading(geometry, overlap), max_overlap.max(overlap)),
+            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => (self.loading(geometry, overlap), overlap),
             NormalLaw::ElastoPlasticKm2 => {
                 let k_u = self.unloading_stiffness(geometry, max_overlap);
                 let force = self.loading_force(geometry, max_overlap) - k_u * (max_overlap - overlap);
@@ -172,7 +166,7 @@ mod tests {
     use super::*;
 
     fn geometry() -> ContactGeometry {
-        ContactGeometry { radius: 25e-6, element_length: 12.5e-6, reference_length: 50e-6 }
+        ContactGeometry::new(25e-6, 12.5e-6, 50e-6)
     }
 
     #[test]

@@ -142,11 +142,7 @@ impl Domain {
                 let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
                 PairData {
                     reach: 0.5 * (a.contact_diameter + b.contact_diameter),
-                    geometry: ContactGeometry {
-                        radius: 2.0 * ra * rb / (ra + rb),
-                        element_length: 0.5 * (a.element_length + b.element_length),
-                        reference_length: ra + rb,
-                    },
+                    geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb),
                 }
             })
             .collect();
@@ -299,7 +295,7 @@ impl Domain {
                     continue;
                 }
                 let distance = distance_squared.sqrt();
-                let normal = relative / distance;
+                let normal = relative * (1.0 / distance);
                 let overlap = data.reach - distance;
                 let previous_max = pairs.max_overlap[k];
                 let (response, max_overlap) = law.evaluate(&data.geometry, overlap, previous_max);
@@ -330,7 +326,7 @@ impl Domain {
         let section = &self.sections[self.nodes.section[i] as usize];
         let body = projectile.to_body(&self.nodes.position[i]);
         let (distance, normal) = projectile.shape.distance_and_normal(&body);
-        let geometry = ContactGeometry { radius: 0.5 * section.diameter, element_length: section.element_length, reference_length: section.diameter };
+        let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
         (0.5 * section.contact_diameter - distance, normal, body, geometry)
     }
 

@@ -32,9 +32,9 @@ pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, normal_force:
     let stiffness = coefficient * normal_stiffness; // (4-12)
     let limit = coefficient * normal_force;
     let trial = tangential * stiffness; // (4-11)
-    let trial_norm = trial.norm();
-    if trial_norm <= limit {
-        let stored = if stiffness > 0.0 { trial_norm * trial_norm / (2.0 * stiffness) } else { 0.0 };
+    let trial_squared = trial.norm_squared();
+    if trial_squared <= limit * limit {
+        let stored = if stiffness > 0.0 { trial_squared / (2.0 * stiffness) } else { 0.0 };
         return FrictionResponse { force: trial, dissipated: 0.0, stored };
     }
     let tangential_norm = tangential.norm();

@@ -20,7 +20,7 @@ pub fn highest_frequency(material: &FibreMaterial, section: &FibreSection, law: 
     let mass = section.node_mass(material);
     let axial = material.longitudinal_modulus * section.area / l0;
     let bending = section.torsional_stiffness / (l0 * l0);
-    let geometry = ContactGeometry { radius: 0.5 * section.diameter, element_length: l0, reference_length: section.diameter };
+    let geometry = ContactGeometry::new(0.5 * section.diameter, l0, section.diameter);
     let overlap = DESIGN_CONTACT_STRAIN * section.diameter;
     let (loading, _) = law.evaluate(&geometry, overlap, 0.0);
     let (unloading, _) = law.evaluate(&geometry, overlap * 0.999, overlap);
