@@ -4,6 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use dea_core::domain::StageTimes;
+use dea_core::nodes::FailureMode;
 use dea_core::{Domain, DomainError, Vec3};
 use dea_io::results::{write_results, FinalState, Histories};
 use serde::Serialize;
@@ -65,17 +66,54 @@ enum Outcome {
     Rebounded,
 }
 
-fn outcome(domain: &Domain, direction: Vec3) -> Outcome {
-    let projectile = domain.projectile.as_ref().expect("runs have a projectile");
-    let margin = domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-    let (low, high) = domain.nodes.position[..domain.nodes.n_owned].iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.z), h.max(p.z)));
-    let forward = projectile.velocity.dot(&direction);
-    if forward > 0.0 && projectile_top(projectile) < low - margin {
-        Outcome::Perforated
-    } else if forward < 0.0 && projectile_bottom(projectile) > high + margin && projectile.force.norm() == 0.0 {
-        Outcome::Rebounded
-    } else {
-        Outcome::Undecided
+/// Decides a shot: perforated once the projectile has passed the target's initial back face,
+/// still moves forward, and every fibre it touches is broken somewhere (what hangs on it
+/// are loose fragments); rebounded once it moves back, clear of the target and of contact.
+struct Judge {
+    direction: Vec3,
+    /// lowest fibre node at time zero [m]
+    back_face: f64,
+    /// largest contact diameter [m]
+    margin: f64,
+    /// scratch: which fibres have a broken element
+    fibre_broken: Vec<bool>,
+}
+
+impl Judge {
+    fn new(domain: &Domain, direction: Vec3) -> Self {
+        let owned = &domain.nodes.position[..domain.nodes.n_owned];
+        let fibres = domain.nodes.fibre.iter().map(|f| f.0 as usize + 1).max().unwrap_or(0);
+        Self {
+            direction,
+            back_face: owned.iter().map(|p| p.z).fold(f64::INFINITY, f64::min),
+            margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max),
+            fibre_broken: vec![false; fibres],
+        }
+    }
+
+    fn outcome(&mut self, domain: &Domain) -> Outcome {
+        let projectile = domain.projectile.as_ref().expect("runs have a projectile");
+        let forward = projectile.velocity.dot(&self.direction);
+        let nodes = &domain.nodes;
+        if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin {
+            self.fibre_broken.fill(false);
+            for i in 0..nodes.n_owned {
+                if domain.elements.failure[i] != FailureMode::Intact {
+                    self.fibre_broken[nodes.fibre[i].0 as usize] = true;
+                }
+            }
+            let contacts = &domain.projectile_contacts;
+            let held = contacts.candidates.iter().any(|&i| contacts.touching[i as usize] && !self.fibre_broken[nodes.fibre[i as usize].0 as usize]);
+            if !held {
+                return Outcome::Perforated;
+            }
+        }
+        let high = nodes.position[..nodes.n_owned].iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+        if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
+            Outcome::Rebounded
+        } else {
+            Outcome::Undecided
+        }
     }
 }
 
@@ -91,13 +129,14 @@ pub fn run(mut domain: Domain, case_name: &str, case_json: &str, end_time: f64, 
     sample(&domain, &mut histories);
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
+    let mut judge = Judge::new(&domain, direction);
     while domain.time + 0.5 * domain.time_step < end_time {
         domain.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
         if domain.step % history_interval == 0 {
             let clock = Instant::now();
             sample(&domain, &mut histories);
-            decided = outcome(&domain, direction);
+            decided = judge.outcome(&domain);
             output_seconds += clock.elapsed().as_secs_f64();
             if stop_when_decided && decided != Outcome::Undecided {
                 stopped_by = format!("{decided:?}").to_lowercase();
@@ -111,7 +150,7 @@ pub fn run(mut domain: Domain, case_name: &str, case_json: &str, end_time: f64, 
     }
     if domain.step % history_interval != 0 {
         sample(&domain, &mut histories);
-        decided = outcome(&domain, direction);
+        decided = judge.outcome(&domain);
     }
     let wall = start.elapsed().as_secs_f64();
     let clock = Instant::now();

@@ -11,8 +11,9 @@ pub struct FibreMaterial {
     pub transverse_modulus: f64,
     /// density [kg/m^3]
     pub density: f64,
-    /// axial stiffness in compression as a fraction of E_L [-]; 0 = tension-only rod
-    /// (fibres buckle under compression, seed is silent; see docs/theory.md)
+    /// axial stiffness in compression as a fraction of E_L [-]; 0 = tension-only rod.
+    /// The seed is silent; the preset keeps 1 and lets the bending springs buckle a
+    /// compressed fibre (docs/theory.md, I1)
     pub compressive_stiffness_ratio: f64,
     /// diameter of one real filament d_a [m]; enters I_0 (5-7)
     pub filament_diameter: f64,
@@ -20,13 +21,13 @@ pub struct FibreMaterial {
 
 impl FibreMaterial {
     /// Kevlar KM2, seed Table 4-1 (E_L = 84.6 GPa, E_T = 1.34 GPa, rho = 1440 kg/m^3) with
-    /// 12 µm filaments (seed §2.2.3; PHYSICS.md §6).
+    /// 12 µm filaments (seed §2.2.3; PHYSICS.md §6); linear elastic in axial compression.
     pub fn kevlar_km2() -> Self {
         Self {
             longitudinal_modulus: 84.6e9,
             transverse_modulus: 1.34e9,
             density: 1440.0,
-            compressive_stiffness_ratio: 0.0,
+            compressive_stiffness_ratio: 1.0,
             filament_diameter: 12.0e-6,
         }
     }

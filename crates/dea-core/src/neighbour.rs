@@ -50,9 +50,6 @@ struct BuildScratch {
     max_overlap: Vec<f64>,
 }
 
-/// Cells per contact reach (cutoff + skin) of the cell list.
-const CELLS_PER_REACH: usize = 1;
-
 /// Contact cutoff between two nodes: half the sum of the modified diameters (3-3) [m].
 #[inline]
 pub fn contact_distance(sections: &[FibreSection], nodes: &Nodes, i: usize, j: usize) -> f64 {
@@ -101,25 +98,20 @@ impl NeighbourList {
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
         let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-        let mut cell_size = (max_cutoff + self.skin) / CELLS_PER_REACH as f64;
-        let (low, high) = bounding_box(&nodes.position);
-        // cap the grid at a few cells per node: a sparse far-flung set must not allocate a
-        // huge empty grid
-        let mut dims = grid_dims(low, high, cell_size);
-        while (dims[0] * dims[1] * dims[2]) > 8 * n.max(128) {
-            cell_size *= 1.5;
-            dims = grid_dims(low, high, cell_size);
-        }
+        let cell_size = max_cutoff + self.skin;
+        let (low, _) = bounding_box(&nodes.position);
+        // a hashed grid: memory follows the node count, not the extent, so a fragment flung
+        // far away cannot blow up the grid or crowd every node into a few huge cells
+        let grid = HashedGrid::new(n, low, cell_size);
         let scratch = &mut self.scratch;
-        let n_cells = dims[0] * dims[1] * dims[2];
         scratch.cell_of.clear();
-        scratch.cell_of.extend(nodes.position.iter().map(|x| cell_index(cell_coordinates(x, low, cell_size), dims) as u32));
+        scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
         scratch.cell_start.clear();
-        scratch.cell_start.resize(n_cells + 1, 0);
+        scratch.cell_start.resize(grid.slots() + 1, 0);
         for &c in &scratch.cell_of {
             scratch.cell_start[c as usize + 1] += 1;
         }
-        for c in 0..n_cells {
+        for c in 0..grid.slots() {
             scratch.cell_start[c + 1] += scratch.cell_start[c];
         }
         // nodes and their positions in cell order: the scan below streams through memory
@@ -148,34 +140,36 @@ impl NeighbourList {
         let has_history = self.start.len() == nodes.n_owned + 1;
         for i in 0..nodes.n_owned {
             let xi = nodes.position[i];
-            let [cx, cy, cz] = cell_coordinates(&xi, low, cell_size);
+            let [cx, cy, cz] = grid.coordinates(&xi);
             let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
             scratch.row.clear();
-            let reach_cells = CELLS_PER_REACH;
-            let span = |c: usize, d: usize| c.saturating_sub(reach_cells)..=(c + reach_cells).min(d - 1);
-            let (z_low, z_high) = (cz.saturating_sub(reach_cells), (cz + reach_cells).min(dims[2] - 1));
-            for x in span(cx, dims[0]) {
-                for y in span(cy, dims[1]) {
-                    // the cells along z are adjacent in the cell order: one range
-                    let first = scratch.cell_start[cell_index([x, y, z_low], dims)] as usize;
-                    let last = scratch.cell_start[cell_index([x, y, z_high], dims) + 1] as usize;
-                    for k in first..last {
-                        let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
-                        if distance_squared >= coarse_reach * coarse_reach {
-                            continue;
-                        }
-                        let j = scratch.sorted[k] as usize;
-                        if j == i || same_fibre_within(nodes, i, j, exclusion) {
-                            continue;
-                        }
-                        let reach = contact_distance(sections, nodes, i, j) + self.skin;
-                        if single_section || distance_squared < reach * reach {
-                            scratch.row.push((nodes.gid[j], j as u32));
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    // the three cells along z sit in consecutive slots (modulo the table)
+                    let first = grid.slot([cx + dx, cy + dy, cz - 1]);
+                    let wrap = (first + 3).saturating_sub(grid.slots());
+                    let ranges = [first..first + 3 - wrap, 0..wrap];
+                    for slots in ranges {
+                        for k in scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize {
+                            let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
+                            if distance_squared >= coarse_reach * coarse_reach {
+                                continue;
+                            }
+                            let j = scratch.sorted[k] as usize;
+                            if j == i || same_fibre_within(nodes, i, j, exclusion) {
+                                continue;
+                            }
+                            let reach = contact_distance(sections, nodes, i, j) + self.skin;
+                            if single_section || distance_squared < reach * reach {
+                                scratch.row.push((nodes.gid[j], j as u32));
+                            }
                         }
                     }
                 }
             }
             scratch.row.sort_unstable();
+            // two columns may share slots of the table: a node can be met twice
+            scratch.row.dedup();
             // sorted merge with the previous row of the same owned node
             let old = if has_history { self.start[i] as usize..self.start[i + 1] as usize } else { 0..0 };
             let mut cursor = old.start;
@@ -218,20 +212,35 @@ fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
     }
 }
 
-fn grid_dims(low: Vec3, high: Vec3, cell: f64) -> [usize; 3] {
-    let d = |k: usize| (((high[k] - low[k]) / cell).floor() as usize + 1).max(1);
-    [d(0), d(1), d(2)]
+/// A cell grid stored as a hash table of `slots()` entries. Cell (x, y, z) lives in slot
+/// `hash(x, y) + z` (modulo the table), so the cells of one column along z are consecutive.
+struct HashedGrid {
+    low: Vec3,
+    inverse_cell: f64,
+    mask: usize,
 }
 
-#[inline]
-fn cell_coordinates(x: &Vec3, low: Vec3, cell: f64) -> [usize; 3] {
-    let c = |k: usize| ((x[k] - low[k]) / cell).floor().max(0.0) as usize;
-    [c(0), c(1), c(2)]
-}
+impl HashedGrid {
+    fn new(nodes: usize, low: Vec3, cell: f64) -> Self {
+        Self { low, inverse_cell: 1.0 / cell, mask: (2 * nodes).next_power_of_two().max(64) - 1 }
+    }
 
-#[inline]
-fn cell_index(c: [usize; 3], dims: [usize; 3]) -> usize {
-    (c[0] * dims[1] + c[1]) * dims[2] + c[2]
+    fn slots(&self) -> usize {
+        self.mask + 1
+    }
+
+    #[inline]
+    fn coordinates(&self, x: &Vec3) -> [i64; 3] {
+        let c = |k: usize| ((x[k] - self.low[k]) * self.inverse_cell).floor() as i64;
+        [c(0), c(1), c(2)]
+    }
+
+    #[inline]
+    fn slot(&self, [x, y, z]: [i64; 3]) -> usize {
+        let column = (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+        let column = column ^ (column >> 29);
+        (column.wrapping_add(z as u64) as usize) & self.mask
+    }
 }
 
 /// True when `j` lies on the fibre of `i` within `exclusion` positions.
@@ -285,6 +294,20 @@ mod tests {
             assert_eq!(list.partner_gid[list.row(i)], expected[..], "node {i}");
         }
         assert!(!list.is_empty());
+    }
+
+    #[test]
+    fn a_node_flung_far_away_neither_breaks_nor_slows_the_search() {
+        let (mut nodes, sections) = random_cloud(600, 5);
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        let before: Vec<Vec<GlobalNodeId>> = (1..nodes.n_owned).map(|i| list.partner_gid[list.row(i)].iter().copied().filter(|&g| g != nodes.gid[0]).collect()).collect();
+        nodes.position[0] = Vec3::new(1e3, -2e3, 5e2);
+        list.rebuild(&nodes, &sections);
+        assert_eq!(list.row(0).len(), 0);
+        for i in 1..nodes.n_owned {
+            assert_eq!(list.partner_gid[list.row(i)], before[i - 1][..], "node {i}");
+        }
     }
 
     #[test]
