@@ -99,10 +99,10 @@ impl NeighbourList {
         let n = nodes.len();
         let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
         let cell_size = max_cutoff + self.skin;
-        let (low, _) = bounding_box(&nodes.position);
-        // a hashed grid: memory follows the node count, not the extent, so a fragment flung
-        // far away cannot blow up the grid or crowd every node into a few huge cells
-        let grid = HashedGrid::new(n, low, cell_size);
+        let (low, high) = bounding_box(&nodes.position);
+        // memory follows the node count, not the extent, so a fragment flung far away can
+        // neither blow up the grid nor crowd every node into a few huge cells
+        let grid = HashedGrid::new(n, low, high, cell_size);
         let scratch = &mut self.scratch;
         scratch.cell_of.clear();
         scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
@@ -212,17 +212,27 @@ fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
     }
 }
 
-/// A cell grid stored as a hash table of `slots()` entries. Cell (x, y, z) lives in slot
-/// `hash(x, y) + z` (modulo the table), so the cells of one column along z are consecutive.
+/// A cell grid folded into a table of `slots()` entries: cell (x, y, z) lives in slot
+/// `x s_x + y s_y + z` modulo the table, with strides from the bounding box, so neighbouring
+/// cells stay close in memory as in a dense grid and the cells of a column along z are
+/// consecutive. The table holds at most a few slots per node: when the box is huge (a
+/// fragment flung far away) distant cells share slots, which costs extra candidates, never
+/// a missed pair.
 struct HashedGrid {
     low: Vec3,
     inverse_cell: f64,
+    stride_x: u64,
+    stride_y: u64,
     mask: usize,
 }
 
 impl HashedGrid {
-    fn new(nodes: usize, low: Vec3, cell: f64) -> Self {
-        Self { low, inverse_cell: 1.0 / cell, mask: (2 * nodes).next_power_of_two().max(64) - 1 }
+    fn new(nodes: usize, low: Vec3, high: Vec3, cell: f64) -> Self {
+        let extent = |k: usize| (((high[k] - low[k]) / cell).floor().min(1e9) as u64) + 3;
+        let (cells_y, cells_z) = (extent(1), extent(2));
+        let dense = extent(0).saturating_mul(cells_y).saturating_mul(cells_z) as usize;
+        let slots = dense.clamp(2 * nodes, 8 * nodes.max(8)).next_power_of_two();
+        Self { low, inverse_cell: 1.0 / cell, stride_x: cells_y * cells_z, stride_y: cells_z, mask: slots - 1 }
     }
 
     fn slots(&self) -> usize {
@@ -237,9 +247,8 @@ impl HashedGrid {
 
     #[inline]
     fn slot(&self, [x, y, z]: [i64; 3]) -> usize {
-        let column = (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
-        let column = column ^ (column >> 29);
-        (column.wrapping_add(z as u64) as usize) & self.mask
+        let linear = (x as u64).wrapping_mul(self.stride_x).wrapping_add((y as u64).wrapping_mul(self.stride_y)).wrapping_add(z as u64);
+        linear as usize & self.mask
     }
 }
 
