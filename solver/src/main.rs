@@ -45,6 +45,25 @@ enum Command {
         /// case file (JSON, SI units)
         case: PathBuf,
     },
+    /// Partition a case over N ranks with METIS and report its quality, without running.
+    #[command(after_help = "Examples:\n  dea-mpi partition cases/seed_6_1_single_fibre.json --ranks 4\n  dea-mpi partition case.json --ranks 64 --json --method recursive")]
+    Partition {
+        /// case file (JSON, SI units); none: the built-in default case
+        case: Option<PathBuf>,
+        /// number of ranks
+        #[arg(long)]
+        ranks: usize,
+        /// nodes per fibre segment (graph vertex); default: 64, fewer when that would give a
+        /// rank less than 32 segments to balance with
+        #[arg(long)]
+        segment_nodes: Option<u32>,
+        /// METIS algorithm
+        #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
+        method: PartitionMethod,
+        /// print one JSON object on stdout
+        #[arg(long)]
+        json: bool,
+    },
     /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default).
     #[command(after_help = "Examples:\n  dea-mpi bench\n  dea-mpi bench --json --nodes 300000 --steps 2000")]
     Bench {
@@ -58,6 +77,12 @@ enum Command {
         #[arg(long, default_value_t = 2000)]
         steps: u64,
     },
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum PartitionMethod {
+    Kway,
+    Recursive,
 }
 
 fn fail(code: Exit, message: impl std::fmt::Display) -> ExitCode {
@@ -147,6 +172,39 @@ fn main() -> ExitCode {
                 Err(e @ run::RunError::Numerical(_)) => fail(Exit::Numerical, e),
                 Err(e @ run::RunError::Output(_)) => fail(Exit::File, e),
             }
+        }
+        Command::Partition { case, ranks, segment_nodes, method, json } => {
+            if ranks == 0 {
+                return fail(Exit::Usage, "--ranks must be at least 1");
+            }
+            let case = match load(case.as_ref()) {
+                Ok(case) => case,
+                Err(code) => return code,
+            };
+            let domain = match setup::build_domain(&case) {
+                Ok(domain) => domain,
+                Err(e) => return fail(Exit::Numerical, e),
+            };
+            let method = match method {
+                PartitionMethod::Kway => dea_partition::Method::KWay,
+                PartitionMethod::Recursive => dea_partition::Method::RecursiveBisection,
+            };
+            let segment_nodes = segment_nodes.unwrap_or_else(|| dea_partition::default_segment_nodes(domain.nodes.len(), ranks));
+            let partition = match dea_partition::partition(&domain.nodes, &domain.pairs, ranks, segment_nodes, method) {
+                Ok(partition) => partition,
+                Err(e) => return fail(Exit::Usage, e),
+            };
+            let report = dea_partition::quality(&domain.nodes, &domain.pairs, &partition);
+            if json {
+                println!("{}", serde_json::to_string(&report).expect("report serialises"));
+            } else {
+                println!("{}: {} nodes on {} ranks; edge cut {}, load imbalance {:.3}, ghost fraction {:.3}, halo {} bytes/step", case.name, domain.nodes.len(), ranks, report.edge_cut, report.load_imbalance, report.ghost_fraction, report.halo_bytes_per_step);
+                println!("{:>6} {:>12} {:>12} {:>14} {:>16}", "rank", "owned", "ghosts", "work", "halo bytes/step");
+                for r in &report.ranks {
+                    println!("{:>6} {:>12} {:>12} {:>14} {:>16}", r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step);
+                }
+            }
+            ExitCode::SUCCESS
         }
         Command::Bench { json, nodes, steps } => {
             let world = match comm::World::initialize() {

@@ -90,3 +90,19 @@ fn bench_json_has_the_documented_keys() {
     assert!(report["nodes"].as_u64().unwrap() >= 4000);
     assert!(report["contacts_per_node"].as_f64().unwrap() > 1.0, "the bench yarn is in contact");
 }
+
+#[test]
+fn partition_reports_owned_and_ghost_nodes_per_rank() {
+    let out = dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "3", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ranks = report["ranks"].as_array().unwrap();
+    assert_eq!(ranks.len(), 3);
+    let owned: u64 = ranks.iter().map(|r| r["owned_nodes"].as_u64().unwrap()).sum();
+    let check: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
+    assert_eq!(owned, check["resolved"]["nodes"].as_u64().unwrap(), "every node owned exactly once");
+    assert!(report["load_imbalance"].as_f64().unwrap() < 1.05);
+    assert!(ranks.iter().all(|r| r["ghost_nodes"].as_u64().unwrap() > 0), "a cut fibre needs ghosts on both sides");
+    assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "0"]).status.code(), Some(2));
+    assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "100000"]).status.code(), Some(2));
+}

@@ -14,3 +14,7 @@ pub struct FibreId(pub u32);
 
 /// Sentinel local index: "no node" (chain end).
 pub const NONE: u32 = u32::MAX;
+
+/// An MPI rank (a part of the domain decomposition).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Rank(pub u32);

@@ -22,7 +22,7 @@ pub mod stability;
 pub mod weibull;
 
 pub use domain::{Domain, DomainError};
-pub use ids::{FibreId, GlobalNodeId, NONE};
+pub use ids::{FibreId, GlobalNodeId, Rank, NONE};
 pub use material::{FibreMaterial, FibreSection};
 pub use nodes::{Elements, Nodes};
 
