@@ -1,27 +1,26 @@
 //! `dea-mpi bench`: a dense 19-fibre yarn with contacts and friction active and a sphere
-//! pressing in; reports the cost of each part of the step.
+//! pressing in, on every rank of the job; reports the cost of each part of the step.
 
 use std::time::Instant;
 
-use dea_core::contact::NormalLaw;
-use dea_core::domain::ContactParameters;
-use dea_core::failure::FailureParameters;
-use dea_core::material::InertiaModel;
-use dea_core::projectile::{RigidProjectile, RigidShape};
-use dea_core::stability::stable_time_step;
-use dea_core::{Domain, FibreMaterial, Vec3};
-use dea_fabric::StraightBundle;
-use dea_io::case::KM2_600_DENIER_AREA;
-use nalgebra::UnitQuaternion;
+use dea_core::Rank;
+use dea_io::case::{default_case, Case, TargetSpec, KM2_600_DENIER_AREA};
+use dea_partition::Method;
 use serde::Serialize;
 
-/// Bench results (JSON keys are part of the interface).
+use crate::comm::Comm;
+use crate::setup::{build_adjusted, SetupError};
+
+/// Bench results (JSON keys are part of the interface). Costs per node or per pair are
+/// core-seconds: the sum over ranks of each stage's time, so they compare across ranks.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
-    pub nodes: usize,
+    pub nodes: u64,
     pub steps: u64,
-    pub ranks: i32,
+    pub ranks: usize,
+    /// wall time of the timed steps (slowest rank) [s]
     pub wall_s: f64,
+    /// core time per node-step: wall x ranks / node-steps [ns]
     pub ns_per_node_step: f64,
     /// fibre-contact stage time per touching pair entry, on the squeezed yarn held still
     /// (every pair in reach touches; friction evaluated, sticking)
@@ -32,96 +31,134 @@ pub struct BenchReport {
     pub ns_per_listed_pair: f64,
     /// tension + bending + integration per node-step
     pub ns_per_node_rods: f64,
-    /// one neighbour-list rebuild per node
+    /// one neighbour-list build per node (ghost exchange excluded)
     pub ns_per_node_rebuild: f64,
     /// touching pair entries per owned node during the run (each pair counted at both nodes)
     pub contacts_per_node: f64,
     pub listed_pairs_per_node: f64,
     pub node_steps_per_s_per_core: f64,
     pub rebuilds: u64,
+    /// share of the step's wall time spent in the forward halo (slowest rank) [-]
+    pub halo_share: f64,
+    /// share spent in every communication (halo, ghost exchange, projectile, reductions) [-]
+    pub communication_share: f64,
+    /// forward-halo bytes received per step, summed over ranks
+    pub halo_bytes_per_step: f64,
+    pub ghost_fraction: f64,
+    /// slowest rank's compute time / mean [-]
+    pub load_imbalance: f64,
 }
 
-/// Builds the bench yarn: 19 KM2 fibres squeezed to 97% of their packing pitch, so every
-/// neighbour pair is in contact, with the Table 4-2 sphere resting on it at 50 m/s.
-pub fn bench_domain(min_nodes: usize) -> Domain {
-    let material = FibreMaterial::kevlar_km2();
+/// The bench case: the default yarn made long enough for `min_nodes` nodes, no failure,
+/// the Table 4-2 sphere at 50 m/s.
+pub fn bench_case(min_nodes: usize) -> Case {
+    let mut case = default_case();
     let fibres = 19;
-    let fibre_area = KM2_600_DENIER_AREA / fibres as f64;
-    let diameter = (4.0 * fibre_area / std::f64::consts::PI).sqrt();
-    let length = (min_nodes as f64 / fibres as f64) * 0.5 * diameter;
-    let bundle = StraightBundle {
-        length,
-        fibres,
-        fibre_area,
-        element_length_ratio: 0.5,
-        inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 },
-        friction_coefficient: 0.3,
-        tensile_strength: f64::INFINITY,
-        clamp_ends: true,
-    };
-    let mut built = bundle.build(&material);
-    for p in &mut built.nodes.position {
-        p.y *= 0.97;
-        p.z *= 0.97;
-    }
-    let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 0.25 * built.sections[0].contact_diameter };
-    let top = built.nodes.position.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
-    let radius = 5.56e-3 / 2.0;
-    let sphere = RigidProjectile::new(RigidShape::Sphere { radius }, 0.692e-3, Vec3::new(0.0, 0.0, top + radius), Vec3::new(0.0, 0.0, -50.0), UnitQuaternion::identity());
-    let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5);
-    let failure = FailureParameters { shear_strength: f64::INFINITY, enabled: false };
-    Domain::new(material, built.sections, built.nodes, built.elements, contact, failure, Some(sphere), dt).expect("bench state is finite")
+    let diameter = (4.0 * KM2_600_DENIER_AREA / fibres as f64 / std::f64::consts::PI).sqrt();
+    case.name = "bench-19-fibre-yarn".into();
+    case.target = TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: fibres, length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter, element_length_ratio: 0.5 };
+    case.failure.mode = "none".into();
+    case.projectile.velocity_m_s = 50.0;
+    case
 }
 
-/// Runs the benchmark.
-pub fn bench(min_nodes: usize, steps: u64, ranks: i32) -> Result<BenchReport, dea_core::DomainError> {
-    let mut domain = bench_domain(min_nodes);
-    let nodes = domain.nodes.n_owned;
-    // rebuild cost, measured on its own
-    let rebuild_samples = 10;
+/// Runs the benchmark on every rank; rank 0 returns the report.
+pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<BenchReport>, SetupError> {
+    let case = bench_case(min_nodes);
+    // squeezed to 97% of the packing pitch: every neighbour pair is in contact
+    let mut run = build_adjusted(&case, comm, Method::KWay, None, |nodes| {
+        for p in &mut nodes.position {
+            p.y *= 0.97;
+            p.z *= 0.97;
+        }
+    })?;
+    let sum = |run: &crate::distributed::Distributed<C>, values: &[f64]| -> Vec<f64> {
+        let all = run.comm.gather_f64(values);
+        let summed: Vec<f64> = (0..values.len()).map(|k| all.as_ref().map_or(0.0, |a| a.iter().map(|v| v[k]).sum())).collect();
+        summed
+    };
+    let owned = run.domain.nodes.n_owned as f64;
+    // neighbour-list build cost, on its own
+    let samples = 10;
     let clock = Instant::now();
-    for _ in 0..rebuild_samples {
-        domain.rebuild_neighbours();
+    for _ in 0..samples {
+        run.domain.rebuild_neighbours()?;
     }
-    let ns_per_node_rebuild = clock.elapsed().as_secs_f64() * 1e9 / (rebuild_samples as f64 * nodes as f64);
-    let static_evaluations = 20;
-    domain.times = Default::default();
-    for _ in 0..static_evaluations {
-        domain.compute_forces()?;
+    let rebuild_seconds = clock.elapsed().as_secs_f64();
+    let statics = 20;
+    run.domain.times = Default::default();
+    for _ in 0..statics {
+        run.domain.compute_forces()?;
     }
-    let static_touching = domain.pairs.touching.iter().filter(|&&t| t).count() as f64;
-    let ns_per_contact_pair = domain.times.fibre_contacts * 1e9 / (static_touching * static_evaluations as f64);
-    domain.times = Default::default();
-    let builds_before = domain.pairs.builds;
-    let (mut touching, mut listed, mut samples) = (0usize, 0usize, 0usize);
+    let static_touching = run.domain.pairs.touching.iter().filter(|&&t| t).count() as f64;
+    let static_seconds = run.domain.times.fibre_contacts;
+    run.domain.times = Default::default();
+    run.times = Default::default();
+    let (halo_bytes_before, halo_steps_before, rebuilds_before) = (run.halo_bytes, run.halo_steps, run.rebuilds);
+    let (mut touching, mut listed, mut sampled) = (0usize, 0usize, 0usize);
+    let mut wall = [0.0];
+    run.any(false); // line the ranks up before the clock starts
     let start = Instant::now();
     for step in 0..steps {
-        domain.step()?;
+        run.step()?;
         if step % 10 == 0 {
-            touching += domain.pairs.touching.iter().filter(|&&t| t).count();
-            listed += domain.pairs.len();
-            samples += 1;
+            touching += run.domain.pairs.touching.iter().filter(|&&t| t).count();
+            listed += run.domain.pairs.len();
+            sampled += 1;
         }
     }
-    let wall = start.elapsed().as_secs_f64();
-    let node_steps = nodes as f64 * steps as f64;
-    let mean_touching = touching as f64 / samples.max(1) as f64;
-    let mean_listed = listed as f64 / samples.max(1) as f64;
-    let times = domain.times;
-    Ok(BenchReport {
-        nodes,
+    wall[0] = start.elapsed().as_secs_f64();
+    run.comm.max_f64(&mut wall);
+    let wall = wall[0];
+    let t = run.domain.times;
+    let c = run.times;
+    let compute = t.integrate + t.rebuild + t.rods + t.fibre_contacts + t.projectile_contacts + t.failure;
+    let communication = c.halo + c.ghost_exchange + c.projectile + c.reductions;
+    let mut slowest = [compute, c.halo, communication];
+    run.comm.max_f64(&mut slowest);
+    let halo_steps = (run.halo_steps - halo_steps_before).max(1) as f64;
+    let totals = sum(
+        &run,
+        &[
+            owned,
+            rebuild_seconds,
+            static_seconds,
+            static_touching,
+            touching as f64 / sampled.max(1) as f64,
+            listed as f64 / sampled.max(1) as f64,
+            t.fibre_contacts,
+            t.rods + t.integrate,
+            compute,
+            (run.halo_bytes - halo_bytes_before) as f64 / halo_steps,
+            run.ghosts() as f64,
+        ],
+    );
+    let rebuilds = run.rebuilds - rebuilds_before;
+    if run.comm.rank() != Rank(0) {
+        return Ok(None);
+    }
+    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] = totals[..] else { unreachable!("eleven totals") };
+    let ranks = run.comm.size();
+    let node_steps = nodes * steps as f64;
+    Ok(Some(BenchReport {
+        nodes: nodes as u64,
         steps,
         ranks,
         wall_s: wall,
-        ns_per_node_step: wall * 1e9 / node_steps,
-        ns_per_contact_pair,
-        static_contacts_per_node: static_touching / nodes as f64,
-        ns_per_listed_pair: times.fibre_contacts * 1e9 / (mean_listed * steps as f64),
-        ns_per_node_rods: (times.rods + times.integrate) * 1e9 / node_steps,
-        ns_per_node_rebuild,
-        contacts_per_node: mean_touching / nodes as f64,
-        listed_pairs_per_node: mean_listed / nodes as f64,
+        ns_per_node_step: wall * ranks as f64 * 1e9 / node_steps,
+        ns_per_contact_pair: static_seconds * 1e9 / (static_touching * statics as f64),
+        static_contacts_per_node: static_touching / nodes,
+        ns_per_listed_pair: fibre_contacts * 1e9 / (mean_listed * steps as f64),
+        ns_per_node_rods: rods * 1e9 / node_steps,
+        ns_per_node_rebuild: rebuild_seconds * 1e9 / (samples as f64 * nodes),
+        contacts_per_node: mean_touching / nodes,
+        listed_pairs_per_node: mean_listed / nodes,
         node_steps_per_s_per_core: node_steps / wall / ranks as f64,
-        rebuilds: domain.pairs.builds - builds_before,
-    })
+        rebuilds,
+        halo_share: slowest[1] / wall,
+        communication_share: slowest[2] / wall,
+        halo_bytes_per_step: halo_bytes,
+        ghost_fraction: ghosts / nodes,
+        load_imbalance: slowest[0] / (compute_total / ranks as f64),
+    }))
 }

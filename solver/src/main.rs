@@ -1,15 +1,15 @@
 //! `dea-mpi`: the digital-element ballistic impact solver.
 
-mod bench;
-mod comm;
-mod run;
-mod setup;
-
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use dea_io::case::{default_case, load_case, Case};
+use dea_core::Rank;
+use dea_io::case::{default_case, parse_case, Case};
+use dea_mpi::comm::mpi::MpiComm;
+use dea_mpi::comm::Comm;
+use dea_mpi::run::{RunError, RunOptions};
+use dea_mpi::setup::{self, SetupError};
 
 /// Exit codes (part of the interface: scripts rely on them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,7 +22,7 @@ enum Exit {
 
 #[derive(Parser)]
 #[command(name = "dea-mpi", version, about = "Fibre-level ballistic impact solver (modified digital element approach)", long_about = None,
-    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 1 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n\nExit codes: 0 done (a perforation is a result), 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure.")]
+    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n\nExit codes: 0 done (a perforation is a result), 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -30,14 +30,17 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a case (no file: the built-in default case).
-    #[command(after_help = "Examples:\n  dea-mpi run\n  dea-mpi run cases/single_fibre.json --out out/fibre")]
+    /// Run a case (no file: the built-in default case) on the ranks of the job.
+    #[command(after_help = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel")]
     Run {
         /// case file (JSON, SI units)
         case: Option<PathBuf>,
         /// output directory for results.h5 and summary.json
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// METIS algorithm for the partition over the job's ranks
+        #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
+        method: PartitionMethod,
     },
     /// Validate a case and print it resolved, without running.
     #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
@@ -53,8 +56,8 @@ enum Command {
         /// number of ranks
         #[arg(long)]
         ranks: usize,
-        /// nodes per fibre segment (graph vertex); default: 64, fewer when that would give a
-        /// rank less than 32 segments to balance with
+        /// positions along the fibres per yarn segment (graph vertex); default: 64, fewer
+        /// when that would give a rank less than 32 segments to balance with
         #[arg(long)]
         segment_nodes: Option<u32>,
         /// METIS algorithm
@@ -64,8 +67,9 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default).
-    #[command(after_help = "Examples:\n  dea-mpi bench\n  dea-mpi bench --json --nodes 300000 --steps 2000")]
+    /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the
+    /// ranks of the job.
+    #[command(after_help = "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000")]
     Bench {
         /// print one JSON object on stdout
         #[arg(long)]
@@ -90,20 +94,63 @@ fn fail(code: Exit, message: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(code as u8)
 }
 
-fn load(path: Option<&PathBuf>) -> Result<Case, ExitCode> {
+/// Reads and validates a case (no path: the default case) without MPI.
+fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
     match path {
         None => Ok(default_case()),
-        Some(path) if !path.exists() => Err(fail(Exit::File, format!("{}: no such file", path.display()))),
-        Some(path) => load_case(path).map_err(|e| fail(Exit::BadCase, e)),
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+            parse_case(&text, &path.display().to_string()).map_err(|e| (Exit::BadCase, e.to_string()))
+        }
     }
 }
 
-/// Refuses more than one rank until the domain decomposition exists, on every rank alike.
-fn single_rank(world: &comm::World) -> Result<(), ExitCode> {
-    if world.size() > 1 {
-        return Err(fail(Exit::Usage, format!("started on {} ranks, but this build runs one rank per job (domain decomposition is not implemented yet); use mpirun -np 1", world.size())));
+/// Rank 0 reads the case and every rank gets it, or the same error: a file missing on one
+/// node's file system cannot split the job.
+fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
+    let mut message = Vec::new();
+    if comm.rank() == Rank(0) {
+        match load(path) {
+            Ok(case) => {
+                message.push(0);
+                message.extend(serde_json::to_string(&case).expect("case serialises").bytes());
+            }
+            Err((code, text)) => {
+                message.push(code as u8);
+                message.extend(text.bytes());
+            }
+        }
     }
-    Ok(())
+    comm.broadcast_bytes(&mut message);
+    let (&code, payload) = message.split_first().expect("rank 0 always sends a code");
+    let text = String::from_utf8_lossy(payload).into_owned();
+    match code {
+        0 => parse_case(&text, "case from rank 0").map_err(|e| (Exit::BadCase, e.to_string())),
+        3 => Err((Exit::BadCase, text)),
+        _ => Err((Exit::File, text)),
+    }
+}
+
+/// Ends a rank: the message is printed once, by rank 0; every rank exits with the code.
+fn fail_on(comm: &impl Comm, code: Exit, message: impl std::fmt::Display) -> ExitCode {
+    if comm.rank() == Rank(0) {
+        eprintln!("error: {message}");
+    }
+    ExitCode::from(code as u8)
+}
+
+fn method_of(method: PartitionMethod) -> dea_partition::Method {
+    match method {
+        PartitionMethod::Kway => dea_partition::Method::KWay,
+        PartitionMethod::Recursive => dea_partition::Method::RecursiveBisection,
+    }
+}
+
+fn setup_exit(error: &SetupError) -> Exit {
+    match error {
+        SetupError::Partition(_) => Exit::Usage,
+        SetupError::Numerical(_) => Exit::Numerical,
+    }
 }
 
 fn main() -> ExitCode {
@@ -112,51 +159,64 @@ fn main() -> ExitCode {
         Command::Check { case } => {
             let case = match load(Some(&case)) {
                 Ok(case) => case,
-                Err(code) => return code,
+                Err((code, message)) => return fail(code, message),
             };
-            let domain = match setup::build_domain(&case) {
-                Ok(domain) => domain,
-                Err(e) => return fail(Exit::Numerical, e),
-            };
+            let problem = setup::problem(&case);
             let projectile = case.projectile().expect("validated case");
+            let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
             let resolved = serde_json::json!({
                 "case": case,
                 "resolved": {
-                    "material": domain.material,
-                    "sections": domain.sections,
+                    "material": problem.material,
+                    "sections": [problem.fabric.section(&problem.material)],
                     "projectile": { "shape": projectile.shape, "mass_kg": projectile.mass, "speed_m_s": projectile.speed },
-                    "nodes": domain.nodes.n_owned,
-                    "time_step_s": domain.time_step,
-                    "steps": (case.run.end_time_s / domain.time_step).ceil(),
-                    "skin_m": domain.pairs.skin,
+                    "yarns": problem.fabric.yarns.len(),
+                    "fibres": fibres,
+                    "nodes": fibres * problem.fabric.nodes_per_fibre() as u64,
+                    "time_step_s": problem.time_step,
+                    "steps": (case.run.end_time_s / problem.time_step).ceil(),
+                    "skin_m": problem.contact.skin,
                 }
             });
             println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }
-        Command::Run { case, out } => {
-            let case = match load(case.as_ref()) {
-                Ok(case) => case,
-                Err(code) => return code,
-            };
-            let world = match comm::World::initialize() {
-                Ok(world) => world,
+        Command::Run { case, out, method } => {
+            let comm = match MpiComm::initialize() {
+                Ok(comm) => comm,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            if let Err(code) = single_rank(&world) {
-                return code;
-            }
-            let domain = match setup::build_domain(&case) {
-                Ok(domain) => domain,
-                Err(e) => return fail(Exit::Numerical, e),
+            let case = match load_shared(&comm, case.as_ref()) {
+                Ok(case) => case,
+                Err((code, message)) => return fail_on(&comm, code, message),
             };
             let json = serde_json::to_string(&case).expect("case serialises");
-            eprintln!("dea-mpi: case {:?}, {} nodes, dt = {:.3e} s, end {:.3e} s, {} rank(s)", case.name, domain.nodes.n_owned, domain.time_step, case.run.end_time_s, world.size());
-            match run::run(domain, &case.name, &json, case.run.end_time_s, case.run.history_interval_steps, case.run.stop_on_perforation, &out, world.size()) {
-                Ok(summary) => {
+            let fibres = *setup::problem(&case).fabric.first_fibres().last().expect("a total") as usize;
+            let is_root = comm.rank() == Rank(0);
+            let ranks = comm.size();
+            let mut run = match setup::build(&case, comm, method_of(method), None) {
+                Ok(run) => run,
+                Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+            };
+            if is_root {
+                eprintln!("dea-mpi: case {:?}, dt = {:.3e} s, end {:.3e} s, {} rank(s)", case.name, run.domain.time_step, case.run.end_time_s, ranks);
+            }
+            let options = RunOptions {
+                case_name: &case.name,
+                case_json: &json,
+                end_time: case.run.end_time_s,
+                history_interval: case.run.history_interval_steps,
+                stop_when_decided: case.run.stop_on_perforation,
+                out: &out,
+                fibres,
+            };
+            match dea_mpi::run::run(&mut run, &options) {
+                Ok(Some(summary)) => {
                     println!(
-                        "{}: {} steps, {:.3e} s simulated in {:.1} s; perforated: {}; residual velocity {:.2} m/s; peak force {:.1} N; broken elements {}; {:.3e} node-steps/s/core; results in {}",
+                        "{}: {} nodes on {} rank(s), {} steps, {:.3e} s simulated in {:.1} s; perforated: {}; residual velocity {:.2} m/s; peak force {:.1} N; broken elements {}; {:.3e} node-steps/s/core; results in {}",
                         summary.case,
+                        summary.nodes,
+                        summary.ranks,
                         summary.steps,
                         summary.simulated_time_s,
                         summary.wall_s,
@@ -167,10 +227,17 @@ fn main() -> ExitCode {
                         summary.node_steps_per_s_per_core,
                         out.display()
                     );
+                    let s = summary.stage_seconds;
+                    println!(
+                        "stages (mean s per rank): rods {:.2}, fibre contacts {:.2}, projectile contacts {:.2}, failure {:.2}, integrate {:.2}, rebuild {:.2}, halo {:.2}, ghost exchange {:.2}, projectile comm {:.2}, reductions {:.2}, output {:.2}; halo {:.0} bytes/step, ghost fraction {:.3}, load imbalance {:.3}",
+                        s.step.rods, s.step.fibre_contacts, s.step.projectile_contacts, s.step.failure, s.step.integrate, s.step.rebuild, s.comm.halo, s.comm.ghost_exchange, s.comm.projectile, s.comm.reductions, s.output,
+                        summary.halo_bytes_per_step, summary.ghost_fraction, summary.load_imbalance
+                    );
                     ExitCode::SUCCESS
                 }
-                Err(e @ run::RunError::Numerical(_)) => fail(Exit::Numerical, e),
-                Err(e @ run::RunError::Output(_)) => fail(Exit::File, e),
+                Ok(None) => ExitCode::SUCCESS,
+                Err(e @ RunError::Numerical(_)) => if is_root { fail(Exit::Numerical, e) } else { ExitCode::from(Exit::Numerical as u8) },
+                Err(e @ RunError::Output(_)) => if is_root { fail(Exit::File, e) } else { ExitCode::from(Exit::File as u8) },
             }
         }
         Command::Partition { case, ranks, segment_nodes, method, json } => {
@@ -179,51 +246,44 @@ fn main() -> ExitCode {
             }
             let case = match load(case.as_ref()) {
                 Ok(case) => case,
-                Err(code) => return code,
+                Err((code, message)) => return fail(code, message),
             };
-            let domain = match setup::build_domain(&case) {
-                Ok(domain) => domain,
-                Err(e) => return fail(Exit::Numerical, e),
-            };
-            let method = match method {
-                PartitionMethod::Kway => dea_partition::Method::KWay,
-                PartitionMethod::Recursive => dea_partition::Method::RecursiveBisection,
-            };
-            let segment_nodes = segment_nodes.unwrap_or_else(|| dea_partition::default_segment_nodes(domain.nodes.len(), ranks));
-            let partition = match dea_partition::partition(&domain.nodes, &domain.pairs, ranks, segment_nodes, method) {
+            let problem = setup::problem(&case);
+            let graph = setup::segment_graph(&problem, ranks, segment_nodes);
+            let partition = match dea_partition::partition(&graph, ranks, method_of(method)) {
                 Ok(partition) => partition,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            let report = dea_partition::quality(&domain.nodes, &domain.pairs, &partition);
+            let report = dea_partition::quality(&graph, &partition);
             if json {
                 println!("{}", serde_json::to_string(&report).expect("report serialises"));
             } else {
-                println!("{}: {} nodes on {} ranks; edge cut {}, load imbalance {:.3}, ghost fraction {:.3}, halo {} bytes/step", case.name, domain.nodes.len(), ranks, report.edge_cut, report.load_imbalance, report.ghost_fraction, report.halo_bytes_per_step);
+                let nodes: u64 = report.ranks.iter().map(|r| r.owned_nodes).sum();
+                println!(
+                    "{}: {} nodes in {} yarn segments on {} ranks; edge cut {}, predicted load imbalance {:.3}, ghost fraction {:.3}, halo {} bytes/step",
+                    case.name, nodes, report.segments, ranks, report.edge_cut, report.load_imbalance, report.ghost_fraction, report.halo_bytes_per_step
+                );
                 println!("{:>6} {:>12} {:>12} {:>14} {:>16}", "rank", "owned", "ghosts", "work", "halo bytes/step");
                 for r in &report.ranks {
-                    println!("{:>6} {:>12} {:>12} {:>14} {:>16}", r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step);
+                    println!("{:>6} {:>12} {:>12} {:>14.0} {:>16}", r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step);
                 }
             }
             ExitCode::SUCCESS
         }
         Command::Bench { json, nodes, steps } => {
-            let world = match comm::World::initialize() {
-                Ok(world) => world,
+            let comm = match MpiComm::initialize() {
+                Ok(comm) => comm,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            if let Err(code) = single_rank(&world) {
-                return code;
-            }
-            match bench::bench(nodes, steps, world.size()) {
-                Ok(report) if json => {
-                    println!("{}", serde_json::to_string(&report).expect("report serialises"));
+            let is_root = comm.rank() == Rank(0);
+            match dea_mpi::bench::bench(comm, nodes, steps) {
+                Ok(Some(report)) => {
+                    let text = if json { serde_json::to_string(&report) } else { serde_json::to_string_pretty(&report) };
+                    println!("{}", text.expect("report serialises"));
                     ExitCode::SUCCESS
                 }
-                Ok(report) => {
-                    println!("{}", serde_json::to_string_pretty(&report).expect("report serialises"));
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(Exit::Numerical, e),
+                Ok(None) => ExitCode::SUCCESS,
+                Err(e) => if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
             }
         }
     }

@@ -1,22 +1,23 @@
-//! The run: step loop, histories, perforation test, results and summary.
+//! The run: step loop, histories, perforation test, results and summary, on every rank.
 
 use std::path::Path;
 use std::time::Instant;
 
 use dea_core::domain::StageTimes;
-use dea_core::nodes::FailureMode;
-use dea_core::{Domain, DomainError, Vec3};
-use dea_io::results::{write_results, FinalState, Histories};
+use dea_core::{Rank, Vec3};
+use dea_io::results::{write_results, Histories};
 use serde::Serialize;
 
+use crate::comm::Comm;
+use crate::distributed::{CommTimes, Distributed};
 use crate::setup::{projectile_bottom, projectile_top};
 
 /// What a run reports in `summary.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
     pub case: String,
-    pub ranks: i32,
-    pub nodes: usize,
+    pub ranks: usize,
+    pub nodes: u64,
     pub steps: u64,
     pub time_step_s: f64,
     pub simulated_time_s: f64,
@@ -33,168 +34,242 @@ pub struct Summary {
     /// |E(t) - E(0)| / E(0) at the end [-]
     pub energy_balance_error: f64,
     pub node_steps_per_s_per_core: f64,
+    /// mean over ranks of the wall time of each stage [s]
     pub stage_seconds: StageSeconds,
+    /// forward-halo bytes received per step, summed over ranks
+    pub halo_bytes_per_step: f64,
+    /// ghost nodes / owned nodes, over every rank, at the end [-]
+    pub ghost_fraction: f64,
+    /// slowest rank's compute time (integration, forces, failure, rebuild) / the mean [-]
+    pub load_imbalance: f64,
+    pub neighbour_rebuilds: u64,
     /// why the run stopped
     pub stopped_by: String,
 }
 
-/// Stage times of the step plus the time spent sampling and writing output [s].
-#[derive(Clone, Debug, Serialize)]
+/// Stage times of the step, of the communication and of output [s].
+#[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct StageSeconds {
     #[serde(flatten)]
     pub step: StageTimes,
+    #[serde(flatten)]
+    pub comm: CommTimes,
     pub output: f64,
 }
 
-fn sample(domain: &Domain, histories: &mut Histories) {
-    let projectile = domain.projectile.as_ref().expect("runs have a projectile");
-    histories.time.push(domain.time);
-    histories.projectile_position.push(projectile.position);
-    histories.projectile_velocity.push(projectile.velocity);
-    histories.projectile_force.push(projectile.force);
-    histories.energy.push(domain.energies());
-    histories.broken_tension.push(domain.broken.tension);
-    histories.broken_shear.push(domain.broken.shear);
-    histories.broken_combined.push(domain.broken.combined);
+impl StageSeconds {
+    const COUNT: usize = 11;
+
+    fn to_array(self) -> [f64; Self::COUNT] {
+        let (s, c) = (self.step, self.comm);
+        [s.integrate, s.rebuild, s.rods, s.fibre_contacts, s.projectile_contacts, s.failure, c.halo, c.ghost_exchange, c.projectile, c.reductions, self.output]
+    }
+
+    fn from_array(a: &[f64]) -> Self {
+        Self {
+            step: StageTimes { integrate: a[0], rebuild: a[1], rods: a[2], fibre_contacts: a[3], projectile_contacts: a[4], failure: a[5] },
+            comm: CommTimes { halo: a[6], ghost_exchange: a[7], projectile: a[8], reductions: a[9] },
+            output: a[10],
+        }
+    }
+
+    /// Integration, forces, failure and the neighbour-list build: the work a rank does alone.
+    fn compute(&self) -> f64 {
+        let s = self.step;
+        s.integrate + s.rebuild + s.rods + s.fibre_contacts + s.projectile_contacts + s.failure
+    }
 }
 
 /// How the shot ends, judged from the projectile against the target's extent along z.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Outcome {
-    Undecided,
-    Perforated,
-    Rebounded,
+    Undecided = 0,
+    Perforated = 1,
+    Rebounded = 2,
 }
 
 /// Decides a shot: perforated once the projectile has passed the target's initial back face,
 /// still moves forward, and every fibre it touches is broken somewhere (what hangs on it
 /// are loose fragments); rebounded once it moves back, clear of the target and of contact.
+/// Every rank takes part in the reductions; rank 0 decides and tells the others.
 struct Judge {
     direction: Vec3,
     /// lowest fibre node at time zero [m]
     back_face: f64,
     /// largest contact diameter [m]
     margin: f64,
-    /// scratch: which fibres have a broken element
-    fibre_broken: Vec<bool>,
+    fibres: usize,
 }
 
 impl Judge {
-    fn new(domain: &Domain, direction: Vec3) -> Self {
-        let owned = &domain.nodes.position[..domain.nodes.n_owned];
-        let fibres = domain.nodes.fibre.iter().map(|f| f.0 as usize + 1).max().unwrap_or(0);
-        Self {
-            direction,
-            back_face: owned.iter().map(|p| p.z).fold(f64::INFINITY, f64::min),
-            margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max),
-            fibre_broken: vec![false; fibres],
-        }
+    fn new<C: Comm>(run: &Distributed<C>, direction: Vec3, fibres: usize) -> Self {
+        let domain = &run.domain;
+        Self { direction, back_face: run.z_range().0, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
     }
 
-    fn outcome(&mut self, domain: &Domain) -> Outcome {
-        let projectile = domain.projectile.as_ref().expect("runs have a projectile");
-        let forward = projectile.velocity.dot(&self.direction);
-        let nodes = &domain.nodes;
-        if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin {
-            self.fibre_broken.fill(false);
-            for i in 0..nodes.n_owned {
-                if domain.elements.failure[i] != FailureMode::Intact {
-                    self.fibre_broken[nodes.fibre[i].0 as usize] = true;
-                }
-            }
-            let contacts = &domain.projectile_contacts;
-            let held = contacts.candidates.iter().any(|&i| contacts.touching[i as usize] && !self.fibre_broken[nodes.fibre[i as usize].0 as usize]);
-            if !held {
-                return Outcome::Perforated;
+    fn outcome<C: Comm>(&self, run: &Distributed<C>) -> Outcome {
+        let broken = run.fibres_with_broken_elements(self.fibres);
+        let domain = &run.domain;
+        let contacts = &domain.projectile_contacts;
+        let held_here = contacts.candidates.iter().any(|&i| {
+            let f = domain.nodes.fibre[i as usize].0 as usize;
+            contacts.touching[i as usize] && broken[f / 64] & (1 << (f % 64)) == 0
+        });
+        let held = run.any(held_here);
+        let (_, high) = run.z_range();
+        let mut decision = Outcome::Undecided;
+        if run.comm.rank() == Rank(0) {
+            let projectile = domain.projectile.as_ref().expect("runs have a projectile");
+            let forward = projectile.velocity.dot(&self.direction);
+            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && !held {
+                decision = Outcome::Perforated;
+            } else if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
+                decision = Outcome::Rebounded;
             }
         }
-        let high = nodes.position[..nodes.n_owned].iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
-        if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
-            Outcome::Rebounded
-        } else {
-            Outcome::Undecided
+        match run.from_rank0([decision as u8 as f64])[0] as u8 {
+            1 => Outcome::Perforated,
+            2 => Outcome::Rebounded,
+            _ => Outcome::Undecided,
         }
     }
 }
 
-/// Runs a case to its end time (or until the outcome is decided) and writes the results.
-pub fn run(mut domain: Domain, case_name: &str, case_json: &str, end_time: f64, history_interval: u64, stop_when_decided: bool, out: &Path, ranks: i32) -> Result<Summary, RunError> {
-    let direction = domain.projectile.as_ref().map(|p| p.velocity.normalize()).unwrap_or(-Vec3::z());
-    let initial_energy = domain.energies().total();
+/// What a run needs besides the rank's state.
+pub struct RunOptions<'a> {
+    pub case_name: &'a str,
+    pub case_json: &'a str,
+    /// [s]
+    pub end_time: f64,
+    pub history_interval: u64,
+    pub stop_when_decided: bool,
+    pub out: &'a Path,
+    /// fibres in the whole problem
+    pub fibres: usize,
+}
+
+/// Samples the histories: every rank joins the reductions, rank 0 records.
+fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories) {
+    let energy = run.energies();
+    let broken = run.broken();
+    if run.comm.rank() == Rank(0) {
+        let domain = &run.domain;
+        let projectile = domain.projectile.as_ref().expect("runs have a projectile");
+        histories.time.push(domain.time);
+        histories.projectile_position.push(projectile.position);
+        histories.projectile_velocity.push(projectile.velocity);
+        histories.projectile_force.push(projectile.force);
+        histories.energy.push(energy);
+        histories.broken_tension.push(broken.tension);
+        histories.broken_shear.push(broken.shear);
+        histories.broken_combined.push(broken.combined);
+    }
+}
+
+/// Runs to the end time (or until the outcome is decided) on every rank and writes the
+/// results on rank 0, which returns the summary.
+pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Option<Summary>, RunError> {
+    let is_root = run.comm.rank() == Rank(0);
+    let direction = run.domain.projectile.as_ref().map(|p| p.velocity.normalize()).unwrap_or(-Vec3::z());
     let mut histories = Histories::default();
     let mut output_seconds = 0.0;
     let mut max_force: f64 = 0.0;
     let start = Instant::now();
     let mut last_report = Instant::now();
-    sample(&domain, &mut histories);
+    sample(run, &mut histories);
+    let initial_energy = run.energies().total();
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
-    let mut judge = Judge::new(&domain, direction);
-    while domain.time + 0.5 * domain.time_step < end_time {
-        domain.step().map_err(RunError::Numerical)?;
-        max_force = max_force.max(domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
-        if domain.step % history_interval == 0 {
+    let judge = Judge::new(run, direction, options.fibres);
+    while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
+        run.step().map_err(RunError::Numerical)?;
+        max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
+        if run.domain.step % options.history_interval == 0 {
             let clock = Instant::now();
-            sample(&domain, &mut histories);
-            decided = judge.outcome(&domain);
+            sample(run, &mut histories);
+            decided = judge.outcome(run);
             output_seconds += clock.elapsed().as_secs_f64();
-            if stop_when_decided && decided != Outcome::Undecided {
+            if options.stop_when_decided && decided != Outcome::Undecided {
                 stopped_by = format!("{decided:?}").to_lowercase();
                 break;
             }
-            if last_report.elapsed().as_secs_f64() > 30.0 {
+            if is_root && last_report.elapsed().as_secs_f64() > 30.0 {
                 last_report = Instant::now();
-                eprintln!("step {} t = {:.3e} s ({:.0}%), wall {:.0} s", domain.step, domain.time, 100.0 * domain.time / end_time, start.elapsed().as_secs_f64());
+                eprintln!("step {} t = {:.3e} s ({:.0}%), wall {:.0} s", run.domain.step, run.domain.time, 100.0 * run.domain.time / options.end_time, start.elapsed().as_secs_f64());
             }
         }
     }
-    if domain.step % history_interval != 0 {
-        sample(&domain, &mut histories);
-        decided = judge.outcome(&domain);
+    if run.domain.step % options.history_interval != 0 {
+        sample(run, &mut histories);
+        decided = judge.outcome(run);
     }
     let wall = start.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let n = domain.nodes.n_owned;
-    let final_state = FinalState {
-        gid: domain.nodes.gid[..n].iter().map(|g| g.0).collect(),
-        position: domain.nodes.position[..n].to_vec(),
-        velocity: domain.nodes.velocity[..n].to_vec(),
-        element_failure: domain.elements.failure[..n].iter().map(|&m| m as u8).collect(),
-    };
-    std::fs::create_dir_all(out).map_err(|e| RunError::Output(format!("{}: {e}", out.display())))?;
-    write_results(&out.join("results.h5"), case_json, &histories, &final_state).map_err(|e| RunError::Output(format!("{}: {e}", out.join("results.h5").display())))?;
+    let final_state = run.gather_final_state();
+    let mut written = [1.0];
+    let mut write_error = None;
+    if let Some(state) = final_state {
+        let path = options.out.join("results.h5");
+        let outcome = std::fs::create_dir_all(options.out)
+            .map_err(|e| format!("{}: {e}", options.out.display()))
+            .and_then(|()| write_results(&path, options.case_json, &histories, &state).map_err(|e| format!("{}: {e}", path.display())));
+        if let Err(e) = outcome {
+            written[0] = 0.0;
+            write_error = Some(e);
+        }
+    }
+    if run.from_rank0(written)[0] == 0.0 {
+        return Err(RunError::Output(write_error.unwrap_or_else(|| "rank 0 could not write the results".into())));
+    }
     output_seconds += clock.elapsed().as_secs_f64();
-    let projectile = domain.projectile.as_ref().expect("runs have a projectile");
+    let mut n = [run.domain.nodes.n_owned as i64, run.ghosts() as i64];
+    run.comm.sum_i64(&mut n);
+    let (nodes, ghosts) = (n[0] as u64, n[1] as u64);
+    let mut halo = [run.halo_bytes as i64];
+    run.comm.sum_i64(&mut halo);
+    let broken = run.broken();
+    let stages = StageSeconds { step: run.domain.times, comm: run.times, output: output_seconds };
+    let all_stages = run.comm.gather_f64(&stages.to_array());
+    let Some(all_stages) = all_stages else { return Ok(None) };
+    let ranks = run.comm.size();
+    let mean: Vec<f64> = (0..StageSeconds::COUNT).map(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64).collect();
+    let mean = StageSeconds::from_array(&mean);
+    let slowest = all_stages.iter().map(|s| StageSeconds::from_array(s).compute()).fold(0.0, f64::max);
+    let projectile = run.domain.projectile.as_ref().expect("runs have a projectile");
     let final_energy = histories.energy.last().map_or(initial_energy, |e| e.total());
     let summary = Summary {
-        case: case_name.to_string(),
+        case: options.case_name.to_string(),
         ranks,
-        nodes: n,
-        steps: domain.step,
-        time_step_s: domain.time_step,
-        simulated_time_s: domain.time,
+        nodes,
+        steps: run.domain.step,
+        time_step_s: run.domain.time_step,
+        simulated_time_s: run.domain.time,
         wall_s: wall,
         perforated: decided == Outcome::Perforated,
         residual_velocity_m_s: projectile.velocity.dot(&direction),
         max_projectile_force_n: max_force,
-        broken_elements_tension: domain.broken.tension,
-        broken_elements_shear: domain.broken.shear,
-        broken_elements_combined: domain.broken.combined,
+        broken_elements_tension: broken.tension,
+        broken_elements_shear: broken.shear,
+        broken_elements_combined: broken.combined,
         energy_balance_error: (final_energy - initial_energy).abs() / initial_energy,
-        node_steps_per_s_per_core: (n as f64 * domain.step as f64) / wall / ranks as f64,
-        stage_seconds: StageSeconds { step: domain.times, output: output_seconds },
+        node_steps_per_s_per_core: (nodes as f64 * run.domain.step as f64) / wall / ranks as f64,
+        stage_seconds: mean,
+        halo_bytes_per_step: halo[0] as f64 / run.halo_steps.max(1) as f64,
+        ghost_fraction: ghosts as f64 / nodes as f64,
+        load_imbalance: if mean.compute() > 0.0 { slowest / mean.compute() } else { 1.0 },
+        neighbour_rebuilds: run.rebuilds,
         stopped_by,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");
-    std::fs::write(out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", out.join("summary.json").display())))?;
-    Ok(summary)
+    std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
+    Ok(Some(summary))
 }
 
 /// Why a run stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     #[error("numerical failure: {0}")]
-    Numerical(DomainError),
+    Numerical(dea_core::DomainError),
     #[error("cannot write results: {0}")]
     Output(String),
 }

@@ -1,20 +1,49 @@
-//! From a validated case to a ready domain.
+//! From a validated case to a running rank: the problem's description, its partition, and
+//! the rank's own nodes (each rank generates only what it owns; ghosts come from their
+//! owners).
 
 use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
 use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::stability::stable_time_step;
 use dea_core::weibull::element_strength;
-use dea_core::{Domain, DomainError, Vec3, NONE};
-use dea_fabric::StraightBundle;
+use dea_core::{Domain, DomainError, FibreMaterial, Nodes, Rank, Vec3};
+use dea_fabric::StraightFabric;
 use dea_io::case::{yarn_area, Case, Strength, TargetSpec};
+use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
+
+use crate::comm::Comm;
+use crate::distributed::Distributed;
 
 /// Gap between the projectile and the nearest fibre surface at time zero [m].
 pub const INITIAL_GAP: f64 = 1e-6;
 
-/// Builds the domain of a case on one rank.
-pub fn build_domain(case: &Case) -> Result<Domain, DomainError> {
+/// Everything about a case that needs no node: material, fabric, laws, projectile, time step.
+pub struct Problem {
+    pub material: FibreMaterial,
+    pub fabric: StraightFabric,
+    pub contact: ContactParameters,
+    pub failure: FailureParameters,
+    pub strength: Strength,
+    pub projectile: RigidProjectile,
+    /// [s]
+    pub time_step: f64,
+    /// contact search distance: largest contact diameter plus the skin [m]
+    pub reach: f64,
+}
+
+/// Why a rank could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    #[error("{0}")]
+    Partition(String),
+    #[error("{0}")]
+    Numerical(#[from] DomainError),
+}
+
+/// Resolves a validated case.
+pub fn problem(case: &Case) -> Problem {
     let material = case.material().expect("validated case");
     let law = case.normal_law(&material).expect("validated case");
     let strength = case.strength().expect("validated case");
@@ -22,48 +51,98 @@ pub fn build_domain(case: &Case) -> Result<Domain, DomainError> {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,
     };
-    let (length, fibres, fibre_area, element_length_ratio) = match &case.target {
-        TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => (*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio),
+    let mu = case.contact.friction_coefficient;
+    let fabric = match &case.target {
+        TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
+            StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic)
+        }
         TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
-            (*length_m, *fibres_per_yarn, yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64, *element_length_ratio)
+            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
+            StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic)
+        }
+        TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
+            StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material)
         }
     };
-    let bundle = StraightBundle {
-        length,
-        fibres,
-        fibre_area,
-        element_length_ratio,
-        inertia: case.bending,
-        friction_coefficient: case.contact.friction_coefficient,
-        tensile_strength: deterministic,
-        clamp_ends: true,
+    let section = fabric.section(&material);
+    let contact = ContactParameters {
+        law,
+        friction_coefficient: mu,
+        projectile_friction_coefficient: case.contact.projectile_friction_coefficient,
+        skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };
-    let mut built = bundle.build(&material);
-    if let Strength::Weibull(law, seed) = &strength {
+    let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
+    let resolved = case.projectile().expect("validated case");
+    let top = fabric.top(&material) + 0.5 * section.contact_diameter;
+    let reach_below_centre = match resolved.shape {
+        RigidShape::Sphere { radius } => radius,
+        RigidShape::Cylinder { height, .. } => 0.5 * height,
+    };
+    let start = Vec3::new(resolved.offset[0], resolved.offset[1], top + reach_below_centre + INITIAL_GAP);
+    let projectile = RigidProjectile::new(resolved.shape, resolved.mass, start, Vec3::new(0.0, 0.0, -resolved.speed), UnitQuaternion::identity());
+    let sections = [section];
+    let time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
+    let reach = sections[0].contact_diameter + contact.skin;
+    Problem { material, fabric, contact, failure, strength, projectile, time_step, reach }
+}
+
+/// The yarn-segment graph of a problem, weighted for a shot along its projectile's line.
+pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<u32>) -> SegmentGraph {
+    let p = &problem.projectile;
+    let shot = ShotLine { x: p.position.x, y: p.position.y, radius: p.shape.bounding_radius() + problem.reach };
+    let positions = segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
+    dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
+}
+
+/// Rank 0 partitions, every rank receives the result (or the same error).
+fn shared_partition<C: Comm>(comm: &C, problem: &Problem, method: Method, segment_positions: Option<u32>) -> Result<Partition, SetupError> {
+    let mut message = Vec::new();
+    if comm.rank() == Rank(0) {
+        let graph = segment_graph(problem, comm.size(), segment_positions);
+        match dea_partition::partition(&graph, comm.size(), method) {
+            Ok(partition) => {
+                message.push(0);
+                message.extend(partition.to_words().iter().flat_map(|w| w.to_le_bytes()));
+            }
+            Err(e) => {
+                message.push(1);
+                message.extend(e.to_string().bytes());
+            }
+        }
+    }
+    comm.broadcast_bytes(&mut message);
+    match message.split_first() {
+        Some((0, words)) => Ok(Partition::from_words(&words.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect::<Vec<_>>())),
+        Some((_, text)) => Err(SetupError::Partition(String::from_utf8_lossy(text).into_owned())),
+        None => Err(SetupError::Partition(PartitionError::TooFewSegments { segments: 0, ranks: comm.size() }.to_string())),
+    }
+}
+
+/// Sets up this rank: partition, own nodes, Weibull strengths, ghosts, initial forces.
+pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>) -> Result<Distributed<C>, SetupError> {
+    build_adjusted(case, comm, method, segment_positions, |_| {})
+}
+
+/// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
+/// (the benchmark squeezes its yarn this way).
+pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
+    let problem = problem(case);
+    let partition = shared_partition(&comm, &problem, method, segment_positions)?;
+    let me = comm.rank();
+    let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
+    if let Strength::Weibull(law, seed) = &problem.strength {
         for i in 0..built.nodes.len() {
-            if built.nodes.next[i] != NONE {
+            if !built.nodes.last[i] {
                 built.elements.tensile_strength[i] = element_strength(law, *seed, built.nodes.gid[i], built.elements.rest_length[i]);
             }
         }
     }
-    let max_contact_diameter = built.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-    let contact = ContactParameters {
-        law,
-        friction_coefficient: case.contact.friction_coefficient,
-        projectile_friction_coefficient: case.contact.projectile_friction_coefficient,
-        skin: case.contact.skin_m.unwrap_or(0.25 * max_contact_diameter),
-    };
-    let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
-    let projectile = case.projectile().expect("validated case");
-    let top = built.nodes.position.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max) + 0.5 * max_contact_diameter;
-    let reach_below_centre = match projectile.shape {
-        RigidShape::Sphere { radius } => radius,
-        RigidShape::Cylinder { height, .. } => 0.5 * height,
-    };
-    let start = Vec3::new(projectile.offset[0], projectile.offset[1], top + reach_below_centre + INITIAL_GAP);
-    let body = RigidProjectile::new(projectile.shape, projectile.mass, start, Vec3::new(0.0, 0.0, -projectile.speed), UnitQuaternion::identity());
-    let dt = stable_time_step(&material, &built.sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
-    Domain::new(material, built.sections, built.nodes, built.elements, contact, failure, Some(body), dt)
+    adjust(&mut built.nodes);
+    let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
+    domain.owns_projectile = me == Rank(0);
+    let nodes_per_fibre = problem.fabric.nodes_per_fibre();
+    Ok(Distributed::new(comm, domain, partition, nodes_per_fibre, problem.reach)?)
 }
 
 /// Lowest point of the projectile along z [m] (its bounding sphere: exact for a sphere,

@@ -7,7 +7,7 @@ use dea_core::material::InertiaModel;
 use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::stability::stable_time_step;
 use dea_core::{Domain, FibreMaterial, Vec3};
-use dea_fabric::StraightBundle;
+use dea_fabric::StraightFabric;
 use nalgebra::{Rotation3, UnitQuaternion};
 
 const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false };
@@ -26,17 +26,8 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
 fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaModel) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let diameter: f64 = 50e-6;
-    let bundle = StraightBundle {
-        length: 0.1016,
-        fibres: 1,
-        fibre_area: std::f64::consts::PI * diameter * diameter / 4.0,
-        element_length_ratio,
-        inertia,
-        friction_coefficient: 0.3,
-        tensile_strength: 3.8e9,
-        clamp_ends: true,
-    };
-    let built = bundle.build(&material);
+    let bundle = StraightFabric::single_yarn(0.1016, 1, std::f64::consts::PI * diameter * diameter / 4.0, element_length_ratio, inertia, 0.3, 3.8e9);
+    let built = bundle.build_all(&material);
     let contact = elastic_frictionless(&material);
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.0, 0.5);
     let projectile = with_sphere.then(|| {
@@ -150,17 +141,8 @@ fn section_6_1_stress_profiles_converge_in_element_length() {
 /// A 7-fibre bundle, squeezed and sheared so that contacts, friction and bending all act.
 fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     let material = FibreMaterial::kevlar_km2();
-    let bundle = StraightBundle {
-        length: 1.5e-3,
-        fibres: 7,
-        fibre_area: 4.63e-8 / 7.0,
-        element_length_ratio: 0.5,
-        inertia: InertiaModel::Locked,
-        friction_coefficient: 0.3,
-        tensile_strength: 3.8e9,
-        clamp_ends: false,
-    };
-    let mut built = bundle.build(&material);
+    let bundle = StraightFabric { clamp_ends: false, ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked, 0.3, 3.8e9) };
+    let mut built = bundle.build_all(&material);
     // squeeze the section by 3% and bend the fibres: overlaps everywhere
     for p in &mut built.nodes.position {
         *p = Vec3::new(p.x, 0.97 * p.y + 1e-3 * (p.x * 2000.0).sin() * 1e-2, 0.97 * p.z);

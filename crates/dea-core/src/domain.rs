@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use crate::bending::{compute_bending, element_shear_force, max_shear_stress, BendingScratch};
 use crate::contact::{ContactGeometry, NormalLaw};
-use crate::energy::EnergyReport;
+use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{combined_criterion, FailureParameters};
 use crate::friction::stick_slip;
 use crate::integrate;
@@ -16,7 +16,12 @@ use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::projectile::RigidProjectile;
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
-use crate::{FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
+use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
+
+/// Nodes on each side of an owned node that its step reads: tension and bending need 2, and
+/// the failure test of the element after a rank's last node (to book released energy once)
+/// needs 3.
+pub const CHAIN_STENCIL: u32 = 3;
 
 /// Contact parameters of a case.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,8 +39,28 @@ pub struct ContactParameters {
 /// A numerical failure found in a stage.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum DomainError {
-    #[error("non-finite force or position at node {gid:?} in step {step} (time step too large or an unstable contact)")]
+    #[error("non-finite force or position at node {} in step {step} (time step too large or an unstable contact)", gid.0)]
     NonFinite { step: u64, gid: GlobalNodeId },
+    #[error("node {} lacks the node at position {along} of its fibre within the chain stencil of {CHAIN_STENCIL}: a ghost is missing, so its forces cannot be computed", gid.0)]
+    MissingGhost { gid: GlobalNodeId, along: u32 },
+}
+
+/// Everything a rank needs to know of a node another rank owns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GhostRecord {
+    pub gid: GlobalNodeId,
+    /// [m]
+    pub position: Vec3,
+    pub fibre: FibreId,
+    pub along: u32,
+    pub section: u16,
+    pub clamped: bool,
+    pub last: bool,
+    /// rest length of the node's element [m]
+    pub rest_length: f64,
+    /// tensile strength of the node's element [Pa]
+    pub tensile_strength: f64,
+    pub failure: FailureMode,
 }
 
 /// Contact history of every node with the projectile (one body, so one entry per node).
@@ -55,6 +80,22 @@ pub struct ProjectileContacts {
     pub torque_on_projectile: Vec<Vec3>,
     /// projectile position at the last build [m]
     pub reference_position: Vec3,
+}
+
+/// The reaction of one fibre node on the projectile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reaction {
+    pub gid: GlobalNodeId,
+    /// contact force on the projectile [N]
+    pub force: Vec3,
+    /// its torque about the projectile's centre [N m]
+    pub torque: Vec3,
+}
+
+/// Sum of reactions given in ascending global id: the order that makes the projectile's
+/// load independent of the partition (each rank's records are merged by gid first).
+pub fn sum_reactions(reactions: impl Iterator<Item = Reaction>) -> (Vec3, Vec3) {
+    reactions.fold((Vec3::zeros(), Vec3::zeros()), |(f, t), r| (f + r.force, t + r.torque))
 }
 
 /// Per-owned-node running totals of dissipated and released energy [J].
@@ -117,13 +158,17 @@ pub struct Domain {
     pub time: f64,
     pub step: u64,
     pub times: StageTimes,
+    /// this domain integrates the projectile and counts its energy (rank 0); the others
+    /// hold a copy that the driver overwrites every step
+    pub owns_projectile: bool,
     pair_data: Vec<PairData>,
-    newly_broken: Vec<u32>,
+    newly_broken: Vec<(u32, FailureMode)>,
 }
 
 impl Domain {
-    /// Assembles a domain; forces of the initial state are computed so that the first
-    /// half-kick uses a(0).
+    /// Assembles a whole domain (no ghosts); forces of the initial state are computed so that
+    /// the first half-kick uses a(0).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         material: FibreMaterial,
         sections: Vec<FibreSection>,
@@ -134,7 +179,28 @@ impl Domain {
         projectile: Option<RigidProjectile>,
         time_step: f64,
     ) -> Result<Self, DomainError> {
+        let mut domain = Self::assemble(material, sections, nodes, elements, contact, failure, projectile, time_step);
+        domain.rebuild_neighbours()?;
+        domain.compute_forces()?;
+        domain.set_projectile_load(domain.projectile_load());
+        Ok(domain)
+    }
+
+    /// Assembles a domain of owned nodes without computing anything: a distributed driver
+    /// adds the ghosts ([`Self::set_ghosts`]) before the first forces.
+    #[allow(clippy::too_many_arguments)]
+    pub fn assemble(
+        material: FibreMaterial,
+        sections: Vec<FibreSection>,
+        nodes: Nodes,
+        elements: Elements,
+        contact: ContactParameters,
+        failure: FailureParameters,
+        projectile: Option<RigidProjectile>,
+        time_step: f64,
+    ) -> Self {
         let n = nodes.len();
+        let n_owned = nodes.n_owned;
         let pair_data = sections
             .iter()
             .flat_map(|a| sections.iter().map(move |b| (a, b)))
@@ -148,7 +214,7 @@ impl Domain {
             .collect();
         let mut bending = BendingScratch::default();
         bending.resize(n);
-        let mut domain = Self {
+        Self {
             material,
             sections,
             ledger: NodeLedger {
@@ -157,11 +223,11 @@ impl Domain {
                 fracture_released: vec![0.0; nodes.n_owned],
             },
             projectile_contacts: ProjectileContacts {
-                anchor: vec![Vec3::zeros(); n],
-                touching: vec![false; n],
-                max_overlap: vec![0.0; n],
-                force_on_node: vec![Vec3::zeros(); n],
-                torque_on_projectile: vec![Vec3::zeros(); n],
+                anchor: vec![Vec3::zeros(); n_owned],
+                touching: vec![false; n_owned],
+                max_overlap: vec![0.0; n_owned],
+                force_on_node: vec![Vec3::zeros(); n_owned],
+                torque_on_projectile: vec![Vec3::zeros(); n_owned],
                 ..Default::default()
             },
             nodes,
@@ -176,13 +242,24 @@ impl Domain {
             time: 0.0,
             step: 0,
             times: StageTimes::default(),
+            owns_projectile: true,
             pair_data,
             newly_broken: Vec::new(),
-        };
-        domain.rebuild_neighbours();
-        domain.compute_forces()?;
-        domain.set_projectile_load(domain.projectile_load());
-        Ok(domain)
+        }
+    }
+
+    /// Replaces the ghosts by `ghosts` (any order) and relinks the chains. Call
+    /// [`Self::rebuild_neighbours`] next: it checks the chain stencil.
+    pub fn set_ghosts(&mut self, ghosts: &[GhostRecord]) {
+        let n_owned = self.nodes.n_owned;
+        self.nodes.truncate_to_owned();
+        self.elements.truncate(n_owned);
+        for g in ghosts {
+            self.nodes.push(g.gid, g.position, Vec3::zeros(), 0.0, g.fibre, g.along, g.section, g.clamped, g.last);
+            self.elements.push(g.rest_length, g.tensile_strength, g.failure);
+        }
+        self.nodes.link_chains();
+        self.bending.resize(self.nodes.len());
     }
 
     /// One explicit step on a single domain: kick–drift, rebuild when due, forces, failure,
@@ -193,7 +270,7 @@ impl Domain {
         self.kick_drift(half, self.time_step);
         self.times.integrate += clock.elapsed().as_secs_f64();
         if self.rebuild_due() {
-            self.rebuild_neighbours();
+            self.rebuild_neighbours()?;
         }
         self.compute_forces()?;
         self.set_projectile_load(self.projectile_load());
@@ -205,33 +282,50 @@ impl Domain {
         Ok(())
     }
 
-    /// Half-step velocity update of owned nodes and the projectile.
+    /// Half-step velocity update of owned nodes and the owned projectile.
     pub fn kick(&mut self, half_dt: f64) {
         integrate::kick(&mut self.nodes, half_dt);
-        if let Some(projectile) = &mut self.projectile {
+        if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
         }
     }
 
-    /// Half-step velocity update, then position update, of owned nodes and the projectile.
+    /// Half-step velocity update, then position update, of owned nodes and the owned
+    /// projectile.
     pub fn kick_drift(&mut self, half_dt: f64, dt: f64) {
         integrate::kick_drift(&mut self.nodes, half_dt, dt);
-        if let Some(projectile) = &mut self.projectile {
+        if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
         }
     }
 
-    /// True when a node may have come within reach of a partner not in its list: a node
-    /// moved more than half the skin, or node plus projectile moved more than the skin.
-    pub fn rebuild_due(&self) -> bool {
+    /// Largest displacement of an owned node, and of the projectile, since the last build [m].
+    pub fn displacements(&self) -> (f64, f64) {
         let node = self.pairs.max_displacement_squared(&self.nodes).sqrt();
         let projectile = self.projectile.as_ref().map_or(0.0, |p| (p.position - self.projectile_contacts.reference_position).norm());
+        (node, projectile)
+    }
+
+    /// True when a node may have come within reach of a partner not in its list: a node
+    /// moved more than half the skin, or node plus projectile moved more than the skin.
+    /// `node` is the largest displacement over every rank.
+    pub fn rebuild_needed(&self, node: f64, projectile: f64) -> bool {
         2.0 * node > self.pairs.skin || node + projectile > self.pairs.skin
     }
 
-    /// Rebuilds fibre neighbour lists and the projectile's candidate nodes.
-    pub fn rebuild_neighbours(&mut self) {
+    /// [`Self::rebuild_needed`] for a whole domain.
+    pub fn rebuild_due(&self) -> bool {
+        let (node, projectile) = self.displacements();
+        self.rebuild_needed(node, projectile)
+    }
+
+    /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking
+    /// that every owned node has its chain stencil.
+    pub fn rebuild_neighbours(&mut self) -> Result<(), DomainError> {
+        if let Some((gid, along)) = self.nodes.missing_chain_neighbour(CHAIN_STENCIL) {
+            return Err(DomainError::MissingGhost { gid, along });
+        }
         let clock = Instant::now();
         self.pairs.rebuild(&self.nodes, &self.sections);
         if let Some(projectile) = &self.projectile {
@@ -252,6 +346,7 @@ impl Domain {
             contacts.reference_position = projectile.position;
         }
         self.times.rebuild += clock.elapsed().as_secs_f64();
+        Ok(())
     }
 
     /// Forces on owned nodes, element failure and the projectile's contact load.
@@ -372,13 +467,21 @@ impl Domain {
         self.projectile = Some(projectile);
     }
 
-    /// Contact force and torque on the projectile from this domain's owned nodes, summed in
-    /// ascending global id (the candidates are owned nodes in local = gid order) [N], [N m].
-    pub fn projectile_load(&self) -> (Vec3, Vec3) {
+    /// Reaction records of the owned nodes touching the projectile, ascending global id
+    /// (candidates are owned nodes, whose local order is gid order): the force on the
+    /// projectile and its torque about the projectile's centre [N], [N m].
+    pub fn projectile_reactions(&self) -> impl Iterator<Item = Reaction> + '_ {
         let contacts = &self.projectile_contacts;
-        contacts.candidates.iter().fold((Vec3::zeros(), Vec3::zeros()), |(f, t), &i| {
-            (f - contacts.force_on_node[i as usize], t + contacts.torque_on_projectile[i as usize])
+        contacts.candidates.iter().filter(|&&i| contacts.touching[i as usize]).map(|&i| Reaction {
+            gid: self.nodes.gid[i as usize],
+            force: -contacts.force_on_node[i as usize],
+            torque: contacts.torque_on_projectile[i as usize],
         })
+    }
+
+    /// Contact force and torque on the projectile from this domain's owned nodes [N], [N m].
+    pub fn projectile_load(&self) -> (Vec3, Vec3) {
+        sum_reactions(self.projectile_reactions())
     }
 
     /// Sets the contact force and torque the projectile feels in this step (the total over
@@ -390,48 +493,54 @@ impl Domain {
         }
     }
 
+    /// The failure mode element `i` reaches in this step under the combined criterion (5-6),
+    /// or `None` while it holds (or is already broken). Reads this step's strains and
+    /// moments, so it gives the same answer on every rank that holds the element's stencil.
+    fn breaks_now(&self, i: usize) -> Option<FailureMode> {
+        if !self.elements.is_intact(&self.nodes, i) {
+            return None;
+        }
+        let sigma = self.material.longitudinal_modulus * self.elements.strain[i]; // (4-16)
+        let area = self.sections[self.nodes.section[i] as usize].area;
+        let tau = max_shear_stress(element_shear_force(&self.nodes, &self.elements, &self.bending, i), area);
+        combined_criterion(sigma, self.elements.tensile_strength[i], tau, self.failure.shear_strength)
+    }
+
     /// Applies the combined criterion (5-6) to owned elements and books the strain and bending
     /// energy the broken ones release.
     fn break_elements(&mut self) {
         if !self.failure.enabled {
             return;
         }
-        let nodes = &self.nodes;
         self.newly_broken.clear();
-        for i in 0..nodes.n_owned {
-            if !self.elements.is_intact(nodes, i) {
-                continue;
-            }
-            let sigma = self.material.longitudinal_modulus * self.elements.strain[i]; // (4-16)
-            let area = self.sections[nodes.section[i] as usize].area;
-            let shear = element_shear_force(nodes, &self.elements, &self.bending, i);
-            let tau = max_shear_stress(shear, area);
-            if let Some(mode) = combined_criterion(sigma, self.elements.tensile_strength[i], tau, self.failure.shear_strength) {
-                self.newly_broken.push(i as u32);
+        for i in 0..self.nodes.n_owned {
+            if let Some(mode) = self.breaks_now(i) {
+                self.newly_broken.push((i as u32, mode));
                 match mode {
                     FailureMode::Tension => self.broken.tension += 1,
                     FailureMode::Shear => self.broken.shear += 1,
                     _ => self.broken.combined += 1,
                 }
-                self.elements.failure[i] = mode;
             }
         }
-        for &i in &self.newly_broken {
-            let i = i as usize;
-            let next = nodes.next[i] as usize;
+        for k in 0..self.newly_broken.len() {
+            let i = self.newly_broken[k].0 as usize;
+            let next = self.nodes.next[i] as usize;
             // strain energy of the element itself (evaluated as if intact)
-            let area = self.sections[nodes.section[i] as usize].area;
+            let area = self.sections[self.nodes.section[i] as usize].area;
             let mut released = axial_energy(&self.material, area, self.elements.rest_length[i], self.elements.strain[i]);
             // the spring at the first node, and the one at the second unless the element
-            // after it also broke now (then that element books it). When that element is
-            // owned by another rank its new state is only known after the next halo
-            // exchange: the domain-decomposition work must settle this booking.
+            // after it also breaks now (then that element books it). Failure states are
+            // applied after this loop, so for an owned or a ghost next element alike the
+            // criterion answers from this step's state, as its owner decides it.
             released += self.spring_energy(i);
-            let next_also_broke = self.elements.failure[next] != FailureMode::Intact && self.newly_broken.binary_search(&(next as u32)).is_ok();
-            if !next_also_broke {
+            if self.breaks_now(next).is_none() {
                 released += self.spring_energy(next);
             }
             self.ledger.fracture_released[i] += released;
+        }
+        for &(i, mode) in &self.newly_broken {
+            self.elements.failure[i as usize] = mode;
         }
     }
 
@@ -450,22 +559,23 @@ impl Domain {
         Ok(())
     }
 
-    /// Every energy of the domain (owned nodes; pairs once each). Call after
-    /// [`Self::compute_forces`] so strains and angles are current.
-    pub fn energies(&self) -> EnergyReport {
+    /// Every energy of the domain as exact sums over owned nodes (pairs once each; the
+    /// projectile's kinetic energy on its owner only), ready to merge across ranks. Call
+    /// after [`Self::compute_forces`] so strains and angles are current.
+    pub fn energy_sums(&self) -> EnergySums {
         let nodes = &self.nodes;
-        let mut report = EnergyReport::default();
+        let mut report = EnergySums::default();
         let law = self.contact.law;
         let n_sections = self.sections.len();
         for i in 0..nodes.n_owned {
-            report.fibre_kinetic += 0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared();
+            report.fibre_kinetic.add(0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared());
             if nodes.next[i] != NONE {
-                report.axial += element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i);
+                report.axial.add(element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i));
             }
-            report.bending += self.spring_energy(i);
-            report.friction_dissipated += self.ledger.friction_dissipated[i];
-            report.plastic_dissipated += self.ledger.plastic_dissipated[i];
-            report.fracture_released += self.ledger.fracture_released[i];
+            report.bending.add(self.spring_energy(i));
+            report.friction_dissipated.add(self.ledger.friction_dissipated[i]);
+            report.plastic_dissipated.add(self.ledger.plastic_dissipated[i]);
+            report.fracture_released.add(self.ledger.fracture_released[i]);
             for k in self.pairs.row(i) {
                 let j = self.pairs.partner[k] as usize;
                 let data = &self.pair_data[nodes.section[i] as usize * n_sections + nodes.section[j] as usize];
@@ -475,16 +585,18 @@ impl Domain {
                     continue;
                 }
                 let (response, _) = law.evaluate(&data.geometry, overlap, self.pairs.max_overlap[k]);
-                report.contact += 0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]);
+                report.contact.add(0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]));
                 if self.contact.friction_coefficient > 0.0 && self.pairs.touching[k] {
                     let mut anchor = self.pairs.anchor[k];
                     let friction = stick_slip(relative, relative.normalize(), &mut anchor, response.force, response.stiffness, self.contact.friction_coefficient);
-                    report.friction_stored += 0.5 * friction.stored;
+                    report.friction_stored.add(0.5 * friction.stored);
                 }
             }
         }
         if let Some(projectile) = &self.projectile {
-            report.projectile_kinetic = projectile.kinetic_energy();
+            if self.owns_projectile {
+                report.projectile_kinetic.add(projectile.kinetic_energy());
+            }
             for &i in &self.projectile_contacts.candidates {
                 let i = i as usize;
                 let (overlap, normal, body, geometry) = self.projectile_contact_geometry(projectile, i);
@@ -492,16 +604,21 @@ impl Domain {
                     continue;
                 }
                 let max_overlap = self.projectile_contacts.max_overlap[i];
-                report.contact += law.stored_energy(&geometry, overlap, max_overlap);
+                report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
                 if self.contact.projectile_friction_coefficient > 0.0 && self.projectile_contacts.touching[i] {
                     let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
                     let mut anchor = self.projectile_contacts.anchor[i];
                     let friction = stick_slip(-body, normal, &mut anchor, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
-                    report.friction_stored += friction.stored;
+                    report.friction_stored.add(friction.stored);
                 }
             }
         }
         report
+    }
+
+    /// [`Self::energy_sums`] rounded: the energies of a whole domain [J].
+    pub fn energies(&self) -> EnergyReport {
+        self.energy_sums().report()
     }
 
     /// Axial stress E_L eps of every owned element, NaN where there is no element [Pa].

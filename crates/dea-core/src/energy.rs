@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::exact::{ExactSum, LIMBS};
+
 /// Energies of a domain at one instant [J]. Pair energies count each physical pair once.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct EnergyReport {
@@ -37,5 +39,57 @@ impl EnergyReport {
             + self.friction_dissipated
             + self.plastic_dissipated
             + self.fracture_released
+    }
+}
+
+/// Exact sums of every energy kind over a set of nodes: partial sums from any partition
+/// merge into the same bits (see [`ExactSum`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EnergySums {
+    pub fibre_kinetic: ExactSum,
+    pub projectile_kinetic: ExactSum,
+    pub axial: ExactSum,
+    pub bending: ExactSum,
+    pub contact: ExactSum,
+    pub friction_stored: ExactSum,
+    pub friction_dissipated: ExactSum,
+    pub plastic_dissipated: ExactSum,
+    pub fracture_released: ExactSum,
+}
+
+/// Number of i64 words of [`EnergySums::to_words`].
+pub const ENERGY_WORDS: usize = 9 * (LIMBS + 2);
+
+impl EnergySums {
+    fn kinds(&self) -> [&ExactSum; 9] {
+        [
+            &self.fibre_kinetic,
+            &self.projectile_kinetic,
+            &self.axial,
+            &self.bending,
+            &self.contact,
+            &self.friction_stored,
+            &self.friction_dissipated,
+            &self.plastic_dissipated,
+            &self.fracture_released,
+        ]
+    }
+
+    /// The sums rounded to f64.
+    pub fn report(&self) -> EnergyReport {
+        let [fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
+            self.kinds().map(ExactSum::value);
+        EnergyReport { fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
+    }
+
+    /// Integer words whose element-wise sum over ranks is the words of the total.
+    pub fn to_words(&self) -> Vec<i64> {
+        self.kinds().iter().flat_map(|s| s.to_words()).collect()
+    }
+
+    pub fn from_words(words: &[i64]) -> Self {
+        let [fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
+            std::array::from_fn(|k| ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)]));
+        Self { fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 }

@@ -9,6 +9,7 @@ pub mod bending;
 pub mod contact;
 pub mod domain;
 pub mod energy;
+pub mod exact;
 pub mod failure;
 pub mod friction;
 pub mod ids;
@@ -21,7 +22,7 @@ pub mod rod;
 pub mod stability;
 pub mod weibull;
 
-pub use domain::{Domain, DomainError};
+pub use domain::{Domain, DomainError, GhostRecord, Reaction, CHAIN_STENCIL};
 pub use ids::{FibreId, GlobalNodeId, Rank, NONE};
 pub use material::{FibreMaterial, FibreSection};
 pub use nodes::{Elements, Nodes};

@@ -25,7 +25,7 @@ pub struct NeighbourList {
     pub touching: Vec<bool>,
     /// largest overlap reached (elasto-plastic history) [m]
     pub max_overlap: Vec<f64>,
-    /// node positions when the lists were built [m]
+    /// owned node positions when the lists were built [m]
     pub reference_position: Vec<Vec3>,
     /// Verlet skin [m]
     pub skin: f64,
@@ -70,7 +70,7 @@ impl NeighbourList {
 
     /// Largest squared displacement of an owned node since the last build [m^2].
     pub fn max_displacement_squared(&self, nodes: &Nodes) -> f64 {
-        if self.reference_position.len() != nodes.len() {
+        if self.reference_position.len() != nodes.n_owned {
             return f64::INFINITY;
         }
         (0..nodes.n_owned)
@@ -193,7 +193,7 @@ impl NeighbourList {
         std::mem::swap(&mut self.touching, &mut scratch.touching);
         std::mem::swap(&mut self.max_overlap, &mut scratch.max_overlap);
         self.reference_position.clear();
-        self.reference_position.extend_from_slice(&nodes.position);
+        self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
         self.builds += 1;
     }
 }
@@ -252,6 +252,44 @@ impl HashedGrid {
     }
 }
 
+/// For each candidate point, whether it lies closer than `reach` to any target point: which
+/// nodes another rank sends are within contact reach of this rank's own nodes.
+pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
+    if targets.is_empty() {
+        return vec![false; candidates.len()];
+    }
+    let (low, high) = bounding_box(targets);
+    let grid = HashedGrid::new(targets.len(), low, high, reach);
+    let mut start = vec![0u32; grid.slots() + 1];
+    let slot_of: Vec<usize> = targets.iter().map(|x| grid.slot(grid.coordinates(x))).collect();
+    for &c in &slot_of {
+        start[c + 1] += 1;
+    }
+    for c in 0..grid.slots() {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut sorted = vec![Vec3::zeros(); targets.len()];
+    for (x, &c) in targets.iter().zip(&slot_of) {
+        sorted[fill[c] as usize] = *x;
+        fill[c] += 1;
+    }
+    candidates
+        .iter()
+        .map(|x| {
+            let [cx, cy, cz] = grid.coordinates(x);
+            (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    (-1..=1).any(|dz| {
+                        let c = grid.slot([cx + dx, cy + dy, cz + dz]);
+                        sorted[start[c] as usize..start[c + 1] as usize].iter().any(|t| (t - x).norm_squared() < reach * reach)
+                    })
+                })
+            })
+        })
+        .collect()
+}
+
 /// True when `j` lies on the fibre of `i` within `exclusion` positions.
 #[inline]
 fn same_fibre_within(nodes: &Nodes, i: usize, j: usize, exclusion: u32) -> bool {
@@ -281,7 +319,7 @@ mod tests {
         };
         for k in 0..n {
             let x = Vec3::new(next(), next(), next()) * 4e-4;
-            nodes.push(GlobalNodeId(k as u64 * 3), x, Vec3::zeros(), 1.0, FibreId((k / 10) as u32), (k % 10) as u32, 0, false);
+            nodes.push(GlobalNodeId(k as u64 * 3), x, Vec3::zeros(), 1.0, FibreId((k / 10) as u32), (k % 10) as u32, 0, false, k % 10 == 9);
         }
         nodes.n_owned = n;
         nodes.link_chains();
@@ -317,6 +355,20 @@ mod tests {
         for i in 1..nodes.n_owned {
             assert_eq!(list.partner_gid[list.row(i)], before[i - 1][..], "node {i}");
         }
+    }
+
+    #[test]
+    fn reach_filter_matches_brute_force() {
+        let (nodes, _) = random_cloud(500, 11);
+        let (targets, candidates) = nodes.position.split_at(200);
+        let reach = 3e-5;
+        let found = within_reach_of_any(targets, candidates, reach);
+        for (c, &hit) in candidates.iter().zip(&found) {
+            assert_eq!(hit, targets.iter().any(|t| (t - c).norm() < reach));
+        }
+        assert!(found.iter().any(|&h| h) && found.iter().any(|&h| !h));
+        // a candidate far outside the targets' box (folded onto the same slots) is not hit
+        assert_eq!(within_reach_of_any(targets, &[Vec3::new(1.0, 1.0, 1.0)], reach), vec![false]);
     }
 
     #[test]

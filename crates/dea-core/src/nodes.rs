@@ -34,10 +34,12 @@ pub struct Nodes {
     pub next: Vec<u32>,
     /// clamped nodes never move (fixed boundary)
     pub clamped: Vec<bool>,
+    /// the node is the last of its fibre (so a missing `next` is an end, not a missing ghost)
+    pub last: Vec<bool>,
 }
 
 /// Why an element failed (seed eq. 5-6 split by the dominant term).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, PartialOrd, Ord)]
 #[repr(u8)]
 pub enum FailureMode {
     #[default]
@@ -69,6 +71,13 @@ pub struct Elements {
     pub inverse_length: Vec<f64>,
 }
 
+impl FailureMode {
+    /// The mode of a stored code (results files and halo messages).
+    pub fn from_code(code: u8) -> Option<Self> {
+        [Self::Intact, Self::Tension, Self::Shear, Self::Combined].get(code as usize).copied()
+    }
+}
+
 impl Nodes {
     /// Number of local nodes (owned + ghosts).
     pub fn len(&self) -> usize {
@@ -81,7 +90,7 @@ impl Nodes {
 
     /// Appends one node; chain links are set by [`Nodes::link_chains`].
     #[allow(clippy::too_many_arguments)]
-    pub fn push(&mut self, gid: GlobalNodeId, position: Vec3, velocity: Vec3, mass: f64, fibre: FibreId, along: u32, section: u16, clamped: bool) {
+    pub fn push(&mut self, gid: GlobalNodeId, position: Vec3, velocity: Vec3, mass: f64, fibre: FibreId, along: u32, section: u16, clamped: bool, last: bool) {
         self.gid.push(gid);
         self.position.push(position);
         self.velocity.push(velocity);
@@ -93,6 +102,51 @@ impl Nodes {
         self.prev.push(NONE);
         self.next.push(NONE);
         self.clamped.push(clamped);
+        self.last.push(last);
+    }
+
+    /// Drops every ghost, keeping the owned nodes.
+    pub fn truncate_to_owned(&mut self) {
+        let n = self.n_owned;
+        self.gid.truncate(n);
+        self.position.truncate(n);
+        self.velocity.truncate(n);
+        self.force.truncate(n);
+        self.mass.truncate(n);
+        self.fibre.truncate(n);
+        self.along.truncate(n);
+        self.section.truncate(n);
+        self.prev.truncate(n);
+        self.next.truncate(n);
+        self.clamped.truncate(n);
+        self.last.truncate(n);
+    }
+
+    /// The first owned node (ascending local index) whose chain stencil of `depth` nodes on
+    /// either side is not all present locally, with the position along the fibre of the
+    /// missing node. A missing node would silently turn into a fibre end, so a domain checks
+    /// this after every change of its ghosts.
+    pub fn missing_chain_neighbour(&self, depth: u32) -> Option<(GlobalNodeId, u32)> {
+        for i in 0..self.n_owned {
+            let mut j = i;
+            for _ in 0..depth.min(self.along[i]) {
+                match self.prev[j] {
+                    NONE => return Some((self.gid[i], self.along[j] - 1)),
+                    p => j = p as usize,
+                }
+            }
+            let mut j = i;
+            for _ in 0..depth {
+                if self.last[j] {
+                    break;
+                }
+                match self.next[j] {
+                    NONE => return Some((self.gid[i], self.along[j] + 1)),
+                    n => j = n as usize,
+                }
+            }
+        }
+        None
     }
 
     /// Sets `prev`/`next` from (fibre, along): consecutive positions on one fibre are linked.
@@ -113,24 +167,26 @@ impl Nodes {
 }
 
 impl Elements {
-    /// Elements for `nodes` with rest length taken from the current geometry.
-    pub fn from_geometry(nodes: &Nodes, tensile_strength: f64) -> Self {
-        let n = nodes.len();
-        let rest_length = (0..n)
-            .map(|i| match nodes.next[i] {
-                NONE => 0.0,
-                j => (nodes.position[j as usize] - nodes.position[i]).norm(),
-            })
-            .collect();
-        Self {
-            rest_length,
-            tensile_strength: vec![tensile_strength; n],
-            failure: vec![FailureMode::Intact; n],
-            strain: vec![0.0; n],
-            tension: vec![Vec3::zeros(); n],
-            direction: vec![Vec3::zeros(); n],
-            inverse_length: vec![0.0; n],
-        }
+    /// Appends the state of one element (of a node without element: zero rest length).
+    pub fn push(&mut self, rest_length: f64, tensile_strength: f64, failure: FailureMode) {
+        self.rest_length.push(rest_length);
+        self.tensile_strength.push(tensile_strength);
+        self.failure.push(failure);
+        self.strain.push(0.0);
+        self.tension.push(Vec3::zeros());
+        self.direction.push(Vec3::zeros());
+        self.inverse_length.push(0.0);
+    }
+
+    /// Keeps the first `n` elements (those of the owned nodes).
+    pub fn truncate(&mut self, n: usize) {
+        self.rest_length.truncate(n);
+        self.tensile_strength.truncate(n);
+        self.failure.truncate(n);
+        self.strain.truncate(n);
+        self.tension.truncate(n);
+        self.direction.truncate(n);
+        self.inverse_length.truncate(n);
     }
 
     /// True when element `i` exists and carries force.

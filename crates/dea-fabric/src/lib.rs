@@ -1,17 +1,38 @@
 //! Fabric geometry at near-fibre level: digital fibres packed in a yarn section and laid out
-//! as straight chains (single fibres and straight yarns). Woven topologies, relaxation and
-//! panels build on these pieces.
+//! as straight chains (single fibres, straight yarns, crossing layers of straight yarns).
+//! Woven topologies, relaxation and panels build on these pieces.
 
 use dea_core::material::InertiaModel;
+use dea_core::nodes::FailureMode;
 use dea_core::{Elements, FibreId, FibreMaterial, FibreSection, GlobalNodeId, Nodes, Vec3};
 
-/// A straight bundle of digital fibres along x, centred on the origin.
+/// Direction of a straight yarn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    X,
+    Y,
+}
+
+/// One straight yarn: digital fibres packed hexagonally around an axis.
 #[derive(Clone, Debug, PartialEq)]
-pub struct StraightBundle {
-    /// length of every fibre [m]
-    pub length: f64,
-    /// digital fibres in the bundle
+pub struct YarnLine {
+    /// centre of the yarn's axis [m]
+    pub centre: Vec3,
+    pub axis: Axis,
+    /// digital fibres in the yarn
     pub fibres: usize,
+    /// layer of the panel the yarn lies in (0 on top)
+    pub layer: u32,
+}
+
+/// A fabric of straight yarns of equal length: a single fibre, a yarn, or crossing layers
+/// of yarns. Every node is a pure function of (yarn, fibre, position along the fibre), so a
+/// rank can generate exactly the nodes it owns without building the rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StraightFabric {
+    pub yarns: Vec<YarnLine>,
+    /// length of every yarn [m]
+    pub length: f64,
     /// cross-section area of one digital fibre [m^2]
     pub fibre_area: f64,
     /// target element length / digital fibre diameter [-] (seed §6.1: 0.5 converges)
@@ -58,38 +79,158 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
     points.into_iter().map(|p| [p.2, p.3]).collect()
 }
 
-impl StraightBundle {
-    /// Builds the nodes: fibre f, node k has global id `f * nodes_per_fibre + k`; interior
-    /// nodes carry `rho A l0`, chain ends half of it.
-    pub fn build(&self, material: &FibreMaterial) -> Built {
+impl StraightFabric {
+    /// One yarn of `fibres` digital fibres along x, centred on the origin.
+    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64) -> Self {
+        Self {
+            yarns: vec![YarnLine { centre: Vec3::zeros(), axis: Axis::X, fibres, layer: 0 }],
+            length,
+            fibre_area,
+            element_length_ratio,
+            inertia,
+            friction_coefficient,
+            tensile_strength,
+            clamp_ends: true,
+        }
+    }
+
+    /// `layers` layers of `yarns_per_layer` touching parallel yarns, along x in even layers
+    /// and y in odd ones, layers touching; the top of layer 0 at the origin's height less
+    /// half a yarn. Yarns sit at the pitch of their envelope (packing radius plus half a
+    /// contact diameter, on both sides).
+    #[allow(clippy::too_many_arguments)]
+    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64, material: &FibreMaterial) -> Self {
+        let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, friction_coefficient, tensile_strength);
+        let pitch = fabric.yarn_envelope_diameter(material);
+        fabric.yarns = (0..layers)
+            .flat_map(|l| {
+                (0..yarns_per_layer).map(move |j| {
+                    let across = (j as f64 - 0.5 * (yarns_per_layer as f64 - 1.0)) * pitch;
+                    let z = -(l as f64) * pitch;
+                    let (centre, axis) = if l % 2 == 0 { (Vec3::new(0.0, across, z), Axis::X) } else { (Vec3::new(across, 0.0, z), Axis::Y) };
+                    YarnLine { centre, axis, fibres, layer: l as u32 }
+                })
+            })
+            .collect();
+        fabric
+    }
+
+    /// Elements per fibre.
+    pub fn elements_per_fibre(&self) -> usize {
         let diameter = (4.0 * self.fibre_area / std::f64::consts::PI).sqrt();
-        let elements_per_fibre = ((self.length / (self.element_length_ratio * diameter)).round() as usize).max(1);
-        let element_length = self.length / elements_per_fibre as f64;
-        let section = FibreSection::new(material, self.fibre_area, element_length, self.inertia, self.friction_coefficient);
-        let nodes_per_fibre = elements_per_fibre + 1;
+        ((self.length / (self.element_length_ratio * diameter)).round() as usize).max(1)
+    }
+
+    /// Nodes per fibre (the same on every fibre).
+    pub fn nodes_per_fibre(&self) -> u32 {
+        self.elements_per_fibre() as u32 + 1
+    }
+
+    /// The one section every fibre has.
+    pub fn section(&self, material: &FibreMaterial) -> FibreSection {
+        FibreSection::new(material, self.fibre_area, self.length / self.elements_per_fibre() as f64, self.inertia, self.friction_coefficient)
+    }
+
+    /// Diameter of the circle enclosing a yarn's fibres (contact diameter included) [m].
+    pub fn yarn_envelope_diameter(&self, material: &FibreMaterial) -> f64 {
+        let contact = self.section(material).contact_diameter;
+        let fibres = self.yarns.first().map_or(1, |y| y.fibres);
+        let radius = hexagonal_packing(fibres, contact).iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
+        2.0 * radius + contact
+    }
+
+    /// Global fibre id of each yarn's first fibre, plus the total at the end.
+    pub fn first_fibres(&self) -> Vec<u32> {
+        std::iter::once(0).chain(self.yarns.iter().scan(0u32, |total, y| {
+            *total += y.fibres as u32;
+            Some(*total)
+        })).collect()
+    }
+
+    /// Centres of a yarn's fibres in its cross-section: (across, z) offsets [m].
+    fn packing(&self, yarn: &YarnLine, material: &FibreMaterial) -> Vec<[f64; 2]> {
+        hexagonal_packing(yarn.fibres, self.section(material).contact_diameter)
+    }
+
+    /// Position of node `k` of fibre `fibre` of yarn `yarn` [m].
+    fn position(&self, yarn: &YarnLine, offset: [f64; 2], k: u32, element_length: f64) -> Vec3 {
+        let along = -0.5 * self.length + k as f64 * element_length;
+        match yarn.axis {
+            Axis::X => yarn.centre + Vec3::new(along, offset[0], offset[1]),
+            Axis::Y => yarn.centre + Vec3::new(-offset[0], along, offset[1]),
+        }
+    }
+
+    /// Highest node centre of the fabric [m].
+    pub fn top(&self, material: &FibreMaterial) -> f64 {
+        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)).fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Lowest node centre of the fabric [m].
+    pub fn bottom(&self, material: &FibreMaterial) -> f64 {
+        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Axis-aligned box of the node centres of yarn `yarn` between positions `first` and
+    /// `last` (inclusive) along its fibres [m].
+    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
+        let y = &self.yarns[yarn];
+        let element_length = self.length / self.elements_per_fibre() as f64;
+        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for offset in self.packing(y, material) {
+            for k in [first, last] {
+                let p = self.position(y, offset, k, element_length);
+                low = low.inf(&p);
+                high = high.sup(&p);
+            }
+        }
+        (low, high)
+    }
+
+    /// Builds the nodes `keep(yarn, k)` selects (position `k` along every fibre of the
+    /// yarn), ascending global id: fibre f, node k has global id `f * nodes_per_fibre + k`.
+    /// Interior nodes carry `rho A l0`, chain ends half of it; every element has the rest
+    /// length l0.
+    pub fn build(&self, material: &FibreMaterial, keep: impl Fn(usize, u32) -> bool) -> Built {
+        let section = self.section(material);
+        let nodes_per_fibre = self.nodes_per_fibre();
+        let last = nodes_per_fibre - 1;
         let interior_mass = section.node_mass(material);
-        let centres = hexagonal_packing(self.fibres, section.contact_diameter);
+        let first_fibres = self.first_fibres();
         let mut nodes = Nodes::default();
-        for (f, [y, z]) in centres.iter().enumerate() {
-            for k in 0..nodes_per_fibre {
-                let end = k == 0 || k == elements_per_fibre;
-                let x = -0.5 * self.length + k as f64 * element_length;
-                nodes.push(
-                    GlobalNodeId((f * nodes_per_fibre + k) as u64),
-                    Vec3::new(x, *y, *z),
-                    Vec3::zeros(),
-                    if end { 0.5 * interior_mass } else { interior_mass },
-                    FibreId(f as u32),
-                    k as u32,
-                    0,
-                    end && self.clamp_ends,
-                );
+        let mut elements = Elements::default();
+        for (y, yarn) in self.yarns.iter().enumerate() {
+            let kept: Vec<u32> = (0..nodes_per_fibre).filter(|&k| keep(y, k)).collect();
+            if kept.is_empty() {
+                continue;
+            }
+            for (f, offset) in self.packing(yarn, material).into_iter().enumerate() {
+                let fibre = first_fibres[y] + f as u32;
+                for &k in &kept {
+                    let end = k == 0 || k == last;
+                    nodes.push(
+                        GlobalNodeId(fibre as u64 * nodes_per_fibre as u64 + k as u64),
+                        self.position(yarn, offset, k, section.element_length),
+                        Vec3::zeros(),
+                        if end { 0.5 * interior_mass } else { interior_mass },
+                        FibreId(fibre),
+                        k,
+                        0,
+                        end && self.clamp_ends,
+                        k == last,
+                    );
+                    elements.push(if k == last { 0.0 } else { section.element_length }, self.tensile_strength, FailureMode::Intact);
+                }
             }
         }
         nodes.n_owned = nodes.len();
         nodes.link_chains();
-        let elements = Elements::from_geometry(&nodes, self.tensile_strength);
         Built { sections: vec![section], nodes, elements }
+    }
+
+    /// Builds every node (a whole domain, for single-domain use and tests).
+    pub fn build_all(&self, material: &FibreMaterial) -> Built {
+        self.build(material, |_, _| true)
     }
 }
 
@@ -117,17 +258,8 @@ mod tests {
     #[test]
     fn bundle_mass_and_length_are_exact() {
         let material = FibreMaterial::kevlar_km2();
-        let bundle = StraightBundle {
-            length: 0.01,
-            fibres: 7,
-            fibre_area: 4.63e-8 / 7.0,
-            element_length_ratio: 0.5,
-            inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 },
-            friction_coefficient: 0.3,
-            tensile_strength: 3.8e9,
-            clamp_ends: true,
-        };
-        let built = bundle.build(&material);
+        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3, 3.8e9);
+        let built = bundle.build_all(&material);
         let total_mass: f64 = built.nodes.mass.iter().sum();
         let expected = material.density * 4.63e-8 * 0.01;
         assert!((total_mass - expected).abs() < 1e-12 * expected);
@@ -136,5 +268,52 @@ mod tests {
         assert_eq!(built.nodes.clamped.iter().filter(|&&c| c).count(), 14);
         let section = &built.sections[0];
         assert!((section.element_length / section.diameter - 0.5).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_rank_builds_exactly_its_piece_of_the_whole() {
+        let material = FibreMaterial::kevlar_km2();
+        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let whole = fabric.build_all(&material);
+        let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
+        let piece = fabric.build(&material, keep);
+        let mut expected = whole.nodes.gid.iter().enumerate().filter(|(i, _)| {
+            let fibre = whole.nodes.fibre[*i].0 as usize;
+            keep(fibre / 7, whole.nodes.along[*i])
+        });
+        for i in 0..piece.nodes.len() {
+            let (w, gid) = expected.next().expect("same count");
+            assert_eq!(piece.nodes.gid[i], *gid);
+            assert_eq!(piece.nodes.position[i], whole.nodes.position[w]);
+            assert_eq!(piece.nodes.mass[i], whole.nodes.mass[w]);
+            assert_eq!(piece.elements.rest_length[i], whole.elements.rest_length[w]);
+        }
+        assert!(expected.next().is_none());
+        assert!(piece.nodes.gid.windows(2).all(|g| g[0] < g[1]));
+    }
+
+    #[test]
+    fn cross_ply_yarns_touch_without_overlapping() {
+        let material = FibreMaterial::kevlar_km2();
+        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let built = fabric.build_all(&material);
+        let contact = built.sections[0].contact_diameter;
+        let nodes = &built.nodes;
+        let mut closest = f64::INFINITY;
+        for i in 0..nodes.len() {
+            for j in 0..nodes.len() {
+                if nodes.fibre[i] != nodes.fibre[j] {
+                    closest = closest.min((nodes.position[i] - nodes.position[j]).norm());
+                }
+            }
+        }
+        assert!((closest - contact).abs() < 1e-9 * contact, "{closest} vs {contact}");
+        let thickness = fabric.top(&material) - fabric.bottom(&material);
+        // three layers at a pitch of three contact diameters (7 fibres: envelope 3 d), plus
+        // the packing's own height sqrt(3) d
+        let pitch = fabric.yarn_envelope_diameter(&material);
+        assert!((pitch - 3.0 * contact).abs() < 1e-12 * contact);
+        assert!((thickness - (2.0 * pitch + 3f64.sqrt() * contact)).abs() < 1e-12 * contact, "{thickness}");
+        assert_eq!(fabric.first_fibres(), vec![0, 7, 14, 21, 28, 35, 42]);
     }
 }

@@ -100,6 +100,23 @@ pub enum TargetSpec {
         /// element length / digital fibre diameter [-]
         element_length_ratio: f64,
     },
+    /// stacked layers of parallel straight yarns, along x in even layers and along y in odd
+    /// ones (a cross-ply: crossing yarns without weaving), every yarn clamped at both ends;
+    /// layer 0 is on top, struck first
+    StraightYarnLayers {
+        /// yarn preset: "km2_600_denier"
+        yarn: String,
+        /// digital fibres per yarn
+        fibres_per_yarn: usize,
+        /// number of layers
+        layers: usize,
+        /// yarns side by side in each layer
+        yarns_per_layer: usize,
+        /// length of every yarn (the panel is square) [m]
+        length_m: f64,
+        /// element length / digital fibre diameter [-]
+        element_length_ratio: f64,
+    },
 }
 
 /// KM2 600 denier: 600 g per 9000 m at 1440 kg/m^3 (PHYSICS.md §6).
@@ -366,8 +383,18 @@ impl Case {
             }
             TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
                 yarn_area(yarn)?;
-                if *fibres_per_yarn < 1 || *fibres_per_yarn > 400 {
-                    return Err(invalid("target.fibres_per_yarn", format!("must be in 1..=400, got {fibres_per_yarn}")));
+                fibre_count(*fibres_per_yarn)?;
+                positive("target.length_m", *length_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+            TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+                yarn_area(yarn)?;
+                fibre_count(*fibres_per_yarn)?;
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                if *yarns_per_layer < 1 || *yarns_per_layer > 10_000 {
+                    return Err(invalid("target.yarns_per_layer", format!("must be in 1..=10000, got {yarns_per_layer}")));
                 }
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
@@ -394,6 +421,14 @@ impl Case {
             return Err(invalid("run.history_interval_steps", "must be >= 1, got 0"));
         }
         Ok(())
+    }
+}
+
+fn fibre_count(value: usize) -> Result<usize, CaseError> {
+    if (1..=400).contains(&value) {
+        Ok(value)
+    } else {
+        Err(invalid("target.fibres_per_yarn", format!("must be in 1..=400, got {value}")))
     }
 }
 

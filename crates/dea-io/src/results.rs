@@ -7,6 +7,7 @@
 //!   `history/energy/<kind>` [J], `history/broken/{tension,shear,combined}` [-]
 //! - `final/gid`, `final/position` (N x 3) [m], `final/velocity` (N x 3) [m/s],
 //!   `final/element_failure` (0 intact, 1 tension, 2 shear, 3 combined)
+//! - `partition/rank`: the owning rank of each node of `final/gid`
 
 use dea_core::energy::EnergyReport;
 use dea_core::Vec3;
@@ -40,6 +41,8 @@ pub struct FinalState {
     pub velocity: Vec<Vec3>,
     /// failure mode code of the element starting at each node
     pub element_failure: Vec<u8>,
+    /// rank that owned each node (the only dataset that depends on the number of ranks)
+    pub owner_rank: Vec<u32>,
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
@@ -103,6 +106,8 @@ pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histor
     write_vectors(&last, "position", &final_state.position, "m")?;
     write_vectors(&last, "velocity", &final_state.velocity, "m/s")?;
     write_scalars(&last, "element_failure", &final_state.element_failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
+    let partition = file.create_group("partition")?;
+    write_scalars(&partition, "rank", &final_state.owner_rank, "rank owning each node of final/gid")?;
     file.flush()
 }
 
@@ -162,7 +167,7 @@ mod tests {
             broken_shear: vec![0, 2],
             broken_combined: vec![0, 3],
         };
-        let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2] };
+        let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2], owner_rank: vec![0, 1] };
         write_results(&path, "{\"name\":\"t\"}", &histories, &state).unwrap();
         assert_eq!(read_histories(&path).unwrap(), histories);
         std::fs::remove_dir_all(&dir).unwrap();

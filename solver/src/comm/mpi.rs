@@ -1,0 +1,118 @@
+//! [`Comm`] over MPI (rsmpi on Open MPI): the only code of the project that calls MPI.
+
+use dea_core::Rank;
+use mpi::collective::SystemOperation;
+use mpi::datatype::PartitionMut;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+
+use super::Comm;
+
+/// The world communicator of an MPI job (a singleton when started without mpirun).
+pub struct MpiComm {
+    world: SimpleCommunicator,
+    _universe: mpi::environment::Universe,
+}
+
+impl MpiComm {
+    /// Initialises MPI. When the job has more than one rank, a panic on any rank aborts the
+    /// whole job at once instead of leaving the others waiting in a collective.
+    pub fn initialize() -> anyhow::Result<Self> {
+        let universe = mpi::initialize().ok_or_else(|| anyhow::anyhow!("MPI was already initialised"))?;
+        let world = universe.world();
+        if world.size() > 1 {
+            let default_hook = std::panic::take_hook();
+            std::panic::set_hook(Box::new(move |info| {
+                default_hook(info);
+                eprintln!("error: rank {} panicked; aborting every rank", SimpleCommunicator::world().rank());
+                SimpleCommunicator::world().abort(70);
+            }));
+        }
+        Ok(Self { world, _universe: universe })
+    }
+}
+
+impl Comm for MpiComm {
+    fn rank(&self) -> Rank {
+        Rank(self.world.rank() as u32)
+    }
+
+    fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn max_f64(&self, values: &mut [f64]) {
+        let mine = values.to_vec();
+        self.world.all_reduce_into(&mine[..], values, SystemOperation::max());
+    }
+
+    fn min_u64(&self, values: &mut [u64]) {
+        let mine = values.to_vec();
+        self.world.all_reduce_into(&mine[..], values, SystemOperation::min());
+    }
+
+    fn sum_i64(&self, values: &mut [i64]) {
+        let mine = values.to_vec();
+        self.world.all_reduce_into(&mine[..], values, SystemOperation::sum());
+    }
+
+    fn or_u64(&self, values: &mut [u64]) {
+        let mine = values.to_vec();
+        self.world.all_reduce_into(&mine[..], values, SystemOperation::bitwise_or());
+    }
+
+    fn all_gather_f64(&self, mine: &[f64]) -> Vec<f64> {
+        let mut all = vec![0.0; mine.len() * self.size()];
+        self.world.all_gather_into(mine, &mut all[..]);
+        all
+    }
+
+    fn broadcast_f64(&self, values: &mut [f64]) {
+        self.world.process_at_rank(0).broadcast_into(values);
+    }
+
+    fn broadcast_bytes(&self, bytes: &mut Vec<u8>) {
+        let root = self.world.process_at_rank(0);
+        let mut length = bytes.len() as u64;
+        root.broadcast_into(&mut length);
+        bytes.resize(length as usize, 0);
+        root.broadcast_into(&mut bytes[..]);
+    }
+
+    fn gather_f64(&self, mine: &[f64]) -> Option<Vec<Vec<f64>>> {
+        let root = self.world.process_at_rank(0);
+        let count = mine.len() as Count;
+        if self.world.rank() != 0 {
+            root.gather_into(&count);
+            root.gather_varcount_into(mine);
+            return None;
+        }
+        let mut counts = vec![0 as Count; self.size()];
+        root.gather_into_root(&count, &mut counts[..]);
+        let displacements: Vec<Count> = counts.iter().scan(0, |offset, &c| {
+            let start = *offset;
+            *offset += c;
+            Some(start)
+        }).collect();
+        let mut all = vec![0.0; counts.iter().map(|&c| c as usize).sum()];
+        {
+            let mut partition = PartitionMut::new(&mut all[..], &counts[..], &displacements[..]);
+            root.gather_varcount_into_root(mine, &mut partition);
+        }
+        Some(counts.iter().zip(&displacements).map(|(&c, &d)| all[d as usize..(d + c) as usize].to_vec()).collect())
+    }
+
+    fn exchange(&self, partners: &[Rank], sends: &[Vec<f64>], receives: &mut [Vec<f64>]) {
+        mpi::request::multiple_scope(2 * partners.len(), |scope, requests| {
+            for (partner, receive) in partners.iter().zip(receives.iter_mut()) {
+                requests.add(self.world.process_at_rank(partner.0 as i32).immediate_receive_into(scope, &mut receive[..]));
+            }
+            for (partner, send) in partners.iter().zip(sends) {
+                requests.add(self.world.process_at_rank(partner.0 as i32).immediate_send(scope, &send[..]));
+            }
+            let mut done = Vec::with_capacity(2 * partners.len());
+            requests.wait_all(&mut done);
+        });
+    }
+}

@@ -1,0 +1,474 @@
+//! The distributed step (DESIGN.md §4): a rank's [`Domain`] plus its ghosts, halo plan and
+//! the collectives around the kernels.
+//!
+//! Ghosts: the chain stencil (±[`CHAIN_STENCIL`] positions along each fibre, chosen by
+//! topology, so no stretching can lose one) and every node within contact reach (largest
+//! contact diameter plus the Verlet skin) of an owned node. They are rebuilt collectively
+//! when any node has moved more than half the skin; between rebuilds a forward halo sends
+//! position and element failure state of every ghost each step (velocities are not needed:
+//! no force depends on a partner's velocity). Rank 0 owns the projectile: it integrates it,
+//! broadcasts its state every step, and sums the reactions of every rank's nodes in
+//! global-id order.
+
+use std::time::Instant;
+
+use dea_core::domain::BrokenCount;
+use dea_core::energy::EnergySums;
+use dea_core::nodes::FailureMode;
+use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
+use dea_io::results::FinalState;
+use dea_partition::Partition;
+use nalgebra::{Quaternion, UnitQuaternion};
+use serde::Serialize;
+
+use crate::comm::Comm;
+
+/// f64 words of a ghost record at a rebuild.
+const RECORD_WORDS: usize = 11;
+/// f64 words per ghost in the per-step halo: position and element failure state.
+pub const HALO_WORDS: usize = 4;
+/// f64 words of the projectile state broadcast.
+const PROJECTILE_WORDS: usize = 19;
+/// f64 words of a reaction record.
+const REACTION_WORDS: usize = 7;
+
+const FLAG_CLAMPED: u64 = 1;
+const FLAG_LAST: u64 = 2;
+/// the sender includes the node for the receiver's chain stencil (always kept)
+const FLAG_CHAIN: u64 = 4;
+
+fn word(value: u64) -> f64 {
+    f64::from_bits(value)
+}
+
+fn integer(word: f64) -> u64 {
+    word.to_bits()
+}
+
+/// Wall time of the communication stages of one rank [s].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct CommTimes {
+    /// per-step forward halo
+    pub halo: f64,
+    /// ghost exchange at rebuilds (the neighbour-list build itself is in `rebuild`)
+    pub ghost_exchange: f64,
+    /// projectile broadcast and reaction gather
+    pub projectile: f64,
+    /// rebuild decision and error agreement
+    pub reductions: f64,
+}
+
+/// Who sends what to whom each step.
+#[derive(Debug, Default)]
+struct HaloPlan {
+    partners: Vec<Rank>,
+    /// owned local indices sent to each partner, ascending
+    send_nodes: Vec<Vec<u32>>,
+    /// ghosts received from each partner (stored contiguously in partner order)
+    receive_counts: Vec<usize>,
+    send_buffers: Vec<Vec<f64>>,
+    receive_buffers: Vec<Vec<f64>>,
+}
+
+/// One rank of a distributed run.
+pub struct Distributed<C: Comm> {
+    pub comm: C,
+    pub domain: Domain,
+    pub partition: Partition,
+    /// nodes on every fibre
+    nodes_per_fibre: u32,
+    /// contact search distance: largest contact diameter plus the skin [m]
+    reach: f64,
+    /// owned nodes each rank needs for its chain stencil, by rank (static: the partition
+    /// never changes), ascending rank
+    chain_send: Vec<(Rank, Vec<u32>)>,
+    halo: HaloPlan,
+    pub times: CommTimes,
+    /// bytes of forward halo received so far
+    pub halo_bytes: u64,
+    /// steps that used the forward halo (the others rebuilt the ghosts)
+    pub halo_steps: u64,
+    pub rebuilds: u64,
+}
+
+impl<C: Comm> Distributed<C> {
+    /// Takes a domain of owned nodes (ascending global id), fetches the ghosts and computes
+    /// the initial forces, on every rank together.
+    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
+        let me = comm.rank();
+        let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
+        let nodes = &domain.nodes;
+        for i in 0..nodes.n_owned {
+            let yarn = partition.yarn_of(nodes.fibre[i]);
+            let along = nodes.along[i] as i64;
+            let mut needed_by: Vec<Rank> = (1..=CHAIN_STENCIL as i64)
+                .flat_map(|d| [along - d, along + d])
+                .filter(|&a| a >= 0 && a < nodes_per_fibre as i64)
+                .map(|a| partition.rank_of_position(yarn, a as u32))
+                .filter(|&r| r != me)
+                .collect();
+            needed_by.sort_unstable();
+            needed_by.dedup();
+            for r in needed_by {
+                chain.entry(r).or_default().push(i as u32);
+            }
+        }
+        let mut distributed = Self {
+            comm,
+            domain,
+            partition,
+            nodes_per_fibre,
+            reach,
+            chain_send: chain.into_iter().collect(),
+            halo: HaloPlan::default(),
+            times: CommTimes::default(),
+            halo_bytes: 0,
+            halo_steps: 0,
+            rebuilds: 0,
+        };
+        distributed.rebuild()?;
+        let forces = distributed.domain.compute_forces();
+        distributed.agree(forces)?;
+        distributed.gather_projectile_load();
+        Ok(distributed)
+    }
+
+    /// One explicit step on every rank.
+    pub fn step(&mut self) -> Result<(), DomainError> {
+        let time_step = self.domain.time_step;
+        let half = 0.5 * time_step;
+        let clock = Instant::now();
+        self.domain.kick_drift(half, time_step);
+        self.domain.times.integrate += clock.elapsed().as_secs_f64();
+        self.broadcast_projectile();
+        let clock = Instant::now();
+        let (node, projectile) = self.domain.displacements();
+        let mut largest = [node];
+        self.comm.max_f64(&mut largest);
+        self.times.reductions += clock.elapsed().as_secs_f64();
+        if self.domain.rebuild_needed(largest[0], projectile) {
+            self.rebuild()?;
+        } else {
+            self.forward_halo();
+        }
+        let forces = self.domain.compute_forces();
+        self.agree(forces)?;
+        self.gather_projectile_load();
+        let clock = Instant::now();
+        self.domain.kick(half);
+        self.domain.time += time_step;
+        self.domain.step += 1;
+        self.domain.times.integrate += clock.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Makes a rank's error everyone's: every rank returns the error of the lowest node id
+    /// any rank reported, with the same message.
+    fn agree(&mut self, local: Result<(), DomainError>) -> Result<(), DomainError> {
+        let clock = Instant::now();
+        let code = match &local {
+            Ok(()) => u64::MAX,
+            Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
+            Err(DomainError::MissingGhost { gid, .. }) => (2 << 60) | gid.0,
+        };
+        let mut agreed = [code];
+        self.comm.min_u64(&mut agreed);
+        let agreed = agreed[0];
+        let result = if agreed == u64::MAX {
+            Ok(())
+        } else {
+            let gid = GlobalNodeId(agreed & ((1 << 60) - 1));
+            // the detail only the reporting rank knows travels in a second reduction
+            let mut along = [match &local {
+                Err(DomainError::MissingGhost { along, .. }) if code == agreed => *along as u64,
+                _ => u64::MAX,
+            }];
+            self.comm.min_u64(&mut along);
+            if agreed >> 60 == 1 {
+                Err(DomainError::NonFinite { step: self.domain.step, gid })
+            } else {
+                Err(DomainError::MissingGhost { gid, along: along[0] as u32 })
+            }
+        };
+        self.times.reductions += clock.elapsed().as_secs_f64();
+        result
+    }
+
+    /// Rank 0's projectile state on every rank.
+    fn broadcast_projectile(&mut self) {
+        let clock = Instant::now();
+        let mut words = [0.0; PROJECTILE_WORDS];
+        if let Some(p) = &self.domain.projectile {
+            let q = p.orientation.quaternion().coords;
+            let fields = [p.position, p.velocity, p.angular_momentum, p.force, p.torque];
+            for (k, v) in fields.iter().enumerate() {
+                words[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
+            }
+            words[15..19].copy_from_slice(q.as_slice());
+        }
+        self.comm.broadcast_f64(&mut words);
+        if let Some(p) = self.domain.projectile.as_mut().filter(|_| self.comm.rank() != Rank(0)) {
+            let vector = |k: usize| Vec3::new(words[3 * k], words[3 * k + 1], words[3 * k + 2]);
+            p.position = vector(0);
+            p.velocity = vector(1);
+            p.angular_momentum = vector(2);
+            p.force = vector(3);
+            p.torque = vector(4);
+            // coords are (i, j, k, w); the bits are copied, so no renormalisation happens
+            p.orientation = UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
+        }
+        self.times.projectile += clock.elapsed().as_secs_f64();
+    }
+
+    /// Every rank's reactions to rank 0, merged by global id and summed in that order.
+    fn gather_projectile_load(&mut self) {
+        if self.domain.projectile.is_none() {
+            return;
+        }
+        let clock = Instant::now();
+        let mine: Vec<f64> = self
+            .domain
+            .projectile_reactions()
+            .flat_map(|r| [word(r.gid.0), r.force.x, r.force.y, r.force.z, r.torque.x, r.torque.y, r.torque.z])
+            .collect();
+        if let Some(all) = self.comm.gather_f64(&mine) {
+            let mut reactions: Vec<Reaction> = all
+                .iter()
+                .flat_map(|words| words.chunks_exact(REACTION_WORDS))
+                .map(|w| Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]) })
+                .collect();
+            reactions.sort_unstable_by_key(|r| r.gid);
+            let load = dea_core::domain::sum_reactions(reactions.into_iter());
+            self.domain.set_projectile_load(load);
+        }
+        self.times.projectile += clock.elapsed().as_secs_f64();
+    }
+
+    /// Sends position and failure state of every ghost to the ranks that hold it.
+    fn forward_halo(&mut self) {
+        let clock = Instant::now();
+        let nodes = &self.domain.nodes;
+        let failure = &self.domain.elements.failure;
+        let halo = &mut self.halo;
+        for (buffer, send) in halo.send_buffers.iter_mut().zip(&halo.send_nodes) {
+            buffer.clear();
+            for &i in send {
+                let x = &nodes.position[i as usize];
+                buffer.extend_from_slice(&[x.x, x.y, x.z, word(failure[i as usize] as u64)]);
+            }
+        }
+        self.comm.exchange(&halo.partners, &halo.send_buffers, &mut halo.receive_buffers);
+        let mut g = self.domain.nodes.n_owned;
+        for buffer in &halo.receive_buffers {
+            for w in buffer.chunks_exact(HALO_WORDS) {
+                self.domain.nodes.position[g] = Vec3::new(w[0], w[1], w[2]);
+                self.domain.elements.failure[g] = FailureMode::from_code(integer(w[3]) as u8).expect("a failure code sent by a rank");
+                g += 1;
+            }
+            self.halo_bytes += (buffer.len() * std::mem::size_of::<f64>()) as u64;
+        }
+        self.halo_steps += 1;
+        self.times.halo += clock.elapsed().as_secs_f64();
+    }
+
+    /// Collective rebuild of ghosts, halo plan and neighbour lists.
+    pub fn rebuild(&mut self) -> Result<(), DomainError> {
+        let clock = Instant::now();
+        let me = self.comm.rank();
+        let reach = self.reach;
+        let nodes = &self.domain.nodes;
+        let owned = &nodes.position[..nodes.n_owned];
+        let (low, high) = owned.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
+        let boxes = self.comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
+        let grown = |r: usize| (Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach), Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach));
+        let inside = |x: &Vec3, (l, h): &(Vec3, Vec3)| (0..3).all(|k| x[k] >= l[k] && x[k] <= h[k]);
+        // partners: chain neighbours, and ranks whose region comes within reach of ours
+        let mut partners: Vec<Rank> = self.chain_send.iter().map(|(r, _)| *r).collect();
+        for r in (0..self.comm.size()).filter(|&r| Rank(r as u32) != me) {
+            let (l, h) = grown(r);
+            if !owned.is_empty() && (0..3).all(|k| l[k] <= high[k] && h[k] >= low[k]) {
+                partners.push(Rank(r as u32));
+            }
+        }
+        partners.sort_unstable();
+        partners.dedup();
+        // candidates for each partner: its chain stencil plus our nodes inside its grown box
+        let mut candidates: Vec<Vec<u32>> = Vec::with_capacity(partners.len());
+        let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
+        for &partner in &partners {
+            let chain = self.chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &self.chain_send[k].1[..]);
+            let region = grown(partner.0 as usize);
+            let mut list: Vec<u32> = (0..nodes.n_owned as u32).filter(|&i| inside(&nodes.position[i as usize], &region)).collect();
+            list.extend_from_slice(chain);
+            list.sort_unstable();
+            list.dedup();
+            let mut words = Vec::with_capacity(list.len() * RECORD_WORDS);
+            for &i in &list {
+                let i = i as usize;
+                let x = nodes.position[i];
+                let mut flags = if nodes.clamped[i] { FLAG_CLAMPED } else { 0 } | if nodes.last[i] { FLAG_LAST } else { 0 };
+                if chain.binary_search(&(i as u32)).is_ok() {
+                    flags |= FLAG_CHAIN;
+                }
+                let e = &self.domain.elements;
+                words.extend_from_slice(&[
+                    word(nodes.gid[i].0),
+                    x.x,
+                    x.y,
+                    x.z,
+                    word(nodes.fibre[i].0 as u64),
+                    word(nodes.along[i] as u64),
+                    word(nodes.section[i] as u64),
+                    word(flags),
+                    e.rest_length[i],
+                    e.tensile_strength[i],
+                    word(e.failure[i] as u64),
+                ]);
+            }
+            candidates.push(list);
+            records.push(words);
+        }
+        let mut received: Vec<Vec<f64>> = vec![Vec::new(); partners.len()];
+        self.comm.exchange_sized(&partners, &records, &mut received);
+        // keep what our stencil needs and what comes within reach of an owned node
+        let positions: Vec<Vec3> = received.iter().flat_map(|w| w.chunks_exact(RECORD_WORDS)).map(|w| Vec3::new(w[1], w[2], w[3])).collect();
+        let near = dea_core::neighbour::within_reach_of_any(owned, &positions, reach);
+        let mut ghosts = Vec::with_capacity(positions.len());
+        let mut masks: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
+        let mut receive_counts = Vec::with_capacity(partners.len());
+        let mut k = 0;
+        for words in &received {
+            let mut mask = Vec::with_capacity(words.len() / RECORD_WORDS);
+            for w in words.chunks_exact(RECORD_WORDS) {
+                let flags = integer(w[7]);
+                let keep = flags & FLAG_CHAIN != 0 || near[k];
+                k += 1;
+                mask.push(if keep { 1.0 } else { 0.0 });
+                if keep {
+                    ghosts.push(GhostRecord {
+                        gid: GlobalNodeId(integer(w[0])),
+                        position: Vec3::new(w[1], w[2], w[3]),
+                        fibre: FibreId(integer(w[4]) as u32),
+                        along: integer(w[5]) as u32,
+                        section: integer(w[6]) as u16,
+                        clamped: flags & FLAG_CLAMPED != 0,
+                        last: flags & FLAG_LAST != 0,
+                        rest_length: w[8],
+                        tensile_strength: w[9],
+                        failure: FailureMode::from_code(integer(w[10]) as u8).expect("a failure code sent by a rank"),
+                    });
+                }
+            }
+            receive_counts.push(mask.iter().filter(|&&m| m == 1.0).count());
+            masks.push(mask);
+        }
+        let mut kept: Vec<Vec<f64>> = candidates.iter().map(|c| vec![0.0; c.len()]).collect();
+        self.comm.exchange(&partners, &masks, &mut kept);
+        let send_nodes: Vec<Vec<u32>> = candidates.iter().zip(&kept).map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| i).collect()).collect();
+        self.halo = HaloPlan {
+            send_buffers: send_nodes.iter().map(|s| Vec::with_capacity(s.len() * HALO_WORDS)).collect(),
+            receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
+            partners,
+            send_nodes,
+            receive_counts,
+        };
+        self.domain.set_ghosts(&ghosts);
+        self.times.ghost_exchange += clock.elapsed().as_secs_f64();
+        let built = self.domain.rebuild_neighbours();
+        self.rebuilds += 1;
+        self.agree(built)
+    }
+
+    /// Ghost nodes held now.
+    pub fn ghosts(&self) -> usize {
+        self.domain.nodes.len() - self.domain.nodes.n_owned
+    }
+
+    /// The halo plan: (partner, owned global ids sent to it each step, ghosts received).
+    pub fn halo_plan(&self) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
+        let h = &self.halo;
+        h.partners.iter().zip(&h.send_nodes).zip(&h.receive_counts).map(|((&p, s), &n)| (p, s.iter().map(|&i| self.domain.nodes.gid[i as usize]).collect(), n)).collect()
+    }
+
+    /// Global ids of the ghosts, in local order.
+    pub fn ghost_gids(&self) -> &[GlobalNodeId] {
+        &self.domain.nodes.gid[self.domain.nodes.n_owned..]
+    }
+
+    /// Every energy of the whole problem, the same bits on every rank and any partition.
+    pub fn energies(&self) -> dea_core::energy::EnergyReport {
+        let mut words = self.domain.energy_sums().to_words();
+        self.comm.sum_i64(&mut words);
+        EnergySums::from_words(&words).report()
+    }
+
+    /// Broken elements of the whole problem.
+    pub fn broken(&self) -> BrokenCount {
+        let b = self.domain.broken;
+        let mut counts = [b.tension as i64, b.shear as i64, b.combined as i64];
+        self.comm.sum_i64(&mut counts);
+        BrokenCount { tension: counts[0] as u64, shear: counts[1] as u64, combined: counts[2] as u64 }
+    }
+
+    /// Lowest and highest owned node along z over every rank [m].
+    pub fn z_range(&self) -> (f64, f64) {
+        let owned = &self.domain.nodes.position[..self.domain.nodes.n_owned];
+        let mut extremes = [owned.iter().map(|p| -p.z).fold(f64::NEG_INFINITY, f64::max), owned.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)];
+        self.comm.max_f64(&mut extremes);
+        (-extremes[0], extremes[1])
+    }
+
+    /// Bit set over global fibre ids: fibres with a broken element anywhere.
+    pub fn fibres_with_broken_elements(&self, fibres: usize) -> Vec<u64> {
+        let mut bits = vec![0u64; fibres.div_ceil(64)];
+        let nodes = &self.domain.nodes;
+        for i in 0..nodes.n_owned {
+            if self.domain.elements.failure[i] != FailureMode::Intact {
+                let f = nodes.fibre[i].0 as usize;
+                bits[f / 64] |= 1 << (f % 64);
+            }
+        }
+        self.comm.or_u64(&mut bits);
+        bits
+    }
+
+    /// True on every rank when any rank says so.
+    pub fn any(&self, local: bool) -> bool {
+        let mut flag = [if local { 1.0 } else { 0.0 }];
+        self.comm.max_f64(&mut flag);
+        flag[0] > 0.0
+    }
+
+    /// Rank 0's values on every rank.
+    pub fn from_rank0<const N: usize>(&self, mut values: [f64; N]) -> [f64; N] {
+        self.comm.broadcast_f64(&mut values);
+        values
+    }
+
+    /// The owned nodes of every rank on rank 0, ascending global id, with their owners.
+    pub fn gather_final_state(&self) -> Option<FinalState> {
+        let nodes = &self.domain.nodes;
+        let mine: Vec<f64> = (0..nodes.n_owned)
+            .flat_map(|i| {
+                let (x, v) = (nodes.position[i], nodes.velocity[i]);
+                [word(nodes.gid[i].0), x.x, x.y, x.z, v.x, v.y, v.z, word(self.domain.elements.failure[i] as u64)]
+            })
+            .collect();
+        let all = self.comm.gather_f64(&mine)?;
+        let mut rows: Vec<(u64, &[f64], u32)> = all.iter().enumerate().flat_map(|(r, words)| words.chunks_exact(8).map(move |w| (integer(w[0]), w, r as u32))).collect();
+        rows.sort_unstable_by_key(|row| row.0);
+        let state = FinalState {
+            gid: rows.iter().map(|r| r.0).collect(),
+            position: rows.iter().map(|r| Vec3::new(r.1[1], r.1[2], r.1[3])).collect(),
+            velocity: rows.iter().map(|r| Vec3::new(r.1[4], r.1[5], r.1[6])).collect(),
+            element_failure: rows.iter().map(|r| integer(r.1[7]) as u8).collect(),
+            owner_rank: rows.iter().map(|r| r.2).collect(),
+        };
+        Some(state)
+    }
+
+    /// Nodes on every fibre.
+    pub fn nodes_per_fibre(&self) -> u32 {
+        self.nodes_per_fibre
+    }
+}

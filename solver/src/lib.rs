@@ -1,0 +1,9 @@
+//! `dea-mpi`: the digital-element ballistic impact solver. The library holds the
+//! communication layer, the distributed step, set-up, the run loop and the benchmark; the
+//! binary (`main.rs`) is the command line.
+
+pub mod bench;
+pub mod comm;
+pub mod distributed;
+pub mod run;
+pub mod setup;
