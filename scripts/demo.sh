@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Sets up and runs the main job: the built-in default case under mpirun. Results go to
-# ./out (results.h5, summary.json). One rank until the domain decomposition lands.
+# ./out (results.h5, summary.json), on 2 ranks (DEA_RANKS to change).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 source scripts/mpi-env.sh
-ranks="${DEA_RANKS:-1}"
+ranks="${DEA_RANKS:-2}"
 "${MPIRUN[@]}" -np "$ranks" target/release/dea-mpi run --out "${1:-out}"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs small cases under a real mpirun and checks what they write.
+# Runs cases under a real mpirun (1 to 4 ranks, oversubscribed on small machines) and checks
+# what they write: the same bits on every rank count, collective errors, the benchmark.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/mpi-env.sh
@@ -12,13 +13,39 @@ check() { # name, command...
     if "$@" >"$work/$name.log" 2>&1; then passed=$((passed + 1)); echo "ok   $name"
     else failed=$((failed + 1)); echo "FAIL $name"; cat "$work/$name.log"; fi
 }
-# a single-fibre shot on one rank under mpirun writes results and a summary with the keys
-check mpirun-one-rank bash -c "'${MPIRUN[0]}' ${MPIRUN[*]:1} -np 1 $bin run cases/single_fibre_short.json --out $work/fibre \
-    && /usr/bin/python3 -c 'import json,sys; s=json.load(open(\"$work/fibre/summary.json\")); \
-       missing=[k for k in (\"steps\",\"simulated_time_s\",\"wall_s\",\"perforated\",\"residual_velocity_m_s\",\"max_projectile_force_n\",\"node_steps_per_s_per_core\") if k not in s]; \
-       sys.exit(1 if missing or s[\"steps\"] <= 0 else 0)' \
-    && test -s $work/fibre/results.h5"
-# more ranks than this build decomposes for are refused on every rank with exit code 2
-check mpirun-two-ranks-refused bash -c "'${MPIRUN[0]}' ${MPIRUN[*]:1} -np 2 $bin run cases/single_fibre_short.json --out $work/two; test \$? -eq 2"
+# mpi RANKS ARGS...: dea-mpi under mpirun (exported for the bash -c checks)
+export bin work MPIRUN_LINE="${MPIRUN[*]}"
+mpi() { local ranks=$1; shift; $MPIRUN_LINE -np "$ranks" "$bin" "$@"; }
+export -f mpi
+
+# a single-fibre shot on one rank writes results and a summary with every key
+check one-rank-summary bash -c 'mpi 1 run cases/single_fibre_short.json --out $work/fibre \
+    && for key in steps simulated_time_s wall_s perforated residual_velocity_m_s max_projectile_force_n \
+           node_steps_per_s_per_core stage_seconds halo_bytes_per_step ghost_fraction load_imbalance; do
+           grep -q "\"$key\"" $work/fibre/summary.json || { echo "summary lacks $key"; exit 1; }; done \
+    && test -s $work/fibre/results.h5'
+# the four-layer panel (contacts, friction, plasticity, Weibull strengths, failures) gives
+# the same bits in every dataset on 1, 2, 3 and 4 ranks
+check panel-one-rank bash -c 'mpi 1 run cases/four_layer_panel.json --out $work/panel1 && grep -q "\"broken_elements_tension\": [1-9]" $work/panel1/summary.json'
+for ranks in 2 3 4; do
+    check "panel-identical-on-$ranks-ranks" bash -c "mpi $ranks run cases/four_layer_panel.json --out \$work/panel$ranks \
+        && \$bin compare \$work/panel1/results.h5 \$work/panel$ranks/results.h5 \
+        && grep -q '\"ranks\": $ranks' \$work/panel$ranks/summary.json"
+done
+# a bad case ends every rank with exit code 3 and one message naming the field
+printf '{"name":"x","target":{"kind":"straight_yarn","yarn":"km2_600_denier","fibres_per_yarn":0,"length_m":0.01,"element_length_ratio":0.5},"contact":{"law":"elastic","friction_coefficient":0,"projectile_friction_coefficient":0},"failure":{"mode":"none"},"projectile":{"preset":"table_4_2_sphere","velocity_m_s":100},"run":{"end_time_s":1e-6}}' >"$work/bad.json"
+check bad-case-on-two-ranks bash -c 'mpi 2 run $work/bad.json --out $work/bad 2>$work/bad.err; code=$?; cat $work/bad.err; \
+    test $code -eq 3 && test "$(grep -c "target.fibres_per_yarn" $work/bad.err)" -eq 1'
+check missing-file-on-two-ranks bash -c 'mpi 2 run $work/none.json --out $work/none; test $? -eq 4'
+# more ranks than the case has segments to share is a usage error on every rank
+printf '{"name":"tiny","target":{"kind":"single_fibre","length_m":2e-4,"diameter_m":5e-5,"element_length_ratio":0.5},"contact":{"law":"elastic","friction_coefficient":0,"projectile_friction_coefficient":0},"failure":{"mode":"none"},"projectile":{"preset":"table_4_2_sphere","velocity_m_s":100},"run":{"end_time_s":1e-8}}' >"$work/tiny.json"
+check too-many-ranks bash -c 'mpi 4 run $work/tiny.json --out $work/tiny 2>$work/tiny.err; code=$?; cat $work/tiny.err; test $code -eq 2 && grep -q "segments" $work/tiny.err'
+# a panic on one rank ends the whole job at once, not at a scheduler's time limit
+check panic-aborts-the-job bash -c 'start=$(date +%s); timeout 120 bash -c "mpi 2 run cases/four_layer_panel.json --out $work/panic --panic-on-rank 1"; code=$?; \
+    test $code -ne 0 && test $code -ne 124 && test $(( $(date +%s) - start )) -lt 60'
+# the benchmark runs under mpirun and reports every key
+check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
+    && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
+           grep -q "\"$key\"" $work/bench.json || { echo "bench lacks $key"; exit 1; }; done && grep -q "\"ranks\":2" $work/bench.json'
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -22,7 +22,7 @@ enum Exit {
 
 #[derive(Parser)]
 #[command(name = "dea-mpi", version, about = "Fibre-level ballistic impact solver (modified digital element approach)", long_about = None,
-    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n\nExit codes: 0 done (a perforation is a result), 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure.")]
+    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -41,6 +41,10 @@ enum Command {
         /// METIS algorithm for the partition over the job's ranks
         #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
         method: PartitionMethod,
+        /// fault injection for the test suite: this rank panics after set-up, to show that
+        /// the whole job then ends at once
+        #[arg(long, hide = true)]
+        panic_on_rank: Option<u32>,
     },
     /// Validate a case and print it resolved, without running.
     #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
@@ -66,6 +70,13 @@ enum Command {
         /// print one JSON object on stdout
         #[arg(long)]
         json: bool,
+    },
+    /// Compare two results files dataset by dataset, bit for bit (the partition group
+    /// excepted); exit 0 when identical, 1 when they differ.
+    #[command(after_help = "Example:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5")]
+    Compare {
+        first: PathBuf,
+        second: PathBuf,
     },
     /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the
     /// ranks of the job.
@@ -181,7 +192,7 @@ fn main() -> ExitCode {
             println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }
-        Command::Run { case, out, method } => {
+        Command::Run { case, out, method, panic_on_rank } => {
             let comm = match MpiComm::initialize() {
                 Ok(comm) => comm,
                 Err(e) => return fail(Exit::Usage, e),
@@ -198,6 +209,9 @@ fn main() -> ExitCode {
                 Ok(run) => run,
                 Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
             };
+            if panic_on_rank == Some(run.comm.rank().0) {
+                panic!("fault injection: rank {} panics on request", run.comm.rank().0);
+            }
             if is_root {
                 eprintln!("dea-mpi: case {:?}, dt = {:.3e} s, end {:.3e} s, {} rank(s)", case.name, run.domain.time_step, case.run.end_time_s, ranks);
             }
@@ -270,6 +284,19 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
+        Command::Compare { first, second } => match dea_io::results::compare_results(&first, &second) {
+            Ok(differences) if differences.is_empty() => {
+                println!("identical: every dataset of {} and {} has the same bits", first.display(), second.display());
+                ExitCode::SUCCESS
+            }
+            Ok(differences) => {
+                for d in &differences {
+                    println!("{d}");
+                }
+                ExitCode::from(1)
+            }
+            Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
+        },
         Command::Bench { json, nodes, steps } => {
             let comm = match MpiComm::initialize() {
                 Ok(comm) => comm,

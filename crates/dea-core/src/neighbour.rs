@@ -152,7 +152,9 @@ impl NeighbourList {
                     for slots in ranges {
                         for k in scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize {
                             let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
-                            if distance_squared >= coarse_reach * coarse_reach {
+                            // written so that a NaN position (caught after the forces) pairs
+                            // with nothing, whatever grid cell it falls into
+                            if !(distance_squared < coarse_reach * coarse_reach) {
                                 continue;
                             }
                             let j = scratch.sorted[k] as usize;

@@ -148,6 +148,65 @@ pub fn read_histories(path: &std::path::Path) -> hdf5::Result<Histories> {
     })
 }
 
+/// Every dataset below `group`, as paths from the file's root, sorted.
+fn dataset_paths(group: &hdf5::Group, prefix: &str, paths: &mut Vec<String>) -> hdf5::Result<()> {
+    for name in group.member_names()? {
+        let path = format!("{prefix}{name}");
+        match group.loc_type_by_name(&name)? {
+            hdf5::LocationType::Group => dataset_paths(&group.group(&name)?, &format!("{path}/"), paths)?,
+            hdf5::LocationType::Dataset => paths.push(path),
+            _ => {}
+        }
+    }
+    paths.sort();
+    Ok(())
+}
+
+/// The raw bits of a dataset of any type the results use.
+fn dataset_bits(dataset: &hdf5::Dataset) -> hdf5::Result<Vec<u64>> {
+    use hdf5::types::{FloatSize, IntSize, TypeDescriptor};
+    Ok(match dataset.dtype()?.to_descriptor()? {
+        TypeDescriptor::Float(FloatSize::U8) => dataset.read_raw::<f64>()?.into_iter().map(f64::to_bits).collect(),
+        TypeDescriptor::Unsigned(IntSize::U8) => dataset.read_raw::<u64>()?,
+        TypeDescriptor::Unsigned(IntSize::U4) => dataset.read_raw::<u32>()?.into_iter().map(u64::from).collect(),
+        TypeDescriptor::Unsigned(IntSize::U1) => dataset.read_raw::<u8>()?.into_iter().map(u64::from).collect(),
+        other => return Err(format!("{}: unsupported type {other:?}", dataset.name()).as_str().into()),
+    })
+}
+
+/// Differences between two results files, dataset by dataset and bit for bit; the
+/// `partition` group (which rank owned what) is left out, since it differs by design
+/// between rank counts. Empty when the runs are identical.
+pub fn compare_results(a: &std::path::Path, b: &std::path::Path) -> hdf5::Result<Vec<String>> {
+    let (file_a, file_b) = (hdf5::File::open(a)?, hdf5::File::open(b)?);
+    let (mut paths_a, mut paths_b) = (Vec::new(), Vec::new());
+    dataset_paths(&file_a, "", &mut paths_a)?;
+    dataset_paths(&file_b, "", &mut paths_b)?;
+    let keep = |p: &String| !p.starts_with("partition/");
+    paths_a.retain(keep);
+    paths_b.retain(keep);
+    let mut differences = Vec::new();
+    for path in paths_a.iter().filter(|p| !paths_b.contains(p)) {
+        differences.push(format!("{path}: only in {}", a.display()));
+    }
+    for path in paths_b.iter().filter(|p| !paths_a.contains(p)) {
+        differences.push(format!("{path}: only in {}", b.display()));
+    }
+    for path in paths_a.iter().filter(|p| paths_b.contains(p)) {
+        let (x, y) = (file_a.dataset(path)?, file_b.dataset(path)?);
+        if x.shape() != y.shape() {
+            differences.push(format!("{path}: shape {:?} vs {:?}", x.shape(), y.shape()));
+            continue;
+        }
+        let (bits_x, bits_y) = (dataset_bits(&x)?, dataset_bits(&y)?);
+        if let Some(k) = bits_x.iter().zip(&bits_y).position(|(p, q)| p != q) {
+            let count = bits_x.iter().zip(&bits_y).filter(|(p, q)| p != q).count();
+            differences.push(format!("{path}: {count} of {} values differ, first at flat index {k}", bits_x.len()));
+        }
+    }
+    Ok(differences)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,6 +229,14 @@ mod tests {
         let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2], owner_rank: vec![0, 1] };
         write_results(&path, "{\"name\":\"t\"}", &histories, &state).unwrap();
         assert_eq!(read_histories(&path).unwrap(), histories);
+        // a copy with another partition compares equal; one changed bit does not
+        let other = dir.join("other.h5");
+        write_results(&other, "{\"name\":\"t\"}", &histories, &FinalState { owner_rank: vec![3, 2], ..state.clone() }).unwrap();
+        assert_eq!(compare_results(&path, &other).unwrap(), Vec::<String>::new());
+        let mut changed = state.clone();
+        changed.position[1].y = f64::from_bits(changed.position[1].y.to_bits() + 1);
+        write_results(&other, "{\"name\":\"t\"}", &histories, &changed).unwrap();
+        assert_eq!(compare_results(&path, &other).unwrap(), vec!["final/position: 1 of 6 values differ, first at flat index 4".to_string()]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1,0 +1,235 @@
+//! Domain decomposition, in process: several ranks as threads of one test (LocalComm).
+//! The same bits on 1, 2, 3 and 4 ranks; ownership and halo symmetry; stretched elements;
+//! collective errors.
+
+use std::path::{Path, PathBuf};
+
+use dea_core::{DomainError, GlobalNodeId, Rank};
+use dea_io::case::{load_case, Case};
+use dea_io::results::compare_results;
+use dea_mpi::comm::local::{run_local, LocalComm};
+use dea_mpi::comm::Comm;
+use dea_mpi::distributed::Distributed;
+use dea_mpi::run::{run, RunOptions, Summary};
+use dea_mpi::setup::{build, build_adjusted, problem, SetupError};
+use dea_partition::Method;
+
+fn panel_case() -> Case {
+    load_case(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/four_layer_panel.json")).expect("the panel case loads")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("dea-decomposition-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn fibres(case: &Case) -> usize {
+    *problem(case).fabric.first_fibres().last().unwrap() as usize
+}
+
+/// Runs `case` on `ranks` threads and returns rank 0's summary.
+fn run_on(case: &Case, ranks: usize, out: &Path) -> Summary {
+    let json = serde_json::to_string(case).unwrap();
+    let summaries = run_local(ranks, |comm| {
+        let mut state = build(case, comm, Method::KWay, None).expect("set-up succeeds");
+        let options = RunOptions {
+            case_name: &case.name,
+            case_json: &json,
+            end_time: case.run.end_time_s,
+            history_interval: case.run.history_interval_steps,
+            stop_when_decided: false,
+            out,
+            fibres: fibres(case),
+        };
+        run(&mut state, &options).expect("the run succeeds")
+    });
+    summaries.into_iter().next().flatten().expect("rank 0 reports")
+}
+
+#[test]
+fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
+    let case = panel_case();
+    let dir = scratch("identity");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    // the run exercises every history-carrying model
+    assert!(reference.broken_elements_tension + reference.broken_elements_shear + reference.broken_elements_combined > 0, "elements break");
+    let histories = dea_io::results::read_histories(&dir.join("1/results.h5")).unwrap();
+    let last = histories.energy.last().unwrap();
+    assert!(last.plastic_dissipated > 0.0 && last.friction_dissipated > 0.0 && last.fracture_released > 0.0, "{last:?}");
+    assert!(reference.neighbour_rebuilds > 1);
+    for ranks in [2, 3, 4] {
+        let summary = run_on(&case, ranks, &dir.join(ranks.to_string()));
+        let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
+        assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
+        assert_eq!(summary.residual_velocity_m_s.to_bits(), reference.residual_velocity_m_s.to_bits());
+        assert_eq!(summary.max_projectile_force_n.to_bits(), reference.max_projectile_force_n.to_bits());
+        assert_eq!(summary.neighbour_rebuilds, reference.neighbour_rebuilds);
+        assert!(summary.ghost_fraction > 0.0 && summary.halo_bytes_per_step > 0.0);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// What a rank knows of its part after some steps.
+struct RankView {
+    owned: Vec<GlobalNodeId>,
+    ghosts: Vec<GlobalNodeId>,
+    plan: Vec<(Rank, Vec<GlobalNodeId>, usize)>,
+    /// contact partners of owned nodes and chain neighbours within the stencil, by gid
+    needed: Vec<GlobalNodeId>,
+}
+
+fn view(state: &Distributed<LocalComm>) -> RankView {
+    let nodes = &state.domain.nodes;
+    let mut needed: Vec<GlobalNodeId> = state.domain.pairs.partner_gid.clone();
+    for i in 0..nodes.n_owned {
+        for link in [&nodes.prev, &nodes.next] {
+            let mut j = i as u32;
+            for _ in 0..dea_core::CHAIN_STENCIL {
+                j = link[j as usize];
+                if j == dea_core::NONE {
+                    break;
+                }
+                needed.push(nodes.gid[j as usize]);
+            }
+        }
+    }
+    needed.sort();
+    needed.dedup();
+    RankView { owned: nodes.gid[..nodes.n_owned].to_vec(), ghosts: state.ghost_gids().to_vec(), plan: state.halo_plan(), needed }
+}
+
+#[test]
+fn every_node_is_owned_once_and_halos_are_symmetric() {
+    let case = panel_case();
+    let views = run_local(3, |comm| {
+        let mut state = build(&case, comm, Method::KWay, None).unwrap();
+        let rebuilds = state.rebuilds;
+        for _ in 0..300 {
+            state.step().unwrap();
+        }
+        assert!(state.rebuilds > rebuilds, "the ghosts were rebuilt while running");
+        view(&state)
+    });
+    let total = problem(&case).fabric.nodes_per_fibre() as u64 * fibres(&case) as u64;
+    let mut owned: Vec<GlobalNodeId> = views.iter().flat_map(|v| v.owned.iter().copied()).collect();
+    owned.sort();
+    assert_eq!(owned.len() as u64, total);
+    assert!(owned.iter().enumerate().all(|(k, g)| g.0 == k as u64), "each of the {total} nodes has exactly one owner");
+    for (a, va) in views.iter().enumerate() {
+        assert!(va.owned.windows(2).all(|w| w[0] < w[1]), "owned nodes in gid order");
+        let mut first_ghost = 0;
+        for (partner, sent, received) in &va.plan {
+            // what a sends to b is exactly what b holds as ghosts from a, in the same order
+            let vb = &views[partner.0 as usize];
+            let (_, back_sent, back_received) = vb.plan.iter().find(|(p, _, _)| *p == Rank(a as u32)).expect("partners list each other");
+            assert_eq!(*back_received, sent.len());
+            let offset: usize = vb.plan.iter().take_while(|(p, _, _)| *p != Rank(a as u32)).map(|(_, _, n)| n).sum();
+            assert_eq!(&vb.ghosts[offset..offset + sent.len()], &sent[..], "rank {a} -> rank {}", partner.0);
+            assert_eq!(back_sent.len(), *received);
+            assert!(sent.iter().all(|g| va.owned.binary_search(g).is_ok()), "only owned nodes are sent");
+            first_ghost += received;
+        }
+        assert_eq!(first_ghost, va.ghosts.len(), "every ghost comes from a partner");
+        // no owned node is a ghost, and every node an owned node needs is here
+        assert!(va.ghosts.iter().all(|g| va.owned.binary_search(g).is_err()));
+        let mut local: Vec<GlobalNodeId> = va.owned.iter().chain(&va.ghosts).copied().collect();
+        local.sort();
+        assert!(va.needed.iter().all(|g| local.binary_search(g).is_ok()));
+    }
+}
+
+/// Displaces every other node of each fibre by 1 mm across it: every element is stretched to
+/// many times the contact reach, so only topological chain ghosts keep the forces right.
+fn sawtooth(nodes: &mut dea_core::Nodes) {
+    for i in 0..nodes.len() {
+        if nodes.along[i] % 2 == 1 && !nodes.clamped[i] {
+            nodes.position[i].z += 1e-3;
+        }
+    }
+}
+
+fn stretched_case() -> Case {
+    let mut case = panel_case();
+    case.failure.mode = "none".into();
+    case.run.end_time_s = 1e-8;
+    case
+}
+
+#[test]
+fn elements_stretched_far_beyond_the_contact_reach_give_the_same_bits_on_any_ranks() {
+    let case = stretched_case();
+    let outcomes: Vec<Vec<(Vec<u64>, Vec<[u64; 3]>, [u64; 2])>> = [1, 2, 3]
+        .iter()
+        .map(|&ranks| {
+            run_local(ranks, |comm| {
+                let mut state = build_adjusted(&case, comm, Method::KWay, None, sawtooth).unwrap();
+                for _ in 0..3 {
+                    state.step().unwrap();
+                }
+                let energy = state.energies();
+                let final_state = state.gather_final_state();
+                final_state.map(|s| (s.gid, s.position.iter().map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).collect(), [energy.axial.to_bits(), energy.fibre_kinetic.to_bits()]))
+            })
+            .into_iter()
+            .flatten()
+            .collect()
+        })
+        .collect();
+    // the stretch is real: the axial energy is large
+    assert!(f64::from_bits(outcomes[0][0].2[0]) > 1e-6);
+    assert_eq!(outcomes[0], outcomes[1], "1 vs 2 ranks");
+    assert_eq!(outcomes[0], outcomes[2], "1 vs 3 ranks");
+}
+
+#[test]
+fn a_missing_ghost_is_reported_on_every_rank_not_computed_around() {
+    let case = stretched_case();
+    let results: Vec<Result<(), String>> = run_local(2, |comm| {
+        let p = problem(&case);
+        let partition = {
+            let graph = dea_mpi::setup::segment_graph(&p, comm.size(), None);
+            dea_partition::partition(&graph, comm.size(), Method::KWay).unwrap()
+        };
+        let me = comm.rank();
+        let mut built = p.fabric.build(&p.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
+        sawtooth(&mut built.nodes);
+        let domain = dea_core::Domain::assemble(p.material, built.sections, built.nodes, built.elements, p.contact, p.failure, Some(p.projectile), p.time_step);
+        // claiming one node per fibre hides every chain neighbour on another rank; the
+        // sawtooth puts them all beyond contact reach, so nothing else brings them
+        match Distributed::new(comm, domain, partition, 1, p.reach) {
+            Ok(_) => Ok(()),
+            Err(e) => Err(e.to_string()),
+        }
+    });
+    let message = results[0].clone().expect_err("the stencil check fires");
+    assert!(message.contains("ghost is missing"), "{message}");
+    assert_eq!(results[1], Err(message), "both ranks end with the same message");
+}
+
+#[test]
+fn a_non_finite_value_on_one_rank_stops_every_rank_with_the_same_error() {
+    let case = stretched_case();
+    let errors: Vec<Vec<String>> = [1, 3]
+        .iter()
+        .map(|&ranks| {
+            run_local(ranks, |comm| {
+                let poison = |nodes: &mut dea_core::Nodes| {
+                    for i in 0..nodes.len() {
+                        if nodes.gid[i] == GlobalNodeId(1000) {
+                            nodes.position[i].x = f64::NAN;
+                        }
+                    }
+                };
+                match build_adjusted(&case, comm, Method::KWay, None, poison) {
+                    Err(SetupError::Numerical(e @ DomainError::NonFinite { .. })) => e.to_string(),
+                    Err(other) => panic!("unexpected error {other}"),
+                    Ok(_) => panic!("a NaN position must stop the run"),
+                }
+            })
+        })
+        .collect();
+    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
+    assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
+    assert!(errors[0][0].contains("non-finite"), "{}", errors[0][0]);
+}
