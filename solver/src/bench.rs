@@ -47,6 +47,8 @@ pub struct BenchReport {
     pub ghost_fraction: f64,
     /// slowest rank's compute time / mean [-]
     pub load_imbalance: f64,
+    /// mean over ranks of each stage's wall time in the timed steps [s]
+    pub stage_seconds: crate::run::StageSeconds,
 }
 
 /// The bench case: the default yarn made long enough for `min_nodes` nodes, no failure,
@@ -117,6 +119,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     let mut slowest = [compute, c.halo, communication];
     run.comm.max_f64(&mut slowest);
     let halo_steps = (run.halo_steps - halo_steps_before).max(1) as f64;
+    let stages = crate::run::StageSeconds { step: t, comm: c, output: 0.0 };
+    let stage_sums = sum(&run, &stages.to_array());
     let totals = sum(
         &run,
         &[
@@ -160,5 +164,6 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
         halo_bytes_per_step: halo_bytes,
         ghost_fraction: ghosts / nodes,
         load_imbalance: slowest[0] / (compute_total / ranks as f64),
+        stage_seconds: crate::run::StageSeconds::from_array(&stage_sums.iter().map(|s| s / ranks as f64).collect::<Vec<_>>()),
     }))
 }

@@ -143,6 +143,8 @@ impl<C: Comm> Distributed<C> {
         self.broadcast_projectile();
         let clock = Instant::now();
         let (node, projectile) = self.domain.displacements();
+        self.domain.times.rebuild += clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
         let mut largest = [node];
         self.comm.max_f64(&mut largest);
         self.times.reductions += clock.elapsed().as_secs_f64();

@@ -58,14 +58,14 @@ pub struct StageSeconds {
 }
 
 impl StageSeconds {
-    const COUNT: usize = 11;
+    pub const COUNT: usize = 11;
 
-    fn to_array(self) -> [f64; Self::COUNT] {
+    pub fn to_array(self) -> [f64; Self::COUNT] {
         let (s, c) = (self.step, self.comm);
         [s.integrate, s.rebuild, s.rods, s.fibre_contacts, s.projectile_contacts, s.failure, c.halo, c.ghost_exchange, c.projectile, c.reductions, self.output]
     }
 
-    fn from_array(a: &[f64]) -> Self {
+    pub fn from_array(a: &[f64]) -> Self {
         Self {
             step: StageTimes { integrate: a[0], rebuild: a[1], rods: a[2], fibre_contacts: a[3], projectile_contacts: a[4], failure: a[5] },
             comm: CommTimes { halo: a[6], ghost_exchange: a[7], projectile: a[8], reductions: a[9] },
