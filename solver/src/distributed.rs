@@ -172,6 +172,7 @@ impl<C: Comm> Distributed<C> {
             Ok(()) => u64::MAX,
             Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
             Err(DomainError::MissingGhost { gid, .. }) => (2 << 60) | gid.0,
+            Err(DomainError::TimeStep { gid, .. }) => (3 << 60) | gid.0,
         };
         let mut agreed = [code];
         self.comm.min_u64(&mut agreed);
@@ -181,15 +182,16 @@ impl<C: Comm> Distributed<C> {
         } else {
             let gid = GlobalNodeId(agreed & ((1 << 60) - 1));
             // the detail only the reporting rank knows travels in a second reduction
-            let mut along = [match &local {
+            let mut detail = [match &local {
                 Err(DomainError::MissingGhost { along, .. }) if code == agreed => *along as u64,
+                Err(DomainError::TimeStep { limit, .. }) if code == agreed => limit.to_bits(),
                 _ => u64::MAX,
             }];
-            self.comm.min_u64(&mut along);
-            if agreed >> 60 == 1 {
-                Err(DomainError::NonFinite { step: self.domain.step, gid })
-            } else {
-                Err(DomainError::MissingGhost { gid, along: along[0] as u32 })
+            self.comm.min_u64(&mut detail);
+            match agreed >> 60 {
+                1 => Err(DomainError::NonFinite { step: self.domain.step, gid }),
+                2 => Err(DomainError::MissingGhost { gid, along: detail[0] as u32 }),
+                _ => Err(DomainError::TimeStep { step: self.domain.step, gid, time_step: self.domain.time_step, limit: f64::from_bits(detail[0]) }),
             }
         };
         self.times.reductions += clock.elapsed().as_secs_f64();

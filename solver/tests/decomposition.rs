@@ -233,3 +233,25 @@ fn a_non_finite_value_on_one_rank_stops_every_rank_with_the_same_error() {
     assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
     assert!(errors[0][0].contains("non-finite"), "{}", errors[0][0]);
 }
+
+#[test]
+fn a_time_step_too_long_for_the_contact_stiffness_stops_every_rank_with_the_same_error() {
+    let mut case = stretched_case();
+    case.run.time_step_safety = 1.0;
+    // the layers pushed into each other to a tenth of their spacing: contacts far deeper than the
+    // 30 % transverse strain the time step was chosen for
+    let crush = |nodes: &mut dea_core::Nodes| nodes.position.iter_mut().for_each(|p| p.z *= 0.1);
+    let errors: Vec<Vec<String>> = [1, 3]
+        .iter()
+        .map(|&ranks| {
+            run_local(ranks, |comm| match build_adjusted(&case, comm, Method::KWay, None, crush) {
+                Err(SetupError::Numerical(e @ DomainError::TimeStep { .. })) => e.to_string(),
+                Err(other) => panic!("unexpected error {other}"),
+                Ok(_) => panic!("the crushed panel must violate the time step"),
+            })
+        })
+        .collect();
+    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
+    assert_eq!(errors[0][0], errors[1][0]);
+    assert!(errors[0][0].contains("time step violated"), "{}", errors[0][0]);
+}

@@ -43,6 +43,8 @@ pub enum DomainError {
     NonFinite { step: u64, gid: GlobalNodeId },
     #[error("node {} lacks the node at position {along} of its fibre within the chain stencil of {CHAIN_STENCIL}: a ghost is missing, so its forces cannot be computed", gid.0)]
     MissingGhost { gid: GlobalNodeId, along: u32 },
+    #[error("time step violated at node {} in step {step}: its current stiffness is stable only below dt = {limit:.3e} s, the run uses {time_step:.3e} s (contacts far deeper than the time step was chosen for; lower run.time_step_safety)", gid.0)]
+    TimeStep { step: u64, gid: GlobalNodeId, time_step: f64, limit: f64 },
 }
 
 /// Everything a rank needs to know of a node another rank owns.
@@ -162,6 +164,10 @@ pub struct Domain {
     /// hold a copy that the driver overwrites every step
     pub owns_projectile: bool,
     pair_data: Vec<PairData>,
+    /// chain stiffness of each section (stability check) [N/m]
+    chain_stiffness: Vec<f64>,
+    /// contact stiffness summed over each owned node's touching contacts this step [N/m]
+    contact_stiffness: Vec<f64>,
     newly_broken: Vec<(u32, FailureMode)>,
 }
 
@@ -214,6 +220,7 @@ impl Domain {
             .collect();
         let mut bending = BendingScratch::default();
         bending.resize(n);
+        let chain_stiffness = sections.iter().map(|s| crate::stability::chain_stiffness(&material, s)).collect();
         Self {
             material,
             sections,
@@ -244,6 +251,8 @@ impl Domain {
             times: StageTimes::default(),
             owns_projectile: true,
             pair_data,
+            chain_stiffness,
+            contact_stiffness: vec![0.0; n_owned],
             newly_broken: Vec::new(),
         }
     }
@@ -365,7 +374,7 @@ impl Domain {
         self.times.projectile_contacts += (projectile_done - contacts_done).as_secs_f64();
         self.break_elements();
         self.times.failure += projectile_done.elapsed().as_secs_f64();
-        self.check_finite()
+        self.check_state()
     }
 
     /// Fibre–fibre contact and friction on owned nodes (seed 3-1…3-3, 4-4…4-15), summed per
@@ -380,6 +389,7 @@ impl Domain {
             let xi = nodes.position[i];
             let si = nodes.section[i] as usize * n_sections;
             let mut force = Vec3::zeros();
+            let mut stiffness = 0.0;
             for k in pairs.start[i] as usize..pairs.start[i + 1] as usize {
                 let j = pairs.partner[k] as usize;
                 let data = &self.pair_data[si + nodes.section[j] as usize];
@@ -401,6 +411,7 @@ impl Domain {
                     pairs.max_overlap[k] = max_overlap;
                 }
                 force -= normal * response.force;
+                stiffness += response.stiffness;
                 if !pairs.touching[k] {
                     pairs.touching[k] = true;
                     pairs.anchor[k] = relative;
@@ -411,6 +422,7 @@ impl Domain {
                 }
             }
             nodes.force[i] += force;
+            self.contact_stiffness[i] = stiffness;
         }
     }
 
@@ -461,6 +473,7 @@ impl Domain {
             let force = projectile.to_world_vector(&force_body);
             let surface_point = self.nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * self.sections[self.nodes.section[i] as usize].contact_diameter - overlap);
             contacts.force_on_node[i] = force;
+            self.contact_stiffness[i] += response.stiffness;
             contacts.torque_on_projectile[i] = (surface_point - projectile.position).cross(&(-force));
             self.nodes.force[i] += force;
         }
@@ -550,10 +563,22 @@ impl Domain {
         0.5 * k_t * self.bending.angle[i] * self.bending.angle[i]
     }
 
-    fn check_finite(&self) -> Result<(), DomainError> {
-        for i in 0..self.nodes.n_owned {
-            if !(self.nodes.force[i].iter().all(|v| v.is_finite()) && self.nodes.position[i].iter().all(|v| v.is_finite())) {
-                return Err(DomainError::NonFinite { step: self.step, gid: self.nodes.gid[i] });
+    /// Every owned node has finite force and position, and a stiffness the time step can
+    /// integrate (central difference diverges once omega dt > 2).
+    fn check_state(&self) -> Result<(), DomainError> {
+        let mu = self.contact.friction_coefficient.max(self.contact.projectile_friction_coefficient);
+        let nodes = &self.nodes;
+        for i in 0..nodes.n_owned {
+            if !(nodes.force[i].iter().all(|v| v.is_finite()) && nodes.position[i].iter().all(|v| v.is_finite())) {
+                return Err(DomainError::NonFinite { step: self.step, gid: nodes.gid[i] });
+            }
+            if nodes.clamped[i] {
+                continue;
+            }
+            let chain = self.chain_stiffness[nodes.section[i] as usize];
+            let limit = crate::stability::node_stability_limit(chain, self.contact_stiffness[i], mu, nodes.mass[i]);
+            if self.time_step > limit {
+                return Err(DomainError::TimeStep { step: self.step, gid: nodes.gid[i], time_step: self.time_step, limit });
             }
         }
         Ok(())

@@ -257,7 +257,7 @@ impl HashedGrid {
 /// For each candidate point, whether it lies closer than `reach` to any target point: which
 /// nodes another rank sends are within contact reach of this rank's own nodes.
 pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
-    if targets.is_empty() {
+    if targets.is_empty() || candidates.is_empty() {
         return vec![false; candidates.len()];
     }
     let (low, high) = bounding_box(targets);

@@ -150,10 +150,32 @@ impl Nodes {
     }
 
     /// Sets `prev`/`next` from (fibre, along): consecutive positions on one fibre are linked.
-    /// Works for any local order, so ghosts can sit anywhere after the owned nodes.
+    /// Works for any local order, so ghosts can sit anywhere after the owned nodes. Owned
+    /// nodes already in (fibre, along) order (ascending gid) are merged with the sorted
+    /// ghosts instead of sorted again: a rank relinks after every ghost rebuild.
     pub fn link_chains(&mut self) {
-        let mut order: Vec<u32> = (0..self.len() as u32).collect();
-        order.sort_unstable_by_key(|&i| (self.fibre[i as usize], self.along[i as usize]));
+        let key = |i: u32| (self.fibre[i as usize], self.along[i as usize]);
+        let owned_in_order = (1..self.n_owned as u32).all(|i| key(i - 1) <= key(i));
+        let order: Vec<u32> = if owned_in_order {
+            let mut ghosts: Vec<u32> = (self.n_owned as u32..self.len() as u32).collect();
+            ghosts.sort_unstable_by_key(|&i| key(i));
+            let mut merged = Vec::with_capacity(self.len());
+            let (mut a, mut b) = (0u32, 0usize);
+            while a < self.n_owned as u32 || b < ghosts.len() {
+                if b == ghosts.len() || (a < self.n_owned as u32 && key(a) <= key(ghosts[b])) {
+                    merged.push(a);
+                    a += 1;
+                } else {
+                    merged.push(ghosts[b]);
+                    b += 1;
+                }
+            }
+            merged
+        } else {
+            let mut all: Vec<u32> = (0..self.len() as u32).collect();
+            all.sort_unstable_by_key(|&i| key(i));
+            all
+        };
         self.prev.fill(NONE);
         self.next.fill(NONE);
         for pair in order.windows(2) {
@@ -193,5 +215,45 @@ impl Elements {
     #[inline]
     pub fn is_intact(&self, nodes: &Nodes, i: usize) -> bool {
         nodes.next[i] != NONE && self.failure[i] == FailureMode::Intact
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two fibres of 6 nodes; `order` gives the local order of (fibre, along) pairs.
+    fn chain(order: &[(u32, u32)], n_owned: usize) -> Nodes {
+        let mut nodes = Nodes::default();
+        for &(f, a) in order {
+            nodes.push(GlobalNodeId((f * 6 + a) as u64), Vec3::zeros(), Vec3::zeros(), 1.0, FibreId(f), a, 0, false, a == 5);
+        }
+        nodes.n_owned = n_owned;
+        nodes.link_chains();
+        nodes
+    }
+
+    fn links(nodes: &Nodes) -> Vec<(u64, Option<u64>, Option<u64>)> {
+        let gid = |j: u32| (j != NONE).then(|| nodes.gid[j as usize].0);
+        let mut l: Vec<_> = (0..nodes.len()).map(|i| (nodes.gid[i].0, gid(nodes.prev[i]), gid(nodes.next[i]))).collect();
+        l.sort();
+        l
+    }
+
+    #[test]
+    fn chains_link_the_same_whatever_the_local_order_and_report_missing_neighbours() {
+        // owned in order, ghosts scattered; owned out of order; all in order
+        let sorted: Vec<(u32, u32)> = (0..2).flat_map(|f| (0..6).map(move |a| (f, a))).collect();
+        let reference = links(&chain(&sorted, sorted.len()));
+        let ghosts_scattered = [(0, 2), (0, 3), (1, 1), (1, 4), (0, 5), (1, 0), (0, 0), (1, 5), (0, 4), (1, 2), (0, 1), (1, 3)];
+        assert_eq!(links(&chain(&ghosts_scattered, 4)), reference);
+        assert_eq!(links(&chain(&ghosts_scattered, 0)), reference);
+        // owned nodes 0..4 of fibre 0 with only one ghost: the stencil of 3 is incomplete
+        let partial = chain(&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4)], 4);
+        assert_eq!(partial.missing_chain_neighbour(3), Some((GlobalNodeId(2), 5)));
+        assert_eq!(partial.missing_chain_neighbour(1), None);
+        // the stencil stops at the fibre's last node
+        let whole = chain(&sorted[..6], 6);
+        assert_eq!(whole.missing_chain_neighbour(3), None);
     }
 }

@@ -18,14 +18,25 @@ pub const DESIGN_CONTACT_STRAIN: f64 = 0.3;
 pub fn highest_frequency(material: &FibreMaterial, section: &FibreSection, law: &NormalLaw, friction_coefficient: f64) -> f64 {
     let l0 = section.element_length;
     let mass = section.node_mass(material);
-    let axial = material.longitudinal_modulus * section.area / l0;
-    let bending = section.torsional_stiffness / (l0 * l0);
     let geometry = ContactGeometry::new(0.5 * section.diameter, l0, section.diameter);
     let overlap = DESIGN_CONTACT_STRAIN * section.diameter;
     let (loading, _) = law.evaluate(&geometry, overlap, 0.0);
     let (unloading, _) = law.evaluate(&geometry, overlap * 0.999, overlap);
     let contact = loading.stiffness.max(unloading.stiffness);
-    ((4.0 * axial + 16.0 * bending + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+    ((chain_stiffness(material, section) + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+}
+
+/// Effective stiffness of a node's chain in its highest mode, `4 k_axial + 16 K_t / l0^2`
+/// [N/m] (see [`highest_frequency`]).
+pub fn chain_stiffness(material: &FibreMaterial, section: &FibreSection) -> f64 {
+    let l0 = section.element_length;
+    4.0 * material.longitudinal_modulus * section.area / l0 + 16.0 * section.torsional_stiffness / (l0 * l0)
+}
+
+/// Largest stable step of a node of mass `mass` whose chain and contacts give the stiffness
+/// `chain + (1 + mu) contact`: `2 / omega` [s]. Central difference diverges above it.
+pub fn node_stability_limit(chain: f64, contact: f64, friction_coefficient: f64, mass: f64) -> f64 {
+    2.0 / ((chain + (1.0 + friction_coefficient) * contact) / mass).sqrt()
 }
 
 /// Stable time step `safety * 2 / omega_max` over all sections [s].
@@ -50,5 +61,11 @@ mod tests {
         // contact and bending only ever shorten it
         let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked, 0.3);
         assert!(stable_time_step(&material, &[with_all], &NormalLaw::ElastoPlasticKm2, 0.3, 1.0) < dt);
+        // the per-node check of a free node without contacts gives the same limit, and a
+        // contact stiffness only lowers it
+        let mass = section.node_mass(&material);
+        let limit = node_stability_limit(chain_stiffness(&material, &section), 0.0, 0.3, mass);
+        assert!((limit - expected).abs() < 1e-12 * expected);
+        assert!(node_stability_limit(chain_stiffness(&material, &section), 1e5, 0.3, mass) < limit);
     }
 }
