@@ -15,7 +15,9 @@ use std::time::Instant;
 use dea_core::domain::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
+use dea_core::projectile::RigidProjectile;
 use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
+use dea_io::checkpoint::NodeState;
 use dea_io::results::FinalState;
 use dea_partition::Partition;
 use nalgebra::{Quaternion, UnitQuaternion};
@@ -28,7 +30,7 @@ const RECORD_WORDS: usize = 11;
 /// f64 words per ghost in the per-step halo: position and element failure state.
 pub const HALO_WORDS: usize = 4;
 /// f64 words of the projectile state broadcast.
-const PROJECTILE_WORDS: usize = 19;
+pub const PROJECTILE_WORDS: usize = 19;
 /// f64 words of a reaction record.
 const REACTION_WORDS: usize = 7;
 
@@ -36,6 +38,28 @@ const FLAG_CLAMPED: u64 = 1;
 const FLAG_LAST: u64 = 2;
 /// the sender includes the node for the receiver's chain stencil (always kept)
 const FLAG_CHAIN: u64 = 4;
+
+/// The state of a rigid projectile as words: position, velocity, angular momentum, force,
+/// torque, orientation quaternion (i, j, k, w).
+pub fn projectile_words(p: &RigidProjectile) -> [f64; PROJECTILE_WORDS] {
+    let mut words = [0.0; PROJECTILE_WORDS];
+    for (k, v) in [p.position, p.velocity, p.angular_momentum, p.force, p.torque].iter().enumerate() {
+        words[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
+    }
+    words[15..19].copy_from_slice(p.orientation.quaternion().coords.as_slice());
+    words
+}
+
+/// Inverse of [`projectile_words`]; the bits are copied, so no renormalisation happens.
+pub fn set_projectile_words(p: &mut RigidProjectile, words: &[f64]) {
+    let vector = |k: usize| Vec3::new(words[3 * k], words[3 * k + 1], words[3 * k + 2]);
+    p.position = vector(0);
+    p.velocity = vector(1);
+    p.angular_momentum = vector(2);
+    p.force = vector(3);
+    p.torque = vector(4);
+    p.orientation = UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
+}
 
 fn word(value: u64) -> f64 {
     f64::from_bits(value)
@@ -89,12 +113,16 @@ pub struct Distributed<C: Comm> {
     /// steps that used the forward halo (the others rebuilt the ghosts)
     pub halo_steps: u64,
     pub rebuilds: u64,
+    /// this rank's requests for the next step's reduction: (stop on a signal, checkpoint due)
+    pub requests: [bool; 2],
+    /// the requests of any rank, agreed in the last step
+    pub agreed: [bool; 2],
 }
 
 impl<C: Comm> Distributed<C> {
-    /// Takes a domain of owned nodes (ascending global id), fetches the ghosts and computes
-    /// the initial forces, on every rank together.
-    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
+    /// Takes a domain of owned nodes (ascending global id) and fetches the ghosts, on every
+    /// rank together.
+    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
@@ -125,8 +153,16 @@ impl<C: Comm> Distributed<C> {
             halo_bytes: 0,
             halo_steps: 0,
             rebuilds: 0,
+            requests: [false; 2],
+            agreed: [false; 2],
         };
         distributed.rebuild()?;
+        Ok(distributed)
+    }
+
+    /// [`Self::assemble`], then the initial forces: a fresh run.
+    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
+        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach)?;
         let forces = distributed.domain.compute_forces();
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
@@ -145,8 +181,11 @@ impl<C: Comm> Distributed<C> {
         let (node, projectile) = self.domain.displacements();
         self.domain.times.rebuild += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
-        let mut largest = [node];
+        // the run loop's requests ride on the same reduction
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let mut largest = [node, flag(self.requests[0]), flag(self.requests[1])];
         self.comm.max_f64(&mut largest);
+        self.agreed = [largest[1] > 0.0, largest[2] > 0.0];
         self.times.reductions += clock.elapsed().as_secs_f64();
         if self.domain.rebuild_needed(largest[0], projectile) {
             self.rebuild()?;
@@ -201,25 +240,10 @@ impl<C: Comm> Distributed<C> {
     /// Rank 0's projectile state on every rank.
     fn broadcast_projectile(&mut self) {
         let clock = Instant::now();
-        let mut words = [0.0; PROJECTILE_WORDS];
-        if let Some(p) = &self.domain.projectile {
-            let q = p.orientation.quaternion().coords;
-            let fields = [p.position, p.velocity, p.angular_momentum, p.force, p.torque];
-            for (k, v) in fields.iter().enumerate() {
-                words[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
-            }
-            words[15..19].copy_from_slice(q.as_slice());
-        }
+        let mut words = self.domain.projectile.as_ref().map_or([0.0; PROJECTILE_WORDS], projectile_words);
         self.comm.broadcast_f64(&mut words);
         if let Some(p) = self.domain.projectile.as_mut().filter(|_| self.comm.rank() != Rank(0)) {
-            let vector = |k: usize| Vec3::new(words[3 * k], words[3 * k + 1], words[3 * k + 2]);
-            p.position = vector(0);
-            p.velocity = vector(1);
-            p.angular_momentum = vector(2);
-            p.force = vector(3);
-            p.torque = vector(4);
-            // coords are (i, j, k, w); the bits are copied, so no renormalisation happens
-            p.orientation = UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
+            set_projectile_words(p, &words);
         }
         self.times.projectile += clock.elapsed().as_secs_f64();
     }
@@ -475,4 +499,107 @@ impl<C: Comm> Distributed<C> {
     pub fn nodes_per_fibre(&self) -> u32 {
         self.nodes_per_fibre
     }
+
+    /// The state of the owned nodes for a checkpoint, ascending gid.
+    pub fn checkpoint_part(&self) -> NodeState {
+        let d = &self.domain;
+        let n = d.nodes.n_owned;
+        let contacts = &d.projectile_contacts;
+        let pairs = &d.pairs;
+        NodeState {
+            gid: d.nodes.gid[..n].iter().map(|g| g.0).collect(),
+            position: d.nodes.position[..n].to_vec(),
+            velocity: d.nodes.velocity[..n].to_vec(),
+            force: d.nodes.force[..n].to_vec(),
+            reference_position: pairs.reference_position.clone(),
+            failure: d.elements.failure[..n].iter().map(|&m| m as u8).collect(),
+            tensile_strength: d.elements.tensile_strength[..n].to_vec(),
+            friction_dissipated: d.ledger.friction_dissipated.clone(),
+            plastic_dissipated: d.ledger.plastic_dissipated.clone(),
+            fracture_released: d.ledger.fracture_released.clone(),
+            projectile_anchor: contacts.anchor.clone(),
+            projectile_touching: contacts.touching.iter().map(|&t| t as u8).collect(),
+            projectile_max_overlap: contacts.max_overlap.clone(),
+            row_length: (0..n).map(|i| pairs.row(i).len() as u32).collect(),
+            partner_gid: pairs.partner_gid.iter().map(|g| g.0).collect(),
+            anchor: pairs.anchor.clone(),
+            touching: pairs.touching.iter().map(|&t| t as u8).collect(),
+            max_overlap: pairs.max_overlap.clone(),
+        }
+    }
+
+    /// Restarts from a checkpoint. `domain` holds this rank's owned nodes as generated, in
+    /// the gid order of `state`; the projectile's state is `projectile`. The neighbour lists
+    /// are rebuilt from the positions of their last build (so they are the lists of the
+    /// interrupted run, and future rebuilds fall on the same steps), then every history,
+    /// position, velocity and force is put back and the ghosts are refreshed.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64], projectile_reference: Vec3) -> Result<Self, RestoreError> {
+        let n = domain.nodes.n_owned;
+        if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
+            return Err(RestoreError::Mismatch("the checkpoint's nodes are not those of the case".into()));
+        }
+        for i in 0..n {
+            domain.nodes.position[i] = state.reference_position[i];
+            domain.elements.failure[i] = FailureMode::from_code(state.failure[i]).ok_or_else(|| RestoreError::Mismatch(format!("node {}: failure code {}", state.gid[i], state.failure[i])))?;
+            domain.elements.tensile_strength[i] = state.tensile_strength[i];
+        }
+        if let Some(p) = &mut domain.projectile {
+            set_projectile_words(p, projectile);
+            p.position = projectile_reference;
+        }
+        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach)?;
+        let d = &mut restored.domain;
+        // the lists rebuilt from the same positions are the interrupted run's lists
+        let mut entry = 0usize;
+        let mut mismatch = None;
+        for i in 0..n {
+            let row = d.pairs.row(i);
+            let length = state.row_length[i] as usize;
+            let saved = &state.partner_gid[entry..entry + length];
+            if row.len() != length || d.pairs.partner_gid[row.clone()].iter().zip(saved).any(|(a, &b)| a.0 != b) {
+                mismatch.get_or_insert(state.gid[i]);
+            } else {
+                for (k, e) in row.zip(entry..entry + length) {
+                    d.pairs.anchor[k] = state.anchor[e];
+                    d.pairs.touching[k] = state.touching[e] != 0;
+                    d.pairs.max_overlap[k] = state.max_overlap[e];
+                }
+            }
+            entry += length;
+        }
+        let mismatched = restored.any(mismatch.is_some());
+        if mismatched {
+            return Err(RestoreError::Mismatch("the contact lists rebuilt at the checkpoint differ from the saved ones: the checkpoint does not belong to this build or case".into()));
+        }
+        let d = &mut restored.domain;
+        let contacts = &mut d.projectile_contacts;
+        for i in 0..n {
+            d.nodes.position[i] = state.position[i];
+            d.nodes.velocity[i] = state.velocity[i];
+            d.nodes.force[i] = state.force[i];
+            d.ledger.friction_dissipated[i] = state.friction_dissipated[i];
+            d.ledger.plastic_dissipated[i] = state.plastic_dissipated[i];
+            d.ledger.fracture_released[i] = state.fracture_released[i];
+            contacts.anchor[i] = state.projectile_anchor[i];
+            contacts.touching[i] = state.projectile_touching[i] != 0;
+            contacts.max_overlap[i] = state.projectile_max_overlap[i];
+        }
+        if let Some(p) = &mut d.projectile {
+            set_projectile_words(p, projectile);
+        }
+        restored.forward_halo();
+        restored.halo_steps = 0;
+        restored.halo_bytes = 0;
+        Ok(restored)
+    }
+}
+
+/// Why a restart failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RestoreError {
+    #[error("{0}")]
+    Numerical(#[from] DomainError),
+    #[error("{0}")]
+    Mismatch(String),
 }

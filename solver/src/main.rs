@@ -18,11 +18,13 @@ enum Exit {
     BadCase = 3,
     File = 4,
     Numerical = 5,
+    /// stopped by SIGTERM/SIGUSR1 after writing a checkpoint (EX_TEMPFAIL: requeue me)
+    Interrupted = 75,
 }
 
 #[derive(Parser)]
 #[command(name = "dea-mpi", version, about = "Fibre-level ballistic impact solver (modified digital element approach)", long_about = None,
-    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure.")]
+    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure, 75 stopped by a signal after writing a checkpoint.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -30,8 +32,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a case (no file: the built-in default case) on the ranks of the job.
-    #[command(after_help = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel")]
+    /// Run a case (no file: the built-in default case) on the ranks of the job. Checkpoints
+    /// go to OUT/checkpoint (run.checkpoint_interval_*); SIGTERM or SIGUSR1 writes one and
+    /// stops with exit code 75.
+    #[command(after_help = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel\n  mpirun -np 4 dea-mpi run --restart out/panel/checkpoint --out out/panel")]
     Run {
         /// case file (JSON, SI units)
         case: Option<PathBuf>,
@@ -41,6 +45,10 @@ enum Command {
         /// METIS algorithm for the partition over the job's ranks
         #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
         method: PartitionMethod,
+        /// continue from a checkpoint directory (OUT/checkpoint of an earlier run), on any
+        /// number of ranks; the case comes from the checkpoint
+        #[arg(long, conflicts_with = "case")]
+        restart: Option<PathBuf>,
         /// fault injection for the test suite: this rank panics after set-up, to show that
         /// the whole job then ends at once
         #[arg(long, hide = true)]
@@ -161,6 +169,7 @@ fn setup_exit(error: &SetupError) -> Exit {
     match error {
         SetupError::Partition(_) => Exit::Usage,
         SetupError::Numerical(_) => Exit::Numerical,
+        SetupError::Checkpoint(_) => Exit::File,
     }
 }
 
@@ -192,23 +201,43 @@ fn main() -> ExitCode {
             println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }
-        Command::Run { case, out, method, panic_on_rank } => {
+        Command::Run { case, out, method, restart, panic_on_rank } => {
             let comm = match MpiComm::initialize() {
                 Ok(comm) => comm,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            let case = match load_shared(&comm, case.as_ref()) {
-                Ok(case) => case,
-                Err((code, message)) => return fail_on(&comm, code, message),
+            let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
+                if let Err(e) = signal_hook::flag::register(signal, stop_signal.clone()) {
+                    return fail(Exit::Usage, format!("cannot handle signal {signal}: {e}"));
+                }
+            }
+            let is_root = comm.rank() == Rank(0);
+            let ranks = comm.size();
+            let (case, mut run, resume) = match restart {
+                Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
+                    Ok(restored) => {
+                        let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
+                        if resume.is_none() {
+                            return fail_on(&restored.run.comm, Exit::File, format!("{}: run state of another version", directory.display()));
+                        }
+                        (restored.case, restored.run, resume)
+                    }
+                    Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+                },
+                None => {
+                    let case = match load_shared(&comm, case.as_ref()) {
+                        Ok(case) => case,
+                        Err((code, message)) => return fail_on(&comm, code, message),
+                    };
+                    match setup::build(&case, comm, method_of(method), None) {
+                        Ok(run) => (case, run, None),
+                        Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+                    }
+                }
             };
             let json = serde_json::to_string(&case).expect("case serialises");
             let fibres = *setup::problem(&case).fabric.first_fibres().last().expect("a total") as usize;
-            let is_root = comm.rank() == Rank(0);
-            let ranks = comm.size();
-            let mut run = match setup::build(&case, comm, method_of(method), None) {
-                Ok(run) => run,
-                Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
-            };
             if panic_on_rank == Some(run.comm.rank().0) {
                 panic!("fault injection: rank {} panics on request", run.comm.rank().0);
             }
@@ -223,6 +252,12 @@ fn main() -> ExitCode {
                 stop_when_decided: case.run.stop_on_perforation,
                 out: &out,
                 fibres,
+                checkpoints: dea_mpi::run::CheckpointPolicy {
+                    every_steps: case.run.checkpoint_interval_steps,
+                    every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
+                    stop_signal: Some(stop_signal),
+                },
+                resume,
             };
             match dea_mpi::run::run(&mut run, &options) {
                 Ok(Some(summary)) => {
@@ -252,6 +287,7 @@ fn main() -> ExitCode {
                 Ok(None) => ExitCode::SUCCESS,
                 Err(e @ RunError::Numerical(_)) => if is_root { fail(Exit::Numerical, e) } else { ExitCode::from(Exit::Numerical as u8) },
                 Err(e @ RunError::Output(_)) => if is_root { fail(Exit::File, e) } else { ExitCode::from(Exit::File as u8) },
+                Err(e @ RunError::Interrupted(_)) => if is_root { fail(Exit::Interrupted, e) } else { ExitCode::from(Exit::Interrupted as u8) },
             }
         }
         Command::Partition { case, ranks, segment_nodes, method, json } => {

@@ -102,9 +102,11 @@ struct Judge {
 }
 
 impl Judge {
-    fn new<C: Comm>(run: &Distributed<C>, direction: Vec3, fibres: usize) -> Self {
+    /// `back_face`: the lowest fibre node at time zero, when already known (a restart).
+    fn new<C: Comm>(run: &Distributed<C>, direction: Vec3, fibres: usize, back_face: Option<f64>) -> Self {
         let domain = &run.domain;
-        Self { direction, back_face: run.z_range().0, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
+        let back_face = back_face.unwrap_or_else(|| run.z_range().0);
+        Self { direction, back_face, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
     }
 
     fn outcome<C: Comm>(&self, run: &Distributed<C>) -> Outcome {
@@ -135,6 +137,40 @@ impl Judge {
     }
 }
 
+/// The run loop's own state at a checkpoint (rank 0's histories and scalars).
+#[derive(Clone, Debug, Default)]
+pub struct Resume {
+    pub histories: Histories,
+    /// largest contact force on the projectile so far [N]
+    pub max_force: f64,
+    /// total energy at time zero [J]
+    pub initial_energy: f64,
+    /// lowest fibre node at time zero [m]
+    pub back_face: f64,
+}
+
+impl Resume {
+    /// The scalars in the order of a checkpoint's `run_scalars`.
+    pub fn scalars(&self) -> Vec<f64> {
+        vec![self.max_force, self.initial_energy, self.back_face]
+    }
+
+    pub fn from_checkpoint(global: &dea_io::checkpoint::GlobalState) -> Option<Self> {
+        let [max_force, initial_energy, back_face] = global.run_scalars[..] else { return None };
+        Some(Self { histories: global.histories.clone(), max_force, initial_energy, back_face })
+    }
+}
+
+/// When to write checkpoints, and where.
+pub struct CheckpointPolicy {
+    /// every this many steps
+    pub every_steps: Option<u64>,
+    /// every this many seconds of wall time (rank 0's clock)
+    pub every_seconds: f64,
+    /// set by SIGTERM or SIGUSR1: checkpoint and stop
+    pub stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+}
+
 /// What a run needs besides the rank's state.
 pub struct RunOptions<'a> {
     pub case_name: &'a str,
@@ -146,6 +182,9 @@ pub struct RunOptions<'a> {
     pub out: &'a Path,
     /// fibres in the whole problem
     pub fibres: usize,
+    pub checkpoints: CheckpointPolicy,
+    /// the run loop's state when restarting from a checkpoint
+    pub resume: Option<Resume>,
 }
 
 /// Samples the histories: every rank joins the reductions, rank 0 records.
@@ -170,18 +209,26 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories) {
 /// results on rank 0, which returns the summary.
 pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Option<Summary>, RunError> {
     let is_root = run.comm.rank() == Rank(0);
-    let direction = run.domain.projectile.as_ref().map(|p| p.velocity.normalize()).unwrap_or(-Vec3::z());
-    let mut histories = Histories::default();
     let mut output_seconds = 0.0;
-    let mut max_force: f64 = 0.0;
     let start = Instant::now();
     let mut last_report = Instant::now();
-    sample(run, &mut histories);
-    let initial_energy = run.energies().total();
+    let mut last_checkpoint = Instant::now();
+    let (mut histories, mut max_force, initial_energy, back_face) = match &options.resume {
+        Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
+        None => {
+            let mut histories = Histories::default();
+            sample(run, &mut histories);
+            (histories, 0.0, run.energies().total(), None)
+        }
+    };
+    // the flight direction is the initial velocity's (stored in the case, so a restart agrees)
+    let direction = -Vec3::z();
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
-    let judge = Judge::new(run, direction, options.fibres);
+    let judge = Judge::new(run, direction, options.fibres, back_face);
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
+        let signalled = options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
+        run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
         if run.domain.step % options.history_interval == 0 {
@@ -193,6 +240,20 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
                 stopped_by = format!("{decided:?}").to_lowercase();
                 break;
             }
+        }
+        let [stop, due_by_time] = run.agreed;
+        let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step % n == 0);
+        if stop || due_by_time || due_by_steps {
+            let clock = Instant::now();
+            let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };
+            let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
+            last_checkpoint = Instant::now();
+            output_seconds += clock.elapsed().as_secs_f64();
+            if stop {
+                return Err(RunError::Interrupted(directory));
+            }
+        }
+        if run.domain.step % options.history_interval == 0 {
             if is_root && last_report.elapsed().as_secs_f64() > 30.0 {
                 last_report = Instant::now();
                 eprintln!("step {} t = {:.3e} s ({:.0}%), wall {:.0} s", run.domain.step, run.domain.time, 100.0 * run.domain.time / options.end_time, start.elapsed().as_secs_f64());
@@ -265,6 +326,63 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     Ok(Some(summary))
 }
 
+/// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest
+/// go to `OUT/checkpoint.writing`, which replaces the previous checkpoint only once complete.
+pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, resume: &Resume) -> Result<std::path::PathBuf, String> {
+    let target = options.out.join("checkpoint");
+    let writing = options.out.join("checkpoint.writing");
+    let is_root = run.comm.rank() == Rank(0);
+    let mut prepared = Ok(());
+    if is_root {
+        let _ = std::fs::remove_dir_all(&writing);
+        prepared = std::fs::create_dir_all(&writing).map_err(|e| format!("{}: {e}", writing.display()));
+    }
+    if run.any(prepared.is_err()) {
+        return Err(prepared.err().unwrap_or_else(|| format!("{}: rank 0 could not create it", writing.display())));
+    }
+    let path = dea_io::checkpoint::part_path(&writing, run.comm.rank().0);
+    let part = dea_io::checkpoint::write_part(&path, &run.checkpoint_part()).map_err(|e| format!("{}: {e}", path.display()));
+    if run.any(part.is_err()) {
+        return Err(part.err().unwrap_or_else(|| "another rank could not write its checkpoint part".into()));
+    }
+    let mut counts = [run.domain.nodes.n_owned as i64];
+    run.comm.sum_i64(&mut counts);
+    let broken = run.broken();
+    let mut placed = Ok(());
+    if is_root {
+        let global = dea_io::checkpoint::GlobalState {
+            case_json: options.case_json.to_string(),
+            parts: run.comm.size() as u32,
+            nodes: counts[0] as u64,
+            step: run.domain.step,
+            time: run.domain.time,
+            projectile: run.domain.projectile.as_ref().map(|p| crate::distributed::projectile_words(p).to_vec()).unwrap_or_default(),
+            projectile_reference: run.domain.projectile_contacts.reference_position,
+            broken: [broken.tension, broken.shear, broken.combined],
+            rebuilds: run.rebuilds,
+            list_builds: run.domain.pairs.builds,
+            run_scalars: resume.scalars(),
+            histories: resume.histories.clone(),
+        };
+        let manifest = dea_io::checkpoint::manifest_path(&writing);
+        placed = dea_io::checkpoint::write_manifest(&manifest, &global).map_err(|e| format!("{}: {e}", manifest.display())).and_then(|()| {
+            // the old checkpoint goes only once the new one is complete
+            let old = options.out.join("checkpoint.old");
+            let _ = std::fs::remove_dir_all(&old);
+            if target.exists() {
+                std::fs::rename(&target, &old).map_err(|e| format!("{}: {e}", target.display()))?;
+            }
+            std::fs::rename(&writing, &target).map_err(|e| format!("{}: {e}", target.display()))?;
+            let _ = std::fs::remove_dir_all(&old);
+            Ok(())
+        });
+    }
+    if run.any(placed.is_err()) {
+        return Err(placed.err().unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));
+    }
+    Ok(target)
+}
+
 /// Why a run stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -272,4 +390,6 @@ pub enum RunError {
     Numerical(dea_core::DomainError),
     #[error("cannot write results: {0}")]
     Output(String),
+    #[error("stopped by a signal after writing the checkpoint {}", .0.display())]
+    Interrupted(std::path::PathBuf),
 }

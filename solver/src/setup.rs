@@ -7,14 +7,18 @@ use dea_core::failure::FailureParameters;
 use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::stability::stable_time_step;
 use dea_core::weibull::element_strength;
-use dea_core::{Domain, DomainError, FibreMaterial, Nodes, Rank, Vec3};
+use std::path::Path;
+
+use dea_core::domain::BrokenCount;
+use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
+use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_fabric::StraightFabric;
-use dea_io::case::{yarn_area, Case, Strength, TargetSpec};
+use dea_io::case::{parse_case, yarn_area, Case, Strength, TargetSpec};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
 use crate::comm::Comm;
-use crate::distributed::Distributed;
+use crate::distributed::{Distributed, RestoreError};
 
 /// Gap between the projectile and the nearest fibre surface at time zero [m].
 pub const INITIAL_GAP: f64 = 1e-6;
@@ -40,6 +44,9 @@ pub enum SetupError {
     Partition(String),
     #[error("{0}")]
     Numerical(#[from] DomainError),
+    /// a checkpoint that cannot be read or does not fit the case
+    #[error("{0}")]
+    Checkpoint(String),
 }
 
 /// Resolves a validated case.
@@ -143,6 +150,69 @@ pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_pos
     domain.owns_projectile = me == Rank(0);
     let nodes_per_fibre = problem.fabric.nodes_per_fibre();
     Ok(Distributed::new(comm, domain, partition, nodes_per_fibre, problem.reach)?)
+}
+
+/// A run restored from a checkpoint on this rank.
+pub struct Restored<C: Comm> {
+    pub case: Case,
+    pub run: Distributed<C>,
+    pub global: GlobalState,
+}
+
+/// Every rank learns whether any rank failed; all return the same error.
+fn agree_on<C: Comm, T>(comm: &C, local: Result<T, String>) -> Result<T, SetupError> {
+    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
+    comm.max_f64(&mut failed);
+    match local {
+        Err(message) => Err(SetupError::Checkpoint(message)),
+        Ok(_) if failed[0] > 0.0 => Err(SetupError::Checkpoint("another rank could not read the checkpoint".into())),
+        Ok(value) => Ok(value),
+    }
+}
+
+/// Restores a run from a checkpoint directory on this job's ranks (any number of them).
+pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Restored<C>, SetupError> {
+    let global = read_manifest(directory).map_err(|e| e.to_string());
+    let global = agree_on(&comm, global)?;
+    let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string()).map_err(|e| SetupError::Checkpoint(e.to_string()))?;
+    let problem = problem(&case);
+    let partition = shared_partition(&comm, &problem, method, None)?;
+    let me = comm.rank();
+    let nodes_per_fibre = problem.fabric.nodes_per_fibre() as u64;
+    let owned = |gid: u64| partition.rank_of(FibreId((gid / nodes_per_fibre) as u32), (gid % nodes_per_fibre) as u32) == me;
+    let mut state = NodeState::default();
+    let mut read = Ok(());
+    for part in 0..global.parts {
+        match read_part(&part_path(directory, part)) {
+            Ok(rows) => state.append_selected(&rows, owned),
+            Err(e) => {
+                read = Err(e.to_string());
+                break;
+            }
+        }
+    }
+    agree_on(&comm, read)?;
+    let state = state.sorted();
+    let built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
+    let mut counts = [state.gid.len() as i64, built.nodes.n_owned as i64];
+    comm.sum_i64(&mut counts);
+    if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
+        return Err(SetupError::Checkpoint(format!("{}: holds {} nodes, of which {} belong to the case's {} nodes", directory.display(), global.nodes, counts[0], counts[1])));
+    }
+    let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
+    domain.owns_projectile = me == Rank(0);
+    domain.step = global.step;
+    domain.time = global.time;
+    if me == Rank(0) {
+        domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
+    }
+    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile, global.projectile_reference).map_err(|e| match e {
+        RestoreError::Numerical(e) => SetupError::Numerical(e),
+        RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
+    })?;
+    run.rebuilds = global.rebuilds;
+    run.domain.pairs.builds = global.list_builds;
+    Ok(Restored { case, run, global })
 }
 
 /// Lowest point of the projectile along z [m] (its bounding sphere: exact for a sphere,

@@ -10,8 +10,8 @@ use dea_io::results::compare_results;
 use dea_mpi::comm::local::{run_local, LocalComm};
 use dea_mpi::comm::Comm;
 use dea_mpi::distributed::Distributed;
-use dea_mpi::run::{run, RunOptions, Summary};
-use dea_mpi::setup::{build, build_adjusted, problem, SetupError};
+use dea_mpi::run::{run, CheckpointPolicy, Resume, RunOptions, Summary};
+use dea_mpi::setup::{build, build_adjusted, problem, restore, SetupError};
 use dea_partition::Method;
 
 fn panel_case() -> Case {
@@ -28,23 +28,45 @@ fn fibres(case: &Case) -> usize {
     *problem(case).fabric.first_fibres().last().unwrap() as usize
 }
 
+fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option<u64>, resume: Option<Resume>) -> RunOptions<'a> {
+    RunOptions {
+        case_name: &case.name,
+        case_json: json,
+        end_time: case.run.end_time_s,
+        history_interval: case.run.history_interval_steps,
+        stop_when_decided: false,
+        out,
+        fibres: fibres(case),
+        checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None },
+        resume,
+    }
+}
+
 /// Runs `case` on `ranks` threads and returns rank 0's summary.
 fn run_on(case: &Case, ranks: usize, out: &Path) -> Summary {
+    run_checkpointed(case, ranks, out, None)
+}
+
+/// [`run_on`], writing a checkpoint every `every_steps` steps.
+fn run_checkpointed(case: &Case, ranks: usize, out: &Path, every_steps: Option<u64>) -> Summary {
     let json = serde_json::to_string(case).unwrap();
     let summaries = run_local(ranks, |comm| {
         let mut state = build(case, comm, Method::KWay, None).expect("set-up succeeds");
-        let options = RunOptions {
-            case_name: &case.name,
-            case_json: &json,
-            end_time: case.run.end_time_s,
-            history_interval: case.run.history_interval_steps,
-            stop_when_decided: false,
-            out,
-            fibres: fibres(case),
-        };
-        run(&mut state, &options).expect("the run succeeds")
+        run(&mut state, &options(case, &json, out, every_steps, None)).expect("the run succeeds")
     });
     summaries.into_iter().next().flatten().expect("rank 0 reports")
+}
+
+/// Restarts from `checkpoint` on `ranks` threads and runs to the end.
+fn restart_on(checkpoint: &Path, ranks: usize, out: &Path) -> Result<Summary, String> {
+    let summaries = run_local(ranks, |comm| {
+        let restored = restore(checkpoint, comm, Method::KWay).map_err(|e| e.to_string())?;
+        let json = restored.global.case_json.clone();
+        let resume = Resume::from_checkpoint(&restored.global);
+        let (case, mut state) = (restored.case, restored.run);
+        run(&mut state, &options(&case, &json, out, None, resume)).map_err(|e| e.to_string())
+    });
+    summaries.into_iter().next().expect("rank 0").map(|s| s.expect("rank 0 reports"))
 }
 
 #[test]
@@ -254,4 +276,31 @@ fn a_time_step_too_long_for_the_contact_stiffness_stops_every_rank_with_the_same
     assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
     assert_eq!(errors[0][0], errors[1][0]);
     assert!(errors[0][0].contains("time step violated"), "{}", errors[0][0]);
+}
+
+#[test]
+fn a_restart_from_a_checkpoint_gives_the_same_bits_on_the_same_or_other_rank_counts() {
+    let case = panel_case();
+    let dir = scratch("restart");
+    run_on(&case, 1, &dir.join("reference"));
+    // a run on 2 ranks checkpoints every 500 steps; the last checkpoint (step 1000) stays
+    run_checkpointed(&case, 2, &dir.join("checkpointed"), Some(500));
+    let checkpoint = dir.join("checkpointed/checkpoint");
+    let global = dea_io::checkpoint::read_manifest(&checkpoint).unwrap();
+    assert_eq!((global.step, global.parts), (1000, 2));
+    assert!(global.broken.iter().sum::<u64>() > 0, "the checkpoint holds broken elements");
+    for ranks in [1, 2, 3] {
+        let out = dir.join(format!("restarted-{ranks}"));
+        let summary = restart_on(&checkpoint, ranks, &out).unwrap();
+        assert_eq!(summary.steps, 1215);
+        let differences = compare_results(&dir.join("reference/results.h5"), &out.join("results.h5")).unwrap();
+        assert!(differences.is_empty(), "restart on {ranks} ranks: {differences:#?}");
+    }
+    // a damaged part is refused on every rank, naming the file
+    let part = dea_io::checkpoint::part_path(&checkpoint, 1);
+    let bytes = std::fs::read(&part).unwrap();
+    std::fs::write(&part, &bytes[..bytes.len() / 3]).unwrap();
+    let error = restart_on(&checkpoint, 2, &dir.join("refused")).unwrap_err();
+    assert!(error.contains("part-00001.h5") && error.contains("truncated"), "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

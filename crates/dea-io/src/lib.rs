@@ -1,6 +1,7 @@
 //! Case files (JSON, SI units, validated with field paths), presets, and HDF5 results.
 
 pub mod case;
+pub mod checkpoint;
 pub mod results;
 
 pub use case::{load_case, parse_case, Case, CaseError};

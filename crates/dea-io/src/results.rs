@@ -62,29 +62,26 @@ fn energy_fields(e: &EnergyReport) -> [f64; 9] {
     [e.fibre_kinetic, e.projectile_kinetic, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
 }
 
-fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
+pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
     let flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
     let dataset = group.new_dataset::<f64>().shape([values.len(), 3]).create(name)?;
     dataset.write_raw(&flat)?;
     write_text_attribute(&dataset, "units", unit)
 }
 
-fn write_scalars<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str, values: &[T], unit: &str) -> hdf5::Result<()> {
+pub(crate) fn write_scalars<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str, values: &[T], unit: &str) -> hdf5::Result<()> {
     let dataset = group.new_dataset::<T>().shape([values.len()]).create(name)?;
     dataset.write_raw(values)?;
     write_text_attribute(&dataset, "units", unit)
 }
 
-fn write_text_attribute(location: &hdf5::Location, name: &str, text: &str) -> hdf5::Result<()> {
+pub(crate) fn write_text_attribute(location: &hdf5::Location, name: &str, text: &str) -> hdf5::Result<()> {
     let value: VarLenUnicode = text.parse().map_err(|e| hdf5::Error::from(format!("{e:?}").as_str()))?;
     location.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&value)
 }
 
-/// Writes a complete results file.
-pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories, final_state: &FinalState) -> hdf5::Result<()> {
-    let file = hdf5::File::create(path)?;
-    write_text_attribute(&file, "format", "dea-mpi results 1")?;
-    write_text_attribute(&file, "case", case_json)?;
+/// Writes the `history` group of a results file or a checkpoint.
+pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5::Result<()> {
     let history = file.create_group("history")?;
     write_scalars(&history, "time", &histories.time, "s")?;
     write_vectors(&history, "projectile_position", &histories.projectile_position, "m")?;
@@ -100,7 +97,15 @@ pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histor
     let broken = history.create_group("broken")?;
     write_scalars(&broken, "tension", &histories.broken_tension, "elements")?;
     write_scalars(&broken, "shear", &histories.broken_shear, "elements")?;
-    write_scalars(&broken, "combined", &histories.broken_combined, "elements")?;
+    write_scalars(&broken, "combined", &histories.broken_combined, "elements")
+}
+
+/// Writes a complete results file.
+pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories, final_state: &FinalState) -> hdf5::Result<()> {
+    let file = hdf5::File::create(path)?;
+    write_text_attribute(&file, "format", "dea-mpi results 1")?;
+    write_text_attribute(&file, "case", case_json)?;
+    write_histories(&file, histories)?;
     let last = file.create_group("final")?;
     write_scalars(&last, "gid", &final_state.gid, "-")?;
     write_vectors(&last, "position", &final_state.position, "m")?;
@@ -113,7 +118,11 @@ pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histor
 
 /// Reads back the histories (used by tests and post-processing checks).
 pub fn read_histories(path: &std::path::Path) -> hdf5::Result<Histories> {
-    let file = hdf5::File::open(path)?;
+    read_histories_from(&hdf5::File::open(path)?)
+}
+
+/// The `history` group of an open results file or checkpoint.
+pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> {
     let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> {
         let flat: Vec<f64> = file.dataset(name)?.read_raw()?;
         Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())

@@ -1,0 +1,395 @@
+//! Checkpoints: the whole state of a run keyed by global ids, so a run restarts with the same
+//! bits on the same or another number of ranks.
+//!
+//! A checkpoint is a directory: `manifest.h5` (the case, the step, the projectile, global
+//! counters and the histories so far; written last, by rank 0) and one `part-NNNNN.h5` per
+//! writing rank with the state of its owned nodes in ascending global id: kinematics, forces,
+//! the positions of the last neighbour-list build, element states and strengths, dissipation
+//! ledgers, and every contact history (fibre pairs by partner gid, projectile contacts).
+//! The solver writes it into a temporary directory and renames it into place, so a
+//! checkpoint on disk is always complete; readers check the format, the completion mark and
+//! every part, and refuse anything else with a message naming the file.
+
+use std::path::{Path, PathBuf};
+
+use dea_core::Vec3;
+
+use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
+
+const FORMAT: &str = "dea-mpi checkpoint 1";
+
+/// Why a checkpoint cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[error("checkpoint {}: {message}", path.display())]
+pub struct CheckpointError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+fn error(path: &Path, message: impl std::fmt::Display) -> CheckpointError {
+    CheckpointError { path: path.to_path_buf(), message: message.to_string() }
+}
+
+/// State of a set of owned nodes, ascending global id.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NodeState {
+    pub gid: Vec<u64>,
+    /// [m]
+    pub position: Vec<Vec3>,
+    /// [m/s]
+    pub velocity: Vec<Vec3>,
+    /// force of the last step [N]
+    pub force: Vec<Vec3>,
+    /// position at the last neighbour-list build [m]
+    pub reference_position: Vec<Vec3>,
+    /// failure mode code of the node's element
+    pub failure: Vec<u8>,
+    /// tensile strength of the node's element [Pa]
+    pub tensile_strength: Vec<f64>,
+    /// dissipated and released energy so far [J]
+    pub friction_dissipated: Vec<f64>,
+    pub plastic_dissipated: Vec<f64>,
+    pub fracture_released: Vec<f64>,
+    /// projectile contact history: anchor (body frame) [m], touching, largest overlap [m]
+    pub projectile_anchor: Vec<Vec3>,
+    pub projectile_touching: Vec<u8>,
+    pub projectile_max_overlap: Vec<f64>,
+    /// fibre contact-list entries of each node
+    pub row_length: Vec<u32>,
+    /// per entry: partner gid, friction anchor [m], touching, largest overlap [m]
+    pub partner_gid: Vec<u64>,
+    pub anchor: Vec<Vec3>,
+    pub touching: Vec<u8>,
+    pub max_overlap: Vec<f64>,
+}
+
+impl NodeState {
+    /// Appends row `k` of `other`, whose contact entries are `entries`.
+    fn push_row(&mut self, other: &NodeState, k: usize, entries: std::ops::Range<usize>) {
+        self.gid.push(other.gid[k]);
+        self.position.push(other.position[k]);
+        self.velocity.push(other.velocity[k]);
+        self.force.push(other.force[k]);
+        self.reference_position.push(other.reference_position[k]);
+        self.failure.push(other.failure[k]);
+        self.tensile_strength.push(other.tensile_strength[k]);
+        self.friction_dissipated.push(other.friction_dissipated[k]);
+        self.plastic_dissipated.push(other.plastic_dissipated[k]);
+        self.fracture_released.push(other.fracture_released[k]);
+        self.projectile_anchor.push(other.projectile_anchor[k]);
+        self.projectile_touching.push(other.projectile_touching[k]);
+        self.projectile_max_overlap.push(other.projectile_max_overlap[k]);
+        self.row_length.push(other.row_length[k]);
+        self.partner_gid.extend_from_slice(&other.partner_gid[entries.clone()]);
+        self.anchor.extend_from_slice(&other.anchor[entries.clone()]);
+        self.touching.extend_from_slice(&other.touching[entries.clone()]);
+        self.max_overlap.extend_from_slice(&other.max_overlap[entries]);
+    }
+
+    /// First contact entry of each row.
+    fn entry_starts(&self) -> Vec<usize> {
+        self.row_length.iter().scan(0usize, |next, &l| {
+            let start = *next;
+            *next += l as usize;
+            Some(start)
+        }).collect()
+    }
+
+    /// Appends the rows of `other` whose gid `keep` selects (rows stay in their order).
+    pub fn append_selected(&mut self, other: &NodeState, keep: impl Fn(u64) -> bool) {
+        for (k, start) in other.entry_starts().into_iter().enumerate() {
+            if keep(other.gid[k]) {
+                self.push_row(other, k, start..start + other.row_length[k] as usize);
+            }
+        }
+    }
+
+    /// The rows sorted by gid (parts read from several files arrive file by file).
+    pub fn sorted(self) -> NodeState {
+        let mut order: Vec<usize> = (0..self.gid.len()).collect();
+        order.sort_unstable_by_key(|&k| self.gid[k]);
+        let starts = self.entry_starts();
+        let mut sorted = NodeState::default();
+        for k in order {
+            sorted.push_row(&self, k, starts[k]..starts[k] + self.row_length[k] as usize);
+        }
+        sorted
+    }
+}
+
+/// What is the same on every rank: the case, the step, the projectile, global counters, and
+/// rank 0's run state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GlobalState {
+    /// the case as run (JSON)
+    pub case_json: String,
+    /// ranks that wrote the parts
+    pub parts: u32,
+    /// nodes in all parts together
+    pub nodes: u64,
+    pub step: u64,
+    /// [s]
+    pub time: f64,
+    /// projectile: position, velocity, angular momentum, force, torque (3 each), orientation
+    /// quaternion (i, j, k, w)
+    pub projectile: Vec<f64>,
+    /// projectile position at the last neighbour-list build [m]
+    pub projectile_reference: Vec3,
+    /// broken elements by mode, whole problem
+    pub broken: [u64; 3],
+    /// ghost rebuilds and neighbour-list builds so far
+    pub rebuilds: u64,
+    pub list_builds: u64,
+    /// run-loop scalars of rank 0 (largest force, initial energy, back face, …), in the
+    /// solver's order
+    pub run_scalars: Vec<f64>,
+    pub histories: Histories,
+}
+
+/// File of part `rank` in a checkpoint directory.
+pub fn part_path(directory: &Path, rank: u32) -> PathBuf {
+    directory.join(format!("part-{rank:05}.h5"))
+}
+
+/// Manifest of a checkpoint directory.
+pub fn manifest_path(directory: &Path) -> PathBuf {
+    directory.join("manifest.h5")
+}
+
+fn write_bytes(group: &hdf5::Group, name: &str, values: &[u8], unit: &str) -> hdf5::Result<()> {
+    write_scalars(group, name, values, unit)
+}
+
+/// Writes one rank's part and flushes it to disk.
+pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
+    {
+        let file = hdf5::File::create(path)?;
+        write_text_attribute(&file, "format", FORMAT)?;
+        write_scalars(&file, "gid", &part.gid, "-")?;
+        write_vectors(&file, "position", &part.position, "m")?;
+        write_vectors(&file, "velocity", &part.velocity, "m/s")?;
+        write_vectors(&file, "force", &part.force, "N")?;
+        write_vectors(&file, "reference_position", &part.reference_position, "m")?;
+        write_bytes(&file, "failure", &part.failure, "failure mode code")?;
+        write_scalars(&file, "tensile_strength", &part.tensile_strength, "Pa")?;
+        write_scalars(&file, "friction_dissipated", &part.friction_dissipated, "J")?;
+        write_scalars(&file, "plastic_dissipated", &part.plastic_dissipated, "J")?;
+        write_scalars(&file, "fracture_released", &part.fracture_released, "J")?;
+        write_vectors(&file, "projectile_anchor", &part.projectile_anchor, "m")?;
+        write_bytes(&file, "projectile_touching", &part.projectile_touching, "bool")?;
+        write_scalars(&file, "projectile_max_overlap", &part.projectile_max_overlap, "m")?;
+        write_scalars(&file, "row_length", &part.row_length, "entries")?;
+        write_scalars(&file, "partner_gid", &part.partner_gid, "-")?;
+        write_vectors(&file, "anchor", &part.anchor, "m")?;
+        write_bytes(&file, "touching", &part.touching, "bool")?;
+        write_scalars(&file, "max_overlap", &part.max_overlap, "m")?;
+        file.flush()?;
+    }
+    sync(path)
+}
+
+/// Forces a written file to stable storage.
+fn sync(path: &Path) -> hdf5::Result<()> {
+    std::fs::File::open(path).and_then(|f| f.sync_all()).map_err(|e| hdf5::Error::from(format!("{}: {e}", path.display()).as_str()))
+}
+
+fn open(path: &Path) -> Result<hdf5::File, CheckpointError> {
+    if !path.exists() {
+        return Err(error(path, "missing"));
+    }
+    let file = hdf5::File::open(path).map_err(|e| error(path, format!("cannot open (truncated or corrupt?): {e}")))?;
+    let format: String = file
+        .attr("format")
+        .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
+        .map(|s| s.to_string())
+        .map_err(|e| error(path, format!("not a dea-mpi checkpoint: {e}")))?;
+    if format != FORMAT {
+        return Err(error(path, format!("format {format:?}, expected {FORMAT:?}")));
+    }
+    Ok(file)
+}
+
+/// Reads one rank's part, checking that its arrays agree in length.
+pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
+    let file = open(path)?;
+    let fail = |e: hdf5::Error| error(path, format!("unreadable: {e}"));
+    let vectors = |name: &str| -> Result<Vec<Vec3>, CheckpointError> {
+        let flat: Vec<f64> = file.dataset(name).and_then(|d| d.read_raw()).map_err(fail)?;
+        Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
+    };
+    let part = NodeState {
+        gid: file.dataset("gid").and_then(|d| d.read_raw()).map_err(fail)?,
+        position: vectors("position")?,
+        velocity: vectors("velocity")?,
+        force: vectors("force")?,
+        reference_position: vectors("reference_position")?,
+        failure: file.dataset("failure").and_then(|d| d.read_raw()).map_err(fail)?,
+        tensile_strength: file.dataset("tensile_strength").and_then(|d| d.read_raw()).map_err(fail)?,
+        friction_dissipated: file.dataset("friction_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
+        plastic_dissipated: file.dataset("plastic_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
+        fracture_released: file.dataset("fracture_released").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_anchor: vectors("projectile_anchor")?,
+        projectile_touching: file.dataset("projectile_touching").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_max_overlap: file.dataset("projectile_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+        row_length: file.dataset("row_length").and_then(|d| d.read_raw()).map_err(fail)?,
+        partner_gid: file.dataset("partner_gid").and_then(|d| d.read_raw()).map_err(fail)?,
+        anchor: vectors("anchor")?,
+        touching: file.dataset("touching").and_then(|d| d.read_raw()).map_err(fail)?,
+        max_overlap: file.dataset("max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+    };
+    let n = part.gid.len();
+    let node_lengths = [
+        part.position.len(),
+        part.velocity.len(),
+        part.force.len(),
+        part.reference_position.len(),
+        part.failure.len(),
+        part.tensile_strength.len(),
+        part.friction_dissipated.len(),
+        part.plastic_dissipated.len(),
+        part.fracture_released.len(),
+        part.projectile_anchor.len(),
+        part.projectile_touching.len(),
+        part.projectile_max_overlap.len(),
+        part.row_length.len(),
+    ];
+    let entries: usize = part.row_length.iter().map(|&l| l as usize).sum();
+    let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.touching.len(), part.max_overlap.len()];
+    if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) {
+        return Err(error(path, "arrays of different lengths: the part is damaged"));
+    }
+    Ok(part)
+}
+
+/// Writes the manifest (last, after every part) and flushes it to disk.
+pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
+    {
+        let file = hdf5::File::create(path)?;
+        write_text_attribute(&file, "format", FORMAT)?;
+        write_text_attribute(&file, "case", &global.case_json)?;
+        let counters = [global.parts as u64, global.nodes, global.step, global.broken[0], global.broken[1], global.broken[2], global.rebuilds, global.list_builds];
+        write_scalars(&file, "counters", &counters, "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds")?;
+        let mut reals = vec![global.time];
+        reals.extend_from_slice(global.projectile_reference.as_slice());
+        write_scalars(&file, "time_and_projectile_reference", &reals, "s, m")?;
+        write_scalars(&file, "projectile", &global.projectile, "SI")?;
+        write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
+        write_histories(&file, &global.histories)?;
+        // the completion mark goes last: a manifest without it is refused
+        write_text_attribute(&file, "complete", "yes")?;
+        file.flush()?;
+    }
+    sync(path)
+}
+
+/// Reads and checks the manifest of a checkpoint directory.
+pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
+    let path = manifest_path(directory);
+    let file = open(&path)?;
+    let fail = |e: hdf5::Error| error(&path, format!("unreadable: {e}"));
+    if file.attr("complete").is_err() {
+        return Err(error(&path, "incomplete (the writer stopped before finishing it)"));
+    }
+    let case_json = file.attr("case").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map_err(fail)?.to_string();
+    let counters: Vec<u64> = file.dataset("counters").and_then(|d| d.read_raw()).map_err(fail)?;
+    let reals: Vec<f64> = file.dataset("time_and_projectile_reference").and_then(|d| d.read_raw()).map_err(fail)?;
+    if counters.len() != 8 || reals.len() != 4 {
+        return Err(error(&path, "damaged counters"));
+    }
+    Ok(GlobalState {
+        case_json,
+        parts: counters[0] as u32,
+        nodes: counters[1],
+        step: counters[2],
+        broken: [counters[3], counters[4], counters[5]],
+        rebuilds: counters[6],
+        list_builds: counters[7],
+        time: reals[0],
+        projectile_reference: Vec3::new(reals[1], reals[2], reals[3]),
+        projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
+        run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
+        histories: read_histories_from(&file).map_err(fail)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(gids: &[u64]) -> NodeState {
+        let mut p = NodeState::default();
+        for (k, &g) in gids.iter().enumerate() {
+            let x = Vec3::new(g as f64, k as f64, 0.5);
+            p.gid.push(g);
+            p.position.push(x);
+            p.velocity.push(x * 2.0);
+            p.force.push(x * 3.0);
+            p.reference_position.push(x * 4.0);
+            p.failure.push((g % 4) as u8);
+            p.tensile_strength.push(g as f64 * 1e9);
+            p.friction_dissipated.push(1.0);
+            p.plastic_dissipated.push(2.0);
+            p.fracture_released.push(3.0);
+            p.projectile_anchor.push(x);
+            p.projectile_touching.push(1);
+            p.projectile_max_overlap.push(1e-6);
+            p.row_length.push((g % 3) as u32);
+            for e in 0..g % 3 {
+                p.partner_gid.push(g * 10 + e);
+                p.anchor.push(x * e as f64);
+                p.touching.push((e % 2) as u8);
+                p.max_overlap.push(e as f64 * 1e-7);
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn parts_round_trip_select_and_sort_and_damage_is_refused() {
+        let dir = std::env::temp_dir().join(format!("dea-checkpoint-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let original = part(&[2, 5, 7, 8, 11]);
+        let path = part_path(&dir, 3);
+        write_part(&path, &original).unwrap();
+        let read = read_part(&path).unwrap();
+        assert_eq!(read, original);
+        // the rows of two parts, selected and merged, come back in gid order
+        let other = part(&[1, 4, 6]);
+        let mut merged = NodeState::default();
+        merged.append_selected(&read, |g| g != 7);
+        merged.append_selected(&other, |g| g != 4);
+        let merged = merged.sorted();
+        assert_eq!(merged.gid, vec![1, 2, 5, 6, 8, 11]);
+        let mut expected = NodeState::default();
+        expected.append_selected(&part(&[1, 2, 5, 6, 8, 11]), |_| true);
+        assert_eq!(merged, expected);
+        // a truncated part is refused with its name
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        let message = read_part(&path).unwrap_err().to_string();
+        assert!(message.contains("part-00003.h5") && message.contains("truncated"), "{message}");
+        // a manifest round-trips; one without its completion mark is refused
+        let global = GlobalState {
+            case_json: "{}".into(),
+            parts: 2,
+            nodes: 8,
+            step: 40,
+            time: 1e-7,
+            projectile: (0..19).map(|k| k as f64).collect(),
+            projectile_reference: Vec3::new(1.0, 2.0, 3.0),
+            broken: [1, 2, 3],
+            rebuilds: 4,
+            list_builds: 5,
+            run_scalars: vec![1.5, 2.5],
+            histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
+        };
+        write_manifest(&manifest_path(&dir), &global).unwrap();
+        assert_eq!(read_manifest(&dir).unwrap(), global);
+        {
+            let file = hdf5::File::create(manifest_path(&dir)).unwrap();
+            write_text_attribute(&file, "format", FORMAT).unwrap();
+        }
+        assert!(read_manifest(&dir).unwrap_err().to_string().contains("incomplete"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
