@@ -43,6 +43,16 @@ check too-many-ranks bash -c 'mpi 4 run $work/tiny.json --out $work/tiny 2>$work
 # a panic on one rank ends the whole job at once, not at a scheduler's time limit
 check panic-aborts-the-job bash -c 'start=$(date +%s); timeout 120 bash -c "mpi 2 run cases/four_layer_panel.json --out $work/panic --panic-on-rank 1"; code=$?; \
     test $code -ne 0 && test $code -ne 124 && test $(( $(date +%s) - start )) -lt 60'
+# a signal makes every rank finish its step, write a checkpoint and exit 75; the run then
+# continues on another number of ranks and ends with the same bits as an uninterrupted one.
+# SIGTERM goes to the ranks (as SLURM sends it to every task), SIGUSR1 to mpirun, which
+# forwards it
+sed 's/"end_time_s": 3e-6/"end_time_s": 3e-5, "stop_on_perforation": false/' cases/four_layer_panel.json >"$work/long.json"
+check long-reference bash -c 'mpi 2 run $work/long.json --out $work/reference'
+check sigterm-checkpoints-and-exits-75 bash -c 'mpi 2 run $work/long.json --out $work/term & runner=$!; sleep 3;     pkill -TERM -f "^$bin run $work/long.json --out $work/term"; wait $runner; code=$?; echo "exit $code";     test $code -eq 75 && test -f $work/term/checkpoint/manifest.h5 && test ! -e $work/term/results.h5'
+check restart-on-three-ranks-is-identical bash -c 'mpi 3 run --restart $work/term/checkpoint --out $work/term     && $bin compare $work/reference/results.h5 $work/term/results.h5'
+check sigusr1-through-mpirun bash -c '$MPIRUN_LINE -np 2 $bin run $work/long.json --out $work/usr1 & runner=$!; sleep 3;     kill -USR1 $runner; wait $runner; code=$?; echo "exit $code"; test $code -eq 75 && test -f $work/usr1/checkpoint/manifest.h5'
+check truncated-checkpoint-refused bash -c 'part=$work/usr1/checkpoint/part-00000.h5; head -c 2000 $part >$part.cut && mv $part.cut $part;     mpi 2 run --restart $work/usr1/checkpoint --out $work/usr1 2>$work/cut.err; code=$?; cat $work/cut.err;     test $code -eq 4 && grep -q "part-00000.h5" $work/cut.err'
 # the benchmark runs under mpirun and reports every key
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
     && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
