@@ -18,6 +18,7 @@ use dea_core::nodes::FailureMode;
 use dea_core::projectile::RigidProjectile;
 use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
+use dea_io::snapshot::SnapshotPart;
 use dea_io::results::FinalState;
 use dea_partition::Partition;
 use nalgebra::{Quaternion, UnitQuaternion};
@@ -117,6 +118,8 @@ pub struct Distributed<C: Comm> {
     pub requests: [bool; 2],
     /// the requests of any rank, agreed in the last step
     pub agreed: [bool; 2],
+    /// layer of each yarn (for snapshots and per-layer diagnostics); empty: all in layer 0
+    pub layer_of_yarn: Vec<u32>,
 }
 
 impl<C: Comm> Distributed<C> {
@@ -155,6 +158,7 @@ impl<C: Comm> Distributed<C> {
             rebuilds: 0,
             requests: [false; 2],
             agreed: [false; 2],
+            layer_of_yarn: Vec::new(),
         };
         distributed.rebuild()?;
         Ok(distributed)
@@ -438,6 +442,29 @@ impl<C: Comm> Distributed<C> {
         BrokenCount { tension: counts[0] as u64, shear: counts[1] as u64, combined: counts[2] as u64 }
     }
 
+    /// Broken elements of each layer, whole problem.
+    pub fn broken_by_layer(&self, layers: usize) -> Vec<u64> {
+        let nodes = &self.domain.nodes;
+        let mut counts = vec![0i64; layers];
+        for i in 0..nodes.n_owned {
+            if self.domain.elements.failure[i] != FailureMode::Intact {
+                counts[self.layer_of(nodes.fibre[i]) as usize] += 1;
+            }
+        }
+        self.comm.sum_i64(&mut counts);
+        counts.into_iter().map(|c| c as u64).collect()
+    }
+
+    /// Energy each layer holds or has dissipated (kinetic, strain, bending, contact,
+    /// friction, plasticity, fracture), whole problem, exact sums [J].
+    pub fn energy_by_layer(&self, layers: usize) -> Vec<f64> {
+        let nodes = &self.domain.nodes;
+        let sums = self.domain.energy_sums_by(|i| self.layer_of(nodes.fibre[i]) as usize, layers);
+        let mut words: Vec<i64> = sums.iter().flat_map(EnergySums::to_words).collect();
+        self.comm.sum_i64(&mut words);
+        words.chunks_exact(dea_core::energy::ENERGY_WORDS).map(|w| EnergySums::from_words(w).report().total()).collect()
+    }
+
     /// Lowest and highest owned node along z over every rank [m].
     pub fn z_range(&self) -> (f64, f64) {
         let owned = &self.domain.nodes.position[..self.domain.nodes.n_owned];
@@ -498,6 +525,73 @@ impl<C: Comm> Distributed<C> {
     /// Nodes on every fibre.
     pub fn nodes_per_fibre(&self) -> u32 {
         self.nodes_per_fibre
+    }
+
+    /// Layer of the yarn of a fibre.
+    pub fn layer_of(&self, fibre: FibreId) -> u32 {
+        self.layer_of_yarn.get(self.partition.yarn_of(fibre)).copied().unwrap_or(0)
+    }
+
+    /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no
+    /// force needs it).
+    fn refresh_ghost_velocities(&mut self) {
+        let nodes = &self.domain.nodes;
+        let halo = &self.halo;
+        let sends: Vec<Vec<f64>> = halo.send_nodes.iter().map(|send| send.iter().flat_map(|&i| nodes.velocity[i as usize].as_slice().to_vec()).collect()).collect();
+        let mut receives: Vec<Vec<f64>> = halo.receive_counts.iter().map(|&n| vec![0.0; 3 * n]).collect();
+        self.comm.exchange(&halo.partners, &sends, &mut receives);
+        let mut g = self.domain.nodes.n_owned;
+        for buffer in &receives {
+            for v in buffer.chunks_exact(3) {
+                self.domain.nodes.velocity[g] = Vec3::new(v[0], v[1], v[2]);
+                g += 1;
+            }
+        }
+    }
+
+    /// This rank's part of a field snapshot (collective: ghost velocities are refreshed).
+    pub fn snapshot_part(&mut self) -> SnapshotPart {
+        self.refresh_ghost_velocities();
+        let me = self.comm.rank().0;
+        let d = &self.domain;
+        let nodes = &d.nodes;
+        let n = nodes.n_owned;
+        let stress = d.element_stress();
+        let mut part = SnapshotPart::default();
+        let mut point_of_ghost = std::collections::HashMap::new();
+        let add_point = |part: &mut SnapshotPart, i: usize, rank: u32| {
+            part.position.push(nodes.position[i]);
+            part.velocity.push(nodes.velocity[i]);
+            part.gid.push(nodes.gid[i].0);
+            part.layer.push(self.layer_of(nodes.fibre[i]));
+            part.yarn.push(self.partition.yarn_of(nodes.fibre[i]) as u32);
+            part.rank.push(rank);
+        };
+        for i in 0..n {
+            add_point(&mut part, i, me);
+        }
+        for i in 0..n {
+            let next = nodes.next[i];
+            if next == dea_core::NONE {
+                continue;
+            }
+            let j = next as usize;
+            let point = if j < n {
+                j as u32
+            } else {
+                *point_of_ghost.entry(j).or_insert_with(|| {
+                    let owner = self.partition.rank_of(nodes.fibre[j], nodes.along[j]).0;
+                    add_point(&mut part, j, owner);
+                    (part.gid.len() - 1) as u32
+                })
+            };
+            part.connectivity.push([i as u32, point]);
+            part.element_gid.push(nodes.gid[i].0);
+            part.strain.push(d.elements.strain[i]);
+            part.stress.push(stress[i]);
+            part.failure.push(d.elements.failure[i] as u8);
+        }
+        part
     }
 
     /// The state of the owned nodes for a checkpoint, ascending gid.

@@ -1,6 +1,6 @@
 //! `dea-mpi`: the digital-element ballistic impact solver.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -80,7 +80,8 @@ enum Command {
         json: bool,
     },
     /// Compare two results files dataset by dataset, bit for bit (the partition group
-    /// excepted); exit 0 when identical, 1 when they differ.
+    /// excepted), and the field snapshots beside them node by node; exit 0 when identical,
+    /// 1 when they differ.
     #[command(after_help = "Example:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5")]
     Compare {
         first: PathBuf,
@@ -237,7 +238,7 @@ fn main() -> ExitCode {
                 }
             };
             let json = serde_json::to_string(&case).expect("case serialises");
-            let fibres = *setup::problem(&case).fabric.first_fibres().last().expect("a total") as usize;
+            let problem = setup::problem(&case);
             if panic_on_rank == Some(run.comm.rank().0) {
                 panic!("fault injection: rank {} panics on request", run.comm.rank().0);
             }
@@ -251,7 +252,9 @@ fn main() -> ExitCode {
                 history_interval: case.run.history_interval_steps,
                 stop_when_decided: case.run.stop_on_perforation,
                 out: &out,
-                fibres,
+                fibres: problem.fibres(),
+                layers: problem.layers(),
+                snapshot_interval: case.run.snapshot_interval_steps,
                 checkpoints: dea_mpi::run::CheckpointPolicy {
                     every_steps: case.run.checkpoint_interval_steps,
                     every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
@@ -320,7 +323,10 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Compare { first, second } => match dea_io::results::compare_results(&first, &second) {
+        Command::Compare { first, second } => match dea_io::results::compare_results(&first, &second).and_then(|mut differences| {
+            differences.extend(dea_io::snapshot::compare_snapshots(first.parent().unwrap_or(Path::new(".")), second.parent().unwrap_or(Path::new(".")))?);
+            Ok(differences)
+        }) {
             Ok(differences) if differences.is_empty() => {
                 println!("identical: every dataset of {} and {} has the same bits", first.display(), second.display());
                 ExitCode::SUCCESS

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use dea_core::domain::StageTimes;
 use dea_core::{Rank, Vec3};
-use dea_io::results::{write_results, Histories};
+use dea_io::results::{write_histories_csv, write_results, Histories};
 use serde::Serialize;
 
 use crate::comm::Comm;
@@ -43,6 +43,11 @@ pub struct Summary {
     /// slowest rank's compute time (integration, forces, failure, rebuild) / the mean [-]
     pub load_imbalance: f64,
     pub neighbour_rebuilds: u64,
+    /// energy each layer holds or has dissipated at the end (kinetic, strain, bending,
+    /// contact, friction, plasticity, fracture), layer 0 struck first [J]
+    pub energy_absorbed_by_layer_j: Vec<f64>,
+    /// broken elements of each layer at the end
+    pub broken_elements_by_layer: Vec<u64>,
     /// why the run stopped
     pub stopped_by: String,
 }
@@ -182,22 +187,29 @@ pub struct RunOptions<'a> {
     pub out: &'a Path,
     /// fibres in the whole problem
     pub fibres: usize,
+    /// layers of the target
+    pub layers: usize,
+    /// steps between field snapshots (none: no snapshots)
+    pub snapshot_interval: Option<u64>,
     pub checkpoints: CheckpointPolicy,
     /// the run loop's state when restarting from a checkpoint
     pub resume: Option<Resume>,
 }
 
 /// Samples the histories: every rank joins the reductions, rank 0 records.
-fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories) {
+fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usize) {
     let energy = run.energies();
     let broken = run.broken();
+    let by_layer = run.broken_by_layer(layers);
     if run.comm.rank() == Rank(0) {
         let domain = &run.domain;
         let projectile = domain.projectile.as_ref().expect("runs have a projectile");
         histories.time.push(domain.time);
         histories.projectile_position.push(projectile.position);
         histories.projectile_velocity.push(projectile.velocity);
+        histories.projectile_angular_velocity.push(projectile.angular_velocity());
         histories.projectile_force.push(projectile.force);
+        histories.broken_by_layer.push(by_layer);
         histories.energy.push(energy);
         histories.broken_tension.push(broken.tension);
         histories.broken_shear.push(broken.shear);
@@ -217,7 +229,10 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
         None => {
             let mut histories = Histories::default();
-            sample(run, &mut histories);
+            sample(run, &mut histories, options.layers);
+            if options.snapshot_interval.is_some() {
+                write_snapshot(run, options).map_err(RunError::Output)?;
+            }
             (histories, 0.0, run.energies().total(), None)
         }
     };
@@ -231,9 +246,14 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
+        if options.snapshot_interval.is_some_and(|n| run.domain.step % n == 0) {
+            let clock = Instant::now();
+            write_snapshot(run, options).map_err(RunError::Output)?;
+            output_seconds += clock.elapsed().as_secs_f64();
+        }
         if run.domain.step % options.history_interval == 0 {
             let clock = Instant::now();
-            sample(run, &mut histories);
+            sample(run, &mut histories, options.layers);
             decided = judge.outcome(run);
             output_seconds += clock.elapsed().as_secs_f64();
             if options.stop_when_decided && decided != Outcome::Undecided {
@@ -261,9 +281,14 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         }
     }
     if run.domain.step % options.history_interval != 0 {
-        sample(run, &mut histories);
+        sample(run, &mut histories, options.layers);
         decided = judge.outcome(run);
     }
+    if options.snapshot_interval.is_some_and(|n| run.domain.step % n != 0) {
+        write_snapshot(run, options).map_err(RunError::Output)?;
+    }
+    let energy_by_layer = run.energy_by_layer(options.layers);
+    let broken_by_layer = run.broken_by_layer(options.layers);
     let wall = start.elapsed().as_secs_f64();
     let clock = Instant::now();
     let final_state = run.gather_final_state();
@@ -271,9 +296,11 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut write_error = None;
     if let Some(state) = final_state {
         let path = options.out.join("results.h5");
+        let csv = options.out.join("history.csv");
         let outcome = std::fs::create_dir_all(options.out)
             .map_err(|e| format!("{}: {e}", options.out.display()))
-            .and_then(|()| write_results(&path, options.case_json, &histories, &state).map_err(|e| format!("{}: {e}", path.display())));
+            .and_then(|()| write_results(&path, options.case_json, &histories, &state).map_err(|e| format!("{}: {e}", path.display())))
+            .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())));
         if let Err(e) = outcome {
             written[0] = 0.0;
             write_error = Some(e);
@@ -319,11 +346,35 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         ghost_fraction: ghosts as f64 / nodes as f64,
         load_imbalance: if mean.compute() > 0.0 { slowest / mean.compute() } else { 1.0 },
         neighbour_rebuilds: run.rebuilds,
+        energy_absorbed_by_layer_j: energy_by_layer,
+        broken_elements_by_layer: broken_by_layer,
         stopped_by,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");
     std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
     Ok(Some(summary))
+}
+
+/// Writes every rank's part of a field snapshot, then rank 0 rewrites the XDMF file that
+/// joins all snapshots so far (collective).
+fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<(), String> {
+    let part = run.snapshot_part();
+    let (ranks, rank, step, time) = (run.comm.size(), run.comm.rank().0, run.domain.step, run.domain.time);
+    let written = dea_io::snapshot::write_part(options.out, ranks, rank, step, time, &part).map_err(|e| format!("{}: {e}", dea_io::snapshot::fields_directory(options.out).display()));
+    if run.any(written.is_err()) {
+        return Err(written.err().unwrap_or_else(|| "another rank could not write its snapshot part".into()));
+    }
+    let mut joined = Ok(());
+    if rank == 0 {
+        joined = dea_io::snapshot::index(options.out, ranks, step)
+            .map_err(|e| e.to_string())
+            .and_then(|snapshots| dea_io::snapshot::write_xdmf(options.out, &snapshots).map_err(|e| e.to_string()))
+            .map_err(|e| format!("{}: {e}", options.out.join("fields.xdmf").display()));
+    }
+    if run.any(joined.is_err()) {
+        return Err(joined.err().unwrap_or_else(|| "rank 0 could not write fields.xdmf".into()));
+    }
+    Ok(())
 }
 
 /// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest

@@ -37,6 +37,23 @@ pub struct Problem {
     pub reach: f64,
 }
 
+impl Problem {
+    /// Layer of each yarn.
+    pub fn layer_of_yarn(&self) -> Vec<u32> {
+        self.fabric.yarns.iter().map(|y| y.layer).collect()
+    }
+
+    /// Layers of the target.
+    pub fn layers(&self) -> usize {
+        self.fabric.yarns.iter().map(|y| y.layer as usize + 1).max().unwrap_or(1)
+    }
+
+    /// Fibres of the whole target.
+    pub fn fibres(&self) -> usize {
+        self.fabric.first_fibres().last().copied().unwrap_or(0) as usize
+    }
+}
+
 /// Why a rank could not be set up.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
@@ -146,10 +163,13 @@ pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_pos
         }
     }
     adjust(&mut built.nodes);
+    let layer_of_yarn = problem.layer_of_yarn();
     let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
     domain.owns_projectile = me == Rank(0);
     let nodes_per_fibre = problem.fabric.nodes_per_fibre();
-    Ok(Distributed::new(comm, domain, partition, nodes_per_fibre, problem.reach)?)
+    let mut run = Distributed::new(comm, domain, partition, nodes_per_fibre, problem.reach)?;
+    run.layer_of_yarn = layer_of_yarn;
+    Ok(run)
 }
 
 /// A run restored from a checkpoint on this rank.
@@ -199,6 +219,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
         return Err(SetupError::Checkpoint(format!("{}: holds {} nodes, of which {} belong to the case's {} nodes", directory.display(), global.nodes, counts[0], counts[1])));
     }
+    let layer_of_yarn = problem.layer_of_yarn();
     let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
     domain.owns_projectile = me == Rank(0);
     domain.step = global.step;
@@ -210,6 +231,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
+    run.layer_of_yarn = layer_of_yarn;
     run.rebuilds = global.rebuilds;
     run.domain.pairs.builds = global.list_builds;
     Ok(Restored { case, run, global })

@@ -25,7 +25,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn fibres(case: &Case) -> usize {
-    *problem(case).fabric.first_fibres().last().unwrap() as usize
+    problem(case).fibres()
 }
 
 fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option<u64>, resume: Option<Resume>) -> RunOptions<'a> {
@@ -37,6 +37,8 @@ fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option
         stop_when_decided: false,
         out,
         fibres: fibres(case),
+        layers: problem(case).layers(),
+        snapshot_interval: case.run.snapshot_interval_steps,
         checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None },
         resume,
     }

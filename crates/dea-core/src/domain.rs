@@ -588,11 +588,24 @@ impl Domain {
     /// projectile's kinetic energy on its owner only), ready to merge across ranks. Call
     /// after [`Self::compute_forces`] so strains and angles are current.
     pub fn energy_sums(&self) -> EnergySums {
+        let mut sums = self.energy_sums_by(|_| 0, 1);
+        let mut report = sums.pop().expect("one group");
+        if let Some(projectile) = self.projectile.as_ref().filter(|_| self.owns_projectile) {
+            report.projectile_kinetic.add(projectile.kinetic_energy());
+        }
+        report
+    }
+
+    /// The energies the fibres hold or dissipated, as exact sums per group of owned nodes
+    /// (`group(i)` < `groups`; a layer, say): everything of [`Self::energy_sums`] but the
+    /// projectile's kinetic energy.
+    pub fn energy_sums_by(&self, group: impl Fn(usize) -> usize, groups: usize) -> Vec<EnergySums> {
         let nodes = &self.nodes;
-        let mut report = EnergySums::default();
+        let mut sums = vec![EnergySums::default(); groups];
         let law = self.contact.law;
         let n_sections = self.sections.len();
         for i in 0..nodes.n_owned {
+            let report = &mut sums[group(i)];
             report.fibre_kinetic.add(0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared());
             if nodes.next[i] != NONE {
                 report.axial.add(element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i));
@@ -619,11 +632,9 @@ impl Domain {
             }
         }
         if let Some(projectile) = &self.projectile {
-            if self.owns_projectile {
-                report.projectile_kinetic.add(projectile.kinetic_energy());
-            }
             for &i in &self.projectile_contacts.candidates {
                 let i = i as usize;
+                let report = &mut sums[group(i)];
                 let (overlap, normal, body, geometry) = self.projectile_contact_geometry(projectile, i);
                 if overlap <= 0.0 {
                     continue;
@@ -638,7 +649,7 @@ impl Domain {
                 }
             }
         }
-        report
+        sums
     }
 
     /// [`Self::energy_sums`] rounded: the energies of a whole domain [J].

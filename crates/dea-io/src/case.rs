@@ -204,6 +204,9 @@ pub struct RunSpec {
     /// stop once the projectile has passed the whole target and moves away
     #[serde(default = "default_true")]
     pub stop_on_perforation: bool,
+    /// steps between field snapshots (fields.xdmf; none: no snapshots)
+    #[serde(default)]
+    pub snapshot_interval_steps: Option<u64>,
     /// write a checkpoint every this many steps (none: only by wall time and on signals)
     #[serde(default)]
     pub checkpoint_interval_steps: Option<u64>,
@@ -430,6 +433,9 @@ impl Case {
         if self.run.history_interval_steps == 0 {
             return Err(invalid("run.history_interval_steps", "must be >= 1, got 0"));
         }
+        if self.run.snapshot_interval_steps == Some(0) {
+            return Err(invalid("run.snapshot_interval_steps", "must be >= 1, got 0"));
+        }
         if self.run.checkpoint_interval_steps == Some(0) {
             return Err(invalid("run.checkpoint_interval_steps", "must be >= 1, got 0"));
         }
@@ -501,7 +507,7 @@ pub fn default_case() -> Case {
             velocity_m_s: 100.0,
             offset_m: [0.0, 0.0],
         },
-        run: RunSpec { end_time_s: 60e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
+        run: RunSpec { end_time_s: 60e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
     }
 }
 

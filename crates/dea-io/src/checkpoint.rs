@@ -318,8 +318,8 @@ mod tests {
 
     fn part(gids: &[u64]) -> NodeState {
         let mut p = NodeState::default();
-        for (k, &g) in gids.iter().enumerate() {
-            let x = Vec3::new(g as f64, k as f64, 0.5);
+        for &g in gids {
+            let x = Vec3::new(g as f64, 2.0 * g as f64, 0.5);
             p.gid.push(g);
             p.position.push(x);
             p.velocity.push(x * 2.0);
@@ -381,7 +381,7 @@ mod tests {
             rebuilds: 4,
             list_builds: 5,
             run_scalars: vec![1.5, 2.5],
-            histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
+            histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_angular_velocity: vec![Vec3::z()], broken_by_layer: vec![vec![1, 2, 3]], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
         };
         write_manifest(&manifest_path(&dir), &global).unwrap();
         assert_eq!(read_manifest(&dir).unwrap(), global);

@@ -3,5 +3,6 @@
 pub mod case;
 pub mod checkpoint;
 pub mod results;
+pub mod snapshot;
 
 pub use case::{load_case, parse_case, Case, CaseError};

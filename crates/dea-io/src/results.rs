@@ -3,8 +3,9 @@
 //! Layout (docs/output.md):
 //! - attribute `case` (JSON text), attribute `format` = "dea-mpi results 1"
 //! - `history/time` [s], `history/projectile_position` (n x 3) [m],
-//!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_force` (n x 3) [N],
-//!   `history/energy/<kind>` [J], `history/broken/{tension,shear,combined}` [-]
+//!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_angular_velocity`
+//!   (n x 3) [rad/s], `history/projectile_force` (n x 3) [N], `history/energy/<kind>` [J],
+//!   `history/broken/{tension,shear,combined}` [-], `history/broken/by_layer` (n x layers)
 //! - `final/gid`, `final/position` (N x 3) [m], `final/velocity` (N x 3) [m/s],
 //!   `final/element_failure` (0 intact, 1 tension, 2 shear, 3 combined)
 //! - `partition/rank`: the owning rank of each node of `final/gid`
@@ -22,6 +23,8 @@ pub struct Histories {
     pub projectile_position: Vec<Vec3>,
     /// [m/s]
     pub projectile_velocity: Vec<Vec3>,
+    /// [rad/s]
+    pub projectile_angular_velocity: Vec<Vec3>,
     /// contact force on the projectile [N]
     pub projectile_force: Vec<Vec3>,
     pub energy: Vec<EnergyReport>,
@@ -29,6 +32,8 @@ pub struct Histories {
     pub broken_tension: Vec<u64>,
     pub broken_shear: Vec<u64>,
     pub broken_combined: Vec<u64>,
+    /// cumulative broken elements of each layer (one row per sample)
+    pub broken_by_layer: Vec<Vec<u64>>,
 }
 
 /// Final nodal state, in ascending global id.
@@ -86,6 +91,7 @@ pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5:
     write_scalars(&history, "time", &histories.time, "s")?;
     write_vectors(&history, "projectile_position", &histories.projectile_position, "m")?;
     write_vectors(&history, "projectile_velocity", &histories.projectile_velocity, "m/s")?;
+    write_vectors(&history, "projectile_angular_velocity", &histories.projectile_angular_velocity, "rad/s")?;
     write_vectors(&history, "projectile_force", &histories.projectile_force, "N")?;
     let energy = history.create_group("energy")?;
     for (k, name) in ENERGY_KINDS.iter().enumerate() {
@@ -97,7 +103,49 @@ pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5:
     let broken = history.create_group("broken")?;
     write_scalars(&broken, "tension", &histories.broken_tension, "elements")?;
     write_scalars(&broken, "shear", &histories.broken_shear, "elements")?;
-    write_scalars(&broken, "combined", &histories.broken_combined, "elements")
+    write_scalars(&broken, "combined", &histories.broken_combined, "elements")?;
+    let layers = histories.broken_by_layer.first().map_or(0, Vec::len);
+    let flat: Vec<u64> = histories.broken_by_layer.iter().flatten().copied().collect();
+    let by_layer = broken.new_dataset::<u64>().shape([histories.broken_by_layer.len(), layers]).create("by_layer")?;
+    by_layer.write_raw(&flat)?;
+    write_text_attribute(&by_layer, "units", "elements (sample x layer)")
+}
+
+/// Writes the histories as CSV, units in the column names; numbers in the shortest form
+/// that reads back to the same bits.
+pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    let layers = histories.broken_by_layer.first().map_or(0, Vec::len);
+    let mut text = String::from("time_s");
+    for (name, unit) in [("projectile_position", "m"), ("projectile_velocity", "m_s"), ("projectile_angular_velocity", "rad_s"), ("projectile_force", "N")] {
+        for axis in ["x", "y", "z"] {
+            let _ = write!(text, ",{name}_{axis}_{unit}");
+        }
+    }
+    for kind in ENERGY_KINDS.iter().chain(&["total"]) {
+        let _ = write!(text, ",energy_{kind}_J");
+    }
+    text.push_str(",broken_tension,broken_shear,broken_combined");
+    for layer in 0..layers {
+        let _ = write!(text, ",broken_layer_{layer}");
+    }
+    text.push('\n');
+    for s in 0..histories.time.len() {
+        let _ = write!(text, "{:?}", histories.time[s]);
+        for v in [histories.projectile_position[s], histories.projectile_velocity[s], histories.projectile_angular_velocity[s], histories.projectile_force[s]] {
+            let _ = write!(text, ",{:?},{:?},{:?}", v.x, v.y, v.z);
+        }
+        let e = &histories.energy[s];
+        for value in energy_fields(e).iter().chain(&[e.total()]) {
+            let _ = write!(text, ",{value:?}");
+        }
+        let _ = write!(text, ",{},{},{}", histories.broken_tension[s], histories.broken_shear[s], histories.broken_combined[s]);
+        for count in &histories.broken_by_layer[s] {
+            let _ = write!(text, ",{count}");
+        }
+        text.push('\n');
+    }
+    std::fs::write(path, text)
 }
 
 /// Writes a complete results file.
@@ -148,7 +196,14 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
     Ok(Histories {
         projectile_position: vectors("history/projectile_position")?,
         projectile_velocity: vectors("history/projectile_velocity")?,
+        projectile_angular_velocity: vectors("history/projectile_angular_velocity")?,
         projectile_force: vectors("history/projectile_force")?,
+        broken_by_layer: {
+            let dataset = file.dataset("history/broken/by_layer")?;
+            let layers = dataset.shape().get(1).copied().unwrap_or(0);
+            let flat: Vec<u64> = dataset.read_raw()?;
+            if layers == 0 { vec![Vec::new(); dataset.shape()[0]] } else { flat.chunks_exact(layers).map(<[u64]>::to_vec).collect() }
+        },
         broken_tension: file.dataset("history/broken/tension")?.read_raw()?,
         broken_shear: file.dataset("history/broken/shear")?.read_raw()?,
         broken_combined: file.dataset("history/broken/combined")?.read_raw()?,
@@ -229,7 +284,9 @@ mod tests {
             time: vec![0.0, 1e-9],
             projectile_position: vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 5.0, 6.0)],
             projectile_velocity: vec![Vec3::zeros(), Vec3::x()],
+            projectile_angular_velocity: vec![Vec3::x() * 2.0, Vec3::zeros()],
             projectile_force: vec![Vec3::y(), Vec3::z()],
+            broken_by_layer: vec![vec![0, 0], vec![1, 5]],
             energy: vec![EnergyReport { axial: 1.0, ..Default::default() }, EnergyReport { plastic_dissipated: 2.0, ..Default::default() }],
             broken_tension: vec![0, 1],
             broken_shear: vec![0, 2],
@@ -238,6 +295,22 @@ mod tests {
         let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2], owner_rank: vec![0, 1] };
         write_results(&path, "{\"name\":\"t\"}", &histories, &state).unwrap();
         assert_eq!(read_histories(&path).unwrap(), histories);
+        // the CSV holds the same numbers, to the bit, under named columns with units
+        let csv_path = dir.join("history.csv");
+        write_histories_csv(&csv_path, &histories).unwrap();
+        let csv = std::fs::read_to_string(&csv_path).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 1 + 12 + 10 + 3 + 2);
+        assert!(header.contains(&"projectile_velocity_x_m_s") && header.contains(&"energy_axial_J") && header.contains(&"broken_layer_1"));
+        for (s, line) in lines.enumerate() {
+            let row: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+            let column = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
+            assert_eq!(column("time_s").to_bits(), histories.time[s].to_bits());
+            assert_eq!(column("projectile_angular_velocity_x_rad_s").to_bits(), histories.projectile_angular_velocity[s].x.to_bits());
+            assert_eq!(column("energy_plastic_dissipated_J").to_bits(), histories.energy[s].plastic_dissipated.to_bits());
+            assert_eq!(column("broken_layer_1") as u64, histories.broken_by_layer[s][1]);
+        }
         // a copy with another partition compares equal; one changed bit does not
         let other = dir.join("other.h5");
         write_results(&other, "{\"name\":\"t\"}", &histories, &FinalState { owner_rank: vec![3, 2], ..state.clone() }).unwrap();

@@ -1,0 +1,297 @@
+//! Field snapshots written by every rank for its own nodes, joined by one XDMF file so that
+//! ParaView opens the run with no plugin.
+//!
+//! `OUT/fields/ranks-PPPPP-part-RRRRR.h5` holds rank R's part (of a run on P ranks), one
+//! group `snapshot-SSSSSSSSSS` per snapshot step: points (the rank's nodes plus the far node
+//! of each element that crosses to another rank, so that no fibre shows a gap) with
+//! `position`, `velocity`, `gid`, `layer`, `yarn` and `rank`; polyline cells (one per intact
+//! or broken element of an owned node) with `connectivity`, `element_gid`, `strain`,
+//! `stress` and `failure`. `OUT/fields.xdmf` lists every snapshot as a spatial collection of
+//! the rank parts inside a temporal collection. No rank ever gathers the nodes of another.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use dea_core::Vec3;
+
+use crate::results::{write_scalars, write_text_attribute, write_vectors};
+
+/// One rank's snapshot.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SnapshotPart {
+    /// [m]
+    pub position: Vec<Vec3>,
+    /// [m/s]
+    pub velocity: Vec<Vec3>,
+    pub gid: Vec<u64>,
+    pub layer: Vec<u32>,
+    pub yarn: Vec<u32>,
+    /// owning rank of each point (the one field that depends on the rank count)
+    pub rank: Vec<u32>,
+    /// point indices of each element
+    pub connectivity: Vec<[u32; 2]>,
+    /// global id of each element (that of its first node)
+    pub element_gid: Vec<u64>,
+    /// engineering strain [-]
+    pub strain: Vec<f64>,
+    /// axial stress E_L eps, 0 once broken [Pa]
+    pub stress: Vec<f64>,
+    /// 0 intact, 1 tension, 2 shear, 3 combined
+    pub failure: Vec<u8>,
+}
+
+/// Directory of the part files.
+pub fn fields_directory(out: &Path) -> PathBuf {
+    out.join("fields")
+}
+
+fn part_name(ranks: usize, rank: u32) -> String {
+    format!("ranks-{ranks:05}-part-{rank:05}.h5")
+}
+
+fn group_name(step: u64) -> String {
+    format!("snapshot-{step:010}")
+}
+
+/// Writes (or replaces) this rank's part of the snapshot at `step`.
+pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, part: &SnapshotPart) -> hdf5::Result<()> {
+    let directory = fields_directory(out);
+    std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
+    let file = hdf5::File::append(directory.join(part_name(ranks, rank)))?;
+    let name = group_name(step);
+    if file.link_exists(&name) {
+        // a restart after a crash writes again what followed its checkpoint
+        file.unlink(&name)?;
+    }
+    let group = file.create_group(&name)?;
+    write_scalars(&group, "step", &[step], "-")?;
+    write_scalars(&group, "time", &[time], "s")?;
+    write_vectors(&group, "position", &part.position, "m")?;
+    write_vectors(&group, "velocity", &part.velocity, "m/s")?;
+    write_scalars(&group, "gid", &part.gid, "-")?;
+    write_scalars(&group, "layer", &part.layer, "-")?;
+    write_scalars(&group, "yarn", &part.yarn, "-")?;
+    write_scalars(&group, "rank", &part.rank, "-")?;
+    let connectivity: Vec<u32> = part.connectivity.iter().flatten().copied().collect();
+    let dataset = group.new_dataset::<u32>().shape([part.connectivity.len(), 2]).create("connectivity")?;
+    dataset.write_raw(&connectivity)?;
+    write_text_attribute(&dataset, "units", "point index")?;
+    write_scalars(&group, "element_gid", &part.element_gid, "-")?;
+    write_scalars(&group, "strain", &part.strain, "-")?;
+    write_scalars(&group, "stress", &part.stress, "Pa")?;
+    write_scalars(&group, "failure", &part.failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
+    file.flush()
+}
+
+/// One part of one snapshot on disk.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IndexedPart {
+    /// file name inside the fields directory
+    pub file: String,
+    pub points: usize,
+    pub cells: usize,
+}
+
+/// One snapshot on disk.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IndexedSnapshot {
+    pub step: u64,
+    /// [s]
+    pub time: f64,
+    /// rank count of the run that wrote it
+    pub ranks: usize,
+    pub parts: Vec<IndexedPart>,
+}
+
+/// Every snapshot in `out`'s fields directory up to `last_step`, ascending step. When two
+/// runs (a crash and its restart on another rank count) wrote the same step, the parts of
+/// `ranks` win.
+pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<IndexedSnapshot>> {
+    let directory = fields_directory(out);
+    let mut names: Vec<String> = match std::fs::read_dir(&directory) {
+        Ok(entries) => entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with("ranks-") && n.ends_with(".h5")).collect(),
+        Err(_) => return Ok(Vec::new()),
+    };
+    names.sort();
+    let mut by_step: BTreeMap<u64, BTreeMap<usize, IndexedSnapshot>> = BTreeMap::new();
+    for name in names {
+        let Some(writer_ranks) = name.get(6..11).and_then(|r| r.parse::<usize>().ok()) else { continue };
+        let file = hdf5::File::open(directory.join(&name))?;
+        for group_name in file.member_names()? {
+            let group = file.group(&group_name)?;
+            let step: u64 = group.dataset("step")?.read_raw::<u64>()?[0];
+            if step > last_step {
+                continue;
+            }
+            let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
+            let points = group.dataset("gid")?.size();
+            let cells = group.dataset("element_gid")?.size();
+            let entry = by_step.entry(step).or_default().entry(writer_ranks).or_insert_with(|| IndexedSnapshot { step, time, ranks: writer_ranks, parts: Vec::new() });
+            entry.parts.push(IndexedPart { file: name.clone(), points, cells });
+        }
+    }
+    Ok(by_step
+        .into_values()
+        .filter_map(|mut writers| {
+            let preferred = if writers.contains_key(&ranks) { ranks } else { *writers.keys().next_back()? };
+            writers.remove(&preferred)
+        })
+        .collect())
+}
+
+fn item(out: &mut String, file: &str, step: u64, name: &str, dimensions: &str, number_type: &str, precision: usize) {
+    let _ = writeln!(
+        out,
+        "          <DataItem Dimensions=\"{dimensions}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">fields/{file}:/{}/{name}</DataItem>",
+        group_name(step)
+    );
+}
+
+/// Writes the XDMF file joining `snapshots` (it is replaced whole, so it is always valid).
+pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<()> {
+    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    for snapshot in snapshots {
+        let _ = writeln!(x, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n        <Time Value=\"{:e}\" />", snapshot.step, snapshot.time);
+        for part in snapshot.parts.iter().filter(|p| p.points > 0 && p.cells > 0) {
+            let (points, cells, step, file) = (part.points, part.cells, snapshot.step, part.file.as_str());
+            let _ = writeln!(x, "      <Grid Name=\"{}\" GridType=\"Uniform\">", file.trim_end_matches(".h5"));
+            let _ = writeln!(x, "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{cells}\">");
+            item(&mut x, file, step, "connectivity", &format!("{cells} 2"), "UInt", 4);
+            let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
+            item(&mut x, file, step, "position", &format!("{points} 3"), "Float", 8);
+            let _ = writeln!(x, "        </Geometry>");
+            for (name, kind, center, number_type, precision, dims) in [
+                ("velocity", "Vector", "Node", "Float", 8, format!("{points} 3")),
+                ("gid", "Scalar", "Node", "UInt", 8, format!("{points}")),
+                ("layer", "Scalar", "Node", "UInt", 4, format!("{points}")),
+                ("yarn", "Scalar", "Node", "UInt", 4, format!("{points}")),
+                ("rank", "Scalar", "Node", "UInt", 4, format!("{points}")),
+                ("strain", "Scalar", "Cell", "Float", 8, format!("{cells}")),
+                ("stress", "Scalar", "Cell", "Float", 8, format!("{cells}")),
+                ("failure", "Scalar", "Cell", "UChar", 1, format!("{cells}")),
+            ] {
+                let _ = writeln!(x, "        <Attribute Name=\"{name}\" AttributeType=\"{kind}\" Center=\"{center}\">");
+                item(&mut x, file, step, name, &dims, number_type, precision);
+                let _ = writeln!(x, "        </Attribute>");
+            }
+            let _ = writeln!(x, "      </Grid>");
+        }
+        let _ = writeln!(x, "      </Grid>");
+    }
+    x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
+    let path = out.join("fields.xdmf");
+    let temporary = out.join("fields.xdmf.writing");
+    std::fs::write(&temporary, x)?;
+    std::fs::rename(&temporary, &path)
+}
+
+/// A snapshot gathered from its parts and sorted by gid: point data by node, cell data by
+/// element. Used to compare runs on different rank counts (the `rank` field is left out).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MergedSnapshot {
+    pub time_bits: u64,
+    /// (gid, position bits, velocity bits, layer, yarn)
+    pub points: Vec<(u64, [u64; 3], [u64; 3], u32, u32)>,
+    /// (element gid, strain bits, stress bits, failure)
+    pub cells: Vec<(u64, u64, u64, u8)>,
+}
+
+/// Reads every part of `snapshot` and merges it by gid (points of several parts that share a
+/// gid, the far ends of crossing elements, must agree; one is kept).
+pub fn merged(out: &Path, snapshot: &IndexedSnapshot) -> hdf5::Result<MergedSnapshot> {
+    let bits = |v: &Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let mut points = Vec::new();
+    let mut cells = Vec::new();
+    for part in &snapshot.parts {
+        let file = hdf5::File::open(fields_directory(out).join(&part.file))?;
+        let group = file.group(&group_name(snapshot.step))?;
+        let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> { Ok(group.dataset(name)?.read_raw::<f64>()?.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()) };
+        let (position, velocity) = (vectors("position")?, vectors("velocity")?);
+        let gid: Vec<u64> = group.dataset("gid")?.read_raw()?;
+        let layer: Vec<u32> = group.dataset("layer")?.read_raw()?;
+        let yarn: Vec<u32> = group.dataset("yarn")?.read_raw()?;
+        for k in 0..gid.len() {
+            points.push((gid[k], bits(&position[k]), bits(&velocity[k]), layer[k], yarn[k]));
+        }
+        let element_gid: Vec<u64> = group.dataset("element_gid")?.read_raw()?;
+        let strain: Vec<f64> = group.dataset("strain")?.read_raw()?;
+        let stress: Vec<f64> = group.dataset("stress")?.read_raw()?;
+        let failure: Vec<u8> = group.dataset("failure")?.read_raw()?;
+        for k in 0..element_gid.len() {
+            cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
+        }
+    }
+    points.sort();
+    points.dedup();
+    cells.sort();
+    Ok(MergedSnapshot { time_bits: snapshot.time.to_bits(), points, cells })
+}
+
+/// Differences between the snapshots of two runs (any rank counts), step by step, node by
+/// node and element by element, the owning rank left out. Empty when identical.
+pub fn compare_snapshots(a: &Path, b: &Path) -> hdf5::Result<Vec<String>> {
+    let (left, right) = (index(a, usize::MAX, u64::MAX)?, index(b, usize::MAX, u64::MAX)?);
+    let steps = |s: &[IndexedSnapshot]| s.iter().map(|x| x.step).collect::<Vec<_>>();
+    if steps(&left) != steps(&right) {
+        return Ok(vec![format!("snapshot steps differ: {:?} vs {:?}", steps(&left), steps(&right))]);
+    }
+    let mut differences = Vec::new();
+    for (x, y) in left.iter().zip(&right) {
+        let (mx, my) = (merged(a, x)?, merged(b, y)?);
+        if mx != my {
+            let points = mx.points.iter().zip(&my.points).filter(|(p, q)| p != q).count() + mx.points.len().abs_diff(my.points.len());
+            let cells = mx.cells.iter().zip(&my.cells).filter(|(p, q)| p != q).count() + mx.cells.len().abs_diff(my.cells.len());
+            differences.push(format!("snapshot at step {}: {points} points and {cells} elements differ", x.step));
+        }
+    }
+    Ok(differences)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(first: u64, rank: u32) -> SnapshotPart {
+        SnapshotPart {
+            position: vec![Vec3::new(first as f64, 0.0, 0.0), Vec3::new(first as f64 + 1.0, 0.0, 0.0)],
+            velocity: vec![Vec3::x() * first as f64, Vec3::x() * (first + 1) as f64],
+            gid: vec![first, first + 1],
+            layer: vec![0, 0],
+            yarn: vec![1, 1],
+            rank: vec![rank, rank],
+            connectivity: vec![[0, 1]],
+            element_gid: vec![first],
+            strain: vec![0.01],
+            stress: vec![8.46e8],
+            failure: vec![0],
+        }
+    }
+
+    #[test]
+    fn parts_index_merge_and_join_in_xdmf() {
+        let out = std::env::temp_dir().join(format!("dea-snapshot-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        std::fs::create_dir_all(&out).unwrap();
+        for step in [10, 20] {
+            write_part(&out, 2, 0, step, step as f64 * 1e-9, &part(0, 0)).unwrap();
+            write_part(&out, 2, 1, step, step as f64 * 1e-9, &part(1, 1)).unwrap();
+        }
+        // a restart on 1 rank rewrote step 20 and went on to 30
+        write_part(&out, 1, 0, 20, 20e-9, &part(0, 0)).unwrap();
+        write_part(&out, 1, 0, 20, 20e-9, &part(0, 0)).unwrap();
+        write_part(&out, 1, 0, 30, 30e-9, &part(0, 0)).unwrap();
+        let snapshots = index(&out, 1, 25).unwrap();
+        assert_eq!(snapshots.iter().map(|s| (s.step, s.ranks, s.parts.len())).collect::<Vec<_>>(), vec![(10, 2, 2), (20, 1, 1)]);
+        let merged_10 = merged(&out, &snapshots[0]).unwrap();
+        // node 1 is in both parts (the far end of rank 0's element): kept once
+        assert_eq!(merged_10.points.iter().map(|p| p.0).collect::<Vec<_>>(), vec![0, 1, 2]);
+        assert_eq!(merged_10.cells.iter().map(|c| c.0).collect::<Vec<_>>(), vec![0, 1]);
+        write_xdmf(&out, &snapshots).unwrap();
+        let text = std::fs::read_to_string(out.join("fields.xdmf")).unwrap();
+        assert_eq!(text.matches("CollectionType=\"Spatial\"").count(), 2);
+        assert!(text.contains("fields/ranks-00002-part-00001.h5:/snapshot-0000000010/connectivity"));
+        assert!(text.contains("<Time Value=\"2e-8\" />"));
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
