@@ -5,5 +5,6 @@
 pub mod bench;
 pub mod comm;
 pub mod distributed;
+pub mod progress;
 pub mod run;
 pub mod setup;

@@ -49,6 +49,9 @@ enum Command {
         /// number of ranks; the case comes from the checkpoint
         #[arg(long, conflicts_with = "case")]
         restart: Option<PathBuf>,
+        /// also write every rank's log to DIR/rank-NNNNN.log
+        #[arg(long)]
+        log_dir: Option<PathBuf>,
         /// fault injection for the test suite: this rank panics after set-up, to show that
         /// the whole job then ends at once
         #[arg(long, hide = true)]
@@ -202,10 +205,14 @@ fn main() -> ExitCode {
             println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }
-        Command::Run { case, out, method, restart, panic_on_rank } => {
+        Command::Run { case, out, method, restart, log_dir, panic_on_rank } => {
             let comm = match MpiComm::initialize() {
                 Ok(comm) => comm,
                 Err(e) => return fail(Exit::Usage, e),
+            };
+            let _logging = match dea_mpi::progress::init_logging(comm.rank().0, log_dir.as_deref()) {
+                Ok(span) => span,
+                Err(e) => return fail(Exit::File, format!("logging: {e}")),
             };
             let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
@@ -242,9 +249,15 @@ fn main() -> ExitCode {
             if panic_on_rank == Some(run.comm.rank().0) {
                 panic!("fault injection: rank {} panics on request", run.comm.rank().0);
             }
-            if is_root {
-                eprintln!("dea-mpi: case {:?}, dt = {:.3e} s, end {:.3e} s, {} rank(s)", case.name, run.domain.time_step, case.run.end_time_s, ranks);
-            }
+            tracing::info!(
+                "case {:?}: {} owned nodes and {} ghosts here, dt = {:.3e} s, end {:.3e} s, {} rank(s)",
+                case.name,
+                run.domain.nodes.n_owned,
+                run.ghosts(),
+                run.domain.time_step,
+                case.run.end_time_s,
+                ranks
+            );
             let options = RunOptions {
                 case_name: &case.name,
                 case_json: &json,

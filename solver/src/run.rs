@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::comm::Comm;
 use crate::distributed::{CommTimes, Distributed};
+use crate::progress::Progress;
 use crate::setup::{projectile_bottom, projectile_top};
 
 /// What a run reports in `summary.json`.
@@ -223,7 +224,6 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let is_root = run.comm.rank() == Rank(0);
     let mut output_seconds = 0.0;
     let start = Instant::now();
-    let mut last_report = Instant::now();
     let mut last_checkpoint = Instant::now();
     let (mut histories, mut max_force, initial_energy, back_face) = match &options.resume {
         Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
@@ -241,6 +241,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, direction, options.fibres, back_face);
+    let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
+    let balance = |histories: &Histories| histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy);
+    let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
         let signalled = options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
         run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
@@ -273,11 +276,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
                 return Err(RunError::Interrupted(directory));
             }
         }
-        if run.domain.step % options.history_interval == 0 {
-            if is_root && last_report.elapsed().as_secs_f64() > 30.0 {
-                last_report = Instant::now();
-                eprintln!("step {} t = {:.3e} s ({:.0}%), wall {:.0} s", run.domain.step, run.domain.time, 100.0 * run.domain.time / options.end_time, start.elapsed().as_secs_f64());
-            }
+        if let Some(progress) = &mut progress {
+            progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories));
         }
     }
     if run.domain.step % options.history_interval != 0 {
@@ -286,6 +286,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     }
     if options.snapshot_interval.is_some_and(|n| run.domain.step % n != 0) {
         write_snapshot(run, options).map_err(RunError::Output)?;
+    }
+    if let Some(progress) = &mut progress {
+        progress.finish(run.domain.step, run.domain.time, speed(run), balance(&histories));
     }
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);

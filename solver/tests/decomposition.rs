@@ -86,6 +86,12 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
         let summary = run_on(&case, ranks, &dir.join(ranks.to_string()));
         let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
         assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
+        // the field snapshots, written by each rank for its own nodes, agree node by node
+        let snapshots = dea_io::snapshot::index(&dir.join(ranks.to_string()), ranks, u64::MAX).unwrap();
+        assert_eq!(snapshots.len(), 5);
+        assert!(snapshots.iter().all(|s| s.parts.len() == ranks));
+        let differences = dea_io::snapshot::compare_snapshots(&dir.join("1"), &dir.join(ranks.to_string())).unwrap();
+        assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
         assert_eq!(summary.residual_velocity_m_s.to_bits(), reference.residual_velocity_m_s.to_bits());
         assert_eq!(summary.max_projectile_force_n.to_bits(), reference.max_projectile_force_n.to_bits());
         assert_eq!(summary.neighbour_rebuilds, reference.neighbour_rebuilds);

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Checks the results against the tools users open them with: installs Debian's ParaView,
+# Xvfb, h5py and matplotlib when missing, runs the four-layer panel on 2 ranks, opens its
+# fields.xdmf in ParaView (arrays, time steps, an offscreen PNG) and draws the plots of
+# scripts/plot-run.py. Debian's Python modules need /usr/bin/python3.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/mpi-env.sh
+packages=(paraview python3-paraview xvfb xauth python3-matplotlib python3-h5py)
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+    as_root=()
+    [ "$(id -u)" -eq 0 ] || as_root=(sudo)
+    echo "viz-tests: installing ${missing[*]}"
+    "${as_root[@]}" apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+passed=0 failed=0
+check() { # name, command...
+    local name=$1; shift
+    if "$@" >"$work/$name.log" 2>&1; then passed=$((passed + 1)); echo "ok   $name"; tail -n 1 "$work/$name.log"
+    else failed=$((failed + 1)); echo "FAIL $name"; cat "$work/$name.log"; fi
+}
+check panel-with-snapshots "${MPIRUN[@]}" -np 2 target/release/dea-mpi run cases/four_layer_panel.json --out "$work/panel"
+check paraview-opens-the-run xvfb-run -a /usr/bin/python3 scripts/paraview-check.py "$work/panel" "$work/panel/fields.png"
+check image-is-not-empty test -s "$work/panel/fields.png"
+check plots /usr/bin/python3 scripts/plot-run.py "$work/panel"
+check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer panel_side; do test -s $work/panel/plots/\$f.png || exit 1; done"
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
