@@ -58,14 +58,22 @@ axes.set_xlabel("layer (1 struck first)")
 axes.set_ylabel("energy absorbed [mJ]")
 save(figure, "energy_by_layer.png")
 
+# the final state: the last snapshot, one part per rank (the far end of a crossing element
+# appears in two parts; plotting it twice is harmless)
+parts = [h5py.File(os.path.join(out, "fields", name), "r") for name in sorted(os.listdir(os.path.join(out, "fields")))]
+last = max(name for part in parts for name in part.keys())
+position = [part[last]["position"][()] for part in parts if last in part]
+failure = [part[last]["failure"][()] for part in parts if last in part]
+connectivity = [part[last]["connectivity"][()] for part in parts if last in part]
 figure, axes = plt.subplots(figsize=(8, 4))
-position = results["final/position"][()]
-failure = results["final/element_failure"][()]
-axes.scatter(position[:, 0] * 1e3, position[:, 2] * 1e3, s=0.5, c=failure > 0, cmap="coolwarm")
+for points, cells, broken in zip(position, connectivity, failure):
+    for colour, selection in (("tab:blue", broken == 0), ("tab:red", broken > 0)):
+        segments = points[cells[selection]] * 1e3
+        axes.plot(segments[:, :, 0].T, segments[:, :, 2].T, color=colour, linewidth=0.3)
 axes.set_xlabel("x [mm]")
 axes.set_ylabel("z [mm]")
 axes.set_aspect("equal", adjustable="datalim")
-axes.set_title("final state (red: broken element)")
+axes.set_title(f"final state, {last} (red: broken elements)")
 save(figure, "panel_side.png")
 
 empty = [p for p in written if os.path.getsize(p) == 0]

@@ -19,7 +19,6 @@ use dea_core::projectile::RigidProjectile;
 use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
 use dea_io::snapshot::SnapshotPart;
-use dea_io::results::FinalState;
 use dea_partition::Partition;
 use nalgebra::{Quaternion, UnitQuaternion};
 use serde::Serialize;
@@ -498,28 +497,6 @@ impl<C: Comm> Distributed<C> {
     pub fn from_rank0<const N: usize>(&self, mut values: [f64; N]) -> [f64; N] {
         self.comm.broadcast_f64(&mut values);
         values
-    }
-
-    /// The owned nodes of every rank on rank 0, ascending global id, with their owners.
-    pub fn gather_final_state(&self) -> Option<FinalState> {
-        let nodes = &self.domain.nodes;
-        let mine: Vec<f64> = (0..nodes.n_owned)
-            .flat_map(|i| {
-                let (x, v) = (nodes.position[i], nodes.velocity[i]);
-                [word(nodes.gid[i].0), x.x, x.y, x.z, v.x, v.y, v.z, word(self.domain.elements.failure[i] as u64)]
-            })
-            .collect();
-        let all = self.comm.gather_f64(&mine)?;
-        let mut rows: Vec<(u64, &[f64], u32)> = all.iter().enumerate().flat_map(|(r, words)| words.chunks_exact(8).map(move |w| (integer(w[0]), w, r as u32))).collect();
-        rows.sort_unstable_by_key(|row| row.0);
-        let state = FinalState {
-            gid: rows.iter().map(|r| r.0).collect(),
-            position: rows.iter().map(|r| Vec3::new(r.1[1], r.1[2], r.1[3])).collect(),
-            velocity: rows.iter().map(|r| Vec3::new(r.1[4], r.1[5], r.1[6])).collect(),
-            element_failure: rows.iter().map(|r| integer(r.1[7]) as u8).collect(),
-            owner_rank: rows.iter().map(|r| r.2).collect(),
-        };
-        Some(state)
     }
 
     /// Nodes on every fibre.

@@ -284,7 +284,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         sample(run, &mut histories, options.layers);
         decided = judge.outcome(run);
     }
-    if options.snapshot_interval.is_some_and(|n| run.domain.step % n != 0) {
+    // the final state is the last snapshot, written by each rank for its own nodes
+    if options.snapshot_interval.is_none_or(|n| run.domain.step % n != 0) {
         write_snapshot(run, options).map_err(RunError::Output)?;
     }
     if let Some(progress) = &mut progress {
@@ -294,15 +295,14 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let broken_by_layer = run.broken_by_layer(options.layers);
     let wall = start.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let final_state = run.gather_final_state();
     let mut written = [1.0];
     let mut write_error = None;
-    if let Some(state) = final_state {
+    if is_root {
         let path = options.out.join("results.h5");
         let csv = options.out.join("history.csv");
         let outcome = std::fs::create_dir_all(options.out)
             .map_err(|e| format!("{}: {e}", options.out.display()))
-            .and_then(|()| write_results(&path, options.case_json, &histories, &state).map_err(|e| format!("{}: {e}", path.display())))
+            .and_then(|()| write_results(&path, options.case_json, &histories).map_err(|e| format!("{}: {e}", path.display())))
             .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())));
         if let Err(e) = outcome {
             written[0] = 0.0;

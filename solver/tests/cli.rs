@@ -75,8 +75,14 @@ fn run_writes_summary_and_hdf5_histories() {
         let values: Vec<f64> = file.dataset(&format!("history/energy/{kind}")).unwrap().read_raw().unwrap();
         assert_eq!(values.len(), time.len(), "{kind}");
     }
-    let gid: Vec<u64> = file.dataset("final/gid").unwrap().read_raw().unwrap();
-    assert_eq!(gid.len() as u64, summary["nodes"].as_u64().unwrap());
+    // the final state is the last snapshot, one part per rank, listed in fields.xdmf
+    let snapshots = dea_io::snapshot::index(&dir, 1, u64::MAX).unwrap();
+    let last = snapshots.last().expect("a final snapshot");
+    assert_eq!(last.step, summary["steps"].as_u64().unwrap());
+    assert_eq!(last.parts[0].points as u64, summary["nodes"].as_u64().unwrap());
+    assert!(std::fs::read_to_string(dir.join("fields.xdmf")).unwrap().contains(&format!("step {}", last.step)));
+    // history.csv has a row per sample
+    assert_eq!(std::fs::read_to_string(dir.join("history.csv")).unwrap().lines().count(), time.len() + 1);
 }
 
 #[test]

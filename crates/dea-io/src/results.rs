@@ -6,9 +6,8 @@
 //!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_angular_velocity`
 //!   (n x 3) [rad/s], `history/projectile_force` (n x 3) [N], `history/energy/<kind>` [J],
 //!   `history/broken/{tension,shear,combined}` [-], `history/broken/by_layer` (n x layers)
-//! - `final/gid`, `final/position` (N x 3) [m], `final/velocity` (N x 3) [m/s],
-//!   `final/element_failure` (0 intact, 1 tension, 2 shear, 3 combined)
-//! - `partition/rank`: the owning rank of each node of `final/gid`
+//! Field data (the final state included) are in the per-rank snapshots (`snapshot.rs`): no
+//! rank ever gathers every node.
 
 use dea_core::energy::EnergyReport;
 use dea_core::Vec3;
@@ -34,20 +33,6 @@ pub struct Histories {
     pub broken_combined: Vec<u64>,
     /// cumulative broken elements of each layer (one row per sample)
     pub broken_by_layer: Vec<Vec<u64>>,
-}
-
-/// Final nodal state, in ascending global id.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FinalState {
-    pub gid: Vec<u64>,
-    /// [m]
-    pub position: Vec<Vec3>,
-    /// [m/s]
-    pub velocity: Vec<Vec3>,
-    /// failure mode code of the element starting at each node
-    pub element_failure: Vec<u8>,
-    /// rank that owned each node (the only dataset that depends on the number of ranks)
-    pub owner_rank: Vec<u32>,
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
@@ -149,18 +134,11 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
 }
 
 /// Writes a complete results file.
-pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories, final_state: &FinalState) -> hdf5::Result<()> {
+pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories) -> hdf5::Result<()> {
     let file = hdf5::File::create(path)?;
     write_text_attribute(&file, "format", "dea-mpi results 1")?;
     write_text_attribute(&file, "case", case_json)?;
     write_histories(&file, histories)?;
-    let last = file.create_group("final")?;
-    write_scalars(&last, "gid", &final_state.gid, "-")?;
-    write_vectors(&last, "position", &final_state.position, "m")?;
-    write_vectors(&last, "velocity", &final_state.velocity, "m/s")?;
-    write_scalars(&last, "element_failure", &final_state.element_failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
-    let partition = file.create_group("partition")?;
-    write_scalars(&partition, "rank", &final_state.owner_rank, "rank owning each node of final/gid")?;
     file.flush()
 }
 
@@ -238,17 +216,13 @@ fn dataset_bits(dataset: &hdf5::Dataset) -> hdf5::Result<Vec<u64>> {
     })
 }
 
-/// Differences between two results files, dataset by dataset and bit for bit; the
-/// `partition` group (which rank owned what) is left out, since it differs by design
-/// between rank counts. Empty when the runs are identical.
+/// Differences between two results files, dataset by dataset and bit for bit. Empty when
+/// the runs are identical.
 pub fn compare_results(a: &std::path::Path, b: &std::path::Path) -> hdf5::Result<Vec<String>> {
     let (file_a, file_b) = (hdf5::File::open(a)?, hdf5::File::open(b)?);
     let (mut paths_a, mut paths_b) = (Vec::new(), Vec::new());
     dataset_paths(&file_a, "", &mut paths_a)?;
     dataset_paths(&file_b, "", &mut paths_b)?;
-    let keep = |p: &String| !p.starts_with("partition/");
-    paths_a.retain(keep);
-    paths_b.retain(keep);
     let mut differences = Vec::new();
     for path in paths_a.iter().filter(|p| !paths_b.contains(p)) {
         differences.push(format!("{path}: only in {}", a.display()));
@@ -292,8 +266,7 @@ mod tests {
             broken_shear: vec![0, 2],
             broken_combined: vec![0, 3],
         };
-        let state = FinalState { gid: vec![0, 1], position: vec![Vec3::x(), Vec3::y()], velocity: vec![Vec3::z(), Vec3::x()], element_failure: vec![0, 2], owner_rank: vec![0, 1] };
-        write_results(&path, "{\"name\":\"t\"}", &histories, &state).unwrap();
+        write_results(&path, "{\"name\":\"t\"}", &histories).unwrap();
         assert_eq!(read_histories(&path).unwrap(), histories);
         // the CSV holds the same numbers, to the bit, under named columns with units
         let csv_path = dir.join("history.csv");
@@ -311,14 +284,14 @@ mod tests {
             assert_eq!(column("energy_plastic_dissipated_J").to_bits(), histories.energy[s].plastic_dissipated.to_bits());
             assert_eq!(column("broken_layer_1") as u64, histories.broken_by_layer[s][1]);
         }
-        // a copy with another partition compares equal; one changed bit does not
+        // a copy compares equal; one changed bit does not
         let other = dir.join("other.h5");
-        write_results(&other, "{\"name\":\"t\"}", &histories, &FinalState { owner_rank: vec![3, 2], ..state.clone() }).unwrap();
+        write_results(&other, "{\"name\":\"t\"}", &histories).unwrap();
         assert_eq!(compare_results(&path, &other).unwrap(), Vec::<String>::new());
-        let mut changed = state.clone();
-        changed.position[1].y = f64::from_bits(changed.position[1].y.to_bits() + 1);
-        write_results(&other, "{\"name\":\"t\"}", &histories, &changed).unwrap();
-        assert_eq!(compare_results(&path, &other).unwrap(), vec!["final/position: 1 of 6 values differ, first at flat index 4".to_string()]);
+        let mut changed = histories.clone();
+        changed.projectile_position[1].y = f64::from_bits(changed.projectile_position[1].y.to_bits() + 1);
+        write_results(&other, "{\"name\":\"t\"}", &changed).unwrap();
+        assert_eq!(compare_results(&path, &other).unwrap(), vec!["history/projectile_position: 1 of 6 values differ, first at flat index 4".to_string()]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
