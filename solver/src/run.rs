@@ -249,12 +249,12 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
-        if options.snapshot_interval.is_some_and(|n| run.domain.step % n == 0) {
+        if options.snapshot_interval.is_some_and(|n| run.domain.step.is_multiple_of(n)) {
             let clock = Instant::now();
             write_snapshot(run, options).map_err(RunError::Output)?;
             output_seconds += clock.elapsed().as_secs_f64();
         }
-        if run.domain.step % options.history_interval == 0 {
+        if run.domain.step.is_multiple_of(options.history_interval) {
             let clock = Instant::now();
             sample(run, &mut histories, options.layers);
             decided = judge.outcome(run);
@@ -265,7 +265,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             }
         }
         let [stop, due_by_time] = run.agreed;
-        let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step % n == 0);
+        let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if stop || due_by_time || due_by_steps {
             let clock = Instant::now();
             let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };
@@ -280,12 +280,12 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories));
         }
     }
-    if run.domain.step % options.history_interval != 0 {
+    if !run.domain.step.is_multiple_of(options.history_interval) {
         sample(run, &mut histories, options.layers);
         decided = judge.outcome(run);
     }
     // the final state is the last snapshot, written by each rank for its own nodes
-    if options.snapshot_interval.is_none_or(|n| run.domain.step % n != 0) {
+    if options.snapshot_interval.is_none_or(|n| !run.domain.step.is_multiple_of(n)) {
         write_snapshot(run, options).map_err(RunError::Output)?;
     }
     if let Some(progress) = &mut progress {

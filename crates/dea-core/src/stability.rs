@@ -55,7 +55,7 @@ mod tests {
         let material = FibreMaterial::kevlar_km2();
         let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None, 0.0);
         let no_contact = NormalLaw::Elastic { transverse_modulus: 0.0 };
-        let dt = stable_time_step(&material, &[section.clone()], &no_contact, 0.0, 1.0);
+        let dt = stable_time_step(&material, std::slice::from_ref(&section), &no_contact, 0.0, 1.0);
         let expected = section.element_length / material.wave_speed();
         assert!((dt - expected).abs() < 1e-12 * expected);
         // contact and bending only ever shorten it

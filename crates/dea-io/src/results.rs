@@ -1,4 +1,4 @@
-//! HDF5 results: the case as run, time histories and the final state.
+//! HDF5 results: the case as run and the time histories, and their CSV twin.
 //!
 //! Layout (docs/output.md):
 //! - attribute `case` (JSON text), attribute `format` = "dea-mpi results 1"
@@ -6,8 +6,9 @@
 //!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_angular_velocity`
 //!   (n x 3) [rad/s], `history/projectile_force` (n x 3) [N], `history/energy/<kind>` [J],
 //!   `history/broken/{tension,shear,combined}` [-], `history/broken/by_layer` (n x layers)
-//! Field data (the final state included) are in the per-rank snapshots (`snapshot.rs`): no
-//! rank ever gathers every node.
+//!
+//! Field data, the final state included, are in the per-rank snapshots (`snapshot.rs`):
+//! no rank ever gathers every node.
 
 use dea_core::energy::EnergyReport;
 use dea_core::Vec3;

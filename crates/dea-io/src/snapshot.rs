@@ -186,13 +186,15 @@ pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<
     std::fs::rename(&temporary, &path)
 }
 
+/// A point of a merged snapshot: gid, position bits, velocity bits, layer, yarn.
+pub type MergedPoint = (u64, [u64; 3], [u64; 3], u32, u32);
+
 /// A snapshot gathered from its parts and sorted by gid: point data by node, cell data by
 /// element. Used to compare runs on different rank counts (the `rank` field is left out).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MergedSnapshot {
     pub time_bits: u64,
-    /// (gid, position bits, velocity bits, layer, yarn)
-    pub points: Vec<(u64, [u64; 3], [u64; 3], u32, u32)>,
+    pub points: Vec<MergedPoint>,
     /// (element gid, strain bits, stress bits, failure)
     pub cells: Vec<(u64, u64, u64, u8)>,
 }
