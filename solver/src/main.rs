@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use dea_core::Rank;
 use dea_io::case::{default_case, parse_case, Case};
-use dea_mpi::comm::mpi::MpiComm;
+use dea_mpi::comm::mpi::{MpiComm, MpiSession};
 use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
 use dea_mpi::setup::{self, SetupError};
@@ -154,11 +154,13 @@ fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, 
     }
 }
 
-/// Ends a rank: the message is printed once, by rank 0; every rank exits with the code.
-fn fail_on(comm: &impl Comm, code: Exit, message: impl std::fmt::Display) -> ExitCode {
-    if comm.rank() == Rank(0) {
+/// Ends every rank of a collective error: rank 0 prints the message once, all ranks wait
+/// for it, then exit with the same code.
+fn fail_all(session: &MpiSession, code: Exit, message: impl std::fmt::Display) -> ExitCode {
+    if session.rank() == Rank(0) {
         eprintln!("error: {message}");
     }
+    session.barrier();
     ExitCode::from(code as u8)
 }
 
@@ -206,8 +208,8 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Run { case, out, method, restart, log_dir, panic_on_rank } => {
-            let comm = match MpiComm::initialize() {
-                Ok(comm) => comm,
+            let (session, comm) = match MpiComm::initialize() {
+                Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
             };
             let _logging = match dea_mpi::progress::init_logging(comm.rank().0, log_dir.as_deref()) {
@@ -220,27 +222,26 @@ fn main() -> ExitCode {
                     return fail(Exit::Usage, format!("cannot handle signal {signal}: {e}"));
                 }
             }
-            let is_root = comm.rank() == Rank(0);
             let ranks = comm.size();
             let (case, mut run, resume) = match restart {
                 Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
                     Ok(restored) => {
                         let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                         if resume.is_none() {
-                            return fail_on(&restored.run.comm, Exit::File, format!("{}: run state of another version", directory.display()));
+                            return fail_all(&session, Exit::File, format!("{}: run state of another version", directory.display()));
                         }
                         (restored.case, restored.run, resume)
                     }
-                    Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+                    Err(e) => return fail_all(&session, setup_exit(&e), e),
                 },
                 None => {
                     let case = match load_shared(&comm, case.as_ref()) {
                         Ok(case) => case,
-                        Err((code, message)) => return fail_on(&comm, code, message),
+                        Err((code, message)) => return fail_all(&session, code, message),
                     };
                     match setup::build(&case, comm, method_of(method), None) {
                         Ok(run) => (case, run, None),
-                        Err(e) => return if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+                        Err(e) => return fail_all(&session, setup_exit(&e), e),
                     }
                 }
             };
@@ -301,9 +302,9 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 Ok(None) => ExitCode::SUCCESS,
-                Err(e @ RunError::Numerical(_)) => if is_root { fail(Exit::Numerical, e) } else { ExitCode::from(Exit::Numerical as u8) },
-                Err(e @ RunError::Output(_)) => if is_root { fail(Exit::File, e) } else { ExitCode::from(Exit::File as u8) },
-                Err(e @ RunError::Interrupted(_)) => if is_root { fail(Exit::Interrupted, e) } else { ExitCode::from(Exit::Interrupted as u8) },
+                Err(e @ RunError::Numerical(_)) => fail_all(&session, Exit::Numerical, e),
+                Err(e @ RunError::Output(_)) => fail_all(&session, Exit::File, e),
+                Err(e @ RunError::Interrupted(_)) => fail_all(&session, Exit::Interrupted, e),
             }
         }
         Command::Partition { case, ranks, segment_nodes, method, json } => {
@@ -353,11 +354,10 @@ fn main() -> ExitCode {
             Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
         },
         Command::Bench { json, nodes, steps } => {
-            let comm = match MpiComm::initialize() {
-                Ok(comm) => comm,
+            let (session, comm) = match MpiComm::initialize() {
+                Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            let is_root = comm.rank() == Rank(0);
             match dea_mpi::bench::bench(comm, nodes, steps) {
                 Ok(Some(report)) => {
                     let text = if json { serde_json::to_string(&report) } else { serde_json::to_string_pretty(&report) };
@@ -365,7 +365,7 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 Ok(None) => ExitCode::SUCCESS,
-                Err(e) => if is_root { fail(setup_exit(&e), e) } else { ExitCode::from(setup_exit(&e) as u8) },
+                Err(e) => fail_all(&session, setup_exit(&e), e),
             }
         }
     }

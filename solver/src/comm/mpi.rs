@@ -12,13 +12,30 @@ use super::Comm;
 /// The world communicator of an MPI job (a singleton when started without mpirun).
 pub struct MpiComm {
     world: SimpleCommunicator,
+}
+
+/// MPI itself: initialised by [`MpiComm::initialize`], finalised when dropped. It outlives
+/// the communicator handed to the solver, so that ranks can still line up after an error.
+pub struct MpiSession {
     _universe: mpi::environment::Universe,
+}
+
+impl MpiSession {
+    /// Waits for every rank (after rank 0 printed an error, before anyone exits: mpirun
+    /// kills the job at the first non-zero exit).
+    pub fn barrier(&self) {
+        SimpleCommunicator::world().barrier();
+    }
+
+    pub fn rank(&self) -> Rank {
+        Rank(SimpleCommunicator::world().rank() as u32)
+    }
 }
 
 impl MpiComm {
     /// Initialises MPI. When the job has more than one rank, a panic on any rank aborts the
     /// whole job at once instead of leaving the others waiting in a collective.
-    pub fn initialize() -> anyhow::Result<Self> {
+    pub fn initialize() -> anyhow::Result<(MpiSession, Self)> {
         let universe = mpi::initialize().ok_or_else(|| anyhow::anyhow!("MPI was already initialised"))?;
         let world = universe.world();
         if world.size() > 1 {
@@ -29,7 +46,7 @@ impl MpiComm {
                 SimpleCommunicator::world().abort(70);
             }));
         }
-        Ok(Self { world, _universe: universe })
+        Ok((MpiSession { _universe: universe }, Self { world }))
     }
 }
 
