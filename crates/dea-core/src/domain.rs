@@ -390,13 +390,17 @@ impl Domain {
             let si = nodes.section[i] as usize * n_sections;
             let mut force = Vec3::zeros();
             let mut stiffness = 0.0;
+            let (mut plastic, mut friction_loss) = (0.0, 0.0);
             for k in pairs.start[i] as usize..pairs.start[i + 1] as usize {
                 let j = pairs.partner[k] as usize;
                 let data = &self.pair_data[si + nodes.section[j] as usize];
                 let relative = nodes.position[j] - xi;
                 let distance_squared = relative.norm_squared();
                 if distance_squared >= data.reach * data.reach {
-                    pairs.touching[k] = false;
+                    // most listed pairs are apart: write only when one separates
+                    if pairs.touching[k] {
+                        pairs.touching[k] = false;
+                    }
                     continue;
                 }
                 let distance = distance_squared.sqrt();
@@ -406,8 +410,7 @@ impl Domain {
                 let (response, max_overlap) = law.evaluate(&data.geometry, overlap, previous_max);
                 if max_overlap > previous_max {
                     // each pair is evaluated by both of its nodes: half the dissipation each
-                    self.ledger.plastic_dissipated[i] +=
-                        0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max));
+                    plastic += 0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max));
                     pairs.max_overlap[k] = max_overlap;
                 }
                 force -= normal * response.force;
@@ -418,10 +421,12 @@ impl Domain {
                 } else if mu > 0.0 {
                     let friction = stick_slip(relative, normal, &mut pairs.anchor[k], response.force, response.stiffness, mu);
                     force += friction.force;
-                    self.ledger.friction_dissipated[i] += 0.5 * friction.dissipated;
+                    friction_loss += 0.5 * friction.dissipated;
                 }
             }
             nodes.force[i] += force;
+            self.ledger.plastic_dissipated[i] += plastic;
+            self.ledger.friction_dissipated[i] += friction_loss;
             self.contact_stiffness[i] = stiffness;
         }
     }
