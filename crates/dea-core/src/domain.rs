@@ -373,8 +373,9 @@ impl Domain {
         let projectile_done = Instant::now();
         self.times.projectile_contacts += (projectile_done - contacts_done).as_secs_f64();
         self.break_elements();
+        let checked = self.check_state();
         self.times.failure += projectile_done.elapsed().as_secs_f64();
-        self.check_state()
+        checked
     }
 
     /// Fibre–fibre contact and friction on owned nodes (seed 3-1…3-3, 4-4…4-15), summed per
@@ -397,10 +398,7 @@ impl Domain {
                 let relative = nodes.position[j] - xi;
                 let distance_squared = relative.norm_squared();
                 if distance_squared >= data.reach * data.reach {
-                    // most listed pairs are apart: write only when one separates
-                    if pairs.touching[k] {
-                        pairs.touching[k] = false;
-                    }
+                    pairs.touching[k] = false;
                     continue;
                 }
                 let distance = distance_squared.sqrt();
@@ -580,9 +578,10 @@ impl Domain {
             if nodes.clamped[i] {
                 continue;
             }
-            let chain = self.chain_stiffness[nodes.section[i] as usize];
-            let limit = crate::stability::node_stability_limit(chain, self.contact_stiffness[i], mu, nodes.mass[i]);
-            if self.time_step > limit {
+            // dt > 2 / omega, squared and without a division: this runs for every node
+            let stiffness = self.chain_stiffness[nodes.section[i] as usize] + (1.0 + mu) * self.contact_stiffness[i];
+            if stiffness * self.time_step * self.time_step > 4.0 * nodes.mass[i] {
+                let limit = crate::stability::node_stability_limit(self.chain_stiffness[nodes.section[i] as usize], self.contact_stiffness[i], mu, nodes.mass[i]);
                 return Err(DomainError::TimeStep { step: self.step, gid: nodes.gid[i], time_step: self.time_step, limit });
             }
         }

@@ -154,7 +154,8 @@ impl NeighbourList {
                             let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
                             // written so that a NaN position (caught after the forces) pairs
                             // with nothing, whatever grid cell it falls into
-                            if distance_squared.partial_cmp(&(coarse_reach * coarse_reach)) != Some(std::cmp::Ordering::Less) {
+                            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                            if !(distance_squared < coarse_reach * coarse_reach) {
                                 continue;
                             }
                             let j = scratch.sorted[k] as usize;
