@@ -342,7 +342,7 @@ fn main() -> ExitCode {
             Ok(differences)
         }) {
             Ok(differences) if differences.is_empty() => {
-                println!("identical: every dataset of {} and {} has the same bits", first.display(), second.display());
+                println!("identical: every dataset of {} and {}, and every field snapshot beside them, has the same bits", first.display(), second.display());
                 ExitCode::SUCCESS
             }
             Ok(differences) => {
