@@ -1,0 +1,10 @@
+//! Projectile geometry for the triangle-surface contact of seed chapter 4: 8-node
+//! hexahedral meshes, their outer surface as triangles with outward normals (§4.2.1.3), the
+//! closest point of a triangle to a fibre node (node-to-surface, node-to-line, node-to-node
+//! of §4.2.2), and the HRZ lumped masses of a hexahedron (4-22 … 4-25).
+//!
+//! These are the kernels; the contact search, the rigid and deformable bodies and the mesh
+//! generators and importers build on them.
+
+pub mod geometry;
+pub mod mesh;
