@@ -589,11 +589,13 @@ impl<C: Comm> Distributed<C> {
             plastic_dissipated: d.ledger.plastic_dissipated.clone(),
             fracture_released: d.ledger.fracture_released.clone(),
             projectile_anchor: contacts.anchor.clone(),
+            projectile_spring_stiffness: contacts.spring_stiffness.clone(),
             projectile_touching: contacts.touching.iter().map(|&t| t as u8).collect(),
             projectile_max_overlap: contacts.max_overlap.clone(),
             row_length: (0..n).map(|i| pairs.row(i).len() as u32).collect(),
             partner_gid: pairs.partner_gid.iter().map(|g| g.0).collect(),
             anchor: pairs.anchor.clone(),
+            spring_stiffness: pairs.spring_stiffness.clone(),
             touching: pairs.touching.iter().map(|&t| t as u8).collect(),
             max_overlap: pairs.max_overlap.clone(),
         }
@@ -633,6 +635,7 @@ impl<C: Comm> Distributed<C> {
             } else {
                 for (k, e) in row.zip(entry..entry + length) {
                     d.pairs.anchor[k] = state.anchor[e];
+                    d.pairs.spring_stiffness[k] = state.spring_stiffness[e];
                     d.pairs.touching[k] = state.touching[e] != 0;
                     d.pairs.max_overlap[k] = state.max_overlap[e];
                 }
@@ -653,6 +656,7 @@ impl<C: Comm> Distributed<C> {
             d.ledger.plastic_dissipated[i] = state.plastic_dissipated[i];
             d.ledger.fracture_released[i] = state.fracture_released[i];
             contacts.anchor[i] = state.projectile_anchor[i];
+            contacts.spring_stiffness[i] = state.projectile_spring_stiffness[i];
             contacts.touching[i] = state.projectile_touching[i] != 0;
             contacts.max_overlap[i] = state.projectile_max_overlap[i];
         }

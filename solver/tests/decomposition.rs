@@ -82,6 +82,9 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
     let last = histories.energy.last().unwrap();
     assert!(last.plastic_dissipated > 0.0 && last.friction_dissipated > 0.0 && last.fracture_released > 0.0, "{last:?}");
     assert!(reference.neighbour_rebuilds > 1);
+    // friction creates no energy (the stick spring keeps its energy when k_s changes):
+    // without that rescaling this run gained 5.2 %
+    assert!(reference.energy_balance_error < 0.01, "energy balance {}", reference.energy_balance_error);
     for ranks in [2, 3, 4] {
         let summary = run_on(&case, ranks, &dir.join(ranks.to_string()));
         let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();

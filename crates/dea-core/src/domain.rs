@@ -72,6 +72,8 @@ pub struct ProjectileContacts {
     pub candidates: Vec<u32>,
     /// friction anchor: body origin relative to the node at first touch, body frame [m]
     pub anchor: Vec<Vec3>,
+    /// stiffness of the friction spring at its last evaluation [N/m]
+    pub spring_stiffness: Vec<f64>,
     /// node overlaps the projectile
     pub touching: Vec<bool>,
     /// largest overlap reached [m]
@@ -231,6 +233,7 @@ impl Domain {
             },
             projectile_contacts: ProjectileContacts {
                 anchor: vec![Vec3::zeros(); n_owned],
+                spring_stiffness: vec![0.0; n_owned],
                 touching: vec![false; n_owned],
                 max_overlap: vec![0.0; n_owned],
                 force_on_node: vec![Vec3::zeros(); n_owned],
@@ -416,8 +419,9 @@ impl Domain {
                 if !pairs.touching[k] {
                     pairs.touching[k] = true;
                     pairs.anchor[k] = relative;
+                    pairs.spring_stiffness[k] = mu * response.stiffness;
                 } else if mu > 0.0 {
-                    let friction = stick_slip(relative, normal, &mut pairs.anchor[k], response.force, response.stiffness, mu);
+                    let friction = stick_slip(relative, normal, &mut pairs.anchor[k], &mut pairs.spring_stiffness[k], response.force, response.stiffness, mu);
                     force += friction.force;
                     friction_loss += 0.5 * friction.dissipated;
                 }
@@ -468,8 +472,9 @@ impl Domain {
             if !contacts.touching[i] {
                 contacts.touching[i] = true;
                 contacts.anchor[i] = relative;
+                contacts.spring_stiffness[i] = mu * response.stiffness;
             } else if mu > 0.0 {
-                let friction = stick_slip(relative, normal, &mut contacts.anchor[i], response.force, response.stiffness, mu);
+                let friction = stick_slip(relative, normal, &mut contacts.anchor[i], &mut contacts.spring_stiffness[i], response.force, response.stiffness, mu);
                 force_body += friction.force;
                 self.ledger.friction_dissipated[i] += friction.dissipated;
             }
@@ -629,8 +634,8 @@ impl Domain {
                 let (response, _) = law.evaluate(&data.geometry, overlap, self.pairs.max_overlap[k]);
                 report.contact.add(0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]));
                 if self.contact.friction_coefficient > 0.0 && self.pairs.touching[k] {
-                    let mut anchor = self.pairs.anchor[k];
-                    let friction = stick_slip(relative, relative.normalize(), &mut anchor, response.force, response.stiffness, self.contact.friction_coefficient);
+                    let (mut anchor, mut spring) = (self.pairs.anchor[k], self.pairs.spring_stiffness[k]);
+                    let friction = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, self.contact.friction_coefficient);
                     report.friction_stored.add(0.5 * friction.stored);
                 }
             }
@@ -647,8 +652,8 @@ impl Domain {
                 report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
                 if self.contact.projectile_friction_coefficient > 0.0 && self.projectile_contacts.touching[i] {
                     let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
-                    let mut anchor = self.projectile_contacts.anchor[i];
-                    let friction = stick_slip(-body, normal, &mut anchor, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
+                    let (mut anchor, mut spring) = (self.projectile_contacts.anchor[i], self.projectile_contacts.spring_stiffness[i]);
+                    let friction = stick_slip(-body, normal, &mut anchor, &mut spring, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
                     report.friction_stored.add(friction.stored);
                 }
             }

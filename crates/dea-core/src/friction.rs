@@ -6,6 +6,12 @@
 //! Slip (`|F_s| > mu F_n`): `F_s = mu F_n U_s/|U_s|`, and — a documented deviation, the
 //! Cundall–Strack truncation — the anchor is moved so that `|k_s U_s| = mu F_n`, so that a
 //! reversal sticks again at once instead of sliding back through the whole past slip.
+//!
+//! A second deviation keeps the law from creating energy: `k_s` follows the normal
+//! stiffness, so with a fixed anchor a stick spring whose overlap grows, then shrinks, would
+//! return more work than it took. When `k_s` changes, the stored tangential displacement is
+//! rescaled by `sqrt(k_old / k_new)`, so the spring's energy `k_s U_s^2 / 2` is unchanged by
+//! the stiffness change itself (docs/theory.md, I6b).
 
 use crate::Vec3;
 
@@ -24,12 +30,20 @@ pub struct FrictionResponse {
 ///
 /// `relative` is the partner's position relative to the node (`v'`), `normal` its unit
 /// direction, `anchor` the stored `v0` (updated on slip), `normal_force` F_n >= 0 and
-/// `normal_stiffness` k_n the contact's tangent stiffness.
+/// `normal_stiffness` k_n the contact's tangent stiffness; `spring_stiffness` holds the
+/// `k_s` of the previous evaluation (set it to `mu k_n` at first touch) and is updated.
 #[inline]
-pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, normal_force: f64, normal_stiffness: f64, coefficient: f64) -> FrictionResponse {
+pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, spring_stiffness: &mut f64, normal_force: f64, normal_stiffness: f64, coefficient: f64) -> FrictionResponse {
     let displacement = relative - *anchor; // (4-13)
-    let tangential = displacement - normal * displacement.dot(&normal); // (4-14), (4-15)
+    let mut tangential = displacement - normal * displacement.dot(&normal); // (4-14), (4-15)
     let stiffness = coefficient * normal_stiffness; // (4-12)
+    if *spring_stiffness != stiffness {
+        // keep k_s U_s^2 / 2 through the change of k_s (zero stiffness: the spring restarts)
+        let scale = if stiffness > 0.0 { (*spring_stiffness / stiffness).sqrt() } else { 0.0 };
+        *anchor += tangential * (1.0 - scale);
+        tangential *= scale;
+        *spring_stiffness = stiffness;
+    }
     let limit = coefficient * normal_force;
     let trial = tangential * stiffness; // (4-11)
     let trial_squared = trial.norm_squared();
@@ -68,7 +82,7 @@ mod tests {
         let mut anchor = Vec3::new(0.0, 0.0, 1.0);
         let slip_start = MU * FN / (MU * KN); // |k_s U_s| = mu F_n
         let (relative, normal) = shifted(0.5 * slip_start);
-        let response = stick_slip(relative, normal, &mut anchor, FN, KN, MU);
+        let response = stick_slip(relative, normal, &mut anchor, &mut (MU * KN), FN, KN, MU);
         let tangential = relative - Vec3::z() - normal * (relative - Vec3::z()).dot(&normal);
         assert!((response.force - tangential * MU * KN).norm() < 1e-15);
         assert!(response.force.norm() < MU * FN);
@@ -81,11 +95,11 @@ mod tests {
     fn slips_at_mu_fn_and_dissipates() {
         let mut anchor = Vec3::z();
         let (relative, normal) = shifted(0.05);
-        let response = stick_slip(relative, normal, &mut anchor, FN, KN, MU);
+        let response = stick_slip(relative, normal, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!((response.force.norm() - MU * FN).abs() < 1e-12);
         assert!(response.dissipated > 0.0);
         // after the truncation the spring holds exactly the limit force
-        let again = stick_slip(relative, normal, &mut anchor, FN, KN, MU);
+        let again = stick_slip(relative, normal, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!((again.force.norm() - MU * FN).abs() < 1e-12);
         assert!(again.dissipated.abs() < 1e-15, "no further slip without further motion");
     }
@@ -94,16 +108,49 @@ mod tests {
     fn recovers_after_a_reversal() {
         let mut anchor = Vec3::z();
         let (far, n_far) = shifted(0.05);
-        let forward = stick_slip(far, n_far, &mut anchor, FN, KN, MU);
+        let forward = stick_slip(far, n_far, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!(forward.force.x > 0.0);
         // moving back by a little unloads the spring (stick), not slide
         let (back, n_back) = shifted(0.05 - 1e-4);
-        let reversed = stick_slip(back, n_back, &mut anchor, FN, KN, MU);
+        let reversed = stick_slip(back, n_back, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!(reversed.force.norm() < MU * FN, "sticks again after the reversal");
         assert_eq!(reversed.dissipated, 0.0);
         // moving back far enough slips the other way
         let (opposite, n_opposite) = shifted(-0.05);
-        let slid = stick_slip(opposite, n_opposite, &mut anchor, FN, KN, MU);
+        let slid = stick_slip(opposite, n_opposite, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!(slid.force.x < 0.0 && (slid.force.norm() - MU * FN).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_stick_spring_returns_the_work_it_took_when_its_stiffness_changes() {
+        // load the spring at k1, stiffen the contact to k2 at rest, unload to zero force:
+        // the returned work equals the work put in (a fixed anchor would return k2/k1 times it)
+        let (k1, k2) = (KN, 4.0 * KN);
+        let mut anchor = Vec3::z();
+        let mut spring = MU * k1;
+        let big = 1e3 * FN; // no slip in this test
+        let steps = 20000;
+        let (mut work_in, mut work_out) = (0.0, 0.0);
+        let mut shift = 0.0;
+        let mut force = stick_slip(shifted(0.0).0, shifted(0.0).1, &mut anchor, &mut spring, big, k1, MU).force;
+        for _ in 0..steps {
+            let next = shift + 1e-3 / steps as f64;
+            let (relative, normal) = shifted(next);
+            let new_force = stick_slip(relative, normal, &mut anchor, &mut spring, big, k1, MU).force;
+            work_in += 0.5 * (force.x + new_force.x) * (next - shift);
+            (shift, force) = (next, new_force);
+        }
+        let stored_before = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor.clone(), &mut spring.clone(), big, k1, MU).stored;
+        force = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor, &mut spring, big, k2, MU).force;
+        let stored_after = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor.clone(), &mut spring.clone(), big, k2, MU).stored;
+        assert!((stored_after - stored_before).abs() < 1e-12 * stored_before, "the change of stiffness keeps the energy");
+        while force.x > 0.0 {
+            let next = shift - 1e-3 / steps as f64;
+            let (relative, normal) = shifted(next);
+            let new_force = stick_slip(relative, normal, &mut anchor, &mut spring, big, k2, MU).force;
+            work_out += 0.5 * (force.x + new_force.x) * (shift - next);
+            (shift, force) = (next, new_force);
+        }
+        assert!((work_out - work_in).abs() < 1e-3 * work_in, "in {work_in}, out {work_out}");
     }
 }

@@ -21,6 +21,8 @@ pub struct NeighbourList {
     pub partner_gid: Vec<GlobalNodeId>,
     /// friction anchor v0 (partner minus node at first touch, 4-13) [m]
     pub anchor: Vec<Vec3>,
+    /// stiffness k_s of the friction spring at its last evaluation [N/m]
+    pub spring_stiffness: Vec<f64>,
     /// true while the pair overlaps (the anchor is valid)
     pub touching: Vec<bool>,
     /// largest overlap reached (elasto-plastic history) [m]
@@ -46,6 +48,7 @@ struct BuildScratch {
     partner: Vec<u32>,
     partner_gid: Vec<GlobalNodeId>,
     anchor: Vec<Vec3>,
+    spring_stiffness: Vec<f64>,
     touching: Vec<bool>,
     max_overlap: Vec<f64>,
 }
@@ -134,6 +137,7 @@ impl NeighbourList {
         scratch.partner.clear();
         scratch.partner_gid.clear();
         scratch.anchor.clear();
+        scratch.spring_stiffness.clear();
         scratch.touching.clear();
         scratch.max_overlap.clear();
         scratch.start.push(0);
@@ -184,6 +188,7 @@ impl NeighbourList {
                 scratch.partner.push(j);
                 scratch.partner_gid.push(gid);
                 scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
+                scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
                 scratch.touching.push(carried && self.touching[cursor]);
                 scratch.max_overlap.push(if carried { self.max_overlap[cursor] } else { 0.0 });
             }
@@ -193,6 +198,7 @@ impl NeighbourList {
         std::mem::swap(&mut self.partner, &mut scratch.partner);
         std::mem::swap(&mut self.partner_gid, &mut scratch.partner_gid);
         std::mem::swap(&mut self.anchor, &mut scratch.anchor);
+        std::mem::swap(&mut self.spring_stiffness, &mut scratch.spring_stiffness);
         std::mem::swap(&mut self.touching, &mut scratch.touching);
         std::mem::swap(&mut self.max_overlap, &mut scratch.max_overlap);
         self.reference_position.clear();

@@ -16,7 +16,7 @@ use dea_core::Vec3;
 
 use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
 
-const FORMAT: &str = "dea-mpi checkpoint 1";
+const FORMAT: &str = "dea-mpi checkpoint 2";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +52,8 @@ pub struct NodeState {
     pub fracture_released: Vec<f64>,
     /// projectile contact history: anchor (body frame) [m], touching, largest overlap [m]
     pub projectile_anchor: Vec<Vec3>,
+    /// stiffness of the projectile friction spring at its last evaluation [N/m]
+    pub projectile_spring_stiffness: Vec<f64>,
     pub projectile_touching: Vec<u8>,
     pub projectile_max_overlap: Vec<f64>,
     /// fibre contact-list entries of each node
@@ -59,6 +61,8 @@ pub struct NodeState {
     /// per entry: partner gid, friction anchor [m], touching, largest overlap [m]
     pub partner_gid: Vec<u64>,
     pub anchor: Vec<Vec3>,
+    /// friction spring stiffness at the last evaluation [N/m]
+    pub spring_stiffness: Vec<f64>,
     pub touching: Vec<u8>,
     pub max_overlap: Vec<f64>,
 }
@@ -77,11 +81,13 @@ impl NodeState {
         self.plastic_dissipated.push(other.plastic_dissipated[k]);
         self.fracture_released.push(other.fracture_released[k]);
         self.projectile_anchor.push(other.projectile_anchor[k]);
+        self.projectile_spring_stiffness.push(other.projectile_spring_stiffness[k]);
         self.projectile_touching.push(other.projectile_touching[k]);
         self.projectile_max_overlap.push(other.projectile_max_overlap[k]);
         self.row_length.push(other.row_length[k]);
         self.partner_gid.extend_from_slice(&other.partner_gid[entries.clone()]);
         self.anchor.extend_from_slice(&other.anchor[entries.clone()]);
+        self.spring_stiffness.extend_from_slice(&other.spring_stiffness[entries.clone()]);
         self.touching.extend_from_slice(&other.touching[entries.clone()]);
         self.max_overlap.extend_from_slice(&other.max_overlap[entries]);
     }
@@ -176,11 +182,13 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "plastic_dissipated", &part.plastic_dissipated, "J")?;
         write_scalars(&file, "fracture_released", &part.fracture_released, "J")?;
         write_vectors(&file, "projectile_anchor", &part.projectile_anchor, "m")?;
+        write_scalars(&file, "projectile_spring_stiffness", &part.projectile_spring_stiffness, "N/m")?;
         write_bytes(&file, "projectile_touching", &part.projectile_touching, "bool")?;
         write_scalars(&file, "projectile_max_overlap", &part.projectile_max_overlap, "m")?;
         write_scalars(&file, "row_length", &part.row_length, "entries")?;
         write_scalars(&file, "partner_gid", &part.partner_gid, "-")?;
         write_vectors(&file, "anchor", &part.anchor, "m")?;
+        write_scalars(&file, "spring_stiffness", &part.spring_stiffness, "N/m")?;
         write_bytes(&file, "touching", &part.touching, "bool")?;
         write_scalars(&file, "max_overlap", &part.max_overlap, "m")?;
         file.flush()?;
@@ -229,11 +237,13 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         plastic_dissipated: file.dataset("plastic_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
         fracture_released: file.dataset("fracture_released").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_anchor: vectors("projectile_anchor")?,
+        projectile_spring_stiffness: file.dataset("projectile_spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_touching: file.dataset("projectile_touching").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_max_overlap: file.dataset("projectile_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
         row_length: file.dataset("row_length").and_then(|d| d.read_raw()).map_err(fail)?,
         partner_gid: file.dataset("partner_gid").and_then(|d| d.read_raw()).map_err(fail)?,
         anchor: vectors("anchor")?,
+        spring_stiffness: file.dataset("spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
         touching: file.dataset("touching").and_then(|d| d.read_raw()).map_err(fail)?,
         max_overlap: file.dataset("max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
     };
@@ -249,12 +259,13 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.plastic_dissipated.len(),
         part.fracture_released.len(),
         part.projectile_anchor.len(),
+        part.projectile_spring_stiffness.len(),
         part.projectile_touching.len(),
         part.projectile_max_overlap.len(),
         part.row_length.len(),
     ];
     let entries: usize = part.row_length.iter().map(|&l| l as usize).sum();
-    let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.touching.len(), part.max_overlap.len()];
+    let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.spring_stiffness.len(), part.touching.len(), part.max_overlap.len()];
     if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) {
         return Err(error(path, "arrays of different lengths: the part is damaged"));
     }
@@ -331,12 +342,14 @@ mod tests {
             p.plastic_dissipated.push(2.0);
             p.fracture_released.push(3.0);
             p.projectile_anchor.push(x);
+            p.projectile_spring_stiffness.push(g as f64 * 10.0);
             p.projectile_touching.push(1);
             p.projectile_max_overlap.push(1e-6);
             p.row_length.push((g % 3) as u32);
             for e in 0..g % 3 {
                 p.partner_gid.push(g * 10 + e);
                 p.anchor.push(x * e as f64);
+                p.spring_stiffness.push(e as f64 * 100.0);
                 p.touching.push((e % 2) as u8);
                 p.max_overlap.push(e as f64 * 1e-7);
             }
