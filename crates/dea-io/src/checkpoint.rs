@@ -123,6 +123,63 @@ impl NodeState {
     }
 }
 
+/// A CRC-32 over values in a fixed order: what a part or a manifest holds, so that a file
+/// damaged after it was written is refused, not loaded.
+#[derive(Default)]
+struct Checksum(crc32fast::Hasher);
+
+impl Checksum {
+    fn floats(&mut self, values: &[f64]) -> &mut Self {
+        values.iter().for_each(|v| self.0.update(&v.to_le_bytes()));
+        self
+    }
+    fn vectors(&mut self, values: &[Vec3]) -> &mut Self {
+        values.iter().for_each(|v| {
+            self.floats(v.as_slice());
+        });
+        self
+    }
+    fn integers(&mut self, values: impl IntoIterator<Item = u64>) -> &mut Self {
+        values.into_iter().for_each(|v| self.0.update(&v.to_le_bytes()));
+        self
+    }
+    fn bytes(&mut self, values: &[u8]) -> &mut Self {
+        self.0.update(values);
+        self
+    }
+    fn value(&mut self) -> u32 {
+        std::mem::take(&mut self.0).finalize()
+    }
+}
+
+impl NodeState {
+    /// Checksum of every array.
+    pub fn checksum(&self) -> u32 {
+        let mut c = Checksum::default();
+        c.integers(self.gid.iter().copied())
+            .vectors(&self.position)
+            .vectors(&self.velocity)
+            .vectors(&self.force)
+            .vectors(&self.reference_position)
+            .bytes(&self.failure)
+            .floats(&self.tensile_strength)
+            .floats(&self.friction_dissipated)
+            .floats(&self.plastic_dissipated)
+            .floats(&self.fracture_released)
+            .vectors(&self.projectile_anchor)
+            .floats(&self.projectile_spring_stiffness)
+            .bytes(&self.projectile_touching)
+            .floats(&self.projectile_max_overlap)
+            .integers(self.row_length.iter().map(|&l| l as u64))
+            .integers(self.partner_gid.iter().copied())
+            .vectors(&self.anchor)
+            .floats(&self.spring_stiffness)
+            .bytes(&self.touching)
+            .floats(&self.max_overlap)
+            .value()
+    }
+}
+
 /// What is the same on every rank: the case, the step, the projectile, global counters, and
 /// rank 0's run state.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -150,6 +207,28 @@ pub struct GlobalState {
     /// solver's order
     pub run_scalars: Vec<f64>,
     pub histories: Histories,
+}
+
+impl GlobalState {
+    /// Checksum of everything but the histories' energies and counts per layer (those are
+    /// checked by length).
+    pub fn checksum(&self) -> u32 {
+        let h = &self.histories;
+        let mut c = Checksum::default();
+        c.bytes(self.case_json.as_bytes())
+            .integers([self.parts as u64, self.nodes, self.step, self.broken[0], self.broken[1], self.broken[2], self.rebuilds, self.list_builds])
+            .floats(&[self.time])
+            .floats(&self.projectile)
+            .vectors(&[self.projectile_reference])
+            .floats(&self.run_scalars)
+            .floats(&h.time)
+            .vectors(&h.projectile_position)
+            .vectors(&h.projectile_velocity)
+            .vectors(&h.projectile_angular_velocity)
+            .vectors(&h.projectile_force)
+            .integers(h.broken_tension.iter().chain(&h.broken_shear).chain(&h.broken_combined).copied())
+            .value()
+    }
 }
 
 /// File of part `rank` in a checkpoint directory.
@@ -191,6 +270,7 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "spring_stiffness", &part.spring_stiffness, "N/m")?;
         write_bytes(&file, "touching", &part.touching, "bool")?;
         write_scalars(&file, "max_overlap", &part.max_overlap, "m")?;
+        write_scalars(&file, "checksum", &[part.checksum()], "CRC-32")?;
         file.flush()?;
     }
     sync(path)
@@ -269,6 +349,10 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
     if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) {
         return Err(error(path, "arrays of different lengths: the part is damaged"));
     }
+    let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
+    if stored != [part.checksum()] {
+        return Err(error(path, "checksum mismatch: the part is corrupt"));
+    }
     Ok(part)
 }
 
@@ -286,6 +370,7 @@ pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
         write_scalars(&file, "projectile", &global.projectile, "SI")?;
         write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
         write_histories(&file, &global.histories)?;
+        write_scalars(&file, "checksum", &[global.checksum()], "CRC-32")?;
         // the completion mark goes last: a manifest without it is refused
         write_text_attribute(&file, "complete", "yes")?;
         file.flush()?;
@@ -307,7 +392,7 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
     if counters.len() != 8 || reals.len() != 4 {
         return Err(error(&path, "damaged counters"));
     }
-    Ok(GlobalState {
+    let global = GlobalState {
         case_json,
         parts: counters[0] as u32,
         nodes: counters[1],
@@ -320,7 +405,12 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
         projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
         run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
         histories: read_histories_from(&file).map_err(fail)?,
-    })
+    };
+    let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
+    if stored != [global.checksum()] {
+        return Err(error(&path, "checksum mismatch: the manifest is corrupt"));
+    }
+    Ok(global)
 }
 
 #[cfg(test)]
@@ -376,6 +466,17 @@ mod tests {
         let mut expected = NodeState::default();
         expected.append_selected(&part(&[1, 2, 5, 6, 8, 11]), |_| true);
         assert_eq!(merged, expected);
+        // a value changed inside an intact file is caught by the checksum
+        {
+            let file = hdf5::File::open_rw(&path).unwrap();
+            let dataset = file.dataset("velocity").unwrap();
+            let mut values: Vec<f64> = dataset.read_raw().unwrap();
+            values[4] += 1e-9;
+            dataset.write_raw(&values).unwrap();
+        }
+        let message = read_part(&path).unwrap_err().to_string();
+        assert!(message.contains("checksum mismatch"), "{message}");
+        write_part(&path, &original).unwrap();
         // a truncated part is refused with its name
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
