@@ -3,8 +3,9 @@
 //! closest point of a triangle to a fibre node (node-to-surface, node-to-line, node-to-node
 //! of §4.2.2), and the HRZ lumped masses of a hexahedron (4-22 … 4-25).
 //!
-//! These are the kernels; the contact search, the rigid and deformable bodies and the mesh
-//! generators and importers build on them.
+//! Meshes come from a generator (`HexMesh::cylinder`) or a file (Gmsh 4.1, ABAQUS). These
+//! are the kernels; the contact search and the rigid and deformable bodies build on them.
 
 pub mod geometry;
+pub mod import;
 pub mod mesh;

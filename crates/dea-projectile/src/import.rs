@@ -1,0 +1,528 @@
+//! Projectile meshes from files: Gmsh `.msh` 4.1 (ASCII and binary) and ABAQUS `.inp`
+//! (`*NODE`, `*ELEMENT` of type C3D8/C3D8R/C3D8I). Only 8-node hexahedra are kept; lower
+//! dimensional elements (points, lines, surface facets) are skipped, other volume elements
+//! are refused. Every error names the file and the line (the byte, in binary files).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use dea_core::Vec3;
+
+use crate::mesh::{Hex, HexMesh};
+
+/// Why a mesh file cannot be used.
+#[derive(Debug, PartialEq)]
+pub struct ImportError {
+    pub path: String,
+    /// 1-based line (ASCII), or byte offset prefixed in the message (binary); 0: the file
+    pub line: usize,
+    pub message: String,
+}
+
+impl std::fmt::Display for ImportError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line > 0 {
+            write!(f, "{}:{}: {}", self.path, self.line, self.message)
+        } else {
+            write!(f, "{}: {}", self.path, self.message)
+        }
+    }
+}
+
+impl std::error::Error for ImportError {}
+
+/// Gmsh's element type of the 8-node hexahedron.
+const GMSH_HEXAHEDRON: i64 = 5;
+
+/// Nodes of each Gmsh element type that may appear next to hexahedra (skipped unless a
+/// hexahedron), and whether the type is a volume element.
+fn gmsh_element(kind: i64) -> Option<(usize, bool)> {
+    match kind {
+        15 => Some((1, false)),         // point
+        1 => Some((2, false)),          // line
+        2 => Some((3, false)),          // triangle
+        3 => Some((4, false)),          // quadrangle
+        4 => Some((4, true)),           // tetrahedron
+        GMSH_HEXAHEDRON => Some((8, true)),
+        6 => Some((6, true)),           // prism
+        7 => Some((5, true)),           // pyramid
+        _ => None,
+    }
+}
+
+/// Reads a mesh, choosing the format by the file's extension.
+pub fn read_mesh(path: &Path) -> Result<HexMesh, ImportError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| ImportError { path: name.clone(), line: 0, message: format!("cannot read: {e}") })?;
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("msh") => parse_gmsh(&bytes, &name),
+        Some("inp") => parse_abaqus(&String::from_utf8_lossy(&bytes), &name),
+        _ => Err(ImportError { path: name, line: 0, message: "unknown mesh format: use .msh (Gmsh 4.1) or .inp (ABAQUS)".into() }),
+    }
+}
+
+/// Nodes by tag and hexahedra by node tags, turned into a mesh with dense indices.
+struct Collected {
+    node_index: HashMap<u64, u32>,
+    nodes: Vec<Vec3>,
+    hexes: Vec<([u64; 8], usize)>,
+}
+
+impl Collected {
+    fn new() -> Self {
+        Self { node_index: HashMap::new(), nodes: Vec::new(), hexes: Vec::new() }
+    }
+
+    fn node(&mut self, tag: u64, position: Vec3, path: &str, line: usize) -> Result<(), ImportError> {
+        if self.node_index.insert(tag, self.nodes.len() as u32).is_some() {
+            return Err(ImportError { path: path.into(), line, message: format!("node {tag} defined twice") });
+        }
+        self.nodes.push(position);
+        Ok(())
+    }
+
+    fn finish(self, path: &str) -> Result<HexMesh, ImportError> {
+        let mut hexes: Vec<Hex> = Vec::with_capacity(self.hexes.len());
+        for (tags, line) in self.hexes {
+            let mut hex = [0u32; 8];
+            for (k, tag) in tags.iter().enumerate() {
+                hex[k] = *self.node_index.get(tag).ok_or_else(|| ImportError { path: path.into(), line, message: format!("element refers to node {tag}, which is not defined") })?;
+            }
+            hexes.push(hex);
+        }
+        if hexes.is_empty() {
+            return Err(ImportError { path: path.into(), line: 0, message: "no 8-node hexahedra in the file".into() });
+        }
+        let mesh = HexMesh { nodes: self.nodes, hexes };
+        if let Some(k) = mesh.volumes().iter().position(|&v| v.is_nan() || v <= 0.0) {
+            return Err(ImportError { path: path.into(), line: 0, message: format!("hexahedron {k} (in file order) is inverted or degenerate: its nodes must follow the Gmsh/ABAQUS corner order") });
+        }
+        Ok(mesh)
+    }
+}
+
+/// Lines with their 1-based numbers, blank ones skipped.
+struct Lines<'a> {
+    inner: std::iter::Peekable<std::iter::Enumerate<std::str::Lines<'a>>>,
+    path: &'a str,
+    last: usize,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str, path: &'a str) -> Self {
+        Self { inner: text.lines().enumerate().peekable(), path, last: 0 }
+    }
+
+    fn error(&self, line: usize, message: impl Into<String>) -> ImportError {
+        ImportError { path: self.path.into(), line, message: message.into() }
+    }
+
+    fn next(&mut self) -> Result<(usize, &'a str), ImportError> {
+        for (k, line) in self.inner.by_ref() {
+            if !line.trim().is_empty() {
+                self.last = k + 1;
+                return Ok((k + 1, line.trim()));
+            }
+        }
+        Err(ImportError { path: self.path.into(), line: self.last, message: "unexpected end of file".into() })
+    }
+
+    /// The next line as numbers.
+    fn numbers<T: std::str::FromStr>(&mut self, expected: usize) -> Result<(usize, Vec<T>), ImportError> {
+        let (line, text) = self.next()?;
+        let values: Result<Vec<T>, _> = text.split_whitespace().map(str::parse).collect();
+        match values {
+            Ok(values) if values.len() >= expected => Ok((line, values)),
+            Ok(values) => Err(self.error(line, format!("expected {expected} numbers, found {}", values.len()))),
+            Err(_) => Err(self.error(line, format!("not a number in {text:?}"))),
+        }
+    }
+}
+
+/// Parses a Gmsh 4.1 mesh, ASCII or binary.
+pub fn parse_gmsh(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64)]).into_owned();
+    let mut header = head.lines();
+    let (first, format) = (header.next().unwrap_or("").trim(), header.next().unwrap_or("").trim().to_string());
+    if first != "$MeshFormat" {
+        return Err(ImportError { path: path.into(), line: 1, message: "not a Gmsh mesh: expected $MeshFormat".into() });
+    }
+    let fields: Vec<&str> = format.split_whitespace().collect();
+    if fields.first() != Some(&"4.1") {
+        return Err(ImportError { path: path.into(), line: 2, message: format!("MSH version {:?}: only 4.1 is read (save as Version 4 ASCII or binary)", fields.first().unwrap_or(&"")) });
+    }
+    match fields.get(1) {
+        Some(&"0") => parse_gmsh_ascii(&String::from_utf8_lossy(bytes), path),
+        Some(&"1") => parse_gmsh_binary(bytes, path),
+        _ => Err(ImportError { path: path.into(), line: 2, message: "file type must be 0 (ASCII) or 1 (binary)".into() }),
+    }
+}
+
+fn parse_gmsh_ascii(text: &str, path: &str) -> Result<HexMesh, ImportError> {
+    let mut lines = Lines::new(text, path);
+    let mut collected = Collected::new();
+    while let Ok((_, line)) = lines.next() {
+        match line {
+            "$Nodes" => {
+                let (_, head) = lines.numbers::<u64>(4)?;
+                for _ in 0..head[0] {
+                    let (line, block) = lines.numbers::<u64>(4)?;
+                    let (parametric, count) = (block[2] != 0, block[3] as usize);
+                    if parametric {
+                        return Err(lines.error(line, "parametric node coordinates are not supported"));
+                    }
+                    let mut tags = Vec::with_capacity(count);
+                    for _ in 0..count {
+                        tags.push(lines.numbers::<u64>(1)?.1[0]);
+                    }
+                    for tag in tags {
+                        let (line, x) = lines.numbers::<f64>(3)?;
+                        collected.node(tag, Vec3::new(x[0], x[1], x[2]), path, line)?;
+                    }
+                }
+            }
+            "$Elements" => {
+                let (_, head) = lines.numbers::<u64>(4)?;
+                for _ in 0..head[0] {
+                    let (line, block) = lines.numbers::<i64>(4)?;
+                    let (kind, count) = (block[2], block[3] as usize);
+                    let Some((nodes, volume)) = gmsh_element(kind) else { return Err(lines.error(line, format!("unknown element type {kind}"))) };
+                    if volume && kind != GMSH_HEXAHEDRON {
+                        return Err(lines.error(line, format!("element type {kind} is not an 8-node hexahedron: mesh the projectile with hexahedra")));
+                    }
+                    for _ in 0..count {
+                        let (line, values) = lines.numbers::<u64>(1 + nodes)?;
+                        if kind == GMSH_HEXAHEDRON {
+                            let mut tags = [0u64; 8];
+                            tags.copy_from_slice(&values[1..9]);
+                            collected.hexes.push((tags, line));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    collected.finish(path)
+}
+
+/// A little-endian reader of Gmsh binary blocks (data-size 8: size_t is 8 bytes).
+struct Binary<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    path: &'a str,
+}
+
+impl Binary<'_> {
+    fn error(&self, message: impl std::fmt::Display) -> ImportError {
+        ImportError { path: self.path.into(), line: 0, message: format!("byte {}: {message}", self.at) }
+    }
+
+    fn take(&mut self, n: usize) -> Result<&[u8], ImportError> {
+        if self.at + n > self.bytes.len() {
+            return Err(self.error("unexpected end of file"));
+        }
+        self.at += n;
+        Ok(&self.bytes[self.at - n..self.at])
+    }
+
+    fn size(&mut self) -> Result<u64, ImportError> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+
+    fn int(&mut self) -> Result<i32, ImportError> {
+        Ok(i32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
+
+    fn double(&mut self) -> Result<f64, ImportError> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+
+    /// Moves past the next line that reads `marker`.
+    fn seek(&mut self, marker: &str) -> bool {
+        let needle = format!("{marker}\n");
+        match self.bytes[self.at..].windows(needle.len()).position(|w| w == needle.as_bytes()) {
+            Some(k) => {
+                self.at += k + needle.len();
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
+    let mut reader = Binary { bytes, at: 0, path };
+    let mut collected = Collected::new();
+    reader.seek("$MeshFormat");
+    reader.seek("4.1 1 8");
+    if reader.int()? != 1 {
+        return Err(reader.error("the file was written on a big-endian machine, or is damaged"));
+    }
+    if !reader.seek("$Nodes") {
+        return Err(reader.error("no $Nodes section"));
+    }
+    let blocks = reader.size()?;
+    let _ = (reader.size()?, reader.size()?, reader.size()?);
+    for _ in 0..blocks {
+        let (_, _, parametric) = (reader.int()?, reader.int()?, reader.int()?);
+        let count = reader.size()? as usize;
+        if parametric != 0 {
+            return Err(reader.error("parametric node coordinates are not supported"));
+        }
+        let tags: Vec<u64> = (0..count).map(|_| reader.size()).collect::<Result<_, _>>()?;
+        for tag in tags {
+            let x = Vec3::new(reader.double()?, reader.double()?, reader.double()?);
+            collected.node(tag, x, path, 0).map_err(|e| reader.error(e.message))?;
+        }
+    }
+    if !reader.seek("$Elements") {
+        return Err(reader.error("no $Elements section"));
+    }
+    let blocks = reader.size()?;
+    let _ = (reader.size()?, reader.size()?, reader.size()?);
+    for _ in 0..blocks {
+        let (_, _, kind) = (reader.int()?, reader.int()?, reader.int()? as i64);
+        let count = reader.size()? as usize;
+        let Some((nodes, volume)) = gmsh_element(kind) else { return Err(reader.error(format!("unknown element type {kind}"))) };
+        if volume && kind != GMSH_HEXAHEDRON {
+            return Err(reader.error(format!("element type {kind} is not an 8-node hexahedron: mesh the projectile with hexahedra")));
+        }
+        for _ in 0..count {
+            let _tag = reader.size()?;
+            let element: Vec<u64> = (0..nodes).map(|_| reader.size()).collect::<Result<_, _>>()?;
+            let mut tags = [0u64; 8];
+            for (tag, value) in tags.iter_mut().zip(&element) {
+                *tag = *value;
+            }
+            if kind == GMSH_HEXAHEDRON {
+                collected.hexes.push((tags, 0));
+            }
+        }
+    }
+    collected.finish(path)
+}
+
+/// Parses the nodes and C3D8 elements of an ABAQUS input file.
+pub fn parse_abaqus(text: &str, path: &str) -> Result<HexMesh, ImportError> {
+    #[derive(PartialEq)]
+    enum Section {
+        Other,
+        Nodes,
+        Hexahedra,
+    }
+    let mut collected = Collected::new();
+    let mut section = Section::Other;
+    let mut pending: Vec<u64> = Vec::new();
+    let mut pending_line = 0;
+    for (k, raw) in text.lines().enumerate() {
+        let (line, text) = (k + 1, raw.trim());
+        if text.is_empty() || text.starts_with("**") {
+            continue;
+        }
+        let error = |message: String| ImportError { path: path.into(), line, message };
+        if let Some(keyword) = text.strip_prefix('*') {
+            let upper = keyword.to_ascii_uppercase();
+            let name = upper.split(',').next().unwrap_or("").trim().to_string();
+            section = match name.as_str() {
+                "NODE" => Section::Nodes,
+                "ELEMENT" => {
+                    let kind = upper.split(',').find_map(|p| p.trim().strip_prefix("TYPE").map(|t| t.trim_start_matches([' ', '=']).trim().to_string())).unwrap_or_default();
+                    match kind.as_str() {
+                        "C3D8" | "C3D8R" | "C3D8I" => Section::Hexahedra,
+                        other if other.starts_with("C3D") => return Err(error(format!("element type {other} is not an 8-node hexahedron (C3D8, C3D8R or C3D8I)"))),
+                        _ => Section::Other,
+                    }
+                }
+                _ => Section::Other,
+            };
+            continue;
+        }
+        let fields: Vec<&str> = text.split(',').map(str::trim).filter(|f| !f.is_empty()).collect();
+        match section {
+            Section::Nodes => {
+                let values: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+                let values = values.map_err(|_| error(format!("not a number in {text:?}")))?;
+                if values.len() < 4 || values[0].fract() != 0.0 || values[0] < 0.0 {
+                    return Err(error(format!("a node line is `tag, x, y, z`, got {text:?}")));
+                }
+                collected.node(values[0] as u64, Vec3::new(values[1], values[2], values[3]), path, line)?;
+            }
+            Section::Hexahedra => {
+                // an element may continue on the next line after a trailing comma
+                if pending.is_empty() {
+                    pending_line = line;
+                }
+                for f in fields {
+                    pending.push(f.parse::<u64>().map_err(|_| error(format!("not an integer: {f:?}")))?);
+                }
+                if pending.len() >= 9 {
+                    if pending.len() > 9 {
+                        return Err(ImportError { path: path.into(), line: pending_line, message: format!("a C3D8 element has a tag and 8 nodes, got {} numbers", pending.len()) });
+                    }
+                    let mut tags = [0u64; 8];
+                    tags.copy_from_slice(&pending[1..9]);
+                    collected.hexes.push((tags, pending_line));
+                    pending.clear();
+                }
+            }
+            Section::Other => {}
+        }
+    }
+    if !pending.is_empty() {
+        return Err(ImportError { path: path.into(), line: pending_line, message: "incomplete element at the end of the file".into() });
+    }
+    collected.finish(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The generator's cylinder written as Gmsh 4.1 ASCII, with a few boundary lines mixed in.
+    fn gmsh_ascii(mesh: &HexMesh) -> String {
+        let mut text = String::from("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n");
+        let n = mesh.nodes.len();
+        text += &format!("1 {n} 1 {n}\n3 1 0 {n}\n");
+        for k in 0..n {
+            text += &format!("{}\n", k + 1);
+        }
+        for x in &mesh.nodes {
+            text += &format!("{:?} {:?} {:?}\n", x.x, x.y, x.z);
+        }
+        text += "$EndNodes\n$Elements\n";
+        let m = mesh.hexes.len();
+        text += &format!("2 {} 1 {}\n1 1 1 1\n{} 1 2\n3 1 5 {m}\n", m + 1, m + 1, m + 1);
+        for (k, h) in mesh.hexes.iter().enumerate() {
+            text += &format!("{}", k + 1);
+            for v in h {
+                text += &format!(" {}", v + 1);
+            }
+            text += "\n";
+        }
+        text + "$EndElements\n"
+    }
+
+    fn gmsh_binary(mesh: &HexMesh) -> Vec<u8> {
+        let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+        b.extend(1i32.to_le_bytes());
+        b.extend(b"\n$EndMeshFormat\n$Nodes\n");
+        let n = mesh.nodes.len() as u64;
+        for v in [1, n, 1, n] {
+            b.extend(v.to_le_bytes());
+        }
+        for v in [3i32, 1, 0] {
+            b.extend(v.to_le_bytes());
+        }
+        b.extend(n.to_le_bytes());
+        for k in 1..=n {
+            b.extend(k.to_le_bytes());
+        }
+        for x in &mesh.nodes {
+            for c in x.iter() {
+                b.extend(c.to_le_bytes());
+            }
+        }
+        b.extend(b"\n$EndNodes\n$Elements\n");
+        let m = mesh.hexes.len() as u64;
+        for v in [1, m, 1, m] {
+            b.extend(v.to_le_bytes());
+        }
+        for v in [3i32, 1, 5] {
+            b.extend(v.to_le_bytes());
+        }
+        b.extend(m.to_le_bytes());
+        for (k, h) in mesh.hexes.iter().enumerate() {
+            b.extend((k as u64 + 1).to_le_bytes());
+            for v in h {
+                b.extend((*v as u64 + 1).to_le_bytes());
+            }
+        }
+        b.extend(b"\n$EndElements\n");
+        b
+    }
+
+    fn abaqus(mesh: &HexMesh) -> String {
+        let mut text = String::from("** a cylinder\n*HEADING\ntest\n*NODE\n");
+        for (k, x) in mesh.nodes.iter().enumerate() {
+            text += &format!("{}, {:?}, {:?}, {:?}\n", k + 10, x.x, x.y, x.z);
+        }
+        text += "*Element, type=C3D8, elset=body\n";
+        for (k, h) in mesh.hexes.iter().enumerate() {
+            // every other element split over two lines
+            let nodes: Vec<String> = h.iter().map(|v| (v + 10).to_string()).collect();
+            if k % 2 == 0 {
+                text += &format!("{}, {}\n", k + 1, nodes.join(", "));
+            } else {
+                text += &format!("{}, {},\n{}\n", k + 1, nodes[..5].join(", "), nodes[5..].join(", "));
+            }
+        }
+        text
+    }
+
+    #[test]
+    fn all_three_formats_give_back_the_generated_mesh() {
+        let mesh = HexMesh::cylinder(1.7e-3, 3.7e-3, 3, 2, 3);
+        for (name, imported) in [
+            ("ascii.msh", parse_gmsh(gmsh_ascii(&mesh).as_bytes(), "ascii.msh")),
+            ("binary.msh", parse_gmsh(&gmsh_binary(&mesh), "binary.msh")),
+            ("mesh.inp", parse_abaqus(&abaqus(&mesh), "mesh.inp")),
+        ] {
+            let imported = imported.unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(imported, mesh, "{name}");
+            assert_eq!(imported.surface().check_closed(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn malformed_files_name_the_line() {
+        let mesh = HexMesh::cylinder(1.0, 1.0, 2, 1, 1);
+        let good = gmsh_ascii(&mesh);
+        // a letter in a coordinate (line of the first node's coordinates)
+        let first_coordinates = 4 + 2 + mesh.nodes.len() + 1;
+        let mut lines: Vec<String> = good.lines().map(String::from).collect();
+        lines[first_coordinates - 1] = "0.0 x 1.0".into();
+        let e = parse_gmsh(lines.join("\n").as_bytes(), "bad.msh").unwrap_err();
+        assert_eq!((e.path.as_str(), e.line), ("bad.msh", first_coordinates), "{e}");
+        assert_eq!(e.to_string(), format!("bad.msh:{first_coordinates}: not a number in \"0.0 x 1.0\""));
+        // an element that names a missing node
+        let broken = good.replacen("\n1 1 2 ", "\n1 9999 2 ", 1);
+        let e = parse_gmsh(broken.as_bytes(), "bad.msh").unwrap_err();
+        assert!(e.message.contains("node 9999") && e.line > 0, "{e}");
+        // a tetrahedral block is refused where it starts
+        let tets = good.replace("\n3 1 5 ", "\n3 1 4 ");
+        let e = parse_gmsh(tets.as_bytes(), "tets.msh").unwrap_err();
+        assert!(e.message.contains("not an 8-node hexahedron"), "{e}");
+        // an old format version, a truncated binary file
+        assert!(parse_gmsh(b"$MeshFormat\n2.2 0 8\n", "old.msh").unwrap_err().message.contains("only 4.1"));
+        let binary = gmsh_binary(&mesh);
+        let e = parse_gmsh(&binary[..binary.len() - 40], "cut.msh").unwrap_err();
+        assert!(e.message.contains("byte") && e.message.contains("end of file"), "{e}");
+        // ABAQUS: a short node line and a wrong element type
+        let e = parse_abaqus("*NODE\n1, 0.0, 0.0\n", "m.inp").unwrap_err();
+        assert_eq!(e.line, 2, "{e}");
+        let e = parse_abaqus("*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4\n1, 1, 1, 1, 1\n", "m.inp").unwrap_err();
+        assert_eq!(e.line, 3, "{e}");
+        // an inverted element
+        let mut inverted = mesh.clone();
+        inverted.hexes[0].swap(1, 3);
+        inverted.hexes[0].swap(5, 7);
+        let e = parse_abaqus(&abaqus(&inverted), "inv.inp").unwrap_err();
+        assert!(e.message.contains("inverted"), "{e}");
+    }
+
+    #[test]
+    fn files_are_read_by_their_extension() {
+        let dir = std::env::temp_dir().join(format!("dea-import-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mesh = HexMesh::cylinder(1.0, 2.0, 2, 1, 2);
+        std::fs::write(dir.join("p.msh"), gmsh_binary(&mesh)).unwrap();
+        std::fs::write(dir.join("p.INP"), abaqus(&mesh)).unwrap();
+        std::fs::write(dir.join("p.stl"), "solid").unwrap();
+        assert_eq!(read_mesh(&dir.join("p.msh")).unwrap(), mesh);
+        assert_eq!(read_mesh(&dir.join("p.INP")).unwrap(), mesh);
+        assert!(read_mesh(&dir.join("p.stl")).unwrap_err().to_string().contains("unknown mesh format"));
+        assert!(read_mesh(&dir.join("none.msh")).unwrap_err().to_string().contains("cannot read"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
