@@ -88,9 +88,9 @@ struct HaloPlan {
     partners: Vec<Rank>,
     /// owned local indices sent to each partner, ascending
     send_nodes: Vec<Vec<u32>>,
-    /// ghosts received from each partner (stored contiguously in partner order)
-    receive_counts: Vec<usize>,
     send_buffers: Vec<Vec<f64>>,
+    /// what each partner sends (HALO_WORDS per ghost; the ghosts are stored contiguously
+    /// in partner order, so a buffer's length also counts that partner's ghosts)
     receive_buffers: Vec<Vec<f64>>,
 }
 
@@ -99,8 +99,6 @@ pub struct Distributed<C: Comm> {
     pub comm: C,
     pub domain: Domain,
     pub partition: Partition,
-    /// nodes on every fibre
-    nodes_per_fibre: u32,
     /// contact search distance: largest contact diameter plus the skin [m]
     reach: f64,
     /// owned nodes each rank needs for its chain stencil, by rank (static: the partition
@@ -119,6 +117,9 @@ pub struct Distributed<C: Comm> {
     pub agreed: [bool; 2],
     /// layer of each yarn (for snapshots and per-layer diagnostics); empty: all in layer 0
     pub layer_of_yarn: Vec<u32>,
+    /// reaction records of this rank, and (rank 0) of all ranks: reused every step
+    reaction_words: Vec<f64>,
+    reactions: Vec<Reaction>,
 }
 
 impl<C: Comm> Distributed<C> {
@@ -147,7 +148,6 @@ impl<C: Comm> Distributed<C> {
             comm,
             domain,
             partition,
-            nodes_per_fibre,
             reach,
             chain_send: chain.into_iter().collect(),
             halo: HaloPlan::default(),
@@ -158,6 +158,8 @@ impl<C: Comm> Distributed<C> {
             requests: [false; 2],
             agreed: [false; 2],
             layer_of_yarn: Vec::new(),
+            reaction_words: Vec::new(),
+            reactions: Vec::new(),
         };
         distributed.rebuild()?;
         Ok(distributed)
@@ -257,19 +259,17 @@ impl<C: Comm> Distributed<C> {
             return;
         }
         let clock = Instant::now();
-        let mine: Vec<f64> = self
-            .domain
-            .projectile_reactions()
-            .flat_map(|r| [word(r.gid.0), r.force.x, r.force.y, r.force.z, r.torque.x, r.torque.y, r.torque.z])
-            .collect();
-        if let Some(all) = self.comm.gather_f64(&mine) {
-            let mut reactions: Vec<Reaction> = all
-                .iter()
-                .flat_map(|words| words.chunks_exact(REACTION_WORDS))
-                .map(|w| Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]) })
-                .collect();
-            reactions.sort_unstable_by_key(|r| r.gid);
-            let load = dea_core::domain::sum_reactions(reactions.into_iter());
+        self.reaction_words.clear();
+        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| [word(r.gid.0), r.force.x, r.force.y, r.force.z, r.torque.x, r.torque.y, r.torque.z]));
+        if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
+            self.reactions.clear();
+            self.reactions.extend(
+                all.iter()
+                    .flat_map(|words| words.chunks_exact(REACTION_WORDS))
+                    .map(|w| Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]) }),
+            );
+            self.reactions.sort_unstable_by_key(|r| r.gid);
+            let load = dea_core::domain::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
         }
         self.times.projectile += clock.elapsed().as_secs_f64();
@@ -401,7 +401,6 @@ impl<C: Comm> Distributed<C> {
             receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
             partners,
             send_nodes,
-            receive_counts,
         };
         self.domain.set_ghosts(&ghosts);
         self.times.ghost_exchange += clock.elapsed().as_secs_f64();
@@ -418,7 +417,7 @@ impl<C: Comm> Distributed<C> {
     /// The halo plan: (partner, owned global ids sent to it each step, ghosts received).
     pub fn halo_plan(&self) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
         let h = &self.halo;
-        h.partners.iter().zip(&h.send_nodes).zip(&h.receive_counts).map(|((&p, s), &n)| (p, s.iter().map(|&i| self.domain.nodes.gid[i as usize]).collect(), n)).collect()
+        h.partners.iter().zip(&h.send_nodes).zip(&h.receive_buffers).map(|((&p, s), r)| (p, s.iter().map(|&i| self.domain.nodes.gid[i as usize]).collect(), r.len() / HALO_WORDS)).collect()
     }
 
     /// Global ids of the ghosts, in local order.
@@ -499,11 +498,6 @@ impl<C: Comm> Distributed<C> {
         values
     }
 
-    /// Nodes on every fibre.
-    pub fn nodes_per_fibre(&self) -> u32 {
-        self.nodes_per_fibre
-    }
-
     /// Layer of the yarn of a fibre.
     pub fn layer_of(&self, fibre: FibreId) -> u32 {
         self.layer_of_yarn.get(self.partition.yarn_of(fibre)).copied().unwrap_or(0)
@@ -515,7 +509,7 @@ impl<C: Comm> Distributed<C> {
         let nodes = &self.domain.nodes;
         let halo = &self.halo;
         let sends: Vec<Vec<f64>> = halo.send_nodes.iter().map(|send| send.iter().flat_map(|&i| nodes.velocity[i as usize].as_slice().to_vec()).collect()).collect();
-        let mut receives: Vec<Vec<f64>> = halo.receive_counts.iter().map(|&n| vec![0.0; 3 * n]).collect();
+        let mut receives: Vec<Vec<f64>> = halo.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         self.comm.exchange(&halo.partners, &sends, &mut receives);
         let mut g = self.domain.nodes.n_owned;
         for buffer in &receives {

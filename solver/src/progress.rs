@@ -10,6 +10,8 @@ use serde::Serialize;
 
 /// Seconds between two plain lines and two `progress.json` updates.
 const REPORT_EVERY: Duration = Duration::from_secs(30);
+/// Time between two redraws of the bar (its message is formatted only then).
+const BAR_EVERY: Duration = Duration::from_millis(200);
 
 /// The content of `progress.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -32,6 +34,7 @@ pub struct Progress {
     start_time: f64,
     end_time: f64,
     last_report: Option<Instant>,
+    last_bar: Option<Instant>,
     bar: Option<ProgressBar>,
     path: PathBuf,
 }
@@ -44,13 +47,14 @@ impl Progress {
             bar.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]").expect("a valid template"));
             bar
         });
-        Self { start: Instant::now(), start_time, end_time, last_report: None, bar, path: out.join("progress.json") }
+        Self { start: Instant::now(), start_time, end_time, last_report: None, last_bar: None, bar, path: out.join("progress.json") }
     }
 
     /// Reports the state after a step; cheap unless a report is due.
     pub fn update(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
         let fraction = ((time - self.start_time) / (self.end_time - self.start_time)).clamp(0.0, 1.0);
-        if let Some(bar) = &self.bar {
+        if let Some(bar) = self.bar.as_ref().filter(|_| self.last_bar.is_none_or(|last| last.elapsed() >= BAR_EVERY)) {
+            self.last_bar = Some(Instant::now());
             bar.set_position((1000.0 * (time / self.end_time).clamp(0.0, 1.0)) as u64);
             bar.set_message(format!("step {step}, t = {time:.3e} s, projectile {projectile_speed:.1} m/s, energy balance {:.2}%", 100.0 * energy_balance_error));
         }
@@ -92,6 +96,7 @@ impl Progress {
     /// Clears the bar and writes the final `progress.json`.
     pub fn finish(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
         self.last_report = None;
+        self.last_bar = None;
         self.update(step, time, projectile_speed, energy_balance_error);
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();

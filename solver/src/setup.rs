@@ -153,23 +153,28 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let problem = problem(case);
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
-    let me = comm.rank();
-    let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
+    let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
     if let Strength::Weibull(law, seed) = &problem.strength {
-        for i in 0..built.nodes.len() {
-            if !built.nodes.last[i] {
-                built.elements.tensile_strength[i] = element_strength(law, *seed, built.nodes.gid[i], built.elements.rest_length[i]);
+        let (nodes, elements) = (&domain.nodes, &mut domain.elements);
+        for i in 0..nodes.n_owned {
+            if !nodes.last[i] {
+                elements.tensile_strength[i] = element_strength(law, *seed, nodes.gid[i], elements.rest_length[i]);
             }
         }
     }
-    adjust(&mut built.nodes);
-    let layer_of_yarn = problem.layer_of_yarn();
-    let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
-    domain.owns_projectile = me == Rank(0);
-    let nodes_per_fibre = problem.fabric.nodes_per_fibre();
-    let mut run = Distributed::new(comm, domain, partition, nodes_per_fibre, problem.reach)?;
-    run.layer_of_yarn = layer_of_yarn;
+    let mut run = Distributed::new(comm, domain, partition, problem.fabric.nodes_per_fibre(), problem.reach)?;
+    run.layer_of_yarn = problem.layer_of_yarn();
     Ok(run)
+}
+
+/// This rank's nodes of `problem` as generated (`adjust` applied), in a domain without
+/// ghosts; rank 0 owns the projectile.
+fn own_domain(problem: &Problem, partition: &Partition, me: Rank, adjust: impl FnOnce(&mut Nodes)) -> Domain {
+    let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
+    adjust(&mut built.nodes);
+    let mut domain = Domain::assemble(problem.material.clone(), built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile.clone()), problem.time_step);
+    domain.owns_projectile = me == Rank(0);
+    domain
 }
 
 /// A run restored from a checkpoint on this rank.
@@ -213,15 +218,12 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     }
     agree_on(&comm, read)?;
     let state = state.sorted();
-    let built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
-    let mut counts = [state.gid.len() as i64, built.nodes.n_owned as i64];
+    let mut domain = own_domain(&problem, &partition, me, |_| {});
+    let mut counts = [state.gid.len() as i64, domain.nodes.n_owned as i64];
     comm.sum_i64(&mut counts);
     if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
         return Err(SetupError::Checkpoint(format!("{}: holds {} nodes, of which {} belong to the case's {} nodes", directory.display(), global.nodes, counts[0], counts[1])));
     }
-    let layer_of_yarn = problem.layer_of_yarn();
-    let mut domain = Domain::assemble(problem.material, built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile), problem.time_step);
-    domain.owns_projectile = me == Rank(0);
     domain.step = global.step;
     domain.time = global.time;
     if me == Rank(0) {
@@ -231,7 +233,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
-    run.layer_of_yarn = layer_of_yarn;
+    run.layer_of_yarn = problem.layer_of_yarn();
     run.rebuilds = global.rebuilds;
     run.domain.pairs.builds = global.list_builds;
     Ok(Restored { case, run, global })

@@ -35,7 +35,7 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
         let start = radius + 0.5 * built.sections[0].contact_diameter + 1e-7;
         RigidProjectile::new(RigidShape::Sphere { radius }, 5e-6, Vec3::new(0.0, 0.0, start), Vec3::new(0.0, 0.0, -100.0), UnitQuaternion::identity())
     });
-    Domain::new(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt).unwrap()
+    Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt).initialize().unwrap()
 }
 
 /// Time at which `signal` first crosses `level`, linearly interpolated between steps.
@@ -151,7 +151,7 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
         *p = rotation * *p;
     }
     let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
-    let mut domain = Domain::new(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9).unwrap();
+    let mut domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9).initialize().unwrap();
     // a tangential shift of every other fibre activates friction against the first anchors
     for i in 0..domain.nodes.len() {
         if domain.nodes.fibre[i].0 % 2 == 1 {

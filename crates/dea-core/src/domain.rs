@@ -174,28 +174,9 @@ pub struct Domain {
 }
 
 impl Domain {
-    /// Assembles a whole domain (no ghosts); forces of the initial state are computed so that
-    /// the first half-kick uses a(0).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        material: FibreMaterial,
-        sections: Vec<FibreSection>,
-        nodes: Nodes,
-        elements: Elements,
-        contact: ContactParameters,
-        failure: FailureParameters,
-        projectile: Option<RigidProjectile>,
-        time_step: f64,
-    ) -> Result<Self, DomainError> {
-        let mut domain = Self::assemble(material, sections, nodes, elements, contact, failure, projectile, time_step);
-        domain.rebuild_neighbours()?;
-        domain.compute_forces()?;
-        domain.set_projectile_load(domain.projectile_load());
-        Ok(domain)
-    }
-
     /// Assembles a domain of owned nodes without computing anything: a distributed driver
-    /// adds the ghosts ([`Self::set_ghosts`]) before the first forces.
+    /// adds the ghosts ([`Self::set_ghosts`]) before the first forces; a whole domain
+    /// continues with [`Self::initialize`].
     #[allow(clippy::too_many_arguments)]
     pub fn assemble(
         material: FibreMaterial,
@@ -258,6 +239,15 @@ impl Domain {
             contact_stiffness: vec![0.0; n_owned],
             newly_broken: Vec::new(),
         }
+    }
+
+    /// Lists, forces and projectile load of the initial state of a whole domain (no ghosts),
+    /// so that the first half-kick uses a(0).
+    pub fn initialize(mut self) -> Result<Self, DomainError> {
+        self.rebuild_neighbours()?;
+        self.compute_forces()?;
+        self.set_projectile_load(self.projectile_load());
+        Ok(self)
     }
 
     /// Replaces the ghosts by `ghosts` (any order) and relinks the chains. Call

@@ -50,6 +50,24 @@ impl MpiComm {
     }
 }
 
+/// Values an in-place reduction copies on the stack: the per-step reductions are this small.
+const STACK_VALUES: usize = 8;
+
+impl MpiComm {
+    /// In-place all-reduce: MPI wants separate buffers, so the input is copied first (on the
+    /// stack for the few values of the per-step reductions, no allocation in the step).
+    fn all_reduce<T: Equivalence + Copy + Default>(&self, values: &mut [T], op: SystemOperation) {
+        if values.len() <= STACK_VALUES {
+            let mut mine = [T::default(); STACK_VALUES];
+            mine[..values.len()].copy_from_slice(values);
+            self.world.all_reduce_into(&mine[..values.len()], values, op);
+        } else {
+            let mine = values.to_vec();
+            self.world.all_reduce_into(&mine[..], values, op);
+        }
+    }
+}
+
 impl Comm for MpiComm {
     fn rank(&self) -> Rank {
         Rank(self.world.rank() as u32)
@@ -60,23 +78,19 @@ impl Comm for MpiComm {
     }
 
     fn max_f64(&self, values: &mut [f64]) {
-        let mine = values.to_vec();
-        self.world.all_reduce_into(&mine[..], values, SystemOperation::max());
+        self.all_reduce(values, SystemOperation::max());
     }
 
     fn min_u64(&self, values: &mut [u64]) {
-        let mine = values.to_vec();
-        self.world.all_reduce_into(&mine[..], values, SystemOperation::min());
+        self.all_reduce(values, SystemOperation::min());
     }
 
     fn sum_i64(&self, values: &mut [i64]) {
-        let mine = values.to_vec();
-        self.world.all_reduce_into(&mine[..], values, SystemOperation::sum());
+        self.all_reduce(values, SystemOperation::sum());
     }
 
     fn or_u64(&self, values: &mut [u64]) {
-        let mine = values.to_vec();
-        self.world.all_reduce_into(&mine[..], values, SystemOperation::bitwise_or());
+        self.all_reduce(values, SystemOperation::bitwise_or());
     }
 
     fn all_gather_f64(&self, mine: &[f64]) -> Vec<f64> {
