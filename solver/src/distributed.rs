@@ -117,6 +117,8 @@ pub struct Distributed<C: Comm> {
     pub agreed: [bool; 2],
     /// layer of each yarn (for snapshots and per-layer diagnostics); empty: all in layer 0
     pub layer_of_yarn: Vec<u32>,
+    /// fibres of the whole target
+    pub fibres: usize,
     /// reaction records of this rank, and (rank 0) of all ranks: reused every step
     reaction_words: Vec<f64>,
     reactions: Vec<Reaction>,
@@ -158,6 +160,7 @@ impl<C: Comm> Distributed<C> {
             requests: [false; 2],
             agreed: [false; 2],
             layer_of_yarn: Vec::new(),
+            fibres: 0,
             reaction_words: Vec::new(),
             reactions: Vec::new(),
         };
@@ -183,7 +186,7 @@ impl<C: Comm> Distributed<C> {
         self.domain.times.integrate += clock.elapsed().as_secs_f64();
         self.broadcast_projectile();
         let clock = Instant::now();
-        let (node, projectile) = self.domain.displacements();
+        let node = self.domain.node_displacement();
         self.domain.times.rebuild += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         // the run loop's requests ride on the same reduction
@@ -192,7 +195,7 @@ impl<C: Comm> Distributed<C> {
         self.comm.max_f64(&mut largest);
         self.agreed = [largest[1] > 0.0, largest[2] > 0.0];
         self.times.reductions += clock.elapsed().as_secs_f64();
-        if self.domain.rebuild_needed(largest[0], projectile) {
+        if self.domain.rebuild_needed(largest[0]) {
             self.rebuild()?;
         } else {
             self.forward_halo();
@@ -601,7 +604,7 @@ impl<C: Comm> Distributed<C> {
     /// interrupted run, and future rebuilds fall on the same steps), then every history,
     /// position, velocity and force is put back and the ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
-    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64], projectile_reference: Vec3) -> Result<Self, RestoreError> {
+    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64]) -> Result<Self, RestoreError> {
         let n = domain.nodes.n_owned;
         if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
             return Err(RestoreError::Mismatch("the checkpoint's nodes are not those of the case".into()));
@@ -613,7 +616,6 @@ impl<C: Comm> Distributed<C> {
         }
         if let Some(p) = &mut domain.projectile {
             set_projectile_words(p, projectile);
-            p.position = projectile_reference;
         }
         let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach)?;
         let d = &mut restored.domain;

@@ -175,7 +175,7 @@ fn setup_exit(error: &SetupError) -> Exit {
     match error {
         SetupError::Partition(_) => Exit::Usage,
         SetupError::Numerical(_) => Exit::Numerical,
-        SetupError::Checkpoint(_) => Exit::File,
+        SetupError::Checkpoint(_) | SetupError::Mesh(_) => Exit::File,
     }
 }
 
@@ -187,15 +187,18 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail(code, message),
             };
-            let problem = setup::problem(&case);
-            let projectile = case.projectile().expect("validated case");
+            let problem = match setup::problem(&case) {
+                Ok(problem) => problem,
+                Err(e) => return fail(setup_exit(&e), e),
+            };
+            let projectile = &problem.projectile;
             let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
             let resolved = serde_json::json!({
                 "case": case,
                 "resolved": {
                     "material": problem.material,
                     "sections": [problem.fabric.section(&problem.material)],
-                    "projectile": { "shape": projectile.shape, "mass_kg": projectile.mass, "speed_m_s": projectile.speed },
+                    "projectile": setup::describe_projectile(projectile),
                     "yarns": problem.fabric.yarns.len(),
                     "fibres": fibres,
                     "nodes": fibres * problem.fabric.nodes_per_fibre() as u64,
@@ -246,7 +249,6 @@ fn main() -> ExitCode {
                 }
             };
             let json = serde_json::to_string(&case).expect("case serialises");
-            let problem = setup::problem(&case);
             if panic_on_rank == Some(run.comm.rank().0) {
                 panic!("fault injection: rank {} panics on request", run.comm.rank().0);
             }
@@ -266,8 +268,8 @@ fn main() -> ExitCode {
                 history_interval: case.run.history_interval_steps,
                 stop_when_decided: case.run.stop_on_perforation,
                 out: &out,
-                fibres: problem.fibres(),
-                layers: problem.layers(),
+                fibres: run.fibres,
+                layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
                 snapshot_interval: case.run.snapshot_interval_steps,
                 checkpoints: dea_mpi::run::CheckpointPolicy {
                     every_steps: case.run.checkpoint_interval_steps,
@@ -315,7 +317,10 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail(code, message),
             };
-            let problem = setup::problem(&case);
+            let problem = match setup::problem(&case) {
+                Ok(problem) => problem,
+                Err(e) => return fail(setup_exit(&e), e),
+            };
             let graph = setup::segment_graph(&problem, ranks, segment_nodes);
             let partition = match dea_partition::partition(&graph, ranks, method_of(method)) {
                 Ok(partition) => partition,

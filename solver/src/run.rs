@@ -411,7 +411,6 @@ pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, res
             step: run.domain.step,
             time: run.domain.time,
             projectile: run.domain.projectile.as_ref().map(|p| crate::distributed::projectile_words(p).to_vec()).unwrap_or_default(),
-            projectile_reference: run.domain.projectile_contacts.reference_position,
             broken: [broken.tension, broken.shear, broken.combined],
             rebuilds: run.rebuilds,
             list_builds: run.domain.pairs.builds,

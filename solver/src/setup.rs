@@ -4,7 +4,9 @@
 
 use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
-use dea_core::projectile::{RigidProjectile, RigidShape};
+use dea_core::projectile::{MeshShape, RigidProjectile, RigidShape};
+use dea_projectile::import::read_surface;
+use std::sync::Arc;
 use dea_core::stability::stable_time_step;
 use dea_core::weibull::element_strength;
 use std::path::Path;
@@ -13,7 +15,7 @@ use dea_core::domain::BrokenCount;
 use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_fabric::StraightFabric;
-use dea_io::case::{parse_case, yarn_area, Case, Strength, TargetSpec};
+use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
@@ -31,6 +33,8 @@ pub struct Problem {
     pub failure: FailureParameters,
     pub strength: Strength,
     pub projectile: RigidProjectile,
+    /// where the projectile's line of flight crosses the target's top (x, y) [m]
+    pub aim: [f64; 2],
     /// [s]
     pub time_step: f64,
     /// contact search distance: largest contact diameter plus the skin [m]
@@ -64,10 +68,13 @@ pub enum SetupError {
     /// a checkpoint that cannot be read or does not fit the case
     #[error("{0}")]
     Checkpoint(String),
+    /// a projectile mesh that cannot be read or is not a closed surface
+    #[error("{0}")]
+    Mesh(String),
 }
 
-/// Resolves a validated case.
-pub fn problem(case: &Case) -> Problem {
+/// Resolves a validated case (reading or generating the projectile's mesh).
+pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let material = case.material().expect("validated case");
     let law = case.normal_law(&material).expect("validated case");
     let strength = case.strength().expect("validated case");
@@ -98,23 +105,77 @@ pub fn problem(case: &Case) -> Problem {
     };
     let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
     let resolved = case.projectile().expect("validated case");
+    // a node overlaps the surface closer than its contact radius, and is a candidate within
+    // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
+    // diameters (§4.2.2)
+    let shape = rigid_shape(&resolved.body, 0.5 * section.contact_diameter + contact.skin, 1.3 * section.contact_diameter)?;
     let top = fabric.top(&material) + 0.5 * section.contact_diameter;
-    let reach_below_centre = match resolved.shape {
-        RigidShape::Sphere { radius } => radius,
-        RigidShape::Cylinder { height, .. } => 0.5 * height,
-    };
-    let start = Vec3::new(resolved.offset[0], resolved.offset[1], top + reach_below_centre + INITIAL_GAP);
-    let projectile = RigidProjectile::new(resolved.shape, resolved.mass, start, Vec3::new(0.0, 0.0, -resolved.speed), UnitQuaternion::identity());
+    let (projectile, aim) = launch(shape, &resolved, top);
     let sections = [section];
     let time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
     let reach = sections[0].contact_diameter + contact.skin;
-    Problem { material, fabric, contact, failure, strength, projectile, time_step, reach }
+    Ok(Problem { material, fabric, contact, failure, strength, projectile, aim, time_step, reach })
+}
+
+/// The projectile's surface: closed form, generated or read from a file (scaled to metres),
+/// queried within `reach` through cubes of edge `cell` [m].
+fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShape, SetupError> {
+    let (vertices, triangles, source) = match body {
+        ProjectileBody::Analytic(shape) => return Ok(shape.clone()),
+        ProjectileBody::Generated { solid, divisions } => {
+            let (vertices, triangles) = solid.mesh(*divisions).boundary();
+            (vertices, triangles, format!("the generated {solid:?} mesh"))
+        }
+        ProjectileBody::File { path, scale } => {
+            let (vertices, triangles) = read_surface(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
+            (vertices.iter().map(|v| v * *scale).collect(), triangles, path.display().to_string())
+        }
+    };
+    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    Ok(RigidShape::Mesh(Arc::new(mesh)))
+}
+
+/// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, and for a
+/// meshed one the surface and the density its mass implies.
+pub fn describe_projectile(projectile: &RigidProjectile) -> serde_json::Value {
+    let shape = match &projectile.shape {
+        RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
+        RigidShape::Cylinder { radius, height, edge_radius } => serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } }),
+        RigidShape::Mesh(mesh) => serde_json::json!({ "mesh": {
+            "vertices": mesh.surface.vertices.len(),
+            "triangles": mesh.surface.triangles.len(),
+            "volume_m3": mesh.volume,
+            "implied_density_kg_m3": projectile.mass / mesh.volume,
+            "bounding_radius_m": mesh.bounding_radius,
+        } }),
+    };
+    serde_json::json!({
+        "shape": shape,
+        "mass_kg": projectile.mass,
+        "position_m": projectile.position.as_slice(),
+        "velocity_m_s": projectile.velocity.as_slice(),
+        "orientation_quaternion_wxyz": [projectile.orientation.w, projectile.orientation.i, projectile.orientation.j, projectile.orientation.k],
+    })
+}
+
+/// The projectile at time zero, and the aim point (x, y) where its centre's line of flight
+/// crosses the target's top: along the line of flight `(-sin o, 0, -cos o)` for obliquity
+/// `o`, its lowest point `INITIAL_GAP` above the top `top` [m]. The body is turned by the
+/// obliquity about y, then yawed about its own x axis.
+fn launch(shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2]) {
+    let flight = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), resolved.obliquity);
+    let orientation = flight * UnitQuaternion::from_axis_angle(&Vec3::x_axis(), resolved.yaw);
+    let direction = flight * Vec3::new(0.0, 0.0, -1.0);
+    let below_centre = shape.support(&orientation.inverse_transform_vector(&Vec3::new(0.0, 0.0, -1.0)));
+    let travel = (below_centre + INITIAL_GAP) / resolved.obliquity.cos();
+    let aim = Vec3::new(resolved.offset[0], resolved.offset[1], top);
+    let start = aim - direction * travel;
+    (RigidProjectile::new(shape, resolved.mass, start, direction * resolved.speed, orientation), resolved.offset)
 }
 
 /// The yarn-segment graph of a problem, weighted for a shot along its projectile's line.
 pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<u32>) -> SegmentGraph {
-    let p = &problem.projectile;
-    let shot = ShotLine { x: p.position.x, y: p.position.y, radius: p.shape.bounding_radius() + problem.reach };
+    let shot = ShotLine { x: problem.aim[0], y: problem.aim[1], radius: problem.projectile.shape.bounding_radius() + problem.reach };
     let positions = segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
     dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
 }
@@ -151,7 +212,7 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 /// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
 /// (the benchmark squeezes its yarn this way).
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
-    let problem = problem(case);
+    let problem = shared_problem(&comm, case)?;
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
     let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
     if let Strength::Weibull(law, seed) = &problem.strength {
@@ -164,6 +225,7 @@ pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_pos
     }
     let mut run = Distributed::new(comm, domain, partition, problem.fabric.nodes_per_fibre(), problem.reach)?;
     run.layer_of_yarn = problem.layer_of_yarn();
+    run.fibres = problem.fibres();
     Ok(run)
 }
 
@@ -184,23 +246,34 @@ pub struct Restored<C: Comm> {
     pub global: GlobalState,
 }
 
-/// Every rank learns whether any rank failed; all return the same error.
-fn agree_on<C: Comm, T>(comm: &C, local: Result<T, String>) -> Result<T, SetupError> {
+/// Every rank learns whether any rank failed; all return an error (their own, or
+/// `elsewhere` where another rank failed).
+fn agree_on<C: Comm, T>(comm: &C, local: Result<T, SetupError>, elsewhere: impl FnOnce() -> SetupError) -> Result<T, SetupError> {
     let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
     comm.max_f64(&mut failed);
     match local {
-        Err(message) => Err(SetupError::Checkpoint(message)),
-        Ok(_) if failed[0] > 0.0 => Err(SetupError::Checkpoint("another rank could not read the checkpoint".into())),
+        Err(e) => Err(e),
+        Ok(_) if failed[0] > 0.0 => Err(elsewhere()),
         Ok(value) => Ok(value),
     }
 }
 
+/// [`problem`] on every rank, failing together (a mesh file one node cannot read ends the
+/// whole job).
+fn shared_problem<C: Comm>(comm: &C, case: &Case) -> Result<Problem, SetupError> {
+    agree_on(comm, problem(case), || SetupError::Mesh("another rank could not read the projectile mesh".into()))
+}
+
+fn unreadable_checkpoint() -> SetupError {
+    SetupError::Checkpoint("another rank could not read the checkpoint".into())
+}
+
 /// Restores a run from a checkpoint directory on this job's ranks (any number of them).
 pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Restored<C>, SetupError> {
-    let global = read_manifest(directory).map_err(|e| e.to_string());
-    let global = agree_on(&comm, global)?;
+    let global = read_manifest(directory).map_err(|e| SetupError::Checkpoint(e.to_string()));
+    let global = agree_on(&comm, global, unreadable_checkpoint)?;
     let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string()).map_err(|e| SetupError::Checkpoint(e.to_string()))?;
-    let problem = problem(&case);
+    let problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();
     let nodes_per_fibre = problem.fabric.nodes_per_fibre() as u64;
@@ -211,12 +284,12 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
         match read_part(&part_path(directory, part)) {
             Ok(rows) => state.append_selected(&rows, owned),
             Err(e) => {
-                read = Err(e.to_string());
+                read = Err(SetupError::Checkpoint(e.to_string()));
                 break;
             }
         }
     }
-    agree_on(&comm, read)?;
+    agree_on(&comm, read, unreadable_checkpoint)?;
     let state = state.sorted();
     let mut domain = own_domain(&problem, &partition, me, |_| {});
     let mut counts = [state.gid.len() as i64, domain.nodes.n_owned as i64];
@@ -229,23 +302,23 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     if me == Rank(0) {
         domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
     }
-    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile, global.projectile_reference).map_err(|e| match e {
+    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile).map_err(|e| match e {
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
     run.layer_of_yarn = problem.layer_of_yarn();
+    run.fibres = problem.fibres();
     run.rebuilds = global.rebuilds;
     run.domain.pairs.builds = global.list_builds;
     Ok(Restored { case, run, global })
 }
 
-/// Lowest point of the projectile along z [m] (its bounding sphere: exact for a sphere,
-/// conservative for a tilted cylinder).
+/// Lowest point of the projectile along z [m].
 pub fn projectile_bottom(projectile: &RigidProjectile) -> f64 {
-    projectile.position.z - projectile.shape.bounding_radius()
+    projectile.position.z - projectile.shape.support(&projectile.orientation.inverse_transform_vector(&-Vec3::z()))
 }
 
-/// Highest point of the projectile along z [m] (its bounding sphere).
+/// Highest point of the projectile along z [m].
 pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
-    projectile.position.z + projectile.shape.bounding_radius()
+    projectile.position.z + projectile.shape.support(&projectile.orientation.inverse_transform_vector(&Vec3::z()))
 }

@@ -25,7 +25,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn fibres(case: &Case) -> usize {
-    problem(case).fibres()
+    problem(case).unwrap().fibres()
 }
 
 fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option<u64>, resume: Option<Resume>) -> RunOptions<'a> {
@@ -37,7 +37,7 @@ fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option
         stop_when_decided: false,
         out,
         fibres: fibres(case),
-        layers: problem(case).layers(),
+        layers: problem(case).unwrap().layers(),
         snapshot_interval: case.run.snapshot_interval_steps,
         checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None },
         resume,
@@ -144,7 +144,7 @@ fn every_node_is_owned_once_and_halos_are_symmetric() {
         assert!(state.rebuilds > rebuilds, "the ghosts were rebuilt while running");
         view(&state)
     });
-    let total = problem(&case).fabric.nodes_per_fibre() as u64 * fibres(&case) as u64;
+    let total = problem(&case).unwrap().fabric.nodes_per_fibre() as u64 * fibres(&case) as u64;
     let mut owned: Vec<GlobalNodeId> = views.iter().flat_map(|v| v.owned.iter().copied()).collect();
     owned.sort();
     assert_eq!(owned.len() as u64, total);
@@ -216,7 +216,7 @@ fn elements_stretched_far_beyond_the_contact_reach_give_the_same_bits_on_any_ran
 fn a_missing_ghost_is_reported_on_every_rank_not_computed_around() {
     let case = stretched_case();
     let results: Vec<Result<(), String>> = run_local(2, |comm| {
-        let p = problem(&case);
+        let p = problem(&case).unwrap();
         let partition = {
             let graph = dea_mpi::setup::segment_graph(&p, comm.size(), None);
             dea_partition::partition(&graph, comm.size(), Method::KWay).unwrap()

@@ -15,6 +15,7 @@ use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::projectile::RigidProjectile;
+use nalgebra::UnitQuaternion;
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
@@ -82,8 +83,12 @@ pub struct ProjectileContacts {
     pub force_on_node: Vec<Vec3>,
     /// torque of the reaction about the projectile's centre in this step [N m]
     pub torque_on_projectile: Vec<Vec3>,
-    /// projectile position at the last build [m]
+    /// owned node positions at the last refresh of the candidates [m]
+    pub node_reference: Vec<Vec3>,
+    /// projectile position at the last refresh [m]
     pub reference_position: Vec3,
+    /// projectile orientation at the last refresh
+    pub reference_orientation: UnitQuaternion<f64>,
 }
 
 /// The reaction of one fibre node on the projectile.
@@ -302,24 +307,20 @@ impl Domain {
         }
     }
 
-    /// Largest displacement of an owned node, and of the projectile, since the last build [m].
-    pub fn displacements(&self) -> (f64, f64) {
-        let node = self.pairs.max_displacement_squared(&self.nodes).sqrt();
-        let projectile = self.projectile.as_ref().map_or(0.0, |p| (p.position - self.projectile_contacts.reference_position).norm());
-        (node, projectile)
+    /// Largest displacement of an owned node since the last build of the fibre lists [m].
+    pub fn node_displacement(&self) -> f64 {
+        self.pairs.max_displacement_squared(&self.nodes).sqrt()
     }
 
     /// True when a node may have come within reach of a partner not in its list: a node
-    /// moved more than half the skin, or node plus projectile moved more than the skin.
-    /// `node` is the largest displacement over every rank.
-    pub fn rebuild_needed(&self, node: f64, projectile: f64) -> bool {
-        2.0 * node > self.pairs.skin || node + projectile > self.pairs.skin
+    /// moved more than half the skin. `node` is the largest displacement over every rank.
+    pub fn rebuild_needed(&self, node: f64) -> bool {
+        2.0 * node > self.pairs.skin
     }
 
     /// [`Self::rebuild_needed`] for a whole domain.
     pub fn rebuild_due(&self) -> bool {
-        let (node, projectile) = self.displacements();
-        self.rebuild_needed(node, projectile)
+        self.rebuild_needed(self.node_displacement())
     }
 
     /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking
@@ -330,25 +331,52 @@ impl Domain {
         }
         let clock = Instant::now();
         self.pairs.rebuild(&self.nodes, &self.sections);
-        if let Some(projectile) = &self.projectile {
-            let contacts = &mut self.projectile_contacts;
-            let max_contact_radius = self.sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
-            let reach = projectile.shape.bounding_radius() + max_contact_radius + self.pairs.skin;
-            contacts.candidates.clear();
-            for i in 0..self.nodes.n_owned {
-                if (self.nodes.position[i] - projectile.position).norm_squared() < reach * reach {
-                    contacts.candidates.push(i as u32);
-                } else {
-                    // a node leaving the candidate set is out of contact
-                    contacts.touching[i] = false;
-                    contacts.force_on_node[i].fill(0.0);
-                    contacts.torque_on_projectile[i].fill(0.0);
-                }
-            }
-            contacts.reference_position = projectile.position;
-        }
+        self.refresh_projectile_candidates();
         self.times.rebuild += clock.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// True when an owned node may have come within contact of the projectile without being
+    /// a candidate: node and projectile surface together moved more than the skin since the
+    /// last refresh. The surface moved no more than the centre plus the turn times the
+    /// shape's reach.
+    fn projectile_refresh_due(&self) -> bool {
+        let Some(projectile) = &self.projectile else { return false };
+        let contacts = &self.projectile_contacts;
+        if contacts.node_reference.len() != self.nodes.n_owned {
+            return true;
+        }
+        let surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
+        let node = contacts.node_reference.iter().zip(&self.nodes.position).map(|(r, x)| (x - r).norm_squared()).fold(0.0, f64::max).sqrt();
+        node + surface > self.pairs.skin
+    }
+
+    /// Chooses the owned nodes within the skin of touching the projectile's surface (a mesh
+    /// finds them through its cubes, whose reach covers the contact radius plus the skin).
+    /// A node that is not a candidate cannot touch, so the choice and its timing never
+    /// change a result: each rank refreshes on its own.
+    fn refresh_projectile_candidates(&mut self) {
+        let Some(projectile) = &self.projectile else { return };
+        let contacts = &mut self.projectile_contacts;
+        let max_contact_radius = self.sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
+        let reach = max_contact_radius + self.pairs.skin;
+        let bounding = projectile.shape.bounding_radius() + reach;
+        contacts.candidates.clear();
+        for i in 0..self.nodes.n_owned {
+            let x = self.nodes.position[i];
+            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.distance_and_normal(&projectile.to_body(&x)).0 < reach {
+                contacts.candidates.push(i as u32);
+            } else {
+                // a node leaving the candidate set is out of contact
+                contacts.touching[i] = false;
+                contacts.force_on_node[i].fill(0.0);
+                contacts.torque_on_projectile[i].fill(0.0);
+            }
+        }
+        contacts.node_reference.clear();
+        contacts.node_reference.extend_from_slice(&self.nodes.position[..self.nodes.n_owned]);
+        contacts.reference_position = projectile.position;
+        contacts.reference_orientation = projectile.orientation;
     }
 
     /// Forces on owned nodes, element failure and the projectile's contact load.
@@ -362,6 +390,9 @@ impl Domain {
         self.add_fibre_contacts();
         let contacts_done = Instant::now();
         self.times.fibre_contacts += (contacts_done - rods_done).as_secs_f64();
+        if self.projectile_refresh_due() {
+            self.refresh_projectile_candidates();
+        }
         self.add_projectile_contacts();
         let projectile_done = Instant::now();
         self.times.projectile_contacts += (projectile_done - contacts_done).as_secs_f64();

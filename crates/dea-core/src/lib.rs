@@ -20,6 +20,7 @@ pub mod nodes;
 pub mod projectile;
 pub mod rod;
 pub mod stability;
+pub mod surface;
 pub mod weibull;
 
 pub use domain::{Domain, DomainError, GhostRecord, Reaction, CHAIN_STENCIL};

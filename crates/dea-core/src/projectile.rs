@@ -1,21 +1,54 @@
-//! Rigid projectile: a rounded core (point = sphere, cylinder = right circular cylinder with
-//! rounded edges) moving as a 6-degree-of-freedom rigid body.
+//! Rigid projectile moving as a 6-degree-of-freedom rigid body: an analytic rounded core
+//! (sphere; right circular cylinder with rounded edges) or a closed triangle surface (a
+//! generated or imported mesh, seed §4.2.1.3).
 //!
-//! The surface is the set of points at distance `rounding` from the core, so the distance
-//! from a fibre node to the surface is a closed form for both shapes, and the edge radius of
-//! a cylinder (which decides shear failure, seed §5.1, §6.2.1) is exact.
+//! An analytic surface is the set of points at distance `rounding` from the core, so the
+//! distance from a fibre node to it is a closed form and the edge radius of a cylinder (which
+//! decides shear failure, seed §5.1, §6.2.1) is exact; a meshed surface resolves its edges
+//! with its triangles.
 
+use std::sync::Arc;
+
+use crate::surface::{MassProperties, SurfaceError, TriangleSurface};
 use crate::Vec3;
 use nalgebra::{Matrix3, UnitQuaternion};
-use serde::{Deserialize, Serialize};
 
-/// Shape in the body frame (symmetry axis = body z).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// Shape in the body frame (body origin at the centre of mass; symmetry axis = body z).
+#[derive(Clone, Debug, PartialEq)]
 pub enum RigidShape {
     /// sphere of radius [m]
     Sphere { radius: f64 },
     /// right circular cylinder: radius, height and edge radius [m]
     Cylinder { radius: f64, height: f64, edge_radius: f64 },
+    /// closed triangle surface
+    Mesh(Arc<MeshShape>),
+}
+
+/// A closed triangle surface with the mass properties of the solid it encloses (uniform
+/// density), in a body frame whose origin is the centroid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshShape {
+    pub surface: TriangleSurface,
+    /// inertia tensor about the centroid per unit mass, body frame [m^2]
+    pub inertia_per_mass: Matrix3<f64>,
+    /// enclosed volume [m^3]
+    pub volume: f64,
+    /// largest distance of a vertex from the centroid [m]
+    pub bounding_radius: f64,
+}
+
+impl MeshShape {
+    /// The surface of `vertices` and `triangles` (any frame), shifted so that the centroid of
+    /// the enclosed solid is the origin; returns it and that centroid in the original frame.
+    /// Contact queries find the surface within `reach` [m] through cubes of edge `cell` [m].
+    pub fn new(vertices: &[Vec3], triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<(Self, Vec3), SurfaceError> {
+        let properties = MassProperties::of_surface(vertices, &triangles);
+        let centroid = properties.centroid;
+        let centred: Vec<Vec3> = vertices.iter().map(|v| v - centroid).collect();
+        let bounding_radius = centred.iter().map(Vec3::norm).fold(0.0, f64::max);
+        let surface = TriangleSurface::new(centred, triangles, reach, cell)?;
+        Ok((Self { surface, inertia_per_mass: properties.inertia / properties.volume, volume: properties.volume, bounding_radius }, centroid))
+    }
 }
 
 impl RigidShape {
@@ -25,6 +58,7 @@ impl RigidShape {
         match *self {
             RigidShape::Sphere { radius } => (0.0, 0.0, radius),
             RigidShape::Cylinder { radius, height, edge_radius } => (radius - edge_radius, 0.5 * height - edge_radius, edge_radius),
+            RigidShape::Mesh(_) => unreachable!("a mesh has no analytic core"),
         }
     }
 
@@ -33,24 +67,43 @@ impl RigidShape {
         match *self {
             RigidShape::Sphere { radius } => radius,
             RigidShape::Cylinder { radius, height, .. } => (radius * radius + 0.25 * height * height).sqrt(),
+            RigidShape::Mesh(ref mesh) => mesh.bounding_radius,
         }
     }
 
-    /// Principal moments of inertia of a solid body of `mass` [kg m^2] (edge rounding ignored).
-    pub fn principal_inertia(&self, mass: f64) -> Vec3 {
+    /// Inertia tensor of a solid body of `mass` about its centre, body frame [kg m^2] (the
+    /// analytic cylinder's edge rounding ignored).
+    pub fn inertia(&self, mass: f64) -> Matrix3<f64> {
         match *self {
-            RigidShape::Sphere { radius } => Vec3::repeat(0.4 * mass * radius * radius),
+            RigidShape::Sphere { radius } => Matrix3::from_diagonal_element(0.4 * mass * radius * radius),
             RigidShape::Cylinder { radius, height, .. } => {
                 let transverse = mass * (3.0 * radius * radius + height * height) / 12.0;
-                Vec3::new(transverse, transverse, 0.5 * mass * radius * radius)
+                Matrix3::from_diagonal(&Vec3::new(transverse, transverse, 0.5 * mass * radius * radius))
+            }
+            RigidShape::Mesh(ref mesh) => mesh.inertia_per_mass * mass,
+        }
+    }
+
+    /// Support function: the largest `p . direction` over the shape, for a unit `direction`
+    /// in the body frame [m] (how far the shape reaches that way from its centre).
+    pub fn support(&self, direction: &Vec3) -> f64 {
+        match self {
+            RigidShape::Mesh(mesh) => mesh.surface.vertices.iter().map(|v| v.dot(direction)).fold(f64::NEG_INFINITY, f64::max),
+            _ => {
+                let (core_radius, half_height, rounding) = self.core();
+                core_radius * direction.xy().norm() + half_height * direction.z.abs() + rounding
             }
         }
     }
 
     /// Signed distance from body-frame point `p` to the surface and the outward unit normal
     /// at the closest surface point (body frame).
+    /// A mesh answers within its reach only; farther points get an infinite distance.
     #[inline]
     pub fn distance_and_normal(&self, p: &Vec3) -> (f64, Vec3) {
+        if let RigidShape::Mesh(mesh) = self {
+            return mesh.surface.closest(p).map_or((f64::INFINITY, Vec3::z()), |found| (found.distance, found.normal));
+        }
         let (core_radius, half_height, rounding) = self.core();
         let radial = (p.x * p.x + p.y * p.y).sqrt();
         let axial = p.z;
@@ -81,8 +134,10 @@ pub struct RigidProjectile {
     pub shape: RigidShape,
     /// mass [kg]
     pub mass: f64,
-    /// principal moments of inertia in the body frame [kg m^2]
-    pub principal_inertia: Vec3,
+    /// inertia tensor about the centre of mass, body frame [kg m^2]
+    pub inertia: Matrix3<f64>,
+    /// its inverse [1/(kg m^2)]
+    pub inverse_inertia: Matrix3<f64>,
     /// centre of mass [m]
     pub position: Vec3,
     /// velocity of the centre of mass [m/s]
@@ -99,10 +154,12 @@ pub struct RigidProjectile {
 
 impl RigidProjectile {
     pub fn new(shape: RigidShape, mass: f64, position: Vec3, velocity: Vec3, orientation: UnitQuaternion<f64>) -> Self {
+        let inertia = shape.inertia(mass);
         Self {
+            inverse_inertia: inertia.try_inverse().expect("a solid of positive mass has an invertible inertia"),
+            inertia,
             shape,
             mass,
-            principal_inertia: shape.principal_inertia(mass),
             position,
             velocity,
             orientation,
@@ -115,8 +172,7 @@ impl RigidProjectile {
     /// World inverse inertia tensor `R I^-1 R^T` [1/(kg m^2)].
     fn inverse_inertia_world(&self) -> Matrix3<f64> {
         let rotation = self.orientation.to_rotation_matrix();
-        let inverse_body = Matrix3::from_diagonal(&self.principal_inertia.map(|i| 1.0 / i));
-        rotation.matrix() * inverse_body * rotation.matrix().transpose()
+        rotation.matrix() * self.inverse_inertia * rotation.matrix().transpose()
     }
 
     /// Angular velocity, world frame [rad/s].

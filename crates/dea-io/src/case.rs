@@ -4,6 +4,7 @@
 use dea_core::contact::NormalLaw;
 use dea_core::material::InertiaModel;
 use dea_core::projectile::RigidShape;
+use dea_projectile::generate::{FspDimensions, Solid};
 use dea_core::weibull::{WeibullMode, WeibullStrength};
 use dea_core::FibreMaterial;
 use serde::{Deserialize, Serialize};
@@ -167,26 +168,48 @@ pub struct WeibullSpec {
     pub scale_2_pa: Option<f64>,
 }
 
-/// Projectile: a preset ("table_4_2_sphere", "table_4_2_rcc") or an explicit shape.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// Projectile: a preset ("fsp_17_grain", "table_4_2_sphere", "table_4_2_rcc") or an explicit
+/// shape ("sphere", "cylinder", "fsp", or "file" for an imported mesh).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProjectileSpec {
     pub preset: Option<String>,
-    /// "sphere" or "cylinder" when no preset is given
+    /// "sphere", "cylinder", "fsp" or "file" when no preset is given
     pub shape: Option<String>,
     /// [m]
     pub diameter_m: Option<f64>,
-    /// cylinder height [m]
+    /// cylinder height, FSP length [m]
     pub height_m: Option<f64>,
-    /// cylinder edge radius [m]
+    /// cylinder striking-edge radius; FSP rim radius (where flat and cuts meet the side) [m]
     pub edge_radius_m: Option<f64>,
+    /// FSP: width of the flat between the cuts [m]
+    pub flat_width_m: Option<f64>,
+    /// FSP: angle of the cut faces to the flat [deg]
+    pub bevel_angle_deg: Option<f64>,
+    /// FSP: radius of the edges between the flat and the cuts [m]
+    pub flat_edge_radius_m: Option<f64>,
+    /// mesh a sphere or cylinder (an FSP is always meshed, by default with 6): elements
+    /// along a quarter of the rim
+    pub mesh_divisions: Option<usize>,
+    /// shape "file": a Gmsh 4.1 .msh, ABAQUS .inp or STL file, relative to the case file;
+    /// its -z side faces the target
+    pub mesh_file: Option<std::path::PathBuf>,
+    /// factor from the file's length unit to metres (default 1)
+    pub mesh_scale: Option<f64>,
     /// [kg]
     pub mass_kg: Option<f64>,
-    /// striking speed, along -z [m/s]
+    /// striking speed [m/s]
     pub velocity_m_s: f64,
     /// lateral offset of the aim point from the target centre (x, y) [m]
     #[serde(default)]
     pub offset_m: [f64; 2],
+    /// angle of the line of flight to the target normal, tilted towards -x [deg]
+    #[serde(default)]
+    pub obliquity_deg: f64,
+    /// angle of the body axis to the line of flight, turned about the axis normal to it
+    /// in the plane of obliquity [deg]
+    #[serde(default)]
+    pub yaw_deg: f64,
 }
 
 /// Run control.
@@ -230,13 +253,38 @@ fn default_true() -> bool {
 }
 
 /// Projectile resolved to SI values.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ResolvedProjectile {
-    pub shape: RigidShape,
+    pub body: ProjectileBody,
+    /// [kg]
     pub mass: f64,
+    /// [m/s]
     pub speed: f64,
+    /// [m]
     pub offset: [f64; 2],
+    /// [rad]
+    pub obliquity: f64,
+    /// [rad]
+    pub yaw: f64,
 }
+
+/// What the projectile's surface is made of.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProjectileBody {
+    /// the closed-form sphere or rounded cylinder
+    Analytic(RigidShape),
+    /// a built-in hexahedral mesh
+    Generated { solid: Solid, divisions: usize },
+    /// a mesh file, lengths multiplied by `scale`
+    File { path: std::path::PathBuf, scale: f64 },
+}
+
+/// Mesh divisions of the FSP when the case gives none: the edges are resolved at any
+/// division count, this sets the size away from them.
+pub const DEFAULT_FSP_DIVISIONS: usize = 6;
+
+/// The 17-grain FSP's mass, 17 grains [kg].
+pub const FSP_17_GRAIN_MASS: f64 = 17.0 * 64.798_91e-6;
 
 /// Failure resolved.
 #[derive(Clone, Debug, PartialEq)]
@@ -273,7 +321,7 @@ fn non_negative(path: &str, value: f64) -> Result<f64, CaseError> {
     }
 }
 
-fn required<T: Copy>(path: &str, value: Option<T>) -> Result<T, CaseError> {
+fn required<T>(path: &str, value: Option<T>) -> Result<T, CaseError> {
     value.ok_or_else(|| invalid(path, "is required here"))
 }
 
@@ -350,35 +398,98 @@ impl Case {
     /// Projectile resolved from its preset or explicit shape.
     pub fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
         let p = &self.projectile;
-        let (shape, mass) = match (&p.preset, &p.shape) {
+        let divisions = match p.mesh_divisions {
+            Some(n) if !(2..=64).contains(&n) => return Err(invalid("projectile.mesh_divisions", format!("must lie in 2..=64, got {n}"))),
+            n => n,
+        };
+        let mesh_or = |shape: RigidShape, solid: Solid| match divisions {
+            Some(divisions) => ProjectileBody::Generated { solid, divisions },
+            None => ProjectileBody::Analytic(shape),
+        };
+        let fsp = |dimensions: FspDimensions| {
+            dimensions.check().map_err(|e| invalid("projectile", e))?;
+            Ok(ProjectileBody::Generated { solid: Solid::Fsp(dimensions), divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS) })
+        };
+        let mass = |default: Option<f64>| match (p.mass_kg, default) {
+            (Some(m), _) => positive("projectile.mass_kg", m),
+            (None, Some(m)) => Ok(m),
+            (None, None) => required("projectile.mass_kg", None),
+        };
+        const PRESETS: &str = "known: \"fsp_17_grain\", \"table_4_2_sphere\", \"table_4_2_rcc\"";
+        let (body, mass) = match (&p.preset, &p.shape) {
             (Some(_), Some(_)) => return Err(invalid("projectile", "give either preset or shape, not both")),
-            (None, None) => return Err(invalid("projectile", "give a preset (\"table_4_2_sphere\", \"table_4_2_rcc\") or a shape")),
-            (Some(name), None) => {
-                let (shape, mass) = match name.as_str() {
-                    "table_4_2_sphere" => table_4_2_sphere(),
-                    "table_4_2_rcc" => table_4_2_rcc(),
-                    other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; known: \"table_4_2_sphere\", \"table_4_2_rcc\""))),
-                };
-                (shape, p.mass_kg.map(|m| positive("projectile.mass_kg", m)).transpose()?.unwrap_or(mass))
-            }
+            (None, None) => return Err(invalid("projectile", format!("give a preset ({PRESETS}) or a shape"))),
+            (Some(name), None) => match name.as_str() {
+                "fsp_17_grain" => (fsp(FspDimensions::SEVENTEEN_GRAIN)?, mass(Some(FSP_17_GRAIN_MASS))?),
+                "table_4_2_sphere" => {
+                    let (shape, m) = table_4_2_sphere();
+                    let RigidShape::Sphere { radius } = shape else { unreachable!() };
+                    (mesh_or(shape, Solid::Sphere { radius }), mass(Some(m))?)
+                }
+                "table_4_2_rcc" => {
+                    let (shape, m) = table_4_2_rcc();
+                    let RigidShape::Cylinder { radius, height, edge_radius } = shape else { unreachable!() };
+                    (mesh_or(shape, Solid::Cylinder { radius, height, edge_radius }), mass(Some(m))?)
+                }
+                other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; {PRESETS}"))),
+            },
             (None, Some(kind)) => {
-                let diameter = positive("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?)?;
-                let shape = match kind.as_str() {
-                    "sphere" => RigidShape::Sphere { radius: 0.5 * diameter },
+                let diameter = || positive("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
+                let height = || positive("projectile.height_m", required("projectile.height_m", p.height_m)?);
+                let body = match kind.as_str() {
+                    "sphere" => {
+                        let radius = 0.5 * diameter()?;
+                        mesh_or(RigidShape::Sphere { radius }, Solid::Sphere { radius })
+                    }
                     "cylinder" => {
-                        let height = positive("projectile.height_m", required("projectile.height_m", p.height_m)?)?;
+                        let (diameter, height) = (diameter()?, height()?);
                         let edge = positive("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
                         if edge > 0.5 * diameter.min(height) {
                             return Err(invalid("projectile.edge_radius_m", format!("must not exceed half the diameter and half the height, got {edge}")));
                         }
-                        RigidShape::Cylinder { radius: 0.5 * diameter, height, edge_radius: edge }
+                        let radius = 0.5 * diameter;
+                        mesh_or(RigidShape::Cylinder { radius, height, edge_radius: edge }, Solid::Cylinder { radius, height, edge_radius: edge })
                     }
-                    other => return Err(invalid("projectile.shape", format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\""))),
+                    "fsp" => {
+                        let standard = FspDimensions::SEVENTEEN_GRAIN;
+                        let or = |path: &str, value: Option<f64>, default: f64| value.map_or(Ok(default), |v| positive(path, v));
+                        fsp(FspDimensions {
+                            diameter: or("projectile.diameter_m", p.diameter_m, standard.diameter)?,
+                            length: or("projectile.height_m", p.height_m, standard.length)?,
+                            flat_width: or("projectile.flat_width_m", p.flat_width_m, standard.flat_width)?,
+                            bevel_angle: or("projectile.bevel_angle_deg", p.bevel_angle_deg, standard.bevel_angle.to_degrees())?.to_radians(),
+                            flat_edge_radius: or("projectile.flat_edge_radius_m", p.flat_edge_radius_m, standard.flat_edge_radius)?,
+                            rim_edge_radius: or("projectile.edge_radius_m", p.edge_radius_m, standard.rim_edge_radius)?,
+                        })?
+                    }
+                    "file" => {
+                        let path = required("projectile.mesh_file", p.mesh_file.clone())?;
+                        let scale = p.mesh_scale.map_or(Ok(1.0), |s| positive("projectile.mesh_scale", s))?;
+                        ProjectileBody::File { path, scale }
+                    }
+                    other => return Err(invalid("projectile.shape", format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\", \"fsp\", \"file\""))),
                 };
-                (shape, positive("projectile.mass_kg", required("projectile.mass_kg", p.mass_kg)?)?)
+                (body, mass(None)?)
             }
         };
-        Ok(ResolvedProjectile { shape, mass, speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?, offset: p.offset_m })
+        if p.mesh_file.is_some() && !matches!(body, ProjectileBody::File { .. }) {
+            return Err(invalid("projectile.mesh_file", "only with shape \"file\""));
+        }
+        let angle = |path: &str, degrees: f64| {
+            if degrees.is_finite() && degrees.abs() < 80.0 {
+                Ok(degrees.to_radians())
+            } else {
+                Err(invalid(path, format!("must lie within ±80 degrees, got {degrees}")))
+            }
+        };
+        Ok(ResolvedProjectile {
+            body,
+            mass,
+            speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,
+            offset: p.offset_m,
+            obliquity: angle("projectile.obliquity_deg", p.obliquity_deg)?,
+            yaw: angle("projectile.yaw_deg", p.yaw_deg)?,
+        })
     }
 
     /// Checks every field that parsing alone cannot.
@@ -488,7 +599,8 @@ pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
 }
 
 /// The built-in default case: a 19-fibre KM2 600 denier straight yarn, 1 in long, clamped,
-/// struck at its centre by the Table 4-2 sphere at 100 m/s.
+/// struck at its centre by the 17-grain FSP (meshed, its measured edge radii resolved) at
+/// 100 m/s, long enough for the FSP to pass through.
 pub fn default_case() -> Case {
     Case {
         name: "default-straight-yarn".into(),
@@ -497,17 +609,8 @@ pub fn default_case() -> Case {
         bending: default_bending(),
         contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
         failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
-        projectile: ProjectileSpec {
-            preset: Some("table_4_2_sphere".into()),
-            shape: None,
-            diameter_m: None,
-            height_m: None,
-            edge_radius_m: None,
-            mass_kg: None,
-            velocity_m_s: 100.0,
-            offset_m: [0.0, 0.0],
-        },
-        run: RunSpec { end_time_s: 60e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
+        projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 100.0, ..Default::default() },
+        run: RunSpec { end_time_s: 90e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
     }
 }
 

@@ -16,7 +16,7 @@ use dea_core::Vec3;
 
 use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
 
-const FORMAT: &str = "dea-mpi checkpoint 2";
+const FORMAT: &str = "dea-mpi checkpoint 3";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -196,8 +196,6 @@ pub struct GlobalState {
     /// projectile: position, velocity, angular momentum, force, torque (3 each), orientation
     /// quaternion (i, j, k, w)
     pub projectile: Vec<f64>,
-    /// projectile position at the last neighbour-list build [m]
-    pub projectile_reference: Vec3,
     /// broken elements by mode, whole problem
     pub broken: [u64; 3],
     /// ghost rebuilds and neighbour-list builds so far
@@ -219,7 +217,6 @@ impl GlobalState {
             .integers([self.parts as u64, self.nodes, self.step, self.broken[0], self.broken[1], self.broken[2], self.rebuilds, self.list_builds])
             .floats(&[self.time])
             .floats(&self.projectile)
-            .vectors(&[self.projectile_reference])
             .floats(&self.run_scalars)
             .floats(&h.time)
             .vectors(&h.projectile_position)
@@ -364,9 +361,7 @@ pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
         write_text_attribute(&file, "case", &global.case_json)?;
         let counters = [global.parts as u64, global.nodes, global.step, global.broken[0], global.broken[1], global.broken[2], global.rebuilds, global.list_builds];
         write_scalars(&file, "counters", &counters, "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds")?;
-        let mut reals = vec![global.time];
-        reals.extend_from_slice(global.projectile_reference.as_slice());
-        write_scalars(&file, "time_and_projectile_reference", &reals, "s, m")?;
+        write_scalars(&file, "time", &[global.time], "s")?;
         write_scalars(&file, "projectile", &global.projectile, "SI")?;
         write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
         write_histories(&file, &global.histories)?;
@@ -388,8 +383,8 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
     }
     let case_json = file.attr("case").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map_err(fail)?.to_string();
     let counters: Vec<u64> = file.dataset("counters").and_then(|d| d.read_raw()).map_err(fail)?;
-    let reals: Vec<f64> = file.dataset("time_and_projectile_reference").and_then(|d| d.read_raw()).map_err(fail)?;
-    if counters.len() != 8 || reals.len() != 4 {
+    let reals: Vec<f64> = file.dataset("time").and_then(|d| d.read_raw()).map_err(fail)?;
+    if counters.len() != 8 || reals.len() != 1 {
         return Err(error(&path, "damaged counters"));
     }
     let global = GlobalState {
@@ -401,7 +396,6 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
         rebuilds: counters[6],
         list_builds: counters[7],
         time: reals[0],
-        projectile_reference: Vec3::new(reals[1], reals[2], reals[3]),
         projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
         run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
         histories: read_histories_from(&file).map_err(fail)?,
@@ -490,7 +484,6 @@ mod tests {
             step: 40,
             time: 1e-7,
             projectile: (0..19).map(|k| k as f64).collect(),
-            projectile_reference: Vec3::new(1.0, 2.0, 3.0),
             broken: [1, 2, 3],
             rebuilds: 4,
             list_builds: 5,

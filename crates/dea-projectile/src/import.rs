@@ -1,14 +1,16 @@
-//! Projectile meshes from files: Gmsh `.msh` 4.1 (ASCII and binary) and ABAQUS `.inp`
-//! (`*NODE`, `*ELEMENT` of type C3D8/C3D8R/C3D8I). Only 8-node hexahedra are kept; lower
-//! dimensional elements (points, lines, surface facets) are skipped, other volume elements
-//! are refused. Every error names the file and the line (the byte, in binary files).
+//! Projectile meshes from files: Gmsh `.msh` 4.1 (ASCII and binary), ABAQUS `.inp`
+//! (`*NODE`, `*ELEMENT` of type C3D8/C3D8R/C3D8I) and STL (ASCII and binary, surfaces for a
+//! rigid projectile). Volume meshes keep 8-node hexahedra, and Gmsh's 4-node tetrahedra for
+//! a rigid projectile's surface; lower dimensional elements (points, lines, surface facets)
+//! are skipped, other volume elements are refused. Every error names the file and the line
+//! (the byte, in binary files).
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use dea_core::Vec3;
 
-use crate::mesh::{Hex, HexMesh};
+use crate::mesh::{compact, outer_triangles, Hex, HexMesh};
 
 /// Why a mesh file cannot be used.
 #[derive(Debug, PartialEq)]
@@ -31,8 +33,9 @@ impl std::fmt::Display for ImportError {
 
 impl std::error::Error for ImportError {}
 
-/// Gmsh's element type of the 8-node hexahedron.
+/// Gmsh's element types of the 8-node hexahedron and the 4-node tetrahedron.
 const GMSH_HEXAHEDRON: i64 = 5;
+const GMSH_TETRAHEDRON: i64 = 4;
 
 /// Nodes of each Gmsh element type that may appear next to hexahedra (skipped unless a
 /// hexahedron), and whether the type is a volume element.
@@ -42,7 +45,7 @@ fn gmsh_element(kind: i64) -> Option<(usize, bool)> {
         1 => Some((2, false)),          // line
         2 => Some((3, false)),          // triangle
         3 => Some((4, false)),          // quadrangle
-        4 => Some((4, true)),           // tetrahedron
+        GMSH_TETRAHEDRON => Some((4, true)),
         GMSH_HEXAHEDRON => Some((8, true)),
         6 => Some((6, true)),           // prism
         7 => Some((5, true)),           // pyramid
@@ -61,16 +64,67 @@ pub fn read_mesh(path: &Path) -> Result<HexMesh, ImportError> {
     }
 }
 
-/// Nodes by tag and hexahedra by node tags, turned into a mesh with dense indices.
+/// A closed surface for a rigid projectile, choosing the format by the file's extension:
+/// STL as it is, or the outer surface of a Gmsh or ABAQUS volume mesh (hexahedra and, from
+/// Gmsh, tetrahedra). Vertices and triangles, normals out; closure is checked by the user.
+pub fn read_surface(path: &Path) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ImportError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| ImportError { path: name.clone(), line: 0, message: format!("cannot read: {e}") })?;
+    let (nodes, hexes, tetrahedra) = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("stl") => return parse_stl(&bytes, &name),
+        Some("msh") => gmsh_elements(&bytes, &name)?.finish_volume(&name)?,
+        Some("inp") => {
+            let mesh = parse_abaqus(&String::from_utf8_lossy(&bytes), &name)?;
+            (mesh.nodes, mesh.hexes, Vec::new())
+        }
+        _ => return Err(ImportError { path: name, line: 0, message: "unknown mesh format: use .msh (Gmsh 4.1), .inp (ABAQUS) or .stl".into() }),
+    };
+    Ok(compact(&nodes, &outer_triangles(&hexes, &tetrahedra)))
+}
+
+/// Nodes, hexahedra and tetrahedra with dense indices.
+type Volume = (Vec<Vec3>, Vec<Hex>, Vec<[u32; 4]>);
+
+/// Nodes by tag and elements by node tags, turned into a mesh with dense indices.
 struct Collected {
     node_index: HashMap<u64, u32>,
     nodes: Vec<Vec3>,
     hexes: Vec<([u64; 8], usize)>,
+    tetrahedra: Vec<([u64; 4], usize)>,
 }
 
 impl Collected {
     fn new() -> Self {
-        Self { node_index: HashMap::new(), nodes: Vec::new(), hexes: Vec::new() }
+        Self { node_index: HashMap::new(), nodes: Vec::new(), hexes: Vec::new(), tetrahedra: Vec::new() }
+    }
+
+    fn index<const N: usize>(&self, tags: &[u64; N], line: usize, path: &str) -> Result<[u32; N], ImportError> {
+        let mut nodes = [0u32; N];
+        for (k, tag) in tags.iter().enumerate() {
+            nodes[k] = *self.node_index.get(tag).ok_or_else(|| ImportError { path: path.into(), line, message: format!("element refers to node {tag}, which is not defined") })?;
+        }
+        Ok(nodes)
+    }
+
+    /// Nodes, hexahedra and tetrahedra with dense indices; inverted elements refused.
+    fn finish_volume(self, path: &str) -> Result<Volume, ImportError> {
+        let hexes: Vec<Hex> = self.hexes.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
+        let tetrahedra: Vec<[u32; 4]> = self.tetrahedra.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
+        if hexes.is_empty() && tetrahedra.is_empty() {
+            return Err(ImportError { path: path.into(), line: 0, message: "no 8-node hexahedra or 4-node tetrahedra in the file".into() });
+        }
+        for (k, t) in tetrahedra.iter().enumerate() {
+            let [a, b, c, d] = t.map(|n| self.nodes[n as usize]);
+            let volume = (b - a).cross(&(c - a)).dot(&(d - a));
+            if volume.is_nan() || volume <= 0.0 {
+                return Err(ImportError { path: path.into(), line: self.tetrahedra[k].1, message: format!("tetrahedron {k} (in file order) is inverted or degenerate") });
+            }
+        }
+        let mesh = HexMesh { nodes: self.nodes, hexes };
+        if let Some(k) = mesh.volumes().iter().position(|&v| v.is_nan() || v <= 0.0) {
+            return Err(ImportError { path: path.into(), line: 0, message: format!("hexahedron {k} (in file order) is inverted or degenerate: its nodes must follow the Gmsh/ABAQUS corner order") });
+        }
+        Ok((mesh.nodes, mesh.hexes, tetrahedra))
     }
 
     fn node(&mut self, tag: u64, position: Vec3, path: &str, line: usize) -> Result<(), ImportError> {
@@ -81,23 +135,26 @@ impl Collected {
         Ok(())
     }
 
+    /// Keeps a Gmsh element of type `kind` with node tags `tags` if it is a hexahedron or a
+    /// tetrahedron.
+    fn element(&mut self, kind: i64, tags: &[u64], line: usize) {
+        match kind {
+            GMSH_HEXAHEDRON => self.hexes.push((tags[..8].try_into().expect("8 nodes"), line)),
+            GMSH_TETRAHEDRON => self.tetrahedra.push((tags[..4].try_into().expect("4 nodes"), line)),
+            _ => {}
+        }
+    }
+
+    /// A hexahedral mesh, for any use (a deformable projectile too).
     fn finish(self, path: &str) -> Result<HexMesh, ImportError> {
-        let mut hexes: Vec<Hex> = Vec::with_capacity(self.hexes.len());
-        for (tags, line) in self.hexes {
-            let mut hex = [0u32; 8];
-            for (k, tag) in tags.iter().enumerate() {
-                hex[k] = *self.node_index.get(tag).ok_or_else(|| ImportError { path: path.into(), line, message: format!("element refers to node {tag}, which is not defined") })?;
-            }
-            hexes.push(hex);
+        let (nodes, hexes, tetrahedra) = self.finish_volume(path)?;
+        if !tetrahedra.is_empty() {
+            return Err(ImportError { path: path.into(), line: 0, message: "tetrahedra serve a rigid projectile's surface only: mesh this projectile with 8-node hexahedra".into() });
         }
         if hexes.is_empty() {
             return Err(ImportError { path: path.into(), line: 0, message: "no 8-node hexahedra in the file".into() });
         }
-        let mesh = HexMesh { nodes: self.nodes, hexes };
-        if let Some(k) = mesh.volumes().iter().position(|&v| v.is_nan() || v <= 0.0) {
-            return Err(ImportError { path: path.into(), line: 0, message: format!("hexahedron {k} (in file order) is inverted or degenerate: its nodes must follow the Gmsh/ABAQUS corner order") });
-        }
-        Ok(mesh)
+        Ok(HexMesh { nodes, hexes })
     }
 }
 
@@ -139,8 +196,13 @@ impl<'a> Lines<'a> {
     }
 }
 
-/// Parses a Gmsh 4.1 mesh, ASCII or binary.
+/// Parses a Gmsh 4.1 hexahedral mesh, ASCII or binary.
 pub fn parse_gmsh(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
+    gmsh_elements(bytes, path)?.finish(path)
+}
+
+/// The nodes and volume elements of a Gmsh 4.1 file, ASCII or binary.
+fn gmsh_elements(bytes: &[u8], path: &str) -> Result<Collected, ImportError> {
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64)]).into_owned();
     let mut header = head.lines();
     let (first, format) = (header.next().unwrap_or("").trim(), header.next().unwrap_or("").trim().to_string());
@@ -158,7 +220,7 @@ pub fn parse_gmsh(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
     }
 }
 
-fn parse_gmsh_ascii(text: &str, path: &str) -> Result<HexMesh, ImportError> {
+fn parse_gmsh_ascii(text: &str, path: &str) -> Result<Collected, ImportError> {
     let mut lines = Lines::new(text, path);
     let mut collected = Collected::new();
     while let Ok((_, line)) = lines.next() {
@@ -187,23 +249,19 @@ fn parse_gmsh_ascii(text: &str, path: &str) -> Result<HexMesh, ImportError> {
                     let (line, block) = lines.numbers::<i64>(4)?;
                     let (kind, count) = (block[2], block[3] as usize);
                     let Some((nodes, volume)) = gmsh_element(kind) else { return Err(lines.error(line, format!("unknown element type {kind}"))) };
-                    if volume && kind != GMSH_HEXAHEDRON {
-                        return Err(lines.error(line, format!("element type {kind} is not an 8-node hexahedron: mesh the projectile with hexahedra")));
+                    if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
+                        return Err(lines.error(line, format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
                     }
                     for _ in 0..count {
                         let (line, values) = lines.numbers::<u64>(1 + nodes)?;
-                        if kind == GMSH_HEXAHEDRON {
-                            let mut tags = [0u64; 8];
-                            tags.copy_from_slice(&values[1..9]);
-                            collected.hexes.push((tags, line));
-                        }
+                        collected.element(kind, &values[1..], line);
                     }
                 }
             }
             _ => {}
         }
     }
-    collected.finish(path)
+    Ok(collected)
 }
 
 /// A little-endian reader of Gmsh binary blocks (data-size 8: size_t is 8 bytes).
@@ -251,7 +309,7 @@ impl Binary<'_> {
     }
 }
 
-fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
+fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<Collected, ImportError> {
     let mut reader = Binary { bytes, at: 0, path };
     let mut collected = Collected::new();
     reader.seek("$MeshFormat");
@@ -285,22 +343,16 @@ fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<HexMesh, ImportError> {
         let (_, _, kind) = (reader.int()?, reader.int()?, reader.int()? as i64);
         let count = reader.size()? as usize;
         let Some((nodes, volume)) = gmsh_element(kind) else { return Err(reader.error(format!("unknown element type {kind}"))) };
-        if volume && kind != GMSH_HEXAHEDRON {
-            return Err(reader.error(format!("element type {kind} is not an 8-node hexahedron: mesh the projectile with hexahedra")));
+        if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
+            return Err(reader.error(format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
         }
         for _ in 0..count {
             let _tag = reader.size()?;
             let element: Vec<u64> = (0..nodes).map(|_| reader.size()).collect::<Result<_, _>>()?;
-            let mut tags = [0u64; 8];
-            for (tag, value) in tags.iter_mut().zip(&element) {
-                *tag = *value;
-            }
-            if kind == GMSH_HEXAHEDRON {
-                collected.hexes.push((tags, 0));
-            }
+            collected.element(kind, &element, 0);
         }
     }
-    collected.finish(path)
+    Ok(collected)
 }
 
 /// Parses the nodes and C3D8 elements of an ABAQUS input file.
@@ -375,9 +427,160 @@ pub fn parse_abaqus(text: &str, path: &str) -> Result<HexMesh, ImportError> {
     collected.finish(path)
 }
 
+/// Parses an STL surface, ASCII or binary (told apart by the binary size rule: 84 bytes
+/// plus 50 per facet). Vertices repeated bit for bit are merged; the facets' vertex order
+/// gives their orientation (their normal records are ignored, as STL readers commonly do).
+pub fn parse_stl(bytes: &[u8], path: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ImportError> {
+    let mut merged: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut vertices = Vec::new();
+    let mut vertex = |p: Vec3| {
+        *merged.entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).or_insert_with(|| {
+            vertices.push(p);
+            (vertices.len() - 1) as u32
+        })
+    };
+    let mut triangles = Vec::new();
+    let binary_count = (bytes.len() >= 84).then(|| u32::from_le_bytes(bytes[80..84].try_into().expect("4 bytes")) as usize);
+    if binary_count.is_some_and(|n| 84 + 50 * n == bytes.len()) {
+        let mut reader = Binary { bytes, at: 84, path };
+        for _ in 0..binary_count.unwrap_or(0) {
+            let mut facet = [0.0f32; 12];
+            for value in &mut facet {
+                *value = f32::from_le_bytes(reader.take(4)?.try_into().expect("4 bytes"));
+            }
+            reader.take(2)?;
+            if facet.iter().any(|v| !v.is_finite()) {
+                return Err(reader.error("a facet has a coordinate that is not a finite number"));
+            }
+            let corner = |k: usize| Vec3::new(facet[3 + 3 * k] as f64, facet[4 + 3 * k] as f64, facet[5 + 3 * k] as f64);
+            triangles.push([vertex(corner(0)), vertex(corner(1)), vertex(corner(2))]);
+        }
+    } else {
+        let text = String::from_utf8_lossy(bytes);
+        let mut lines = Lines::new(&text, path);
+        let (line, first) = lines.next()?;
+        if !first.starts_with("solid") {
+            return Err(lines.error(line, "neither ASCII STL (starts with \"solid\") nor binary STL (84 bytes plus 50 per facet)"));
+        }
+        loop {
+            let (line, text) = lines.next()?;
+            let mut words = text.split_whitespace();
+            match words.next() {
+                Some("endsolid") => break,
+                Some("facet") => {}
+                _ => return Err(lines.error(line, format!("expected \"facet\" or \"endsolid\", found {text:?}"))),
+            }
+            let expect = |lines: &mut Lines, word: &str| -> Result<(), ImportError> {
+                let (line, text) = lines.next()?;
+                if text.split_whitespace().collect::<Vec<_>>().join(" ") == word {
+                    Ok(())
+                } else {
+                    Err(lines.error(line, format!("expected {word:?}, found {text:?}")))
+                }
+            };
+            expect(&mut lines, "outer loop")?;
+            let mut corners = [0u32; 3];
+            for corner in &mut corners {
+                let (line, text) = lines.next()?;
+                let values: Vec<&str> = text.split_whitespace().collect();
+                let numbers: Option<Vec<f64>> = values.get(1..).and_then(|v| v.iter().map(|x| x.parse().ok()).collect());
+                match (values.first(), numbers) {
+                    (Some(&"vertex"), Some(x)) if x.len() == 3 && x.iter().all(|v| v.is_finite()) => *corner = vertex(Vec3::new(x[0], x[1], x[2])),
+                    _ => return Err(lines.error(line, format!("expected \"vertex x y z\", found {text:?}"))),
+                }
+            }
+            expect(&mut lines, "endloop")?;
+            expect(&mut lines, "endfacet")?;
+            triangles.push(corners);
+        }
+    }
+    if triangles.is_empty() {
+        return Err(ImportError { path: path.into(), line: 0, message: "no facets".into() });
+    }
+    Ok((vertices, triangles))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dea_core::surface::{check_closed, MassProperties};
+
+    /// A mesh's outer surface as ASCII STL.
+    fn stl_ascii(mesh: &HexMesh) -> String {
+        let (vertices, triangles) = mesh.boundary();
+        let mut text = String::from("solid body\n");
+        for t in &triangles {
+            text += "  facet normal 0 0 0\n    outer loop\n";
+            for &v in t {
+                let x = vertices[v as usize];
+                text += &format!("      vertex {:?} {:?} {:?}\n", x.x, x.y, x.z);
+            }
+            text += "    endloop\n  endfacet\n";
+        }
+        text + "endsolid body\n"
+    }
+
+    /// The same as binary STL (single precision).
+    fn stl_binary(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Vec<u8> {
+        let mut bytes = vec![b' '; 80];
+        bytes.extend((triangles.len() as u32).to_le_bytes());
+        for t in triangles {
+            bytes.extend([0.0f32; 3].iter().flat_map(|v| v.to_le_bytes()));
+            for &v in t {
+                bytes.extend(vertices[v as usize].iter().flat_map(|c| (*c as f32).to_le_bytes()));
+            }
+            bytes.extend([0u8; 2]);
+        }
+        bytes
+    }
+
+    #[test]
+    fn stl_ascii_and_binary_read_back_and_name_bad_lines() {
+        let mesh = HexMesh::cylinder(1.0, 2.0, 2, 1, 2);
+        let (vertices, triangles) = parse_stl(stl_ascii(&mesh).as_bytes(), "a.stl").unwrap();
+        assert_eq!((vertices, triangles.clone()), mesh.boundary());
+        // binary: single precision, merged all the same
+        let (vertices, binary_triangles) = parse_stl(&stl_binary(&mesh.boundary().0, &triangles), "b.stl").unwrap();
+        assert_eq!(binary_triangles, triangles);
+        assert_eq!(vertices.len(), mesh.boundary().0.len());
+        // malformed: a bad vertex line, a missing keyword, a truncated binary file
+        let bad = stl_ascii(&mesh).replacen("vertex", "vertex 1.0 two", 1);
+        let e = parse_stl(bad.as_bytes(), "bad.stl").unwrap_err();
+        assert_eq!((e.line, e.path.as_str()), (4, "bad.stl"), "{e}");
+        let e = parse_stl(stl_ascii(&mesh).replacen("endloop", "end", 1).as_bytes(), "bad.stl").unwrap_err();
+        assert!(e.message.contains("expected \"endloop\"") && e.line == 7, "{e}");
+        let e = parse_stl(b"not a mesh", "x.stl").unwrap_err();
+        assert!(e.message.contains("neither ASCII STL"), "{e}");
+        let e = parse_stl(stl_ascii(&mesh).lines().take(9).collect::<Vec<_>>().join("\n").as_bytes(), "cut.stl").unwrap_err();
+        assert!(e.message.contains("end of file"), "{e}");
+    }
+
+    #[test]
+    fn tetrahedra_give_a_rigid_surface_but_not_a_hexahedral_mesh() {
+        // a unit cube of five tetrahedra, as Gmsh 4.1 ASCII
+        let corners: Vec<Vec3> = (0..8).map(|k| Vec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)).collect();
+        // corners in binary order 0..7 = (x, y, z) bits; positive tetrahedra
+        let tetrahedra = [[0, 1, 2, 4], [1, 3, 2, 7], [1, 2, 4, 7], [1, 7, 4, 5], [2, 4, 7, 6]];
+        let mut text = String::from("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 8 1 8\n3 1 0 8\n");
+        text += &(1..=8).map(|k| format!("{k}\n")).collect::<String>();
+        text += &corners.iter().map(|x| format!("{} {} {}\n", x.x, x.y, x.z)).collect::<String>();
+        text += "$EndNodes\n$Elements\n1 5 1 5\n3 1 4 5\n";
+        text += &tetrahedra.iter().enumerate().map(|(k, t)| format!("{} {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1)).collect::<String>();
+        text += "$EndElements\n";
+        let dir = std::env::temp_dir().join(format!("dea-tet-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("cube.msh"), &text).unwrap();
+        let (vertices, triangles) = read_surface(&dir.join("cube.msh")).unwrap();
+        assert_eq!(check_closed(&triangles), Ok(()));
+        assert!((MassProperties::of_surface(&vertices, &triangles).volume - 1.0).abs() < 1e-15);
+        let e = read_mesh(&dir.join("cube.msh")).unwrap_err();
+        assert!(e.message.contains("rigid projectile's surface only"), "{e}");
+        // an inverted tetrahedron is refused with its line
+        std::fs::write(dir.join("bad.msh"), text.replace("\n1 1 2 3 5\n", "\n1 1 3 2 5\n")).unwrap();
+        let e = read_surface(&dir.join("bad.msh")).unwrap_err();
+        assert!(e.message.contains("inverted") && e.line > 0, "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     /// The generator's cylinder written as Gmsh 4.1 ASCII, with a few boundary lines mixed in.
     fn gmsh_ascii(mesh: &HexMesh) -> String {
@@ -470,7 +673,6 @@ mod tests {
         ] {
             let imported = imported.unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_eq!(imported, mesh, "{name}");
-            assert_eq!(imported.surface().check_closed(), Ok(()));
         }
     }
 
@@ -489,10 +691,10 @@ mod tests {
         let broken = good.replacen("\n1 1 2 ", "\n1 9999 2 ", 1);
         let e = parse_gmsh(broken.as_bytes(), "bad.msh").unwrap_err();
         assert!(e.message.contains("node 9999") && e.line > 0, "{e}");
-        // a tetrahedral block is refused where it starts
-        let tets = good.replace("\n3 1 5 ", "\n3 1 4 ");
-        let e = parse_gmsh(tets.as_bytes(), "tets.msh").unwrap_err();
-        assert!(e.message.contains("not an 8-node hexahedron"), "{e}");
+        // a prism block is refused where it starts
+        let prisms = good.replace("\n3 1 5 ", "\n3 1 6 ");
+        let e = parse_gmsh(prisms.as_bytes(), "prisms.msh").unwrap_err();
+        assert!(e.message.contains("neither an 8-node hexahedron") && e.line > 0, "{e}");
         // an old format version, a truncated binary file
         assert!(parse_gmsh(b"$MeshFormat\n2.2 0 8\n", "old.msh").unwrap_err().message.contains("only 4.1"));
         let binary = gmsh_binary(&mesh);
@@ -518,10 +720,19 @@ mod tests {
         let mesh = HexMesh::cylinder(1.0, 2.0, 2, 1, 2);
         std::fs::write(dir.join("p.msh"), gmsh_binary(&mesh)).unwrap();
         std::fs::write(dir.join("p.INP"), abaqus(&mesh)).unwrap();
-        std::fs::write(dir.join("p.stl"), "solid").unwrap();
+        std::fs::write(dir.join("p.stl"), stl_ascii(&mesh)).unwrap();
         assert_eq!(read_mesh(&dir.join("p.msh")).unwrap(), mesh);
         assert_eq!(read_mesh(&dir.join("p.INP")).unwrap(), mesh);
         assert!(read_mesh(&dir.join("p.stl")).unwrap_err().to_string().contains("unknown mesh format"));
+        // every format gives the same closed surface for a rigid projectile
+        let expected = mesh.boundary();
+        for name in ["p.msh", "p.INP"] {
+            assert_eq!(read_surface(&dir.join(name)).unwrap(), expected, "{name}");
+        }
+        let (vertices, triangles) = read_surface(&dir.join("p.stl")).unwrap();
+        assert_eq!(triangles.len(), expected.1.len());
+        assert_eq!(check_closed(&triangles), Ok(()));
+        assert!((MassProperties::of_surface(&vertices, &triangles).volume - MassProperties::of_surface(&expected.0, &expected.1).volume).abs() < 1e-12);
         assert!(read_mesh(&dir.join("none.msh")).unwrap_err().to_string().contains("cannot read"));
         std::fs::remove_dir_all(&dir).unwrap();
     }

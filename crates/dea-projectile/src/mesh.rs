@@ -99,95 +99,76 @@ impl HexMesh {
 
     /// The faces no two elements share, split into two triangles each, normals outward.
     pub fn surface(&self) -> Surface {
-        let mut count: HashMap<[u32; 4], (usize, [u32; 4])> = HashMap::new();
-        for hex in &self.hexes {
-            for face in FACES {
-                let ordered = face.map(|k| hex[k]);
-                let mut key = ordered;
-                key.sort_unstable();
-                count.entry(key).or_insert((0, ordered)).0 += 1;
-            }
-        }
-        let mut faces: Vec<[u32; 4]> = count.into_values().filter(|(n, _)| *n == 1).map(|(_, face)| face).collect();
-        faces.sort_unstable();
-        Surface { triangles: faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect() }
+        Surface { triangles: outer_triangles(&self.hexes, &[]) }
     }
 
-    /// A right circular cylinder along z, centred on the origin, as an O-grid: a square core
-    /// of `core` x `core` elements and four blocks of `radial` elements out to the circle,
-    /// `layers` elements along the axis. The rim is a polygon of `4 core` vertices on the
-    /// circle.
-    pub fn cylinder(radius: f64, height: f64, core: usize, radial: usize, layers: usize) -> Self {
-        let half = 0.5 * radius;
-        // the cross-section's points, shared by position where blocks meet
-        let mut plane = NodeSet::new(radius);
-        let node = |plane: &mut NodeSet, x: f64, y: f64| plane.node(Vec3::new(x, y, 0.0));
-        let mut quads: Vec<[u32; 4]> = Vec::new();
-        // core: a square of side `radius`
-        let core_point = |i: usize, j: usize| (-half + radius * i as f64 / core as f64, -half + radius * j as f64 / core as f64);
-        for i in 0..core {
-            for j in 0..core {
-                let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(a, b)| {
-                    let (x, y) = core_point(a, b);
-                    node(&mut plane, x, y)
-                });
-                quads.push(corners);
-            }
-        }
-        // four blocks from the square's sides to the circle, counter-clockwise
-        for side in 0..4 {
-            let rotation = side as f64 * std::f64::consts::FRAC_PI_2;
-            let (c, s) = (rotation.cos(), rotation.sin());
-            let point = |along: usize, out: usize| {
-                // the +x side of the square, from (half, -half) to (half, half), and the arc
-                // from -45 to 45 degrees, rotated to this side
-                let u = along as f64 / core as f64;
-                let inner = (half, -half + radius * u);
-                let angle = -std::f64::consts::FRAC_PI_4 + std::f64::consts::FRAC_PI_2 * u;
-                let outer = (radius * angle.cos(), radius * angle.sin());
-                let w = out as f64 / radial as f64;
-                let (x, y) = (inner.0 + w * (outer.0 - inner.0), inner.1 + w * (outer.1 - inner.1));
-                (c * x - s * y, s * x + c * y)
-            };
-            for a in 0..core {
-                for r in 0..radial {
-                    let corners = [(a, r), (a, r + 1), (a + 1, r + 1), (a + 1, r)].map(|(p, q)| {
-                        let (x, y) = point(p, q);
-                        node(&mut plane, x, y)
-                    });
-                    quads.push(corners);
-                }
-            }
-        }
-        // counter-clockwise quads, extruded along z
-        let plane = plane.nodes;
-        let per_layer = plane.len() as u32;
-        let nodes = (0..=layers)
-            .flat_map(|k| {
-                let z = -0.5 * height + height * k as f64 / layers as f64;
-                plane.iter().map(move |p| Vec3::new(p.x, p.y, z))
-            })
-            .collect();
-        let hexes = (0..layers as u32)
-            .flat_map(|k| quads.iter().map(move |q| [q[0], q[1], q[2], q[3]].map(|n| n + k * per_layer)).map(|b| [b[0], b[1], b[2], b[3], b[0] + per_layer, b[1] + per_layer, b[2] + per_layer, b[3] + per_layer]))
-            .collect();
-        Self { nodes, hexes }
+    /// The outer surface with only the vertices it uses: positions and triangles.
+    pub fn boundary(&self) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        compact(&self.nodes, &self.surface().triangles)
     }
+}
+
+/// The faces of hexahedra and tetrahedra that no two elements share, as triangles (a quad
+/// split into two), right-hand normals out of their element; sorted, so the result does not
+/// depend on hashing.
+pub fn outer_triangles(hexes: &[Hex], tetrahedra: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut count: HashMap<Vec<u32>, (usize, Vec<u32>)> = HashMap::new();
+    let mut add = |face: Vec<u32>| {
+        let mut key = face.clone();
+        key.sort_unstable();
+        count.entry(key).or_insert((0, face)).0 += 1;
+    };
+    for hex in hexes {
+        for face in FACES {
+            add(face.iter().map(|&k| hex[k]).collect());
+        }
+    }
+    for tet in tetrahedra {
+        for face in TETRAHEDRON_FACES {
+            add(face.iter().map(|&k| tet[k]).collect());
+        }
+    }
+    let mut faces: Vec<Vec<u32>> = count.into_values().filter(|(n, _)| *n == 1).map(|(_, face)| face).collect();
+    faces.sort_unstable();
+    faces.iter().flat_map(|f| if f.len() == 4 { vec![[f[0], f[1], f[2]], [f[0], f[2], f[3]]] } else { vec![[f[0], f[1], f[2]]] }).collect()
+}
+
+/// Faces of a tetrahedron whose corners 1, 2, 3 turn counter-clockwise seen from corner 0's
+/// opposite side (positive volume), right-hand normals out.
+const TETRAHEDRON_FACES: [[usize; 3]; 4] = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+
+/// Triangles over `nodes` renumbered onto the vertices they use, in order of first use.
+pub fn compact(nodes: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut index = vec![u32::MAX; nodes.len()];
+    let mut vertices = Vec::new();
+    let triangles = triangles
+        .iter()
+        .map(|t| {
+            t.map(|n| {
+                if index[n as usize] == u32::MAX {
+                    index[n as usize] = vertices.len() as u32;
+                    vertices.push(nodes[n as usize]);
+                }
+                index[n as usize]
+            })
+        })
+        .collect();
+    (vertices, triangles)
 }
 
 /// Nodes shared by position, the way block-structured generators join their blocks.
-struct NodeSet {
+pub(crate) struct NodeSet {
     scale: f64,
     index: HashMap<(i64, i64, i64), u32>,
-    nodes: Vec<Vec3>,
+    pub(crate) nodes: Vec<Vec3>,
 }
 
 impl NodeSet {
-    fn new(scale: f64) -> Self {
+    pub(crate) fn new(scale: f64) -> Self {
         Self { scale, index: HashMap::new(), nodes: Vec::new() }
     }
 
-    fn node(&mut self, x: Vec3) -> u32 {
+    pub(crate) fn node(&mut self, x: Vec3) -> u32 {
         let key = |v: f64| (v / self.scale * 1e9).round() as i64;
         let nodes = &mut self.nodes;
         *self.index.entry((key(x.x), key(x.y), key(x.z))).or_insert_with(|| {
@@ -247,34 +228,14 @@ impl HexMesh {
     }
 }
 
-impl Surface {
-    /// Checks that the surface is closed and consistently oriented: every edge belongs to
-    /// exactly two triangles that run along it in opposite directions. Returns the first
-    /// offending edge.
-    pub fn check_closed(&self) -> Result<(), (u32, u32)> {
-        let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-        for t in &self.triangles {
-            for k in 0..3 {
-                *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
-            }
-        }
-        for (&(a, b), &n) in &directed {
-            if n != 1 || directed.get(&(b, a)) != Some(&1) {
-                return Err((a, b));
-            }
-        }
-        Ok(())
-    }
-
-    /// Enclosed volume by the divergence theorem: positive when the normals point out [m^3].
-    pub fn enclosed_volume(&self, nodes: &[Vec3]) -> f64 {
-        self.triangles.iter().map(|t| nodes[t[0] as usize].dot(&nodes[t[1] as usize].cross(&nodes[t[2] as usize])) / 6.0).sum()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dea_core::surface::{check_closed, MassProperties};
+
+    fn enclosed_volume(mesh: &HexMesh, surface: &Surface) -> f64 {
+        MassProperties::of_surface(&mesh.nodes, &surface.triangles).volume
+    }
 
     #[test]
     fn cylinder_volume_surface_and_orientation_are_exact() {
@@ -289,12 +250,12 @@ mod tests {
             let volume: f64 = volumes.iter().sum();
             assert!((volume - polygon * height).abs() < 1e-12 * volume, "{volume} vs {}", polygon * height);
             let surface = mesh.surface();
-            assert_eq!(surface.check_closed(), Ok(()));
-            assert!((surface.enclosed_volume(&mesh.nodes) - volume).abs() < 1e-12 * volume, "normals point out");
+            assert_eq!(check_closed(&surface.triangles), Ok(()));
+            assert!((enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume, "normals point out");
             // a hole makes it open
             let mut open = surface.clone();
             open.triangles.pop();
-            assert!(open.check_closed().is_err());
+            assert!(check_closed(&open.triangles).is_err());
         }
     }
 
@@ -308,9 +269,9 @@ mod tests {
             let volumes = mesh.volumes();
             assert!(volumes.iter().all(|&v| v > 0.0), "every element has positive volume ({core}, {radial})");
             let surface = mesh.surface();
-            assert_eq!(surface.check_closed(), Ok(()));
+            assert_eq!(check_closed(&surface.triangles), Ok(()));
             let volume: f64 = volumes.iter().sum();
-            assert!((surface.enclosed_volume(&mesh.nodes) - volume).abs() < 1e-12 * volume, "normals point out");
+            assert!((enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume, "normals point out");
             for t in &surface.triangles {
                 for &n in t {
                     assert!((mesh.nodes[n as usize].norm() - radius).abs() < 1e-12 * radius, "surface nodes lie on the sphere");
@@ -323,6 +284,29 @@ mod tests {
         }
         // 384 faces of a cube-sphere: within 2 %, the deficit of an inscribed polyhedron
         assert!(previous_error < 0.02, "{previous_error}");
+    }
+
+    #[test]
+    fn tetrahedra_and_hexahedra_share_one_outer_surface() {
+        // a unit cube as one hexahedron, and as five tetrahedra (positive volume each)
+        let cube = HexMesh { nodes: CORNERS.iter().map(|c| Vec3::new(c[0], c[1], c[2]) * 0.5).collect(), hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]] };
+        let tetrahedra = [[0, 1, 3, 4], [1, 2, 3, 6], [1, 3, 4, 6], [1, 5, 6, 4], [3, 4, 6, 7]];
+        for t in &tetrahedra {
+            let [a, b, c, d] = t.map(|k| cube.nodes[k as usize]);
+            assert!((b - a).cross(&(c - a)).dot(&(d - a)) > 0.0, "{t:?} is positive");
+        }
+        for triangles in [outer_triangles(&cube.hexes, &[]), outer_triangles(&[], &tetrahedra)] {
+            assert_eq!(check_closed(&triangles), Ok(()));
+            assert!((MassProperties::of_surface(&cube.nodes, &triangles).volume - 1.0).abs() < 1e-15);
+        }
+        assert_eq!(outer_triangles(&[], &tetrahedra).len(), 12, "inner faces cancel");
+        // compacting drops the unused nodes and keeps the shape
+        let mut padded = cube.clone();
+        padded.nodes.insert(0, Vec3::new(9.0, 9.0, 9.0));
+        padded.hexes[0] = padded.hexes[0].map(|n| n + 1);
+        let (vertices, triangles) = padded.boundary();
+        assert_eq!(vertices.len(), 8);
+        assert!((MassProperties::of_surface(&vertices, &triangles).volume - 1.0).abs() < 1e-15);
     }
 
     #[test]

@@ -1,0 +1,421 @@
+//! Triangle surfaces of meshed projectiles (seed §4.2.1.3, §4.2.2): the closest point of a
+//! triangle to a fibre node with the feature it lies on, signed distances by angle-weighted
+//! pseudonormals, a grid of cubes that finds the triangles near a node, and the mass
+//! properties of the enclosed solid.
+
+use std::collections::HashMap;
+
+use nalgebra::Matrix3;
+use rustc_hash::FxHashMap;
+
+use crate::Vec3;
+
+/// Which part of a triangle the closest point lies on: the seed's node-to-surface,
+/// node-to-line and node-to-node contact cases (§4.2.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// inside the face
+    Face,
+    /// on the edge from vertex k to vertex (k + 1) % 3
+    Edge(u8),
+    /// at vertex k
+    Vertex(u8),
+}
+
+/// The closest point of triangle (a, b, c) to `p`, its barycentric weights (the area
+/// weights that share a contact force over the triangle's nodes, seed 4-1) and its feature.
+/// Follows the Voronoi-region tests of Ericson, *Real-Time Collision Detection* §5.1.5.
+pub fn closest_point_on_triangle(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> (Vec3, [f64; 3], Feature) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (*a, [1.0, 0.0, 0.0], Feature::Vertex(0));
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (*b, [0.0, 1.0, 0.0], Feature::Vertex(1));
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let t = d1 / (d1 - d3);
+        return (a + ab * t, [1.0 - t, t, 0.0], Feature::Edge(0));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (*c, [0.0, 0.0, 1.0], Feature::Vertex(2));
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let t = d2 / (d2 - d6);
+        return (a + ac * t, [1.0 - t, 0.0, t], Feature::Edge(2));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * t, [0.0, 1.0 - t, t], Feature::Edge(1));
+    }
+    let denominator = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denominator, vc * denominator);
+    (a + ab * v + ac * w, [1.0 - v - w, v, w], Feature::Face)
+}
+
+/// The point of a surface closest to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// distance from the surface, negative inside [m]
+    pub distance: f64,
+    /// outward unit normal of the contact: from the surface point towards an outside query
+    /// point (the face normal, the edge's or the vertex's direction alike)
+    pub normal: Vec3,
+    /// the closest surface point [m]
+    pub point: Vec3,
+    pub triangle: u32,
+    /// barycentric (area) weights of the point on its triangle (seed 4-1)
+    pub weights: [f64; 3],
+}
+
+/// A closed, consistently oriented triangle surface in a body frame, ready for contact
+/// queries within a fixed reach.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriangleSurface {
+    /// vertex positions, body frame [m]
+    pub vertices: Vec<Vec3>,
+    /// vertex indices, counter-clockwise seen from outside
+    pub triangles: Vec<[u32; 3]>,
+    /// unit outward normal of each triangle
+    face_normals: Vec<Vec3>,
+    /// per triangle and edge k (from vertex k to k + 1): the sum of the normals of the two
+    /// triangles that share it
+    edge_normals: Vec<[Vec3; 3]>,
+    /// angle-weighted pseudonormal of each vertex (Bærentzen and Aanæs 2005): its sign test
+    /// is exact at vertices and edges, where the face normal is not
+    vertex_normals: Vec<Vec3>,
+    grid: CellGrid,
+}
+
+/// Cubes of a fixed edge, each listing the triangles within `reach` of it: a query point
+/// then looks in one cube only, so the cost of a query does not grow with the mesh.
+#[derive(Clone, Debug, PartialEq)]
+struct CellGrid {
+    /// cube edge [m]
+    cell: f64,
+    /// largest distance at which a triangle is found [m]
+    reach: f64,
+    /// cube -> range of `entries` (Fx hashing: a lookup per candidate node and step, where
+    /// SipHash's collision resistance buys nothing)
+    cells: FxHashMap<[i32; 3], (u32, u32)>,
+    /// triangle indices, ascending within each cube
+    entries: Vec<u32>,
+}
+
+impl CellGrid {
+    fn key(&self, p: &Vec3) -> [i32; 3] {
+        [(p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32, (p.z / self.cell).floor() as i32]
+    }
+
+    fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
+        let mut grid = Self { cell, reach, cells: FxHashMap::default(), entries: Vec::new() };
+        let mut listed: Vec<([i32; 3], u32)> = Vec::new();
+        for (t, triangle) in triangles.iter().enumerate() {
+            let corners = triangle.map(|v| vertices[v as usize]);
+            let low = corners[0].inf(&corners[1]).inf(&corners[2]).add_scalar(-reach);
+            let high = corners[0].sup(&corners[1]).sup(&corners[2]).add_scalar(reach);
+            let (low, high) = (grid.key(&low), grid.key(&high));
+            for i in low[0]..=high[0] {
+                for j in low[1]..=high[1] {
+                    for k in low[2]..=high[2] {
+                        listed.push(([i, j, k], t as u32));
+                    }
+                }
+            }
+        }
+        listed.sort_unstable();
+        let mut start = 0;
+        while start < listed.len() {
+            let key = listed[start].0;
+            let end = start + listed[start..].iter().take_while(|(k, _)| *k == key).count();
+            grid.cells.insert(key, (grid.entries.len() as u32, (grid.entries.len() + end - start) as u32));
+            grid.entries.extend(listed[start..end].iter().map(|&(_, t)| t));
+            start = end;
+        }
+        grid
+    }
+
+    fn near(&self, p: &Vec3) -> &[u32] {
+        self.cells.get(&self.key(p)).map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
+    }
+}
+
+/// Why a triangle list is not a usable closed surface.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SurfaceError {
+    #[error("the surface is not closed or not consistently oriented at the edge from vertex {0} to vertex {1}")]
+    Open(u32, u32),
+    #[error("triangle {0} has no area")]
+    Degenerate(usize),
+    #[error("the enclosed volume is {0} m^3: the normals must point out of the solid")]
+    InsideOut(f64),
+}
+
+/// Checks that triangles form a closed, consistently oriented surface: every directed edge
+/// appears once and its reverse once. Returns the first offending edge.
+pub fn check_closed(triangles: &[[u32; 3]]) -> Result<(), (u32, u32)> {
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for k in 0..3 {
+            *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+        }
+    }
+    let mut edges: Vec<_> = directed.iter().collect();
+    edges.sort_unstable();
+    for (&(a, b), &n) in edges {
+        if n != 1 || directed.get(&(b, a)) != Some(&1) {
+            return Err((a, b));
+        }
+    }
+    Ok(())
+}
+
+/// Volume, centroid and inertia of the solid a closed surface encloses, at unit density.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassProperties {
+    /// [m^3]
+    pub volume: f64,
+    /// [m]
+    pub centroid: Vec3,
+    /// inertia tensor about the centroid per unit density [m^5]
+    pub inertia: Matrix3<f64>,
+}
+
+impl MassProperties {
+    /// By the divergence theorem: a signed tetrahedron from the origin to every triangle.
+    pub fn of_surface(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        let (mut volume, mut first, mut second) = (0.0, Vec3::zeros(), Matrix3::zeros());
+        for t in triangles {
+            let [a, b, c] = t.map(|v| vertices[v as usize]);
+            let v = a.dot(&b.cross(&c)) / 6.0;
+            let sum = a + b + c;
+            volume += v;
+            first += sum * (v / 4.0);
+            // the tetrahedron (0, a, b, c): integral of x x^T = V/20 (sum of v v^T + s s^T)
+            second += (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose()) * (v / 20.0);
+        }
+        let centroid = first / volume;
+        let central = second - centroid * centroid.transpose() * volume;
+        Self { volume, centroid, inertia: Matrix3::identity() * central.trace() - central }
+    }
+}
+
+impl TriangleSurface {
+    /// A surface whose queries find triangles within `reach` [m], with cubes of edge `cell`
+    /// [m]. Refuses open, inside-out and degenerate surfaces.
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<Self, SurfaceError> {
+        check_closed(&triangles).map_err(|(a, b)| SurfaceError::Open(a, b))?;
+        let mut face_normals = Vec::with_capacity(triangles.len());
+        for (k, t) in triangles.iter().enumerate() {
+            let [a, b, c] = t.map(|v| vertices[v as usize]);
+            let normal = (b - a).cross(&(c - a));
+            let length = normal.norm();
+            if length.is_nan() || length <= 0.0 {
+                return Err(SurfaceError::Degenerate(k));
+            }
+            face_normals.push(normal / length);
+        }
+        let volume = MassProperties::of_surface(&vertices, &triangles).volume;
+        if volume.is_nan() || volume <= 0.0 {
+            return Err(SurfaceError::InsideOut(volume));
+        }
+        let mut vertex_normals = vec![Vec3::zeros(); vertices.len()];
+        let mut edge_sums: HashMap<(u32, u32), Vec3> = HashMap::new();
+        for (t, n) in triangles.iter().zip(&face_normals) {
+            for k in 0..3 {
+                let (v, next, previous) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                let (p, q) = (vertices[next as usize] - vertices[v as usize], vertices[previous as usize] - vertices[v as usize]);
+                vertex_normals[v as usize] += n * p.angle(&q);
+                *edge_sums.entry((v.min(next), v.max(next))).or_insert_with(Vec3::zeros) += n;
+            }
+        }
+        let edge_normals = triangles.iter().map(|t| [0, 1, 2].map(|k| edge_sums[&(t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))])).collect();
+        let grid = CellGrid::new(&vertices, &triangles, reach, cell);
+        Ok(Self { vertices, triangles, face_normals, edge_normals, vertex_normals, grid })
+    }
+
+    /// The same surface with its vertices mapped by `map` (a rigid motion keeps it valid).
+    pub fn transformed(&self, map: impl Fn(&Vec3) -> Vec3) -> Result<Self, SurfaceError> {
+        Self::new(self.vertices.iter().map(map).collect(), self.triangles.clone(), self.grid.reach, self.grid.cell)
+    }
+
+    /// Largest distance at which [`Self::closest`] finds the surface [m].
+    pub fn reach(&self) -> f64 {
+        self.grid.reach
+    }
+
+    /// The closest surface point to `p` if one lies within the reach (ties go to the lower
+    /// triangle index, so the answer does not depend on the order of the search).
+    pub fn closest(&self, p: &Vec3) -> Option<SurfacePoint> {
+        let mut best: Option<(f64, u32, Vec3, [f64; 3], Feature)> = None;
+        for &t in self.grid.near(p) {
+            let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
+            let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
+            let squared = (p - q).norm_squared();
+            if best.is_none_or(|(d, ..)| squared < d) {
+                best = Some((squared, t, q, weights, feature));
+            }
+        }
+        let (squared, t, point, weights, feature) = best?;
+        if squared > self.grid.reach * self.grid.reach {
+            return None;
+        }
+        let pseudonormal = match feature {
+            Feature::Face => self.face_normals[t as usize],
+            Feature::Edge(k) => self.edge_normals[t as usize][k as usize],
+            Feature::Vertex(k) => self.vertex_normals[self.triangles[t as usize][k as usize] as usize],
+        };
+        let offset = p - point;
+        let distance = squared.sqrt();
+        let outside = offset.dot(&pseudonormal) >= 0.0;
+        let normal = if distance > 0.0 {
+            offset * (if outside { 1.0 } else { -1.0 } / distance)
+        } else {
+            pseudonormal.normalize()
+        };
+        Some(SurfacePoint { distance: if outside { distance } else { -distance }, normal, point, triangle: t, weights })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn random_vector(rng: &mut impl Rng, scale: f64) -> Vec3 {
+        Vec3::new(rng.random_range(-scale..scale), rng.random_range(-scale..scale), rng.random_range(-scale..scale))
+    }
+
+    /// The closest of a dense sample of the triangle's points.
+    fn brute_force(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> f64 {
+        let n = 200;
+        let mut best = f64::INFINITY;
+        for i in 0..=n {
+            for j in 0..=n - i {
+                let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                best = best.min((a + (b - a) * u + (c - a) * v - p).norm());
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn closest_point_matches_brute_force_on_random_triangles() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut features = std::collections::BTreeSet::new();
+        for _ in 0..300 {
+            let (a, b, c) = (random_vector(&mut rng, 1.0), random_vector(&mut rng, 1.0), random_vector(&mut rng, 1.0));
+            let p = random_vector(&mut rng, 2.0);
+            let (q, weights, feature) = closest_point_on_triangle(&p, &a, &b, &c);
+            features.insert(format!("{feature:?}").chars().next().unwrap());
+            // the point is the weighted vertices, the weights a partition of unity in [0, 1]
+            assert!((a * weights[0] + b * weights[1] + c * weights[2] - q).norm() < 1e-12);
+            assert!((weights.iter().sum::<f64>() - 1.0).abs() < 1e-12 && weights.iter().all(|&w| (-1e-12..=1.0 + 1e-12).contains(&w)));
+            // no sampled point is closer (the sample spacing bounds the error)
+            let (exact, sampled) = ((q - p).norm(), brute_force(&p, &a, &b, &c));
+            let spacing = ((b - a).norm() + (c - a).norm()) / 200.0;
+            assert!(exact <= sampled + 1e-12 && sampled - exact <= spacing, "{exact} vs {sampled}");
+            // the feature agrees with the weights
+            match feature {
+                Feature::Face => assert!(weights.iter().all(|&w| w > 0.0)),
+                Feature::Edge(k) => assert_eq!(weights[(k as usize + 2) % 3], 0.0),
+                Feature::Vertex(k) => assert_eq!(weights[k as usize], 1.0),
+            }
+        }
+        assert_eq!(features.len(), 3, "faces, edges and vertices all occur: {features:?}");
+    }
+
+    #[test]
+    fn points_above_the_face_project_straight_down() {
+        let (a, b, c) = (Vec3::zeros(), Vec3::x(), Vec3::y());
+        let (q, weights, feature) = closest_point_on_triangle(&Vec3::new(0.25, 0.25, 3.0), &a, &b, &c);
+        assert_eq!(feature, Feature::Face);
+        assert!((q - Vec3::new(0.25, 0.25, 0.0)).norm() < 1e-15);
+        assert!((weights[0] - 0.5).abs() < 1e-15);
+        assert_eq!(closest_point_on_triangle(&Vec3::new(2.0, -1.0, 0.0), &a, &b, &c).2, Feature::Vertex(1));
+        assert_eq!(closest_point_on_triangle(&Vec3::new(0.8, 0.8, 0.3), &a, &b, &c).2, Feature::Edge(1));
+    }
+}
+
+#[cfg(test)]
+mod surface_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
+    fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        (vertices, triangles)
+    }
+
+    #[test]
+    fn grid_queries_match_brute_force_and_sign_by_pseudonormals() {
+        let (a, b, c) = (1.0, 0.6, 0.3);
+        let (vertices, triangles) = boxed(a, b, c);
+        let reach = 0.25;
+        let surface = TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (mut inside, mut outside, mut missed) = (0, 0, 0);
+        for _ in 0..20000 {
+            let p = Vec3::new(rng.random_range(-1.3..1.3), rng.random_range(-0.9..0.9), rng.random_range(-0.6..0.6));
+            // the box's own signed distance
+            let q = p.abs() - Vec3::new(a, b, c);
+            let exact = if q.max() > 0.0 { q.sup(&Vec3::zeros()).norm() } else { q.max() };
+            let brute = triangles.iter().map(|t| (p - closest_point_on_triangle(&p, &vertices[t[0] as usize], &vertices[t[1] as usize], &vertices[t[2] as usize]).0).norm()).fold(f64::INFINITY, f64::min);
+            assert!((exact.abs() - brute).abs() < 1e-12);
+            match surface.closest(&p) {
+                Some(found) => {
+                    assert!((found.distance - exact).abs() < 1e-12, "{p:?}: {} vs {exact}", found.distance);
+                    assert!((found.normal.norm() - 1.0).abs() < 1e-12);
+                    // the normal leads from the surface point to an outside point
+                    assert!((found.point + found.normal * found.distance - p).norm() < 1e-12);
+                    if found.distance < 0.0 { inside += 1 } else { outside += 1 }
+                }
+                None => {
+                    assert!(brute > reach, "{p:?} is within reach ({brute}) but was not found");
+                    missed += 1;
+                }
+            }
+        }
+        assert!(inside > 100 && outside > 100 && missed > 100, "{inside} {outside} {missed}");
+    }
+
+    #[test]
+    fn mass_properties_of_a_moved_box_are_the_analytic_ones() {
+        let (a, b, c) = (0.5, 0.2, 0.1);
+        let (vertices, triangles) = boxed(a, b, c);
+        let rotation = nalgebra::Rotation3::from_scaled_axis(Vec3::new(0.3, -0.7, 0.2));
+        let shift = Vec3::new(1.0, 2.0, -3.0);
+        let moved: Vec<Vec3> = vertices.iter().map(|v| rotation * v + shift).collect();
+        let properties = MassProperties::of_surface(&moved, &triangles);
+        let volume = 8.0 * a * b * c;
+        assert!((properties.volume - volume).abs() < 1e-14);
+        assert!((properties.centroid - shift).norm() < 1e-12);
+        let (x, y, z) = (2.0 * a, 2.0 * b, 2.0 * c);
+        let principal = Matrix3::from_diagonal(&Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y)) * (volume / 12.0);
+        let expected = rotation.matrix() * principal * rotation.matrix().transpose();
+        assert!((properties.inertia - expected).norm() < 1e-12 * expected.norm(), "{:?} vs {expected:?}", properties.inertia);
+    }
+
+    #[test]
+    fn open_inside_out_and_degenerate_surfaces_are_refused() {
+        let (vertices, mut triangles) = boxed(1.0, 1.0, 1.0);
+        let flipped: Vec<[u32; 3]> = triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
+        assert!(matches!(TriangleSurface::new(vertices.clone(), flipped, 0.1, 0.1), Err(SurfaceError::InsideOut(v)) if v < 0.0));
+        let mut flat = vertices.clone();
+        flat.iter_mut().for_each(|v| v.z = 0.0);
+        assert!(matches!(TriangleSurface::new(flat, triangles.clone(), 0.1, 0.1), Err(SurfaceError::Degenerate(_))));
+        triangles.pop();
+        assert!(matches!(TriangleSurface::new(vertices, triangles, 0.1, 0.1), Err(SurfaceError::Open(..))));
+    }
+}
