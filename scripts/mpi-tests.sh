@@ -32,6 +32,13 @@ for ranks in 2 3 4; do
         && \$bin compare \$work/panel1/results.h5 \$work/panel$ranks/results.h5 \
         && grep -q '\"ranks\": $ranks' \$work/panel$ranks/summary.json"
 done
+# a meshed FSP striking obliquely and yawed: the same bits on 1 and 3 ranks
+check meshed-fsp-identical-on-3-ranks bash -c 'mpi 1 run cases/four_layer_fsp.json --out $work/fsp1 && mpi 3 run cases/four_layer_fsp.json --out $work/fsp3 \
+    && $bin compare $work/fsp1/results.h5 $work/fsp3/results.h5'
+# a projectile mesh file that does not exist ends every rank with exit code 4, named once
+/usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/four_layer_fsp.json")); c["projectile"] = {"shape": "file", "mesh_file": "nowhere.stl", "mass_kg": 2e-6, "velocity_m_s": 500.0}; json.dump(c, sys.stdout)' >"$work/nomesh.json"
+check missing-mesh-on-two-ranks bash -c 'mpi 2 run $work/nomesh.json --out $work/nomesh 2>$work/nomesh.err; code=$?; cat $work/nomesh.err; \
+    test $code -eq 4 && test "$(grep -c "nowhere.stl" $work/nomesh.err)" -eq 1'
 # a bad case ends every rank with exit code 3 and one message naming the field
 printf '{"name":"x","target":{"kind":"straight_yarn","yarn":"km2_600_denier","fibres_per_yarn":0,"length_m":0.01,"element_length_ratio":0.5},"contact":{"law":"elastic","friction_coefficient":0,"projectile_friction_coefficient":0},"failure":{"mode":"none"},"projectile":{"preset":"table_4_2_sphere","velocity_m_s":100},"run":{"end_time_s":1e-6}}' >"$work/bad.json"
 check bad-case-on-two-ranks bash -c 'mpi 2 run $work/bad.json --out $work/bad 2>$work/bad.err; code=$?; cat $work/bad.err; \

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use dea_core::Rank;
-use dea_io::case::{default_case, parse_case, Case};
+use dea_io::case::{default_case, load_case, parse_case, Case};
 use dea_mpi::comm::mpi::{MpiComm, MpiSession};
 use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
@@ -122,8 +122,10 @@ fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
     match path {
         None => Ok(default_case()),
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
-            parse_case(&text, &path.display().to_string()).map_err(|e| (Exit::BadCase, e.to_string()))
+            if let Err(e) = std::fs::metadata(path) {
+                return Err((Exit::File, format!("{}: cannot read: {e}", path.display())));
+            }
+            load_case(path).map_err(|e| (Exit::BadCase, e.to_string()))
         }
     }
 }

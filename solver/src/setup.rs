@@ -322,3 +322,30 @@ pub fn projectile_bottom(projectile: &RigidProjectile) -> f64 {
 pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
     projectile.position.z + projectile.shape.support(&projectile.orientation.inverse_transform_vector(&Vec3::z()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_oblique_yawed_shot_starts_just_above_the_target_on_its_line_of_flight() {
+        let shape = RigidShape::Cylinder { radius: 1.7e-3, height: 3.7e-3, edge_radius: 50e-6 };
+        let (obliquity, yaw) = (30f64.to_radians(), 10f64.to_radians());
+        let resolved = ResolvedProjectile { body: ProjectileBody::Analytic(shape.clone()), mass: 1e-3, speed: 400.0, offset: [1e-3, -2e-3], obliquity, yaw };
+        let top = 0.5e-3;
+        let (projectile, aim) = launch(shape, &resolved, top);
+        assert_eq!(aim, [1e-3, -2e-3]);
+        // lowest point a gap above the top (to rounding)
+        assert!((projectile_bottom(&projectile) - (top + INITIAL_GAP)).abs() < 1e-15, "{}", projectile_bottom(&projectile));
+        // flight tilted towards -x by the obliquity
+        let direction = projectile.velocity / 400.0;
+        assert!((direction - Vec3::new(-obliquity.sin(), 0.0, -obliquity.cos())).norm() < 1e-15);
+        // the centre's line of flight crosses the top at the aim point
+        let t = (projectile.position.z - top) / -projectile.velocity.z;
+        let crossing = projectile.position + projectile.velocity * t;
+        assert!((crossing.x - aim[0]).abs() < 1e-15 && (crossing.y - aim[1]).abs() < 1e-15);
+        // the body axis (nose at body -z) is the yaw away from the line of flight
+        let nose = projectile.orientation * Vec3::new(0.0, 0.0, -1.0);
+        assert!((nose.dot(&direction).acos() - yaw).abs() < 1e-12);
+    }
+}

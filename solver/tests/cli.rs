@@ -112,3 +112,54 @@ fn partition_reports_owned_and_ghost_nodes_per_rank() {
     assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "0"]).status.code(), Some(2));
     assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "100000"]).status.code(), Some(2));
 }
+
+/// A surface as ASCII STL.
+fn stl(vertices: &[dea_core::Vec3], triangles: &[[u32; 3]]) -> String {
+    let mut text = String::from("solid projectile\n");
+    for t in triangles {
+        text += "facet normal 0 0 0\nouter loop\n";
+        for &v in t {
+            let x = vertices[v as usize];
+            text += &format!("vertex {:?} {:?} {:?}\n", x.x, x.y, x.z);
+        }
+        text += "endloop\nendfacet\n";
+    }
+    text + "endsolid projectile\n"
+}
+
+#[test]
+fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
+    let dir = scratch("stl");
+    let (radius, height, edge) = (1.7e-3, 3.7e-3, 0.2e-3);
+    let (vertices, triangles) = dea_projectile::generate::Solid::Cylinder { radius, height, edge_radius: edge }.mesh(4).boundary();
+    std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles)).unwrap();
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
+    case["projectile"] = serde_json::json!({ "shape": "cylinder", "diameter_m": 2.0 * radius, "height_m": height, "edge_radius_m": edge, "mesh_divisions": 4, "mass_kg": 5e-6, "velocity_m_s": 100.0 });
+    std::fs::write(dir.join("generated.json"), case.to_string()).unwrap();
+    // the file's vertices are the generator's, written exactly, in the same order
+    case["projectile"] = serde_json::json!({ "shape": "file", "mesh_file": "rcc.stl", "mass_kg": 5e-6, "velocity_m_s": 100.0 });
+    std::fs::write(dir.join("file.json"), case.to_string()).unwrap();
+    let checked = dea(&["check", dir.join("file.json").to_str().unwrap()]);
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
+    assert_eq!(printed["resolved"]["projectile"]["shape"]["mesh"]["triangles"], triangles.len());
+    for name in ["generated", "file"] {
+        let out = dea(&["run", dir.join(format!("{name}.json")).to_str().unwrap(), "--out", dir.join(name).to_str().unwrap()]);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("file/summary.json")).unwrap()).unwrap();
+    assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the meshed cylinder reached the fibre");
+    let compared = dea(&["compare", dir.join("generated/results.h5").to_str().unwrap(), dir.join("file/results.h5").to_str().unwrap()]);
+    assert!(compared.status.success(), "{}", String::from_utf8_lossy(&compared.stdout));
+    // a damaged file: exit 4, naming the file and the line
+    std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles).replacen("vertex", "vertex nan-ish", 1)).unwrap();
+    let out = dea(&["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(4));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("rcc.stl:4:"), "{stderr}");
+    // an open surface is refused by name too
+    std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles[1..])).unwrap();
+    let out = dea(&["check", dir.join("file.json").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(4));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not closed"), "{}", String::from_utf8_lossy(&out.stderr));
+}

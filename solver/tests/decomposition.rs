@@ -103,6 +103,30 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The panel struck obliquely by a small meshed FSP, yawed: triangle-surface contact,
+/// torque and rotation in play.
+fn meshed_fsp_case() -> Case {
+    load_case(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/four_layer_fsp.json")).expect("the FSP case loads")
+}
+
+#[test]
+fn a_meshed_oblique_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
+    let case = meshed_fsp_case();
+    let dir = scratch("meshed");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.max_projectile_force_n > 0.0, "the FSP struck");
+    let histories = dea_io::results::read_histories(&dir.join("1/results.h5")).unwrap();
+    let spin = histories.projectile_angular_velocity.last().unwrap();
+    assert!(spin.norm() > 0.0, "an oblique strike turns the FSP");
+    run_checkpointed(&case, 3, &dir.join("3"), Some(700));
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("3/results.h5")).unwrap();
+    assert!(differences.is_empty(), "3 ranks: {differences:#?}");
+    restart_on(&dir.join("3/checkpoint"), 2, &dir.join("restarted")).unwrap();
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("restarted/results.h5")).unwrap();
+    assert!(differences.is_empty(), "restart on 2 ranks: {differences:#?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// What a rank knows of its part after some steps.
 struct RankView {
     owned: Vec<GlobalNodeId>,

@@ -345,18 +345,19 @@ mod tests {
     }
 }
 
+/// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
 #[cfg(test)]
-mod surface_tests {
-    use super::*;
-    use rand::{Rng, SeedableRng};
-
-    /// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
-    fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+pub(crate) fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
         let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
         let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
         (vertices, triangles)
-    }
+}
+
+#[cfg(test)]
+mod surface_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
 
     #[test]
     fn grid_queries_match_brute_force_and_sign_by_pseudonormals() {

@@ -472,8 +472,28 @@ impl Case {
                 (body, mass(None)?)
             }
         };
-        if p.mesh_file.is_some() && !matches!(body, ProjectileBody::File { .. }) {
-            return Err(invalid("projectile.mesh_file", "only with shape \"file\""));
+        // a field the shape does not use is a mistake, not something to ignore
+        let kind = p.shape.as_deref().unwrap_or("preset");
+        let uses = |field: &str| match kind {
+            "sphere" => matches!(field, "diameter_m" | "mesh_divisions"),
+            "cylinder" => matches!(field, "diameter_m" | "height_m" | "edge_radius_m" | "mesh_divisions"),
+            "fsp" => !matches!(field, "mesh_file" | "mesh_scale"),
+            "file" => matches!(field, "mesh_file" | "mesh_scale"),
+            _ => field == "mesh_divisions",
+        };
+        let given = [
+            ("diameter_m", p.diameter_m.is_some()),
+            ("height_m", p.height_m.is_some()),
+            ("edge_radius_m", p.edge_radius_m.is_some()),
+            ("flat_width_m", p.flat_width_m.is_some()),
+            ("bevel_angle_deg", p.bevel_angle_deg.is_some()),
+            ("flat_edge_radius_m", p.flat_edge_radius_m.is_some()),
+            ("mesh_divisions", p.mesh_divisions.is_some()),
+            ("mesh_file", p.mesh_file.is_some()),
+            ("mesh_scale", p.mesh_scale.is_some()),
+        ];
+        if let Some((field, _)) = given.iter().find(|&&(field, set)| set && !uses(field)) {
+            return Err(invalid(&format!("projectile.{field}"), format!("does not apply to {kind} projectiles")));
         }
         let angle = |path: &str, degrees: f64| {
             if degrees.is_finite() && degrees.abs() < 80.0 {
@@ -592,10 +612,17 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     Ok(case)
 }
 
-/// Reads, parses and validates a case file.
+/// Reads, parses and validates a case file; a relative mesh file is taken relative to the
+/// case file and made absolute (so that a checkpoint's copy of the case finds it too).
 pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
     let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
-    parse_case(&text, &path.display().to_string())
+    let mut case = parse_case(&text, &path.display().to_string())?;
+    if let Some(file) = case.projectile.mesh_file.as_mut().filter(|f| f.is_relative()) {
+        let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
+        let joined = base.join(&*file);
+        *file = std::path::absolute(&joined).unwrap_or(joined);
+    }
+    Ok(case)
 }
 
 /// The built-in default case: a 19-fibre KM2 600 denier straight yarn, 1 in long, clamped,
@@ -652,6 +679,55 @@ mod tests {
         assert_eq!(e.path, "run.end_time_s");
         let e = parse_case("{ not json", "broken.json").unwrap_err();
         assert!(e.to_string().contains("broken.json"), "{e}");
+    }
+
+    #[test]
+    fn projectile_fields_are_checked_and_name_themselves() {
+        let fsp = |edit: &dyn Fn(&mut serde_json::Value)| {
+            error_for(|v| {
+                v["projectile"] = serde_json::json!({ "shape": "fsp", "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
+                edit(v);
+            })
+        };
+        let e = fsp(&|v| v["projectile"]["flat_width_m"] = 6e-3.into());
+        assert_eq!(e.path, "projectile");
+        assert!(e.message.contains("flat width"), "{e}");
+        let e = fsp(&|v| v["projectile"]["bevel_angle_deg"] = (-5.0).into());
+        assert_eq!(e.path, "projectile.bevel_angle_deg");
+        let e = fsp(&|v| v["projectile"]["obliquity_deg"] = 85.0.into());
+        assert_eq!(e.path, "projectile.obliquity_deg");
+        let e = fsp(&|v| v["projectile"]["mesh_divisions"] = 1.into());
+        assert_eq!(e.path, "projectile.mesh_divisions");
+        let e = fsp(&|v| v["projectile"]["mesh_file"] = "body.stl".into());
+        assert_eq!(e.path, "projectile.mesh_file");
+        let e = fsp(&|v| v["projectile"]["shape"] = "file".into());
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("projectile.mesh_file", "is required here (in case.json)"));
+        let e = fsp(&|v| v["projectile"].as_object_mut().unwrap().remove("mass_kg").map(drop).unwrap_or(()));
+        assert_eq!(e.path, "projectile.mass_kg");
+        // the FSP preset: 17 grains, meshed with the default divisions, the standard shape
+        let case = default_case();
+        let resolved = case.projectile().unwrap();
+        assert!((resolved.mass - 1.1016e-3).abs() < 1e-7, "{}", resolved.mass);
+        assert_eq!(resolved.body, ProjectileBody::Generated { solid: Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN), divisions: DEFAULT_FSP_DIVISIONS });
+        // a sphere is analytic unless meshed
+        let mut sphere = case.clone();
+        sphere.projectile = ProjectileSpec { shape: Some("sphere".into()), diameter_m: Some(1e-3), mass_kg: Some(1e-6), velocity_m_s: 10.0, ..Default::default() };
+        assert!(matches!(sphere.projectile().unwrap().body, ProjectileBody::Analytic(RigidShape::Sphere { .. })));
+        sphere.projectile.mesh_divisions = Some(4);
+        assert_eq!(sphere.projectile().unwrap().body, ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 });
+    }
+
+    #[test]
+    fn a_relative_mesh_file_is_found_beside_the_case() {
+        let dir = std::env::temp_dir().join(format!("dea-case-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut value = default_json();
+        value["projectile"] = serde_json::json!({ "shape": "file", "mesh_file": "body.stl", "mass_kg": 1e-3, "velocity_m_s": 100.0 });
+        std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
+        let case = load_case(&dir.join("case.json")).unwrap();
+        let file = case.projectile.mesh_file.unwrap();
+        assert!(file.is_absolute() && file.ends_with("body.stl") && file.parent().unwrap().ends_with(dir.file_name().unwrap()), "{}", file.display());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -357,6 +357,46 @@ mod tests {
     }
 
     #[test]
+    fn a_meshed_sphere_answers_like_the_analytic_one_within_its_chords() {
+        use dea_core::projectile::{MeshShape, RigidShape};
+        use rand::{Rng, SeedableRng};
+        let radius = 2.78e-3;
+        let mesh = Solid::Sphere { radius }.mesh(8);
+        let (vertices, triangles) = mesh.boundary();
+        // the widest chord's sagitta bounds how far the facets lie inside the sphere
+        let edge = |t: &[u32; 3], k: usize| (vertices[t[k] as usize] - vertices[t[(k + 1) % 3] as usize]).norm();
+        let longest = triangles.iter().flat_map(|t| (0..3).map(move |k| edge(t, k))).fold(0.0, f64::max);
+        let sagitta = radius - (radius * radius - 0.25 * longest * longest).sqrt();
+        let reach = 20e-6;
+        let (shape, centroid) = MeshShape::new(&vertices, triangles, reach, 40e-6).unwrap();
+        assert!(centroid.norm() < 1e-9 * radius);
+        let meshed = RigidShape::Mesh(std::sync::Arc::new(shape));
+        let exact = RigidShape::Sphere { radius };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut found = 0;
+        for _ in 0..2000 {
+            let direction = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
+            let p = direction * (radius + rng.random_range(-reach..reach));
+            let (d_exact, n_exact) = exact.distance_and_normal(&p);
+            let (d_mesh, n_mesh) = meshed.distance_and_normal(&p);
+            if d_mesh.is_finite() {
+                found += 1;
+                assert!(d_mesh >= d_exact - 1e-12 && d_mesh <= d_exact + 1.5 * sagitta, "{d_mesh} vs {d_exact} (sagitta {sagitta})");
+                assert!(n_mesh.dot(&n_exact) > 0.95, "normals agree");
+            } else {
+                assert!(d_exact + sagitta > reach - 1e-12, "{d_exact}: within reach but not found");
+            }
+        }
+        assert!(found > 1000, "{found}");
+        // the inertia of a solid sphere, to the volume deficit of the inscribed polyhedron
+        let inertia = meshed.inertia(1.0);
+        assert!((inertia[(0, 0)] / (0.4 * radius * radius) - 1.0).abs() < 0.03, "{inertia}");
+        // each quad split along one diagonal leaves the facets without mirror symmetry: a
+        // product of inertia of order 1e-4 remains
+        assert!(inertia[(0, 1)].abs() < 1e-3 * inertia[(0, 0)], "{inertia}");
+    }
+
+    #[test]
     fn the_fsp_cut_profile_is_smooth_at_the_fillet_ends() {
         let d = FspDimensions::SEVENTEEN_GRAIN;
         let tangent = d.flat_edge_radius * (0.5 * d.bevel_angle).tan();
