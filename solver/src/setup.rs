@@ -135,9 +135,10 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
     Ok(RigidShape::Mesh(Arc::new(mesh)))
 }
 
-/// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, and for a
-/// meshed one the surface and the density its mass implies.
-pub fn describe_projectile(projectile: &RigidProjectile) -> serde_json::Value {
+/// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, for a
+/// meshed one the surface and the density its mass implies, and for a generated one the
+/// size of its hexahedral mesh.
+pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody) -> serde_json::Value {
     let shape = match &projectile.shape {
         RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
         RigidShape::Cylinder { radius, height, edge_radius } => serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } }),
@@ -149,8 +150,16 @@ pub fn describe_projectile(projectile: &RigidProjectile) -> serde_json::Value {
             "bounding_radius_m": mesh.bounding_radius,
         } }),
     };
+    let generated = match body {
+        ProjectileBody::Generated { solid, divisions } => {
+            let mesh = solid.mesh(*divisions);
+            serde_json::json!({ "divisions": divisions, "nodes": mesh.nodes.len(), "hexahedra": mesh.hexes.len() })
+        }
+        _ => serde_json::Value::Null,
+    };
     serde_json::json!({
         "shape": shape,
+        "generated_mesh": generated,
         "mass_kg": projectile.mass,
         "position_m": projectile.position.as_slice(),
         "velocity_m_s": projectile.velocity.as_slice(),

@@ -6,6 +6,7 @@
 //! Meshes come from a generator (`HexMesh::cylinder`) or a file (Gmsh 4.1, ABAQUS). These
 //! are the kernels; the contact search and the rigid and deformable bodies build on them.
 
+pub mod elastic;
 pub mod generate;
 pub mod import;
 pub mod mesh;

@@ -30,7 +30,7 @@ pub struct Surface {
 /// Gauss points and weights of the 3-point rule on [-1, 1].
 const GAUSS: [(f64, f64); 3] = [(-0.774_596_669_241_483_4, 5.0 / 9.0), (0.0, 8.0 / 9.0), (0.774_596_669_241_483_4, 5.0 / 9.0)];
 /// Natural coordinates of the corners, VTK order.
-const CORNERS: [[f64; 3]; 8] = [[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]];
+pub(crate) const CORNERS: [[f64; 3]; 8] = [[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]];
 
 /// Trilinear shape functions and the Jacobian determinant at natural point `(r, s, t)`.
 fn shape_and_jacobian(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([f64; 8], f64) {
