@@ -4,7 +4,10 @@
 use std::time::Instant;
 
 use dea_core::Rank;
-use dea_io::case::{default_case, Case, TargetSpec, KM2_600_DENIER_AREA};
+use dea_core::projectile::{MeshShape, RigidShape};
+use dea_core::Vec3;
+use dea_io::case::{default_case, Case, ProjectileSpec, TargetSpec, DEFAULT_FSP_DIVISIONS, KM2_600_DENIER_AREA};
+use dea_projectile::generate::{FspDimensions, Solid};
 use dea_partition::Method;
 use serde::Serialize;
 
@@ -49,6 +52,12 @@ pub struct BenchReport {
     pub load_imbalance: f64,
     /// mean over ranks of each stage's wall time in the timed steps [s]
     pub stage_seconds: crate::run::StageSeconds,
+    /// one contact query near the meshed 17-grain FSP (rank 0) [ns]
+    pub ns_per_mesh_surface_query: f64,
+    /// the same near the analytic cylinder of its diameter [ns]
+    pub ns_per_analytic_surface_query: f64,
+    /// triangles of that FSP mesh
+    pub mesh_surface_triangles: usize,
 }
 
 /// The bench case: the default yarn made long enough for `min_nodes` nodes, no failure,
@@ -60,8 +69,35 @@ pub fn bench_case(min_nodes: usize) -> Case {
     case.name = "bench-19-fibre-yarn".into();
     case.target = TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: fibres, length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter, element_length_ratio: 0.5 };
     case.failure.mode = "none".into();
-    case.projectile.velocity_m_s = 50.0;
+    case.projectile = ProjectileSpec { preset: Some("table_4_2_sphere".into()), velocity_m_s: 50.0, ..Default::default() };
     case
+}
+
+/// Cost of one contact query of a fibre node near the 17-grain FSP's meshed surface and
+/// near the analytic cylinder of the same diameter [ns], and the mesh's triangle count.
+/// Query points lie within the contact reach of the surface (where candidates are).
+fn surface_query_costs(contact_diameter: f64, skin: f64) -> (f64, f64, usize) {
+    use rand::{Rng, SeedableRng};
+    let (vertices, triangles) = Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN).mesh(DEFAULT_FSP_DIVISIONS).boundary();
+    let reach = 0.5 * contact_diameter + skin;
+    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, 1.3 * contact_diameter).expect("the FSP mesh is closed");
+    let count = mesh.surface.triangles.len();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let points: Vec<Vec3> = (0..200_000)
+        .map(|_| {
+            let v = mesh.surface.vertices[rng.random_range(0..mesh.surface.vertices.len())];
+            v + Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * reach
+        })
+        .collect();
+    let radius = 0.5 * FspDimensions::SEVENTEEN_GRAIN.diameter;
+    let shapes = [RigidShape::Mesh(std::sync::Arc::new(mesh)), RigidShape::Cylinder { radius, height: FspDimensions::SEVENTEEN_GRAIN.length, edge_radius: 150e-6 }];
+    let costs = shapes.map(|shape| {
+        let clock = Instant::now();
+        let found: f64 = points.iter().map(|p| shape.distance_and_normal(p).0.min(1.0)).sum();
+        std::hint::black_box(found);
+        clock.elapsed().as_secs_f64() * 1e9 / points.len() as f64
+    });
+    (costs[0], costs[1], count)
 }
 
 /// Runs the benchmark on every rank; rank 0 returns the report.
@@ -144,6 +180,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] = totals[..] else { unreachable!("eleven totals") };
     let ranks = run.comm.size();
     let node_steps = nodes * steps as f64;
+    let section = &run.domain.sections[0];
+    let (mesh_query, analytic_query, mesh_triangles) = surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
     Ok(Some(BenchReport {
         nodes: nodes as u64,
         steps,
@@ -165,5 +203,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
         ghost_fraction: ghosts / nodes,
         load_imbalance: slowest[0] / (compute_total / ranks as f64),
         stage_seconds: crate::run::StageSeconds::from_array(&stage_sums.iter().map(|s| s / ranks as f64).collect::<Vec<_>>()),
+        ns_per_mesh_surface_query: mesh_query,
+        ns_per_analytic_surface_query: analytic_query,
+        mesh_surface_triangles: mesh_triangles,
     }))
 }

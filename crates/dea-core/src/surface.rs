@@ -86,6 +86,9 @@ pub struct TriangleSurface {
     pub triangles: Vec<[u32; 3]>,
     /// unit outward normal of each triangle
     face_normals: Vec<Vec3>,
+    /// a sphere holding each triangle (centre, radius): skips triangles that cannot be
+    /// nearer than the best one found
+    bounds: Vec<(Vec3, f64)>,
     /// per triangle and edge k (from vertex k to k + 1): the sum of the normals of the two
     /// triangles that share it
     edge_normals: Vec<[Vec3; 3]>,
@@ -106,7 +109,7 @@ struct CellGrid {
     /// cube -> range of `entries` (Fx hashing: a lookup per candidate node and step, where
     /// SipHash's collision resistance buys nothing)
     cells: FxHashMap<[i32; 3], (u32, u32)>,
-    /// triangle indices, ascending within each cube
+    /// triangle indices, nearest the cube's centre first
     entries: Vec<u32>,
 }
 
@@ -117,7 +120,12 @@ impl CellGrid {
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
         let mut grid = Self { cell, reach, cells: FxHashMap::default(), entries: Vec::new() };
-        let mut listed: Vec<([i32; 3], u32)> = Vec::new();
+        // (cube, distance of the triangle from the cube's centre, triangle): each cube's list
+        // runs nearest first, so a query soon has a close triangle to prune the others with
+        let mut listed: Vec<([i32; 3], u64, u32)> = Vec::new();
+        // a cube lists a triangle when the triangle comes within reach of the cube's
+        // circumscribed sphere (a slanted triangle's box holds many cubes it never nears)
+        let half_diagonal = 0.5 * cell * 3f64.sqrt();
         for (t, triangle) in triangles.iter().enumerate() {
             let corners = triangle.map(|v| vertices[v as usize]);
             let low = corners[0].inf(&corners[1]).inf(&corners[2]).add_scalar(-reach);
@@ -126,7 +134,12 @@ impl CellGrid {
             for i in low[0]..=high[0] {
                 for j in low[1]..=high[1] {
                     for k in low[2]..=high[2] {
-                        listed.push(([i, j, k], t as u32));
+                        let centre = Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
+                        let (q, ..) = closest_point_on_triangle(&centre, &corners[0], &corners[1], &corners[2]);
+                        let distance = (q - centre).norm();
+                        if distance <= half_diagonal + reach {
+                            listed.push(([i, j, k], distance.to_bits(), t as u32));
+                        }
                     }
                 }
             }
@@ -135,9 +148,9 @@ impl CellGrid {
         let mut start = 0;
         while start < listed.len() {
             let key = listed[start].0;
-            let end = start + listed[start..].iter().take_while(|(k, _)| *k == key).count();
+            let end = start + listed[start..].iter().take_while(|(k, ..)| *k == key).count();
             grid.cells.insert(key, (grid.entries.len() as u32, (grid.entries.len() + end - start) as u32));
-            grid.entries.extend(listed[start..end].iter().map(|&(_, t)| t));
+            grid.entries.extend(listed[start..end].iter().map(|&(.., t)| t));
             start = end;
         }
         grid
@@ -238,8 +251,16 @@ impl TriangleSurface {
             }
         }
         let edge_normals = triangles.iter().map(|t| [0, 1, 2].map(|k| edge_sums[&(t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))])).collect();
+        let bounds = triangles
+            .iter()
+            .map(|t| {
+                let corners = t.map(|v| vertices[v as usize]);
+                let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+                (centre, corners.iter().map(|c| (c - centre).norm()).fold(0.0, f64::max))
+            })
+            .collect();
         let grid = CellGrid::new(&vertices, &triangles, reach, cell);
-        Ok(Self { vertices, triangles, face_normals, edge_normals, vertex_normals, grid })
+        Ok(Self { vertices, triangles, face_normals, bounds, edge_normals, vertex_normals, grid })
     }
 
     /// The same surface with its vertices mapped by `map` (a rigid motion keeps it valid).
@@ -256,18 +277,23 @@ impl TriangleSurface {
     /// triangle index, so the answer does not depend on the order of the search).
     pub fn closest(&self, p: &Vec3) -> Option<SurfacePoint> {
         let mut best: Option<(f64, u32, Vec3, [f64; 3], Feature)> = None;
+        // nothing beyond the reach counts; a triangle whose bounding sphere lies farther than
+        // the best distance so far is strictly farther, so skipping it changes no answer
+        let mut limit = self.grid.reach;
         for &t in self.grid.near(p) {
+            let (centre, radius) = self.bounds[t as usize];
+            if (p - centre).norm_squared() > (limit + radius) * (limit + radius) {
+                continue;
+            }
             let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
             let squared = (p - q).norm_squared();
-            if best.is_none_or(|(d, ..)| squared < d) {
+            if squared <= self.grid.reach * self.grid.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
                 best = Some((squared, t, q, weights, feature));
+                limit = squared.sqrt();
             }
         }
         let (squared, t, point, weights, feature) = best?;
-        if squared > self.grid.reach * self.grid.reach {
-            return None;
-        }
         let pseudonormal = match feature {
             Feature::Face => self.face_normals[t as usize],
             Feature::Edge(k) => self.edge_normals[t as usize][k as usize],

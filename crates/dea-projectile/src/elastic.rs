@@ -148,8 +148,8 @@ impl ElasticBody {
                 let strain = 0.5 * (gradient + gradient.transpose());
                 let stress = Matrix3::identity() * (lambda * strain.trace()) + strain * (2.0 * mu);
                 energy += 0.5 * stress.dot(&strain) * data.weights[g];
-                for a in 0..8 {
-                    local_force[a] -= stress * data.gradients[g][a] * data.weights[g];
+                for (force, gradient) in local_force.iter_mut().zip(&data.gradients[g]) {
+                    *force -= stress * gradient * data.weights[g];
                 }
             }
             for a in 0..8 {
