@@ -43,7 +43,7 @@ save(figure, "projectile.png")
 
 figure, axes = plt.subplots(figsize=(7, 5))
 energy = results["history/energy"]
-for kind in ["projectile_kinetic", "fibre_kinetic", "axial", "bending", "contact", "friction_dissipated", "plastic_dissipated",
+for kind in ["projectile_kinetic", "projectile_strain", "fibre_kinetic", "axial", "bending", "contact", "friction_dissipated", "plastic_dissipated",
              "fracture_released", "total"]:
     axes.plot(time_us, energy[kind][()] * 1e3, label=kind.replace("_", " "), linewidth=2 if kind == "total" else 1)
 axes.set_xlabel("time [µs]")

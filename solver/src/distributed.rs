@@ -15,7 +15,7 @@ use std::time::Instant;
 use dea_core::domain::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
-use dea_core::projectile::RigidProjectile;
+use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
 use dea_io::snapshot::SnapshotPart;
@@ -24,15 +24,24 @@ use nalgebra::{Quaternion, UnitQuaternion};
 use serde::Serialize;
 
 use crate::comm::Comm;
+use crate::deformable::DeformableProjectile;
 
 /// f64 words of a ghost record at a rebuild.
 const RECORD_WORDS: usize = 11;
+/// The projectile's body as a rank sees it: whether the run's projectile is deformable,
+/// and (rank 0) the body itself.
+#[derive(Default)]
+pub struct Body {
+    pub deformable_run: bool,
+    pub body: Option<DeformableProjectile>,
+}
+
 /// f64 words per ghost in the per-step halo: position and element failure state.
 pub const HALO_WORDS: usize = 4;
 /// f64 words of the projectile state broadcast.
 pub const PROJECTILE_WORDS: usize = 19;
-/// f64 words of a reaction record.
-const REACTION_WORDS: usize = 7;
+/// f64 words of a reaction record: gid, force, torque, triangle, weights.
+const REACTION_WORDS: usize = 11;
 
 const FLAG_CLAMPED: u64 = 1;
 const FLAG_LAST: u64 = 2;
@@ -122,12 +131,19 @@ pub struct Distributed<C: Comm> {
     /// reaction records of this rank, and (rank 0) of all ranks: reused every step
     reaction_words: Vec<f64>,
     reactions: Vec<Reaction>,
+    /// the projectile is a deformable body (on every rank)
+    deformable_run: bool,
+    /// that body, on rank 0
+    pub deformable: Option<DeformableProjectile>,
+    /// projectile broadcast buffer
+    projectile_words: Vec<f64>,
 }
 
 impl<C: Comm> Distributed<C> {
     /// Takes a domain of owned nodes (ascending global id) and fetches the ghosts, on every
     /// rank together.
-    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
+    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, body: Body) -> Result<Self, DomainError> {
+        let Body { deformable_run: comm_deformable, body: deformable } = body;
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
@@ -163,14 +179,17 @@ impl<C: Comm> Distributed<C> {
             fibres: 0,
             reaction_words: Vec::new(),
             reactions: Vec::new(),
+            deformable_run: deformable.is_some() || comm_deformable,
+            deformable,
+            projectile_words: Vec::new(),
         };
         distributed.rebuild()?;
         Ok(distributed)
     }
 
     /// [`Self::assemble`], then the initial forces: a fresh run.
-    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64) -> Result<Self, DomainError> {
-        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach)?;
+    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, body: Body) -> Result<Self, DomainError> {
+        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, body)?;
         let forces = distributed.domain.compute_forces();
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
@@ -183,8 +202,12 @@ impl<C: Comm> Distributed<C> {
         let half = 0.5 * time_step;
         let clock = Instant::now();
         self.domain.kick_drift(half, time_step);
+        if let Some(body) = &mut self.deformable {
+            body.body.kick(half);
+            body.body.drift(time_step);
+        }
         self.domain.times.integrate += clock.elapsed().as_secs_f64();
-        self.broadcast_projectile();
+        self.broadcast_projectile()?;
         let clock = Instant::now();
         let node = self.domain.node_displacement();
         self.domain.times.rebuild += clock.elapsed().as_secs_f64();
@@ -205,6 +228,9 @@ impl<C: Comm> Distributed<C> {
         self.gather_projectile_load();
         let clock = Instant::now();
         self.domain.kick(half);
+        if let Some(body) = &mut self.deformable {
+            body.body.kick(half);
+        }
         self.domain.time += time_step;
         self.domain.step += 1;
         self.domain.times.integrate += clock.elapsed().as_secs_f64();
@@ -220,6 +246,7 @@ impl<C: Comm> Distributed<C> {
             Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
             Err(DomainError::MissingGhost { gid, .. }) => (2 << 60) | gid.0,
             Err(DomainError::TimeStep { gid, .. }) => (3 << 60) | gid.0,
+            Err(DomainError::ProjectileInverted { element, .. }) => (4 << 60) | *element as u64,
         };
         let mut agreed = [code];
         self.comm.min_u64(&mut agreed);
@@ -238,6 +265,7 @@ impl<C: Comm> Distributed<C> {
             match agreed >> 60 {
                 1 => Err(DomainError::NonFinite { step: self.domain.step, gid }),
                 2 => Err(DomainError::MissingGhost { gid, along: detail[0] as u32 }),
+                4 => Err(DomainError::ProjectileInverted { step: self.domain.step, element: gid.0 as usize }),
                 _ => Err(DomainError::TimeStep { step: self.domain.step, gid, time_step: self.domain.time_step, limit: f64::from_bits(detail[0]) }),
             }
         };
@@ -245,15 +273,47 @@ impl<C: Comm> Distributed<C> {
         result
     }
 
-    /// Rank 0's projectile state on every rank.
-    fn broadcast_projectile(&mut self) {
+    /// Rank 0's projectile state on every rank; for a deformable body also its surface
+    /// (relative to its centre of mass), which every rank's meshed proxy then takes, and
+    /// whether an element has inverted (then every rank stops here).
+    fn broadcast_projectile(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
-        let mut words = self.domain.projectile.as_ref().map_or([0.0; PROJECTILE_WORDS], projectile_words);
-        self.comm.broadcast_f64(&mut words);
-        if let Some(p) = self.domain.projectile.as_mut().filter(|_| self.comm.rank() != Rank(0)) {
-            set_projectile_words(p, &words);
+        let Some(projectile) = self.domain.projectile.as_mut() else { return Ok(()) };
+        let words = &mut self.projectile_words;
+        words.clear();
+        words.extend_from_slice(&projectile_words(projectile));
+        if let Some(body) = &self.deformable {
+            let surface = body.fill_proxy(projectile);
+            words[..PROJECTILE_WORDS].copy_from_slice(&projectile_words(projectile));
+            words.extend(surface.iter().flat_map(|v| [v.x, v.y, v.z]));
+            words.push(body.inverted.map_or(0.0, |e| (e + 1) as f64));
+        } else if let (true, RigidShape::Mesh(mesh)) = (self.deformable_run, &projectile.shape) {
+            words.resize(PROJECTILE_WORDS + 3 * mesh.surface.vertices.len() + 1, 0.0);
+        }
+        self.comm.broadcast_f64(words);
+        if self.comm.rank() != Rank(0) {
+            set_projectile_words(projectile, words);
+        }
+        if let (true, RigidShape::Mesh(mesh)) = (self.deformable_run, &mut projectile.shape) {
+            let (surface, status) = words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
+            if status[0] > 0.0 {
+                return Err(DomainError::ProjectileInverted { step: self.domain.step, element: status[0] as usize - 1 });
+            }
+            let surface: Vec<Vec3> = surface.chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])).collect();
+            std::sync::Arc::make_mut(mesh).set_vertices(&surface);
         }
         self.times.projectile += clock.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The projectile's state for a checkpoint (rank 0): the rigid words, and a deformable
+    /// body's nodes and element rotations after them.
+    pub fn projectile_state(&self) -> Vec<f64> {
+        let mut words = self.domain.projectile.as_ref().map(|p| projectile_words(p).to_vec()).unwrap_or_default();
+        if let Some(body) = &self.deformable {
+            words.extend(body.body.state_words());
+        }
+        words
     }
 
     /// Every rank's reactions to rank 0, merged by global id and summed in that order.
@@ -263,17 +323,29 @@ impl<C: Comm> Distributed<C> {
         }
         let clock = Instant::now();
         self.reaction_words.clear();
-        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| [word(r.gid.0), r.force.x, r.force.y, r.force.z, r.torque.x, r.torque.y, r.torque.z]));
+        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| {
+            let [f, t, w] = [r.force, r.torque, Vec3::from(r.weights)];
+            [word(r.gid.0), f.x, f.y, f.z, t.x, t.y, t.z, word(r.triangle as u64), w.x, w.y, w.z]
+        }));
         if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
             self.reactions.clear();
             self.reactions.extend(
                 all.iter()
                     .flat_map(|words| words.chunks_exact(REACTION_WORDS))
-                    .map(|w| Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]) }),
+                    .map(|w| Reaction {
+                        gid: GlobalNodeId(integer(w[0])),
+                        force: Vec3::new(w[1], w[2], w[3]),
+                        torque: Vec3::new(w[4], w[5], w[6]),
+                        triangle: integer(w[7]) as u32,
+                        weights: [w[8], w[9], w[10]],
+                    }),
             );
             self.reactions.sort_unstable_by_key(|r| r.gid);
             let load = dea_core::domain::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
+            if let Some(body) = &mut self.deformable {
+                body.forces(&self.reactions);
+            }
         }
         self.times.projectile += clock.elapsed().as_secs_f64();
     }
@@ -430,7 +502,12 @@ impl<C: Comm> Distributed<C> {
 
     /// Every energy of the whole problem, the same bits on every rank and any partition.
     pub fn energies(&self) -> dea_core::energy::EnergyReport {
-        let mut words = self.domain.energy_sums().to_words();
+        let mut sums = self.domain.energy_sums();
+        if let Some(body) = &self.deformable {
+            sums.projectile_kinetic.add(body.body.kinetic_energy());
+            sums.projectile_strain.add(body.strain_energy);
+        }
+        let mut words = sums.to_words();
         self.comm.sum_i64(&mut words);
         EnergySums::from_words(&words).report()
     }
@@ -604,7 +681,11 @@ impl<C: Comm> Distributed<C> {
     /// interrupted run, and future rebuilds fall on the same steps), then every history,
     /// position, velocity and force is put back and the ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
-    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64]) -> Result<Self, RestoreError> {
+    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64], mut body: Body) -> Result<Self, RestoreError> {
+        if let Some(deformable) = &mut body.body {
+            let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
+            deformable.body.set_state_words(words).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", words.len())))?;
+        }
         let n = domain.nodes.n_owned;
         if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
             return Err(RestoreError::Mismatch("the checkpoint's nodes are not those of the case".into()));
@@ -617,7 +698,7 @@ impl<C: Comm> Distributed<C> {
         if let Some(p) = &mut domain.projectile {
             set_projectile_words(p, projectile);
         }
-        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach)?;
+        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, body)?;
         let d = &mut restored.domain;
         // the lists rebuilt from the same positions are the interrupted run's lists
         let mut entry = 0usize;

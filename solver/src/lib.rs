@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod comm;
+pub mod deformable;
 pub mod distributed;
 pub mod progress;
 pub mod run;

@@ -410,7 +410,7 @@ pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, res
             nodes: counts[0] as u64,
             step: run.domain.step,
             time: run.domain.time,
-            projectile: run.domain.projectile.as_ref().map(|p| crate::distributed::projectile_words(p).to_vec()).unwrap_or_default(),
+            projectile: run.projectile_state(),
             broken: [broken.tension, broken.shear, broken.combined],
             rebuilds: run.rebuilds,
             list_builds: run.domain.pairs.builds,

@@ -5,9 +5,12 @@
 use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
 use dea_core::projectile::{MeshShape, RigidProjectile, RigidShape};
-use dea_projectile::import::read_surface;
+use dea_projectile::import::{read_mesh, read_surface};
+
+use crate::deformable::DeformableProjectile;
+use crate::distributed::Body;
 use std::sync::Arc;
-use dea_core::stability::stable_time_step;
+use dea_core::stability::{design_contact_stiffness, stable_time_step};
 use dea_core::weibull::element_strength;
 use std::path::Path;
 
@@ -35,6 +38,8 @@ pub struct Problem {
     pub projectile: RigidProjectile,
     /// where the projectile's line of flight crosses the target's top (x, y) [m]
     pub aim: [f64; 2],
+    /// a deformable projectile's body (the projectile is then its proxy)
+    pub deformable: Option<DeformableProjectile>,
     /// [s]
     pub time_step: f64,
     /// contact search distance: largest contact diameter plus the skin [m]
@@ -108,13 +113,65 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
     // diameters (§4.2.2)
-    let shape = rigid_shape(&resolved.body, 0.5 * section.contact_diameter + contact.skin, 1.3 * section.contact_diameter)?;
+    let (reach, cell) = (0.5 * section.contact_diameter + contact.skin, 1.3 * section.contact_diameter);
     let top = fabric.top(&material) + 0.5 * section.contact_diameter;
-    let (projectile, aim) = launch(shape, &resolved, top);
+    let (projectile, aim, deformable) = match resolved.deformable {
+        None => {
+            let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
+            (projectile, aim, None)
+        }
+        Some(elastic) => {
+            let (body, shape) = deformable_body(&resolved, elastic.youngs_modulus_pa, elastic.poisson_ratio, reach, cell, contact.skin)?;
+            let (projectile, aim, body) = launch_deformable(body, shape, &resolved, top);
+            (projectile, aim, Some(body))
+        }
+    };
     let sections = [section];
-    let time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
+    let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
+    if let Some(body) = &deformable {
+        // one layer of fibre nodes, each a contact diameter wide and an element long
+        let section = &sections[0];
+        let per_area = (1.0 + contact.projectile_friction_coefficient) * design_contact_stiffness(section, &contact.law) / (section.contact_diameter * section.element_length);
+        time_step = time_step.min(case.run.time_step_safety * body.stable_time_step(per_area));
+    }
     let reach = sections[0].contact_diameter + contact.skin;
-    Ok(Problem { material, fabric, contact, failure, strength, projectile, aim, time_step, reach })
+    Ok(Problem { material, fabric, contact, failure, strength, projectile, aim, deformable, time_step, reach })
+}
+
+/// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
+/// about the body's centre of mass. The cubes follow the moving surface with a margin of
+/// one skin.
+fn deformable_body(resolved: &ResolvedProjectile, youngs_modulus: f64, poisson_ratio: f64, reach: f64, cell: f64, skin: f64) -> Result<(DeformableProjectile, RigidShape), SetupError> {
+    let (mesh, source) = match &resolved.body {
+        ProjectileBody::Generated { solid, divisions } => (solid.mesh(*divisions), format!("the generated {solid:?} mesh")),
+        ProjectileBody::File { path, scale } => {
+            let mut mesh = read_mesh(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
+            mesh.nodes.iter_mut().for_each(|x| *x *= *scale);
+            (mesh, path.display().to_string())
+        }
+        ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
+    };
+    let (vertices, triangles) = mesh.boundary();
+    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (centre, _) = body.body.centre_of_mass();
+    shape.set_vertices(&body.surface_from(&centre));
+    shape.surface.set_margin(skin);
+    Ok((body, RigidShape::Mesh(Arc::new(shape))))
+}
+
+/// [`launch`] for a deformable body: the body's nodes take the launch pose and velocity,
+/// and the proxy keeps an unturned frame at the centre of mass (its surface carries the
+/// turn).
+fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2], DeformableProjectile) {
+    let (mut projectile, aim) = launch(shape, resolved, top);
+    body.launch(&projectile);
+    projectile.orientation = UnitQuaternion::identity();
+    let surface = body.fill_proxy(&mut projectile);
+    if let RigidShape::Mesh(mesh) = &mut projectile.shape {
+        Arc::make_mut(mesh).set_vertices(&surface);
+    }
+    (projectile, aim, body)
 }
 
 /// The projectile's surface: closed form, generated or read from a file (scaled to metres),
@@ -221,9 +278,10 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 /// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
 /// (the benchmark squeezes its yarn this way).
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
-    let problem = shared_problem(&comm, case)?;
+    let mut problem = shared_problem(&comm, case)?;
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
     let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
+    let body = take_body(&mut problem, comm.rank());
     if let Strength::Weibull(law, seed) = &problem.strength {
         let (nodes, elements) = (&domain.nodes, &mut domain.elements);
         for i in 0..nodes.n_owned {
@@ -232,7 +290,7 @@ pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_pos
             }
         }
     }
-    let mut run = Distributed::new(comm, domain, partition, problem.fabric.nodes_per_fibre(), problem.reach)?;
+    let mut run = Distributed::new(comm, domain, partition, problem.fabric.nodes_per_fibre(), problem.reach, body)?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
     Ok(run)
@@ -244,8 +302,14 @@ fn own_domain(problem: &Problem, partition: &Partition, me: Rank, adjust: impl F
     let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
     adjust(&mut built.nodes);
     let mut domain = Domain::assemble(problem.material.clone(), built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile.clone()), problem.time_step);
-    domain.owns_projectile = me == Rank(0);
+    // a deformable body is integrated beside the domain (rank 0), not as a rigid body
+    domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
     domain
+}
+
+/// The deformable body for this rank: rank 0 keeps it, every rank learns that there is one.
+fn take_body(problem: &mut Problem, me: Rank) -> Body {
+    Body { deformable_run: problem.deformable.is_some(), body: problem.deformable.take().filter(|_| me == Rank(0)) }
 }
 
 /// A run restored from a checkpoint on this rank.
@@ -282,7 +346,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     let global = read_manifest(directory).map_err(|e| SetupError::Checkpoint(e.to_string()));
     let global = agree_on(&comm, global, unreadable_checkpoint)?;
     let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string()).map_err(|e| SetupError::Checkpoint(e.to_string()))?;
-    let problem = shared_problem(&comm, &case)?;
+    let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();
     let nodes_per_fibre = problem.fabric.nodes_per_fibre() as u64;
@@ -301,6 +365,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     agree_on(&comm, read, unreadable_checkpoint)?;
     let state = state.sorted();
     let mut domain = own_domain(&problem, &partition, me, |_| {});
+    let body = take_body(&mut problem, me);
     let mut counts = [state.gid.len() as i64, domain.nodes.n_owned as i64];
     comm.sum_i64(&mut counts);
     if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
@@ -311,7 +376,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     if me == Rank(0) {
         domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
     }
-    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile).map_err(|e| match e {
+    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile, body).map_err(|e| match e {
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
@@ -340,7 +405,7 @@ mod tests {
     fn an_oblique_yawed_shot_starts_just_above_the_target_on_its_line_of_flight() {
         let shape = RigidShape::Cylinder { radius: 1.7e-3, height: 3.7e-3, edge_radius: 50e-6 };
         let (obliquity, yaw) = (30f64.to_radians(), 10f64.to_radians());
-        let resolved = ResolvedProjectile { body: ProjectileBody::Analytic(shape.clone()), mass: 1e-3, speed: 400.0, offset: [1e-3, -2e-3], obliquity, yaw };
+        let resolved = ResolvedProjectile { body: ProjectileBody::Analytic(shape.clone()), mass: 1e-3, speed: 400.0, offset: [1e-3, -2e-3], obliquity, yaw, deformable: None };
         let top = 0.5e-3;
         let (projectile, aim) = launch(shape, &resolved, top);
         assert_eq!(aim, [1e-3, -2e-3]);

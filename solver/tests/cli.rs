@@ -163,3 +163,24 @@ fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     assert_eq!(out.status.code(), Some(4));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not closed"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+#[test]
+fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
+    let dir = scratch("inverted");
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/four_layer_deformable_sphere.json").unwrap()).unwrap();
+    // a body as soft as rubber at 50 m/s: far beyond linear elasticity
+    case["projectile"]["deformable"]["youngs_modulus_pa"] = 2.09e7.into();
+    case["projectile"]["velocity_m_s"] = 50.0.into();
+    case["run"]["end_time_s"] = 1.2e-5.into();
+    std::fs::write(dir.join("soft.json"), case.to_string()).unwrap();
+    let out = dea(&["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(5));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("deformable projectile is inverted"), "{stderr}");
+    // a deformable body needs hexahedra: an analytic sphere is refused by field
+    case["projectile"].as_object_mut().unwrap().remove("mesh_divisions");
+    std::fs::write(dir.join("analytic.json"), case.to_string()).unwrap();
+    let out = dea(&["check", dir.join("analytic.json").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("projectile.deformable"));
+}

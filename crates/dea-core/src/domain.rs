@@ -14,7 +14,7 @@ use crate::friction::stick_slip;
 use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
-use crate::projectile::RigidProjectile;
+use crate::projectile::{ContactPoint, RigidProjectile, RigidShape};
 use nalgebra::UnitQuaternion;
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
@@ -46,6 +46,8 @@ pub enum DomainError {
     MissingGhost { gid: GlobalNodeId, along: u32 },
     #[error("time step violated at node {} in step {step}: its current stiffness is stable only below dt = {limit:.3e} s, the run uses {time_step:.3e} s (contacts far deeper than the time step was chosen for; lower run.time_step_safety)", gid.0)]
     TimeStep { step: u64, gid: GlobalNodeId, time_step: f64, limit: f64 },
+    #[error("element {element} of the deformable projectile is inverted or no longer finite in step {step}: the strain is far beyond what linear elasticity describes (a softer body at this speed deforms more than the model holds; stiffen it, slow it, or refine its mesh)")]
+    ProjectileInverted { step: u64, element: usize },
 }
 
 /// Everything a rank needs to know of a node another rank owns.
@@ -83,6 +85,12 @@ pub struct ProjectileContacts {
     pub force_on_node: Vec<Vec3>,
     /// torque of the reaction about the projectile's centre in this step [N m]
     pub torque_on_projectile: Vec<Vec3>,
+    /// triangle and barycentric weights of the contact point on a meshed surface
+    /// ([`NONE`] on an analytic one): where a deformable body takes the reaction
+    pub triangle: Vec<u32>,
+    pub weights: Vec<[f64; 3]>,
+    /// surface vertices (body frame) at the last refresh: a deformable body's surface moves
+    pub reference_vertices: Vec<Vec3>,
     /// owned node positions at the last refresh of the candidates [m]
     pub node_reference: Vec<Vec3>,
     /// projectile position at the last refresh [m]
@@ -99,6 +107,10 @@ pub struct Reaction {
     pub force: Vec3,
     /// its torque about the projectile's centre [N m]
     pub torque: Vec3,
+    /// triangle of a meshed surface the force acts on ([`NONE`]: analytic) and the
+    /// barycentric weights that share it over the triangle's vertices (seed 4-1)
+    pub triangle: u32,
+    pub weights: [f64; 3],
 }
 
 /// Sum of reactions given in ascending global id: the order that makes the projectile's
@@ -224,6 +236,8 @@ impl Domain {
                 max_overlap: vec![0.0; n_owned],
                 force_on_node: vec![Vec3::zeros(); n_owned],
                 torque_on_projectile: vec![Vec3::zeros(); n_owned],
+                triangle: vec![NONE; n_owned],
+                weights: vec![[0.0; 3]; n_owned],
                 ..Default::default()
             },
             nodes,
@@ -346,7 +360,11 @@ impl Domain {
         if contacts.node_reference.len() != self.nodes.n_owned {
             return true;
         }
-        let surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
+        let mut surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
+        if let RigidShape::Mesh(mesh) = &projectile.shape {
+            // a deformable body's surface also moves against its frame
+            surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
+        }
         let node = contacts.node_reference.iter().zip(&self.nodes.position).map(|(r, x)| (x - r).norm_squared()).fold(0.0, f64::max).sqrt();
         node + surface > self.pairs.skin
     }
@@ -377,6 +395,10 @@ impl Domain {
         contacts.node_reference.extend_from_slice(&self.nodes.position[..self.nodes.n_owned]);
         contacts.reference_position = projectile.position;
         contacts.reference_orientation = projectile.orientation;
+        contacts.reference_vertices.clear();
+        if let RigidShape::Mesh(mesh) = &projectile.shape {
+            contacts.reference_vertices.extend_from_slice(&mesh.surface.vertices);
+        }
     }
 
     /// Forces on owned nodes, element failure and the projectile's contact load.
@@ -457,12 +479,12 @@ impl Domain {
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
     /// normal (body frame), body-frame position, and the contact geometry of the law.
     #[inline]
-    fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, Vec3, Vec3, ContactGeometry) {
+    fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, ContactPoint, Vec3, ContactGeometry) {
         let section = &self.sections[self.nodes.section[i] as usize];
         let body = projectile.to_body(&self.nodes.position[i]);
-        let (distance, normal) = projectile.shape.distance_and_normal(&body);
+        let point = projectile.shape.contact_point(&body);
         let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
-        (0.5 * section.contact_diameter - distance, normal, body, geometry)
+        (0.5 * section.contact_diameter - point.distance, point, body, geometry)
     }
 
     /// Fibre–projectile contact and friction on candidate nodes; stores each node's force and
@@ -473,7 +495,8 @@ impl Domain {
         let mu = self.contact.projectile_friction_coefficient;
         for c in 0..self.projectile_contacts.candidates.len() {
             let i = self.projectile_contacts.candidates[c] as usize;
-            let (overlap, normal, body, geometry) = self.projectile_contact_geometry(&projectile, i);
+            let (overlap, point, body, geometry) = self.projectile_contact_geometry(&projectile, i);
+            let normal = point.normal;
             let contacts = &mut self.projectile_contacts;
             if overlap <= 0.0 {
                 contacts.touching[i] = false;
@@ -502,6 +525,8 @@ impl Domain {
             let force = projectile.to_world_vector(&force_body);
             let surface_point = self.nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * self.sections[self.nodes.section[i] as usize].contact_diameter - overlap);
             contacts.force_on_node[i] = force;
+            contacts.triangle[i] = point.triangle;
+            contacts.weights[i] = point.weights;
             self.contact_stiffness[i] += response.stiffness;
             contacts.torque_on_projectile[i] = (surface_point - projectile.position).cross(&(-force));
             self.nodes.force[i] += force;
@@ -518,6 +543,8 @@ impl Domain {
             gid: self.nodes.gid[i as usize],
             force: -contacts.force_on_node[i as usize],
             torque: contacts.torque_on_projectile[i as usize],
+            triangle: contacts.triangle[i as usize],
+            weights: contacts.weights[i as usize],
         })
     }
 
@@ -665,7 +692,7 @@ impl Domain {
             for &i in &self.projectile_contacts.candidates {
                 let i = i as usize;
                 let report = &mut sums[group(i)];
-                let (overlap, normal, body, geometry) = self.projectile_contact_geometry(projectile, i);
+                let (overlap, point, body, geometry) = self.projectile_contact_geometry(projectile, i);
                 if overlap <= 0.0 {
                     continue;
                 }
@@ -674,7 +701,7 @@ impl Domain {
                 if self.contact.projectile_friction_coefficient > 0.0 && self.projectile_contacts.touching[i] {
                     let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
                     let (mut anchor, mut spring) = (self.projectile_contacts.anchor[i], self.projectile_contacts.spring_stiffness[i]);
-                    let friction = stick_slip(-body, normal, &mut anchor, &mut spring, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
+                    let friction = stick_slip(-body, point.normal, &mut anchor, &mut spring, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
                     report.friction_stored.add(friction.stored);
                 }
             }

@@ -9,8 +9,11 @@ use crate::exact::{ExactSum, LIMBS};
 pub struct EnergyReport {
     /// kinetic energy of the fibre nodes
     pub fibre_kinetic: f64,
-    /// kinetic energy of the projectile (translation + rotation)
+    /// kinetic energy of the projectile (translation + rotation, or of every node of a
+    /// deformable one)
     pub projectile_kinetic: f64,
+    /// strain energy of a deformable projectile
+    pub projectile_strain: f64,
     /// axial strain energy of the rods
     pub axial: f64,
     /// bending energy of the torsional springs
@@ -32,6 +35,7 @@ impl EnergyReport {
     pub fn total(&self) -> f64 {
         self.fibre_kinetic
             + self.projectile_kinetic
+            + self.projectile_strain
             + self.axial
             + self.bending
             + self.contact
@@ -48,6 +52,7 @@ impl EnergyReport {
 pub struct EnergySums {
     pub fibre_kinetic: ExactSum,
     pub projectile_kinetic: ExactSum,
+    pub projectile_strain: ExactSum,
     pub axial: ExactSum,
     pub bending: ExactSum,
     pub contact: ExactSum,
@@ -58,13 +63,14 @@ pub struct EnergySums {
 }
 
 /// Number of i64 words of [`EnergySums::to_words`].
-pub const ENERGY_WORDS: usize = 9 * (LIMBS + 2);
+pub const ENERGY_WORDS: usize = 10 * (LIMBS + 2);
 
 impl EnergySums {
-    fn kinds(&self) -> [&ExactSum; 9] {
+    fn kinds(&self) -> [&ExactSum; 10] {
         [
             &self.fibre_kinetic,
             &self.projectile_kinetic,
+            &self.projectile_strain,
             &self.axial,
             &self.bending,
             &self.contact,
@@ -77,9 +83,9 @@ impl EnergySums {
 
     /// The sums rounded to f64.
     pub fn report(&self) -> EnergyReport {
-        let [fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
+        let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             self.kinds().map(ExactSum::value);
-        EnergyReport { fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
+        EnergyReport { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 
     /// Integer words whose element-wise sum over ranks is the words of the total.
@@ -88,8 +94,8 @@ impl EnergySums {
     }
 
     pub fn from_words(words: &[i64]) -> Self {
-        let [fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
+        let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             std::array::from_fn(|k| ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)]));
-        Self { fibre_kinetic, projectile_kinetic, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
+        Self { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 }

@@ -37,7 +37,26 @@ pub struct MeshShape {
     pub bounding_radius: f64,
 }
 
+/// Where a fibre node meets a projectile surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactPoint {
+    /// signed distance from the surface [m]
+    pub distance: f64,
+    /// outward unit normal, body frame
+    pub normal: Vec3,
+    /// triangle of a mesh ([`crate::NONE`] on an analytic surface)
+    pub triangle: u32,
+    /// barycentric weights of the point on it (seed 4-1)
+    pub weights: [f64; 3],
+}
+
 impl MeshShape {
+    /// Moves the surface's vertices (body frame, same order), as a deformable body does.
+    pub fn set_vertices(&mut self, vertices: &[Vec3]) {
+        self.surface.set_vertices(vertices);
+        self.bounding_radius = vertices.iter().map(Vec3::norm).fold(0.0, f64::max);
+    }
+
     /// The surface of `vertices` and `triangles` (any frame), shifted so that the centroid of
     /// the enclosed solid is the origin; returns it and that centroid in the original frame.
     /// Contact queries find the surface within `reach` [m] through cubes of edge `cell` [m].
@@ -101,9 +120,28 @@ impl RigidShape {
     /// A mesh answers within its reach only; farther points get an infinite distance.
     #[inline]
     pub fn distance_and_normal(&self, p: &Vec3) -> (f64, Vec3) {
+        let contact = self.contact_point(p);
+        (contact.distance, contact.normal)
+    }
+
+    /// [`Self::distance_and_normal`] with the triangle and weights of a mesh's point.
+    #[inline]
+    pub fn contact_point(&self, p: &Vec3) -> ContactPoint {
         if let RigidShape::Mesh(mesh) = self {
-            return mesh.surface.closest(p).map_or((f64::INFINITY, Vec3::z()), |found| (found.distance, found.normal));
+            return mesh.surface.closest(p).map_or(ContactPoint { distance: f64::INFINITY, normal: Vec3::z(), triangle: crate::NONE, weights: [0.0; 3] }, |found| ContactPoint {
+                distance: found.distance,
+                normal: found.normal,
+                triangle: found.triangle,
+                weights: found.weights,
+            });
         }
+        let (distance, normal) = self.analytic_distance_and_normal(p);
+        ContactPoint { distance, normal, triangle: crate::NONE, weights: [0.0; 3] }
+    }
+
+    /// Closed-form distance and normal of the sphere and the rounded cylinder.
+    #[inline]
+    fn analytic_distance_and_normal(&self, p: &Vec3) -> (f64, Vec3) {
         let (core_radius, half_height, rounding) = self.core();
         let radial = (p.x * p.x + p.y * p.y).sqrt();
         let axial = p.z;

@@ -16,14 +16,19 @@ pub const DESIGN_CONTACT_STRAIN: f64 = 0.3;
 /// [`DESIGN_CONTACT_STRAIN`] (unloading slope where that is steeper), times the friction
 /// spring mu k_n, for [`DESIGN_CONTACTS_PER_NODE`] partners.
 pub fn highest_frequency(material: &FibreMaterial, section: &FibreSection, law: &NormalLaw, friction_coefficient: f64) -> f64 {
-    let l0 = section.element_length;
     let mass = section.node_mass(material);
-    let geometry = ContactGeometry::new(0.5 * section.diameter, l0, section.diameter);
+    let contact = design_contact_stiffness(section, law);
+    ((chain_stiffness(material, section) + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+}
+
+/// Normal stiffness of one contact of a node of `section` at [`DESIGN_CONTACT_STRAIN`]: the
+/// law's loading tangent, or its unloading slope where that is steeper [N/m].
+pub fn design_contact_stiffness(section: &FibreSection, law: &NormalLaw) -> f64 {
+    let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
     let overlap = DESIGN_CONTACT_STRAIN * section.diameter;
     let (loading, _) = law.evaluate(&geometry, overlap, 0.0);
     let (unloading, _) = law.evaluate(&geometry, overlap * 0.999, overlap);
-    let contact = loading.stiffness.max(unloading.stiffness);
-    ((chain_stiffness(material, section) + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+    loading.stiffness.max(unloading.stiffness)
 }
 
 /// Effective stiffness of a node's chain in its highest mode, `4 k_axial + 16 K_t / l0^2`

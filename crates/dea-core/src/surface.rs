@@ -95,6 +95,13 @@ pub struct TriangleSurface {
     /// angle-weighted pseudonormal of each vertex (Bærentzen and Aanæs 2005): its sign test
     /// is exact at vertices and edges, where the face normal is not
     vertex_normals: Vec<Vec3>,
+    /// the triangle across each edge k (from vertex k to k + 1)
+    across: Vec<[u32; 3]>,
+    /// largest distance at which a query finds the surface [m]
+    reach: f64,
+    /// how far vertices may move from `grid_vertices` before the cubes are rebuilt [m]
+    margin: f64,
+    grid_vertices: Vec<Vec3>,
     grid: CellGrid,
 }
 
@@ -104,8 +111,6 @@ pub struct TriangleSurface {
 struct CellGrid {
     /// cube edge [m]
     cell: f64,
-    /// largest distance at which a triangle is found [m]
-    reach: f64,
     /// cube -> range of `entries` (Fx hashing: a lookup per candidate node and step, where
     /// SipHash's collision resistance buys nothing)
     cells: FxHashMap<[i32; 3], (u32, u32)>,
@@ -119,7 +124,7 @@ impl CellGrid {
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
-        let mut grid = Self { cell, reach, cells: FxHashMap::default(), entries: Vec::new() };
+        let mut grid = Self { cell, cells: FxHashMap::default(), entries: Vec::new() };
         // (cube, distance of the triangle from the cube's centre, triangle): each cube's list
         // runs nearest first, so a query soon has a close triangle to prune the others with
         let mut listed: Vec<([i32; 3], u64, u32)> = Vec::new();
@@ -226,51 +231,89 @@ impl TriangleSurface {
     /// [m]. Refuses open, inside-out and degenerate surfaces.
     pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<Self, SurfaceError> {
         check_closed(&triangles).map_err(|(a, b)| SurfaceError::Open(a, b))?;
-        let mut face_normals = Vec::with_capacity(triangles.len());
         for (k, t) in triangles.iter().enumerate() {
             let [a, b, c] = t.map(|v| vertices[v as usize]);
-            let normal = (b - a).cross(&(c - a));
-            let length = normal.norm();
+            let length = (b - a).cross(&(c - a)).norm();
             if length.is_nan() || length <= 0.0 {
                 return Err(SurfaceError::Degenerate(k));
             }
-            face_normals.push(normal / length);
         }
         let volume = MassProperties::of_surface(&vertices, &triangles).volume;
         if volume.is_nan() || volume <= 0.0 {
             return Err(SurfaceError::InsideOut(volume));
         }
-        let mut vertex_normals = vec![Vec3::zeros(); vertices.len()];
-        let mut edge_sums: HashMap<(u32, u32), Vec3> = HashMap::new();
-        for (t, n) in triangles.iter().zip(&face_normals) {
-            for k in 0..3 {
-                let (v, next, previous) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                let (p, q) = (vertices[next as usize] - vertices[v as usize], vertices[previous as usize] - vertices[v as usize]);
-                vertex_normals[v as usize] += n * p.angle(&q);
-                *edge_sums.entry((v.min(next), v.max(next))).or_insert_with(Vec3::zeros) += n;
+        // the triangle across each edge (a closed surface has exactly one)
+        let mut owner: HashMap<(u32, u32), u32> = HashMap::new();
+        for (k, t) in triangles.iter().enumerate() {
+            for e in 0..3 {
+                owner.insert((t[e], t[(e + 1) % 3]), k as u32);
             }
         }
-        let edge_normals = triangles.iter().map(|t| [0, 1, 2].map(|k| edge_sums[&(t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))])).collect();
-        let bounds = triangles
-            .iter()
-            .map(|t| {
-                let corners = t.map(|v| vertices[v as usize]);
-                let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
-                (centre, corners.iter().map(|c| (c - centre).norm()).fold(0.0, f64::max))
-            })
-            .collect();
-        let grid = CellGrid::new(&vertices, &triangles, reach, cell);
-        Ok(Self { vertices, triangles, face_normals, bounds, edge_normals, vertex_normals, grid })
+        let across = triangles.iter().map(|t| [0, 1, 2].map(|e| owner[&(t[(e + 1) % 3], t[e])])).collect();
+        let n = triangles.len();
+        let mut surface = Self {
+            grid: CellGrid::new(&vertices, &triangles, reach, cell),
+            grid_vertices: vertices.clone(),
+            vertices,
+            triangles,
+            face_normals: vec![Vec3::z(); n],
+            bounds: vec![(Vec3::zeros(), 0.0); n],
+            edge_normals: vec![[Vec3::zeros(); 3]; n],
+            vertex_normals: Vec::new(),
+            across,
+            reach,
+            margin: 0.0,
+        };
+        surface.update_geometry();
+        Ok(surface)
     }
 
-    /// The same surface with its vertices mapped by `map` (a rigid motion keeps it valid).
-    pub fn transformed(&self, map: impl Fn(&Vec3) -> Vec3) -> Result<Self, SurfaceError> {
-        Self::new(self.vertices.iter().map(map).collect(), self.triangles.clone(), self.grid.reach, self.grid.cell)
+    /// Normals, pseudonormals and bounding spheres of the current vertices. A triangle that
+    /// deformation has collapsed keeps its last normal.
+    fn update_geometry(&mut self) {
+        let vertices = &self.vertices;
+        for (t, normal) in self.triangles.iter().zip(&mut self.face_normals) {
+            let [a, b, c] = t.map(|v| vertices[v as usize]);
+            let n = (b - a).cross(&(c - a));
+            let length = n.norm();
+            if length > 0.0 {
+                *normal = n / length;
+            }
+        }
+        self.vertex_normals.clear();
+        self.vertex_normals.resize(vertices.len(), Vec3::zeros());
+        for (k, t) in self.triangles.iter().enumerate() {
+            let n = self.face_normals[k];
+            for e in 0..3 {
+                let (v, next, previous) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
+                let (p, q) = (vertices[next as usize] - vertices[v as usize], vertices[previous as usize] - vertices[v as usize]);
+                self.vertex_normals[v as usize] += n * p.angle(&q);
+                self.edge_normals[k][e] = n + self.face_normals[self.across[k][e] as usize];
+            }
+            let corners = t.map(|v| vertices[v as usize]);
+            let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+            self.bounds[k] = (centre, corners.iter().map(|c| (c - centre).norm()).fold(0.0, f64::max));
+        }
     }
 
-    /// Largest distance at which [`Self::closest`] finds the surface [m].
-    pub fn reach(&self) -> f64 {
-        self.grid.reach
+    /// Lets the vertices move up to `margin` [m] between rebuilds of the cubes (a deformable
+    /// body): the cubes then list triangles within the reach plus the margin.
+    pub fn set_margin(&mut self, margin: f64) {
+        self.margin = margin;
+        self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + margin, self.grid.cell);
+        self.grid_vertices.clone_from(&self.vertices);
+    }
+
+    /// Moves the vertices (same triangles) and refreshes normals; rebuilds the cubes once a
+    /// vertex has moved more than the margin since their last build.
+    pub fn set_vertices(&mut self, vertices: &[Vec3]) {
+        self.vertices.copy_from_slice(vertices);
+        self.update_geometry();
+        let moved = self.vertices.iter().zip(&self.grid_vertices).map(|(v, g)| (v - g).norm_squared()).fold(0.0, f64::max);
+        if moved > self.margin * self.margin {
+            self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + self.margin, self.grid.cell);
+            self.grid_vertices.clone_from(&self.vertices);
+        }
     }
 
     /// The closest surface point to `p` if one lies within the reach (ties go to the lower
@@ -279,7 +322,7 @@ impl TriangleSurface {
         let mut best: Option<(f64, u32, Vec3, [f64; 3], Feature)> = None;
         // nothing beyond the reach counts; a triangle whose bounding sphere lies farther than
         // the best distance so far is strictly farther, so skipping it changes no answer
-        let mut limit = self.grid.reach;
+        let mut limit = self.reach;
         for &t in self.grid.near(p) {
             let (centre, radius) = self.bounds[t as usize];
             if (p - centre).norm_squared() > (limit + radius) * (limit + radius) {
@@ -288,7 +331,7 @@ impl TriangleSurface {
             let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
             let squared = (p - q).norm_squared();
-            if squared <= self.grid.reach * self.grid.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
+            if squared <= self.reach * self.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
                 best = Some((squared, t, q, weights, feature));
                 limit = squared.sqrt();
             }
@@ -415,6 +458,25 @@ mod surface_tests {
             }
         }
         assert!(inside > 100 && outside > 100 && missed > 100, "{inside} {outside} {missed}");
+    }
+
+    #[test]
+    fn a_deforming_surface_answers_like_one_built_afresh() {
+        let (vertices, triangles) = boxed(1.0, 0.6, 0.3);
+        let (reach, margin) = (0.2, 0.05);
+        let mut moving = TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
+        moving.set_margin(margin);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for step in 1..=30 {
+            // a growing shear and a drift: the cubes are rebuilt now and then
+            let moved: Vec<Vec3> = vertices.iter().map(|v| v + Vec3::new(0.01 * step as f64 * v.z, 0.004 * step as f64, 0.0)).collect();
+            moving.set_vertices(&moved);
+            let fresh = TriangleSurface::new(moved, triangles.clone(), reach, 0.07).unwrap();
+            for _ in 0..300 {
+                let p = Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-0.9..1.0), rng.random_range(-0.6..0.6));
+                assert_eq!(moving.closest(&p), fresh.closest(&p), "step {step}, {p:?}");
+            }
+        }
     }
 
     #[test]

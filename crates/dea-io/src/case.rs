@@ -210,6 +210,18 @@ pub struct ProjectileSpec {
     /// in the plane of obliquity [deg]
     #[serde(default)]
     pub yaw_deg: f64,
+    /// a deformable projectile: linear-elastic hexahedra (none: rigid)
+    pub deformable: Option<DeformableSpec>,
+}
+
+/// Elastic constants of a deformable projectile; its density is its mass over its volume.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeformableSpec {
+    /// [Pa]
+    pub youngs_modulus_pa: f64,
+    /// [-]
+    pub poisson_ratio: f64,
 }
 
 /// Run control.
@@ -266,6 +278,8 @@ pub struct ResolvedProjectile {
     pub obliquity: f64,
     /// [rad]
     pub yaw: f64,
+    /// elastic constants of a deformable body
+    pub deformable: Option<DeformableSpec>,
 }
 
 /// What the projectile's surface is made of.
@@ -502,7 +516,22 @@ impl Case {
                 Err(invalid(path, format!("must lie within ±80 degrees, got {degrees}")))
             }
         };
+        if let Some(d) = &p.deformable {
+            positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
+            if !(0.0..0.5).contains(&d.poisson_ratio) {
+                return Err(invalid("projectile.deformable.poisson_ratio", format!("must lie in [0, 0.5), got {}", d.poisson_ratio)));
+            }
+            let hexahedra = match &body {
+                ProjectileBody::Generated { .. } => true,
+                ProjectileBody::File { path, .. } => path.extension().and_then(|e| e.to_str()).is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
+                ProjectileBody::Analytic(_) => false,
+            };
+            if !hexahedra {
+                return Err(invalid("projectile.deformable", "a deformable projectile needs a hexahedral mesh: mesh_divisions, shape \"fsp\", or a .msh/.inp file"));
+            }
+        }
         Ok(ResolvedProjectile {
+            deformable: p.deformable,
             body,
             mass,
             speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,

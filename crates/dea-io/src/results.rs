@@ -37,9 +37,10 @@ pub struct Histories {
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
-pub const ENERGY_KINDS: [&str; 9] = [
+pub const ENERGY_KINDS: [&str; 10] = [
     "fibre_kinetic",
     "projectile_kinetic",
+    "projectile_strain",
     "axial",
     "bending",
     "contact",
@@ -49,8 +50,8 @@ pub const ENERGY_KINDS: [&str; 9] = [
     "fracture_released",
 ];
 
-fn energy_fields(e: &EnergyReport) -> [f64; 9] {
-    [e.fibre_kinetic, e.projectile_kinetic, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
+fn energy_fields(e: &EnergyReport) -> [f64; 10] {
+    [e.fibre_kinetic, e.projectile_kinetic, e.projectile_strain, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
 }
 
 pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
@@ -162,13 +163,14 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
             EnergyReport {
                 fibre_kinetic: e(0),
                 projectile_kinetic: e(1),
-                axial: e(2),
-                bending: e(3),
-                contact: e(4),
-                friction_stored: e(5),
-                friction_dissipated: e(6),
-                plastic_dissipated: e(7),
-                fracture_released: e(8),
+                projectile_strain: e(2),
+                axial: e(3),
+                bending: e(4),
+                contact: e(5),
+                friction_stored: e(6),
+                friction_dissipated: e(7),
+                plastic_dissipated: e(8),
+                fracture_released: e(9),
             }
         })
         .collect();

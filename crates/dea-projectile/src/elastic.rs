@@ -127,8 +127,9 @@ impl ElasticBody {
     }
 
     /// Sets `force` to the internal forces of the current positions and returns the strain
-    /// energy [J]. External forces are added afterwards.
-    pub fn internal_forces(&mut self) -> f64 {
+    /// energy [J], or the first element whose deformation gradient at the centre has no
+    /// positive determinant (inverted, or not finite). External forces are added afterwards.
+    pub fn internal_forces(&mut self) -> Result<f64, usize> {
         let (lambda, mu) = self.material.lame();
         self.force.iter_mut().for_each(|f| *f = Vec3::zeros());
         let mut energy = 0.0;
@@ -137,6 +138,10 @@ impl ElasticBody {
             let current = hex.map(|k| self.position[k as usize]);
             let reference = hex.map(|k| self.mesh.nodes[k as usize]);
             let deformation = (0..8).fold(Matrix3::zeros(), |f, a| f + current[a] * data.centre_gradients[a].transpose());
+            let volume_ratio = deformation.determinant();
+            if volume_ratio.is_nan() || volume_ratio <= 0.0 {
+                return Err(e);
+            }
             let rotation = polar_rotation(&deformation, self.rotations[e]);
             self.rotations[e] = rotation;
             // displacements with the element's rotation and its centroid's motion taken out
@@ -156,7 +161,7 @@ impl ElasticBody {
                 self.force[hex[a] as usize] += rotation * local_force[a];
             }
         }
-        energy
+        Ok(energy)
     }
 
     /// The explicit stable time step: the smallest element's characteristic length (volume
@@ -181,6 +186,39 @@ impl ElasticBody {
             })
             .fold(f64::INFINITY, f64::min);
         length / self.material.wave_speed()
+    }
+
+    /// Words of everything a restart needs: positions, velocities and forces (3 per node
+    /// each), and each element's last rotation (4, the next one's first guess).
+    pub fn state_words(&self) -> Vec<f64> {
+        let vectors = self.position.iter().chain(&self.velocity).chain(&self.force).flat_map(|v| [v.x, v.y, v.z]);
+        vectors.chain(self.rotations.iter().flat_map(|q| q.quaternion().coords.data.0[0])).collect()
+    }
+
+    /// Inverse of [`Self::state_words`]; `None` when the words do not fit this mesh.
+    pub fn set_state_words(&mut self, words: &[f64]) -> Option<()> {
+        let n = self.position.len();
+        if words.len() != 9 * n + 4 * self.rotations.len() {
+            return None;
+        }
+        let vector = |k: usize| Vec3::new(words[3 * k], words[3 * k + 1], words[3 * k + 2]);
+        for i in 0..n {
+            self.position[i] = vector(i);
+            self.velocity[i] = vector(n + i);
+            self.force[i] = vector(2 * n + i);
+        }
+        for (e, q) in self.rotations.iter_mut().enumerate() {
+            let w = &words[9 * n + 4 * e..9 * n + 4 * e + 4];
+            *q = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w[3], w[0], w[1], w[2]));
+        }
+        Some(())
+    }
+
+    /// Centre of mass [m] and mean velocity [m/s], summed in node order.
+    pub fn centre_of_mass(&self) -> (Vec3, Vec3) {
+        let total: f64 = self.mass.iter().sum();
+        let first: Vec3 = self.mass.iter().zip(&self.position).map(|(m, x)| x * *m).sum();
+        (first / total, self.momentum() / total)
     }
 
     /// [J]
@@ -284,7 +322,7 @@ mod tests {
         for (x, x0) in body.position.iter_mut().zip(&body.mesh.nodes) {
             *x = x0 + strain * x0;
         }
-        let energy = body.internal_forces();
+        let energy = body.internal_forces().unwrap();
         let (lambda, mu) = material.lame();
         let stress = Matrix3::identity() * (lambda * strain.trace()) + strain * (2.0 * mu);
         let volume = size.x * size.y * size.z;
@@ -308,24 +346,24 @@ mod tests {
         let mut body = ElasticBody::new(mesh, steel(2.09e11, 0.3)).unwrap();
         let turn = UnitQuaternion::from_scaled_axis(Vec3::new(1.2, -0.4, 0.7));
         let strain = Matrix3::new(1e-3, 0.0, 2e-4, 0.0, -5e-4, 0.0, 2e-4, 0.0, 3e-4);
-        body.internal_forces();
+        body.internal_forces().unwrap();
         let reference = body.mesh.nodes.clone();
         for (x, x0) in body.position.iter_mut().zip(&reference) {
             *x = turn * x0 + Vec3::new(1.0, 2.0, 3.0);
         }
-        let energy = body.internal_forces();
+        let energy = body.internal_forces().unwrap();
         let largest = body.force.iter().map(|f| f.norm()).fold(0.0, f64::max);
         assert!(largest < 1e-3 && energy.abs() < 1e-15, "a rigid motion: {largest} N, {energy} J");
         // strained, then rotated: the forces of the strained state, rotated
         for (x, x0) in body.position.iter_mut().zip(&reference) {
             *x = x0 + strain * x0;
         }
-        let unrotated_energy = body.internal_forces();
+        let unrotated_energy = body.internal_forces().unwrap();
         let unrotated = body.force.clone();
         for (x, x0) in body.position.iter_mut().zip(&reference) {
             *x = turn * (x0 + strain * x0);
         }
-        let rotated_energy = body.internal_forces();
+        let rotated_energy = body.internal_forces().unwrap();
         let scale = unrotated.iter().map(|f| f.norm()).fold(0.0, f64::max);
         for (f, g) in body.force.iter().zip(&unrotated) {
             assert!((f - turn * g).norm() < 1e-6 * scale);
@@ -351,12 +389,12 @@ mod tests {
         let end = body.mesh.nodes.iter().position(|x| x.x == 0.0).unwrap();
         let momentum = body.momentum();
         let mut energy = body.kinetic_energy();
-        body.internal_forces();
+        body.internal_forces().unwrap();
         let (mut time, mut previous, mut crossings) = (0.0, body.velocity[end].x, Vec::new());
         while crossings.len() < 5 {
             body.kick(0.5 * dt);
             body.drift(dt);
-            let strain_energy = body.internal_forces();
+            let strain_energy = body.internal_forces().unwrap();
             body.kick(0.5 * dt);
             time += dt;
             let now = body.velocity[end].x;
@@ -370,7 +408,20 @@ mod tests {
         let measured = 2.0 * (crossings[4] - crossings[0]) / 4.0;
         assert!((measured / period - 1.0).abs() < 0.005, "period {measured} vs {period}");
         assert!((body.momentum() - momentum).norm() < 1e-12 * body.mass.iter().sum::<f64>(), "momentum kept");
-        assert!((body.kinetic_energy() + body.internal_forces() - energy).abs() < 0.01 * energy, "energy kept");
+        assert!((body.kinetic_energy() + body.internal_forces().unwrap() - energy).abs() < 0.01 * energy, "energy kept");
+    }
+
+    #[test]
+    fn an_inverted_element_is_reported() {
+        let mut body = ElasticBody::new(block(2, 1, 1, Vec3::new(2e-3, 1e-3, 1e-3), 0.0), steel(2.09e7, 0.3)).unwrap();
+        assert!(body.internal_forces().is_ok());
+        // push the middle layer of nodes past the far end: the first element turns inside out
+        for x in body.position.iter_mut() {
+            if (x.x - 1e-3).abs() < 1e-12 {
+                x.x = -0.5e-3;
+            }
+        }
+        assert_eq!(body.internal_forces(), Err(0));
     }
 
     #[test]

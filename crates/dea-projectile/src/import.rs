@@ -79,7 +79,8 @@ pub fn read_surface(path: &Path) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ImportErr
         }
         _ => return Err(ImportError { path: name, line: 0, message: "unknown mesh format: use .msh (Gmsh 4.1), .inp (ABAQUS) or .stl".into() }),
     };
-    Ok(compact(&nodes, &outer_triangles(&hexes, &tetrahedra)))
+    let (vertices, _, triangles) = compact(&nodes, &outer_triangles(&hexes, &tetrahedra));
+    Ok((vertices, triangles))
 }
 
 /// Nodes, hexahedra and tetrahedra with dense indices.

@@ -104,7 +104,8 @@ impl HexMesh {
 
     /// The outer surface with only the vertices it uses: positions and triangles.
     pub fn boundary(&self) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        compact(&self.nodes, &self.surface().triangles)
+        let (vertices, _, triangles) = compact(&self.nodes, &self.surface().triangles);
+        (vertices, triangles)
     }
 }
 
@@ -137,10 +138,12 @@ pub fn outer_triangles(hexes: &[Hex], tetrahedra: &[[u32; 4]]) -> Vec<[u32; 3]> 
 /// opposite side (positive volume), right-hand normals out.
 const TETRAHEDRON_FACES: [[usize; 3]; 4] = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
 
-/// Triangles over `nodes` renumbered onto the vertices they use, in order of first use.
-pub fn compact(nodes: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+/// Triangles over `nodes` renumbered onto the vertices they use, in order of first use:
+/// the positions and the node of each vertex, and the renumbered triangles.
+pub fn compact(nodes: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Vec<u32>, Vec<[u32; 3]>) {
     let mut index = vec![u32::MAX; nodes.len()];
     let mut vertices = Vec::new();
+    let mut node_of_vertex = Vec::new();
     let triangles = triangles
         .iter()
         .map(|t| {
@@ -148,12 +151,13 @@ pub fn compact(nodes: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 
                 if index[n as usize] == u32::MAX {
                     index[n as usize] = vertices.len() as u32;
                     vertices.push(nodes[n as usize]);
+                    node_of_vertex.push(n);
                 }
                 index[n as usize]
             })
         })
         .collect();
-    (vertices, triangles)
+    (vertices, node_of_vertex, triangles)
 }
 
 /// Nodes shared by position, the way block-structured generators join their blocks.
