@@ -200,7 +200,7 @@ fn main() -> ExitCode {
                 "resolved": {
                     "material": problem.material,
                     "sections": [problem.fabric.section(&problem.material)],
-                    "projectile": setup::describe_projectile(projectile, &case.projectile().expect("validated case").body),
+                    "projectile": setup::describe_projectile(projectile, &case.projectile().expect("validated case").body, problem.deformable.as_ref()),
                     "yarns": problem.fabric.yarns.len(),
                     "fibres": fibres,
                     "nodes": fibres * problem.fabric.nodes_per_fibre() as u64,

@@ -195,7 +195,7 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
 /// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, for a
 /// meshed one the surface and the density its mass implies, and for a generated one the
 /// size of its hexahedral mesh.
-pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody) -> serde_json::Value {
+pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, deformable: Option<&DeformableProjectile>) -> serde_json::Value {
     let shape = match &projectile.shape {
         RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
         RigidShape::Cylinder { radius, height, edge_radius } => serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } }),
@@ -214,9 +214,14 @@ pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody) 
         }
         _ => serde_json::Value::Null,
     };
+    let elastic = deformable.map_or(serde_json::Value::Null, |d| {
+        let m = d.body.material;
+        serde_json::json!({ "density_kg_m3": m.density, "youngs_modulus_pa": m.youngs_modulus, "poisson_ratio": m.poisson_ratio, "wave_speed_m_s": m.wave_speed(), "element_time_step_s": d.body.stable_time_step() })
+    });
     serde_json::json!({
         "shape": shape,
         "generated_mesh": generated,
+        "deformable": elastic,
         "mass_kg": projectile.mass,
         "position_m": projectile.position.as_slice(),
         "velocity_m_s": projectile.velocity.as_slice(),
