@@ -35,6 +35,9 @@ done
 # a meshed FSP striking obliquely and yawed: the same bits on 1 and 3 ranks
 check meshed-fsp-identical-on-3-ranks bash -c 'mpi 1 run cases/four_layer_fsp.json --out $work/fsp1 && mpi 3 run cases/four_layer_fsp.json --out $work/fsp3 \
     && $bin compare $work/fsp1/results.h5 $work/fsp3/results.h5'
+# a deformable sphere (elastic hexahedra on rank 0, surface broadcast): the same bits on 1 and 4 ranks
+check deformable-identical-on-4-ranks bash -c 'mpi 1 run cases/four_layer_deformable_sphere.json --out $work/def1 && mpi 4 run cases/four_layer_deformable_sphere.json --out $work/def4 \
+    && $bin compare $work/def1/results.h5 $work/def4/results.h5'
 # a projectile mesh file that does not exist ends every rank with exit code 4, named once
 /usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/four_layer_fsp.json")); c["projectile"] = {"shape": "file", "mesh_file": "nowhere.stl", "mass_kg": 2e-6, "velocity_m_s": 500.0}; json.dump(c, sys.stdout)' >"$work/nomesh.json"
 check missing-mesh-on-two-ranks bash -c 'mpi 2 run $work/nomesh.json --out $work/nomesh 2>$work/nomesh.err; code=$?; cat $work/nomesh.err; \

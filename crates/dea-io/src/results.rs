@@ -277,7 +277,7 @@ mod tests {
         let csv = std::fs::read_to_string(&csv_path).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        assert_eq!(header.len(), 1 + 12 + 10 + 3 + 2);
+        assert_eq!(header.len(), 1 + 12 + 11 + 3 + 2);
         assert!(header.contains(&"projectile_velocity_x_m_s") && header.contains(&"energy_axial_J") && header.contains(&"broken_layer_1"));
         for (s, line) in lines.enumerate() {
             let row: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
