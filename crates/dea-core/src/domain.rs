@@ -14,7 +14,7 @@ use crate::friction::stick_slip;
 use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
-use crate::projectile::{ContactPoint, RigidProjectile, RigidShape};
+use crate::projectile::{ContactPoint, RigidProjectile};
 use nalgebra::UnitQuaternion;
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
@@ -361,7 +361,7 @@ impl Domain {
             return true;
         }
         let mut surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
-        if let RigidShape::Mesh(mesh) = &projectile.shape {
+        if let Some(mesh) = projectile.shape.deforming_mesh() {
             // a deformable body's surface also moves against its frame
             surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
         }
@@ -396,7 +396,7 @@ impl Domain {
         contacts.reference_position = projectile.position;
         contacts.reference_orientation = projectile.orientation;
         contacts.reference_vertices.clear();
-        if let RigidShape::Mesh(mesh) = &projectile.shape {
+        if let Some(mesh) = projectile.shape.deforming_mesh() {
             contacts.reference_vertices.extend_from_slice(&mesh.surface.vertices);
         }
     }

@@ -103,6 +103,14 @@ impl RigidShape {
         }
     }
 
+    /// The mesh of a deformable body's surface (one whose vertices move).
+    pub fn deforming_mesh(&self) -> Option<&MeshShape> {
+        match self {
+            RigidShape::Mesh(mesh) if mesh.surface.deforms() => Some(mesh),
+            _ => None,
+        }
+    }
+
     /// Support function: the largest `p . direction` over the shape, for a unit `direction`
     /// in the body frame [m] (how far the shape reaches that way from its centre).
     pub fn support(&self, direction: &Vec3) -> f64 {

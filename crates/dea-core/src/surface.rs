@@ -25,6 +25,7 @@ pub enum Feature {
 /// The closest point of triangle (a, b, c) to `p`, its barycentric weights (the area
 /// weights that share a contact force over the triangle's nodes, seed 4-1) and its feature.
 /// Follows the Voronoi-region tests of Ericson, *Real-Time Collision Detection* §5.1.5.
+#[inline(always)]
 pub fn closest_point_on_triangle(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> (Vec3, [f64; 3], Feature) {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
@@ -302,6 +303,11 @@ impl TriangleSurface {
         self.margin = margin;
         self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + margin, self.grid.cell);
         self.grid_vertices.clone_from(&self.vertices);
+    }
+
+    /// Whether the vertices may move (a margin was set): a deformable body's surface.
+    pub fn deforms(&self) -> bool {
+        self.margin > 0.0
     }
 
     /// Moves the vertices (same triangles) and refreshes normals; rebuilds the cubes once a
