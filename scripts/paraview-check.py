@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""Opens a run's fields.xdmf in ParaView (Debian's paraview, headless), checks its time steps
-and arrays, and renders the last snapshot to a PNG. Run under xvfb-run:
+"""Opens a run's fields.xdmf and projectile.xdmf in ParaView (Debian's paraview, headless),
+checks their time steps and arrays, and renders the last snapshot to a PNG. Run under
+xvfb-run:
 
     xvfb-run -a /usr/bin/python3 scripts/paraview-check.py OUT [IMAGE.png]
 
@@ -35,6 +36,17 @@ view = GetActiveViewOrCreate("RenderView")
 view.ViewSize = [800, 600]
 display = Show(reader, view)
 ColorBy(display, ("CELLS", "stress"))
+# the projectile's surface, a triangle mesh per snapshot, at the fabric's times
+projectile = XDMFReader(FileNames=[os.path.join(out, "projectile.xdmf")])
+projectile.UpdatePipelineInformation()
+projectile_times = list(projectile.TimestepValues) if projectile.TimestepValues else []
+if projectile_times != times:
+    sys.exit(f"projectile.xdmf has times {projectile_times}, fields.xdmf {times}")
+projectile.UpdatePipeline(times[-1])
+surface = servermanager.Fetch(projectile)
+if surface.GetNumberOfPoints() == 0 or surface.GetNumberOfCells() == 0:
+    sys.exit("the projectile's surface is empty")
+Show(projectile, view)
 GetAnimationScene().AnimationTime = times[-1]
 view.ResetCamera()
 Render(view)
@@ -42,4 +54,5 @@ SaveScreenshot(image, view, ImageResolution=[800, 600])
 if not os.path.exists(image) or os.path.getsize(image) == 0:
     sys.exit(f"no image written to {image}")
 print(f"paraview: {len(times)} time steps, last at {times[-1]:.3e} s: {points} points, {cells} cells, "
-      f"point arrays {sorted(point_arrays)}, cell arrays {sorted(cell_arrays)}; image {image}")
+      f"point arrays {sorted(point_arrays)}, cell arrays {sorted(cell_arrays)}; projectile {surface.GetNumberOfCells()} triangles; "
+      f"image {image}")

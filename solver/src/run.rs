@@ -1,5 +1,7 @@
 //! The run: step loop, histories, perforation test, results and summary, on every rank.
 
+use dea_core::projectile::{RigidProjectile, RigidShape};
+use dea_projectile::generate::Solid;
 use std::path::Path;
 use std::time::Instant;
 
@@ -373,11 +375,28 @@ fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Re
             .map_err(|e| e.to_string())
             .and_then(|snapshots| dea_io::snapshot::write_xdmf(options.out, &snapshots).map_err(|e| e.to_string()))
             .map_err(|e| format!("{}: {e}", options.out.join("fields.xdmf").display()));
+        if let (Ok(()), Some(projectile)) = (&joined, &run.domain.projectile) {
+            let (vertices, triangles) = projectile_surface(projectile);
+            joined = dea_io::snapshot::write_projectile(options.out, step, time, &vertices, &triangles)
+                .and_then(|()| dea_io::snapshot::write_projectile_xdmf(options.out, step))
+                .map_err(|e| format!("{}: {e}", options.out.join("projectile.xdmf").display()));
+        }
     }
     if run.any(joined.is_err()) {
         return Err(joined.err().unwrap_or_else(|| "rank 0 could not write fields.xdmf".into()));
     }
     Ok(())
+}
+
+/// The projectile's surface in the world frame for display: a mesh's own triangles, or the
+/// closed form tessellated (8 divisions).
+fn projectile_surface(projectile: &RigidProjectile) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (vertices, triangles) = match &projectile.shape {
+        RigidShape::Mesh(mesh) => (mesh.surface.vertices.clone(), mesh.surface.triangles.clone()),
+        RigidShape::Sphere { radius } => Solid::Sphere { radius: *radius }.mesh(8).boundary(),
+        RigidShape::Cylinder { radius, height, edge_radius } => Solid::Cylinder { radius: *radius, height: *height, edge_radius: *edge_radius }.mesh(8).boundary(),
+    };
+    (vertices.iter().map(|v| projectile.position + projectile.orientation * v).collect(), triangles)
 }
 
 /// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest

@@ -81,6 +81,10 @@ fn run_writes_summary_and_hdf5_histories() {
     assert_eq!(last.step, summary["steps"].as_u64().unwrap());
     assert_eq!(last.parts[0].points as u64, summary["nodes"].as_u64().unwrap());
     assert!(std::fs::read_to_string(dir.join("fields.xdmf")).unwrap().contains(&format!("step {}", last.step)));
+    // the projectile's surface (the analytic sphere tessellated) at the same steps
+    let projectile = std::fs::read_to_string(dir.join("projectile.xdmf")).unwrap();
+    assert_eq!(projectile.matches("<Time ").count(), snapshots.len());
+    assert!(projectile.contains(&format!("step {}", last.step)) && projectile.contains("TopologyType=\"Triangle\""));
     // history.csv has a row per sample
     assert_eq!(std::fs::read_to_string(dir.join("history.csv")).unwrap().lines().count(), time.len() + 1);
 }

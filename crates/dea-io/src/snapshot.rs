@@ -84,6 +84,62 @@ pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, par
     file.flush()
 }
 
+/// File of the projectile's surface snapshots (rank 0).
+fn projectile_file(out: &Path) -> PathBuf {
+    fields_directory(out).join("projectile.h5")
+}
+
+/// Writes (or replaces) the projectile's surface at `step`: world positions of its vertices
+/// and its triangles, for `projectile.xdmf`.
+pub fn write_projectile(out: &Path, step: u64, time: f64, vertices: &[Vec3], triangles: &[[u32; 3]]) -> hdf5::Result<()> {
+    let directory = fields_directory(out);
+    std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
+    let file = hdf5::File::append(projectile_file(out))?;
+    let name = group_name(step);
+    if file.link_exists(&name) {
+        file.unlink(&name)?;
+    }
+    let group = file.create_group(&name)?;
+    write_scalars(&group, "step", &[step], "-")?;
+    write_scalars(&group, "time", &[time], "s")?;
+    write_vectors(&group, "position", vertices, "m")?;
+    let flat: Vec<u32> = triangles.iter().flatten().copied().collect();
+    let dataset = group.new_dataset::<u32>().shape([triangles.len(), 3]).create("triangles")?;
+    dataset.write_raw(&flat)?;
+    write_text_attribute(&dataset, "units", "vertex index")?;
+    file.flush()
+}
+
+/// Writes `projectile.xdmf`: the projectile's surface at every step up to `last_step` that
+/// `write_projectile` recorded (none: no file).
+pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
+    let path = projectile_file(out);
+    if !path.exists() {
+        return Ok(());
+    }
+    let file = hdf5::File::open(&path)?;
+    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"projectile\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    let mut names = file.member_names()?;
+    names.sort();
+    for name in names {
+        let group = file.group(&name)?;
+        let step: u64 = group.dataset("step")?.read_raw::<u64>()?[0];
+        if step > last_step {
+            continue;
+        }
+        let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
+        let (points, triangles) = (group.dataset("position")?.shape()[0], group.dataset("triangles")?.shape()[0]);
+        let _ = writeln!(x, "      <Grid Name=\"step {step}\" GridType=\"Uniform\">\n        <Time Value=\"{time:e}\" />");
+        let _ = writeln!(x, "        <Topology TopologyType=\"Triangle\" NumberOfElements=\"{triangles}\">");
+        let _ = writeln!(x, "          <DataItem Dimensions=\"{triangles} 3\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">fields/projectile.h5:/{name}/triangles</DataItem>");
+        let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
+        let _ = writeln!(x, "          <DataItem Dimensions=\"{points} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">fields/projectile.h5:/{name}/position</DataItem>");
+        let _ = writeln!(x, "        </Geometry>\n      </Grid>");
+    }
+    x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
+    std::fs::write(out.join("projectile.xdmf"), x).map_err(|e| hdf5::Error::from(format!("{}: {e}", out.join("projectile.xdmf").display()).as_str()))
+}
+
 /// One part of one snapshot on disk.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IndexedPart {
