@@ -10,7 +10,7 @@
 use dea_core::domain::Reaction;
 use dea_core::projectile::RigidProjectile;
 use dea_core::{Vec3, NONE};
-use dea_projectile::elastic::{ElasticBody, ElasticError, ElasticMaterial};
+use dea_projectile::elastic::{ElasticBody, ElasticError, ElasticMaterial, ElasticModel};
 use dea_projectile::mesh::{compact, HexMesh};
 
 /// The body, on rank 0.
@@ -28,10 +28,10 @@ pub struct DeformableProjectile {
 
 impl DeformableProjectile {
     /// The mesh at rest (body frame) of `mass` [kg]: its density is the mass over the volume.
-    pub fn new(mesh: HexMesh, mass: f64, youngs_modulus: f64, poisson_ratio: f64) -> Result<Self, ElasticError> {
+    pub fn new(mesh: HexMesh, mass: f64, youngs_modulus: f64, poisson_ratio: f64, model: ElasticModel) -> Result<Self, ElasticError> {
         let volume: f64 = mesh.volumes().iter().sum();
         let (_, node_of_vertex, triangles) = compact(&mesh.nodes, &mesh.surface().triangles);
-        let material = ElasticMaterial { density: mass / volume, youngs_modulus, poisson_ratio };
+        let material = ElasticMaterial { density: mass / volume, youngs_modulus, poisson_ratio, model };
         Ok(Self { body: ElasticBody::new(mesh, material)?, node_of_vertex, triangles, strain_energy: 0.0, inverted: None })
     }
 

@@ -5,6 +5,7 @@
 use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
 use dea_core::projectile::{MeshShape, RigidProjectile, RigidShape};
+use dea_projectile::elastic::ElasticModel;
 use dea_projectile::import::{read_mesh, read_surface};
 
 use crate::deformable::DeformableProjectile;
@@ -120,8 +121,9 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
             (projectile, aim, None)
         }
-        Some(elastic) => {
-            let (body, shape) = deformable_body(&resolved, elastic.youngs_modulus_pa, elastic.poisson_ratio, reach, cell, contact.skin)?;
+        Some(ref elastic) => {
+            let model = elastic.model().expect("validated case");
+            let (body, shape) = deformable_body(&resolved, (elastic.youngs_modulus_pa, elastic.poisson_ratio, model), reach, cell, contact.skin)?;
             let (projectile, aim, body) = launch_deformable(body, shape, &resolved, top);
             (projectile, aim, Some(body))
         }
@@ -141,7 +143,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
 /// about the body's centre of mass. The cubes follow the moving surface with a margin of
 /// one skin.
-fn deformable_body(resolved: &ResolvedProjectile, youngs_modulus: f64, poisson_ratio: f64, reach: f64, cell: f64, skin: f64) -> Result<(DeformableProjectile, RigidShape), SetupError> {
+fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio, model): (f64, f64, ElasticModel), reach: f64, cell: f64, skin: f64) -> Result<(DeformableProjectile, RigidShape), SetupError> {
     let (mesh, source) = match &resolved.body {
         ProjectileBody::Generated { solid, divisions } => (solid.mesh(*divisions), format!("the generated {solid:?} mesh")),
         ProjectileBody::File { path, scale } => {
@@ -152,7 +154,7 @@ fn deformable_body(resolved: &ResolvedProjectile, youngs_modulus: f64, poisson_r
         ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
     };
     let (vertices, triangles) = mesh.boundary();
-    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (centre, _) = body.body.centre_of_mass();
     shape.set_vertices(&body.surface_from(&centre));
@@ -216,7 +218,7 @@ pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, 
     };
     let elastic = deformable.map_or(serde_json::Value::Null, |d| {
         let m = d.body.material;
-        serde_json::json!({ "density_kg_m3": m.density, "youngs_modulus_pa": m.youngs_modulus, "poisson_ratio": m.poisson_ratio, "wave_speed_m_s": m.wave_speed(), "element_time_step_s": d.body.stable_time_step() })
+        serde_json::json!({ "model": format!("{:?}", m.model), "density_kg_m3": m.density, "youngs_modulus_pa": m.youngs_modulus, "poisson_ratio": m.poisson_ratio, "wave_speed_m_s": m.wave_speed(), "element_time_step_s": d.body.stable_time_step() })
     });
     serde_json::json!({
         "shape": shape,

@@ -4,6 +4,7 @@
 use dea_core::contact::NormalLaw;
 use dea_core::material::InertiaModel;
 use dea_core::projectile::RigidShape;
+use dea_projectile::elastic::ElasticModel;
 use dea_projectile::generate::{FspDimensions, Solid};
 use dea_core::weibull::{WeibullMode, WeibullStrength};
 use dea_core::FibreMaterial;
@@ -215,13 +216,28 @@ pub struct ProjectileSpec {
 }
 
 /// Elastic constants of a deformable projectile; its density is its mass over its volume.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DeformableSpec {
     /// [Pa]
     pub youngs_modulus_pa: f64,
     /// [-]
     pub poisson_ratio: f64,
+    /// "corotational" (linear elasticity at any rotation; the default) or "neo_hookean"
+    /// (the same at small strain, hyperelastic at large strain)
+    #[serde(default)]
+    pub model: Option<String>,
+}
+
+impl DeformableSpec {
+    /// The stress model.
+    pub fn model(&self) -> Result<ElasticModel, CaseError> {
+        match self.model.as_deref() {
+            None | Some("corotational") => Ok(ElasticModel::Corotational),
+            Some("neo_hookean") => Ok(ElasticModel::NeoHookean),
+            Some(other) => Err(invalid("projectile.deformable.model", format!("unknown model {other:?}; known: \"corotational\", \"neo_hookean\""))),
+        }
+    }
 }
 
 /// Run control.
@@ -518,6 +534,7 @@ impl Case {
         };
         if let Some(d) = &p.deformable {
             positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
+            d.model()?;
             if !(0.0..0.5).contains(&d.poisson_ratio) {
                 return Err(invalid("projectile.deformable.poisson_ratio", format!("must lie in [0, 0.5), got {}", d.poisson_ratio)));
             }
@@ -531,7 +548,7 @@ impl Case {
             }
         }
         Ok(ResolvedProjectile {
-            deformable: p.deformable,
+            deformable: p.deformable.clone(),
             body,
             mass,
             speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,
@@ -723,6 +740,11 @@ mod tests {
         assert!(e.message.contains("flat width"), "{e}");
         let e = fsp(&|v| v["projectile"]["bevel_angle_deg"] = (-5.0).into());
         assert_eq!(e.path, "projectile.bevel_angle_deg");
+        let e = error_for(|v| {
+            v["projectile"] = serde_json::json!({ "shape": "sphere", "diameter_m": 1e-3, "mesh_divisions": 4, "mass_kg": 1e-6, "velocity_m_s": 50.0,
+                "deformable": { "youngs_modulus_pa": 2e9, "poisson_ratio": 0.3, "model": "rubbery" } });
+        });
+        assert_eq!(e.path, "projectile.deformable.model");
         let e = fsp(&|v| v["projectile"]["obliquity_deg"] = 85.0.into());
         assert_eq!(e.path, "projectile.obliquity_deg");
         let e = fsp(&|v| v["projectile"]["mesh_divisions"] = 1.into());
