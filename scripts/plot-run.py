@@ -60,7 +60,7 @@ save(figure, "energy_by_layer.png")
 
 # the final state: the last snapshot, one part per rank (the far end of a crossing element
 # appears in two parts; plotting it twice is harmless)
-parts = [h5py.File(os.path.join(out, "fields", name), "r") for name in sorted(os.listdir(os.path.join(out, "fields")))]
+parts = [h5py.File(os.path.join(out, "fields", name), "r") for name in sorted(os.listdir(os.path.join(out, "fields"))) if name.startswith("ranks-")]
 last = max(name for part in parts for name in part.keys())
 position = [part[last]["position"][()] for part in parts if last in part]
 failure = [part[last]["failure"][()] for part in parts if last in part]
