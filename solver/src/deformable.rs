@@ -52,9 +52,10 @@ impl DeformableProjectile {
         2.0 / highest
     }
 
-    /// Surface vertices relative to `centre` [m].
-    pub fn surface_from(&self, centre: &Vec3) -> Vec<Vec3> {
-        self.node_of_vertex.iter().map(|&n| self.body.position[n as usize] - centre).collect()
+    /// Surface vertices relative to `centre` into `surface` [m].
+    pub fn surface_from(&self, centre: &Vec3, surface: &mut Vec<Vec3>) {
+        surface.clear();
+        surface.extend(self.node_of_vertex.iter().map(|&n| self.body.position[n as usize] - centre));
     }
 
     /// Places the body at rest shape, turned and moved like `proxy` about its centre of
@@ -68,12 +69,12 @@ impl DeformableProjectile {
     }
 
     /// Sets the proxy's position and velocity to the body's centre of mass and mean
-    /// velocity, and returns the surface relative to that centre.
-    pub fn fill_proxy(&self, proxy: &mut RigidProjectile) -> Vec<Vec3> {
+    /// velocity, and `surface` to the surface relative to that centre.
+    pub fn fill_proxy(&self, proxy: &mut RigidProjectile, surface: &mut Vec<Vec3>) {
         let (centre, velocity) = self.body.centre_of_mass();
         proxy.position = centre;
         proxy.velocity = velocity;
-        self.surface_from(&centre)
+        self.surface_from(&centre, surface);
     }
 
     /// Internal forces of the current shape plus the reactions (ascending global id), each

@@ -28,14 +28,6 @@ use crate::deformable::DeformableProjectile;
 
 /// f64 words of a ghost record at a rebuild.
 const RECORD_WORDS: usize = 11;
-/// The projectile's body as a rank sees it: whether the run's projectile is deformable,
-/// and (rank 0) the body itself.
-#[derive(Default)]
-pub struct Body {
-    pub deformable_run: bool,
-    pub body: Option<DeformableProjectile>,
-}
-
 /// f64 words per ghost in the per-step halo: position and element failure state.
 pub const HALO_WORDS: usize = 4;
 /// f64 words of the projectile state broadcast.
@@ -131,19 +123,17 @@ pub struct Distributed<C: Comm> {
     /// reaction records of this rank, and (rank 0) of all ranks: reused every step
     reaction_words: Vec<f64>,
     reactions: Vec<Reaction>,
-    /// the projectile is a deformable body (on every rank)
-    deformable_run: bool,
-    /// that body, on rank 0
+    /// a deformable projectile's body, on rank 0 (the other ranks see its meshed proxy)
     pub deformable: Option<DeformableProjectile>,
-    /// projectile broadcast buffer
+    /// projectile broadcast buffer, and a deformable body's surface decoded from it
     projectile_words: Vec<f64>,
+    surface: Vec<Vec3>,
 }
 
 impl<C: Comm> Distributed<C> {
     /// Takes a domain of owned nodes (ascending global id) and fetches the ghosts, on every
     /// rank together.
-    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, body: Body) -> Result<Self, DomainError> {
-        let Body { deformable_run: comm_deformable, body: deformable } = body;
+    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
@@ -179,17 +169,17 @@ impl<C: Comm> Distributed<C> {
             fibres: 0,
             reaction_words: Vec::new(),
             reactions: Vec::new(),
-            deformable_run: deformable.is_some() || comm_deformable,
             deformable,
             projectile_words: Vec::new(),
+            surface: Vec::new(),
         };
         distributed.rebuild()?;
         Ok(distributed)
     }
 
     /// [`Self::assemble`], then the initial forces: a fresh run.
-    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, body: Body) -> Result<Self, DomainError> {
-        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, body)?;
+    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
+        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         let forces = distributed.domain.compute_forces();
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
@@ -279,28 +269,37 @@ impl<C: Comm> Distributed<C> {
     fn broadcast_projectile(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
         let Some(projectile) = self.domain.projectile.as_mut() else { return Ok(()) };
+        let vertices = projectile.shape.deforming_mesh().map(|mesh| mesh.surface.vertices.len());
+        let surface = &mut self.surface;
+        if let Some(body) = &self.deformable {
+            body.fill_proxy(projectile, surface);
+        }
         let words = &mut self.projectile_words;
         words.clear();
         words.extend_from_slice(&projectile_words(projectile));
-        if let Some(body) = &self.deformable {
-            let surface = body.fill_proxy(projectile);
-            words[..PROJECTILE_WORDS].copy_from_slice(&projectile_words(projectile));
-            words.extend(surface.iter().flat_map(|v| [v.x, v.y, v.z]));
-            words.push(body.inverted.map_or(0.0, |e| (e + 1) as f64));
-        } else if let (true, RigidShape::Mesh(mesh)) = (self.deformable_run, &projectile.shape) {
-            words.resize(PROJECTILE_WORDS + 3 * mesh.surface.vertices.len() + 1, 0.0);
+        match (vertices, &self.deformable) {
+            (Some(_), Some(body)) => {
+                words.extend(surface.iter().flat_map(|v| [v.x, v.y, v.z]));
+                words.push(body.inverted.map_or(0.0, |e| (e + 1) as f64));
+            }
+            // the other ranks receive into a buffer of the same length
+            (Some(n), None) => words.resize(PROJECTILE_WORDS + 3 * n + 1, 0.0),
+            (None, _) => {}
         }
         self.comm.broadcast_f64(words);
         if self.comm.rank() != Rank(0) {
             set_projectile_words(projectile, words);
         }
-        if let (true, RigidShape::Mesh(mesh)) = (self.deformable_run, &mut projectile.shape) {
-            let (surface, status) = words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
+        if vertices.is_some() {
+            let (coordinates, status) = words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
             if status[0] > 0.0 {
                 return Err(DomainError::ProjectileInverted { step: self.domain.step, element: status[0] as usize - 1 });
             }
-            let surface: Vec<Vec3> = surface.chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])).collect();
-            std::sync::Arc::make_mut(mesh).set_vertices(&surface);
+            surface.clear();
+            surface.extend(coordinates.chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])));
+            if let RigidShape::Mesh(mesh) = &mut projectile.shape {
+                std::sync::Arc::make_mut(mesh).set_vertices(surface);
+            }
         }
         self.times.projectile += clock.elapsed().as_secs_f64();
         Ok(())
@@ -681,8 +680,8 @@ impl<C: Comm> Distributed<C> {
     /// interrupted run, and future rebuilds fall on the same steps), then every history,
     /// position, velocity and force is put back and the ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
-    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64], mut body: Body) -> Result<Self, RestoreError> {
-        if let Some(deformable) = &mut body.body {
+    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: u32, reach: f64, state: &NodeState, projectile: &[f64], mut deformable: Option<DeformableProjectile>) -> Result<Self, RestoreError> {
+        if let Some(deformable) = &mut deformable {
             let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
             deformable.body.set_state_words(words).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", words.len())))?;
         }
@@ -698,7 +697,7 @@ impl<C: Comm> Distributed<C> {
         if let Some(p) = &mut domain.projectile {
             set_projectile_words(p, projectile);
         }
-        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, body)?;
+        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         let d = &mut restored.domain;
         // the lists rebuilt from the same positions are the interrupted run's lists
         let mut entry = 0usize;

@@ -9,7 +9,6 @@ use dea_projectile::elastic::ElasticModel;
 use dea_projectile::import::{read_mesh, read_surface};
 
 use crate::deformable::DeformableProjectile;
-use crate::distributed::Body;
 use std::sync::Arc;
 use dea_core::stability::{design_contact_stiffness, stable_time_step};
 use dea_core::weibull::element_strength;
@@ -157,7 +156,9 @@ fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio
     let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (centre, _) = body.body.centre_of_mass();
-    shape.set_vertices(&body.surface_from(&centre));
+    let mut surface = Vec::new();
+    body.surface_from(&centre, &mut surface);
+    shape.set_vertices(&surface);
     shape.surface.set_margin(skin);
     Ok((body, RigidShape::Mesh(Arc::new(shape))))
 }
@@ -169,7 +170,8 @@ fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved
     let (mut projectile, aim) = launch(shape, resolved, top);
     body.launch(&projectile);
     projectile.orientation = UnitQuaternion::identity();
-    let surface = body.fill_proxy(&mut projectile);
+    let mut surface = Vec::new();
+    body.fill_proxy(&mut projectile, &mut surface);
     if let RigidShape::Mesh(mesh) = &mut projectile.shape {
         Arc::make_mut(mesh).set_vertices(&surface);
     }
@@ -314,9 +316,9 @@ fn own_domain(problem: &Problem, partition: &Partition, me: Rank, adjust: impl F
     domain
 }
 
-/// The deformable body for this rank: rank 0 keeps it, every rank learns that there is one.
-fn take_body(problem: &mut Problem, me: Rank) -> Body {
-    Body { deformable_run: problem.deformable.is_some(), body: problem.deformable.take().filter(|_| me == Rank(0)) }
+/// The deformable body for this rank: rank 0 integrates it (every rank's proxy shows it).
+fn take_body(problem: &mut Problem, me: Rank) -> Option<DeformableProjectile> {
+    problem.deformable.take().filter(|_| me == Rank(0))
 }
 
 /// A run restored from a checkpoint on this rank.

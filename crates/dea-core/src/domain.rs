@@ -14,7 +14,8 @@ use crate::friction::stick_slip;
 use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
-use crate::projectile::{ContactPoint, RigidProjectile};
+use crate::projectile::RigidProjectile;
+use crate::surface::SurfacePoint;
 use nalgebra::UnitQuaternion;
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
@@ -479,7 +480,7 @@ impl Domain {
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
     /// normal (body frame), body-frame position, and the contact geometry of the law.
     #[inline]
-    fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, ContactPoint, Vec3, ContactGeometry) {
+    fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
         let section = &self.sections[self.nodes.section[i] as usize];
         let body = projectile.to_body(&self.nodes.position[i]);
         let point = projectile.shape.contact_point(&body);

@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use crate::surface::{MassProperties, SurfaceError, TriangleSurface};
+use crate::surface::{MassProperties, SurfaceError, SurfacePoint, TriangleSurface};
 use crate::Vec3;
 use nalgebra::{Matrix3, UnitQuaternion};
 
@@ -35,19 +35,6 @@ pub struct MeshShape {
     pub volume: f64,
     /// largest distance of a vertex from the centroid [m]
     pub bounding_radius: f64,
-}
-
-/// Where a fibre node meets a projectile surface.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactPoint {
-    /// signed distance from the surface [m]
-    pub distance: f64,
-    /// outward unit normal, body frame
-    pub normal: Vec3,
-    /// triangle of a mesh ([`crate::NONE`] on an analytic surface)
-    pub triangle: u32,
-    /// barycentric weights of the point on it (seed 4-1)
-    pub weights: [f64; 3],
 }
 
 impl MeshShape {
@@ -132,19 +119,15 @@ impl RigidShape {
         (contact.distance, contact.normal)
     }
 
-    /// [`Self::distance_and_normal`] with the triangle and weights of a mesh's point.
+    /// [`Self::distance_and_normal`] with the closest point, and a mesh's triangle and
+    /// weights there (an analytic surface has triangle [`crate::NONE`]).
     #[inline]
-    pub fn contact_point(&self, p: &Vec3) -> ContactPoint {
+    pub fn contact_point(&self, p: &Vec3) -> SurfacePoint {
         if let RigidShape::Mesh(mesh) = self {
-            return mesh.surface.closest(p).map_or(ContactPoint { distance: f64::INFINITY, normal: Vec3::z(), triangle: crate::NONE, weights: [0.0; 3] }, |found| ContactPoint {
-                distance: found.distance,
-                normal: found.normal,
-                triangle: found.triangle,
-                weights: found.weights,
-            });
+            return mesh.surface.closest(p).unwrap_or(SurfacePoint { distance: f64::INFINITY, normal: Vec3::z(), point: *p, triangle: crate::NONE, weights: [0.0; 3] });
         }
         let (distance, normal) = self.analytic_distance_and_normal(p);
-        ContactPoint { distance, normal, triangle: crate::NONE, weights: [0.0; 3] }
+        SurfacePoint { distance, normal, point: p - normal * distance, triangle: crate::NONE, weights: [0.0; 3] }
     }
 
     /// Closed-form distance and normal of the sphere and the rounded cylinder.

@@ -54,29 +54,40 @@ fn group_name(step: u64) -> String {
     format!("snapshot-{step:010}")
 }
 
-/// Writes (or replaces) this rank's part of the snapshot at `step`.
-pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, part: &SnapshotPart) -> hdf5::Result<()> {
+/// Opens `name` in the fields directory and gives it a fresh group for `step`, holding the
+/// step and time (a restart after a crash writes again what followed its checkpoint).
+fn snapshot_group(out: &Path, name: &str, step: u64, time: f64) -> hdf5::Result<(hdf5::File, hdf5::Group)> {
     let directory = fields_directory(out);
     std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
-    let file = hdf5::File::append(directory.join(part_name(ranks, rank)))?;
-    let name = group_name(step);
-    if file.link_exists(&name) {
-        // a restart after a crash writes again what followed its checkpoint
-        file.unlink(&name)?;
+    let file = hdf5::File::append(directory.join(name))?;
+    let group_name = group_name(step);
+    if file.link_exists(&group_name) {
+        file.unlink(&group_name)?;
     }
-    let group = file.create_group(&name)?;
+    let group = file.create_group(&group_name)?;
     write_scalars(&group, "step", &[step], "-")?;
     write_scalars(&group, "time", &[time], "s")?;
+    Ok((file, group))
+}
+
+/// Writes index rows (segments, triangles) as an n x N dataset.
+fn write_rows<const N: usize>(group: &hdf5::Group, name: &str, rows: &[[u32; N]], units: &str) -> hdf5::Result<()> {
+    let flat: Vec<u32> = rows.iter().flatten().copied().collect();
+    let dataset = group.new_dataset::<u32>().shape([rows.len(), N]).create(name)?;
+    dataset.write_raw(&flat)?;
+    write_text_attribute(&dataset, "units", units)
+}
+
+/// Writes (or replaces) this rank's part of the snapshot at `step`.
+pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, part: &SnapshotPart) -> hdf5::Result<()> {
+    let (file, group) = snapshot_group(out, &part_name(ranks, rank), step, time)?;
     write_vectors(&group, "position", &part.position, "m")?;
     write_vectors(&group, "velocity", &part.velocity, "m/s")?;
     write_scalars(&group, "gid", &part.gid, "-")?;
     write_scalars(&group, "layer", &part.layer, "-")?;
     write_scalars(&group, "yarn", &part.yarn, "-")?;
     write_scalars(&group, "rank", &part.rank, "-")?;
-    let connectivity: Vec<u32> = part.connectivity.iter().flatten().copied().collect();
-    let dataset = group.new_dataset::<u32>().shape([part.connectivity.len(), 2]).create("connectivity")?;
-    dataset.write_raw(&connectivity)?;
-    write_text_attribute(&dataset, "units", "point index")?;
+    write_rows(&group, "connectivity", &part.connectivity, "point index")?;
     write_scalars(&group, "element_gid", &part.element_gid, "-")?;
     write_scalars(&group, "strain", &part.strain, "-")?;
     write_scalars(&group, "stress", &part.stress, "Pa")?;
@@ -84,36 +95,22 @@ pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, par
     file.flush()
 }
 
-/// File of the projectile's surface snapshots (rank 0).
-fn projectile_file(out: &Path) -> PathBuf {
-    fields_directory(out).join("projectile.h5")
-}
+/// File of the projectile's surface snapshots (rank 0), in the fields directory.
+const PROJECTILE_FILE: &str = "projectile.h5";
 
 /// Writes (or replaces) the projectile's surface at `step`: world positions of its vertices
 /// and its triangles, for `projectile.xdmf`.
 pub fn write_projectile(out: &Path, step: u64, time: f64, vertices: &[Vec3], triangles: &[[u32; 3]]) -> hdf5::Result<()> {
-    let directory = fields_directory(out);
-    std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
-    let file = hdf5::File::append(projectile_file(out))?;
-    let name = group_name(step);
-    if file.link_exists(&name) {
-        file.unlink(&name)?;
-    }
-    let group = file.create_group(&name)?;
-    write_scalars(&group, "step", &[step], "-")?;
-    write_scalars(&group, "time", &[time], "s")?;
+    let (file, group) = snapshot_group(out, PROJECTILE_FILE, step, time)?;
     write_vectors(&group, "position", vertices, "m")?;
-    let flat: Vec<u32> = triangles.iter().flatten().copied().collect();
-    let dataset = group.new_dataset::<u32>().shape([triangles.len(), 3]).create("triangles")?;
-    dataset.write_raw(&flat)?;
-    write_text_attribute(&dataset, "units", "vertex index")?;
+    write_rows(&group, "triangles", triangles, "vertex index")?;
     file.flush()
 }
 
 /// Writes `projectile.xdmf`: the projectile's surface at every step up to `last_step` that
 /// `write_projectile` recorded (none: no file).
 pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
-    let path = projectile_file(out);
+    let path = fields_directory(out).join(PROJECTILE_FILE);
     if !path.exists() {
         return Ok(());
     }

@@ -10,7 +10,7 @@
 use dea_core::Vec3;
 use nalgebra::{Matrix3, UnitQuaternion};
 
-use crate::mesh::{HexMesh, CORNERS};
+use crate::mesh::{trilinear, HexMesh, CORNERS, FACES};
 
 /// An isotropic linear-elastic material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,13 +67,7 @@ struct ElementData {
 /// Shape-function gradients with respect to the reference coordinates at natural point
 /// `(r, s, t)`, and the Jacobian determinant.
 fn reference_gradients(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([Vec3; 8], f64) {
-    let mut natural = [Vec3::zeros(); 8];
-    let mut jacobian = Matrix3::<f64>::zeros();
-    for (k, c) in CORNERS.iter().enumerate() {
-        let (a, b, d) = (1.0 + c[0] * r, 1.0 + c[1] * s, 1.0 + c[2] * t);
-        natural[k] = Vec3::new(c[0] * b * d, c[1] * a * d, c[2] * a * b) / 8.0;
-        jacobian += corners[k] * natural[k].transpose();
-    }
+    let (_, natural, jacobian) = trilinear(corners, r, s, t);
     let inverse_transpose = jacobian.try_inverse().unwrap_or_else(Matrix3::zeros).transpose();
     (natural.map(|g| inverse_transpose * g), jacobian.determinant())
 }
@@ -186,14 +180,13 @@ impl ElasticBody {
     /// over largest face area) over the dilatational wave speed [s].
     pub fn stable_time_step(&self) -> f64 {
         let volumes = self.mesh.volumes();
-        let faces = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
         let length = self
             .mesh
             .hexes
             .iter()
             .zip(&volumes)
             .map(|(hex, volume)| {
-                let largest = faces
+                let largest = FACES
                     .iter()
                     .map(|f| {
                         let p = f.map(|k| self.position[hex[k] as usize]);

@@ -11,7 +11,7 @@ pub type Hex = [u32; 8];
 
 /// The six faces of a hexahedron as local corners, ordered so that the right-hand normal
 /// points out of the element.
-const FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+pub(crate) const FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
 
 /// A mesh of 8-node hexahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -32,17 +32,18 @@ const GAUSS: [(f64, f64); 3] = [(-0.774_596_669_241_483_4, 5.0 / 9.0), (0.0, 8.0
 /// Natural coordinates of the corners, VTK order.
 pub(crate) const CORNERS: [[f64; 3]; 8] = [[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]];
 
-/// Trilinear shape functions and the Jacobian determinant at natural point `(r, s, t)`.
-fn shape_and_jacobian(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([f64; 8], f64) {
-    let mut n = [0.0; 8];
+/// Trilinear shape functions, their gradients in natural coordinates and the Jacobian
+/// `dx/d(r, s, t)` at natural point `(r, s, t)`.
+pub(crate) fn trilinear(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([f64; 8], [Vec3; 8], nalgebra::Matrix3<f64>) {
+    let (mut n, mut natural) = ([0.0; 8], [Vec3::zeros(); 8]);
     let mut jacobian = nalgebra::Matrix3::<f64>::zeros();
     for (k, c) in CORNERS.iter().enumerate() {
         let (a, b, d) = (1.0 + c[0] * r, 1.0 + c[1] * s, 1.0 + c[2] * t);
         n[k] = a * b * d / 8.0;
-        let gradient = Vec3::new(c[0] * b * d, c[1] * a * d, c[2] * a * b) / 8.0;
-        jacobian += corners[k] * gradient.transpose();
+        natural[k] = Vec3::new(c[0] * b * d, c[1] * a * d, c[2] * a * b) / 8.0;
+        jacobian += corners[k] * natural[k].transpose();
     }
-    (n, jacobian.determinant())
+    (n, natural, jacobian)
 }
 
 impl HexMesh {
@@ -60,7 +61,7 @@ impl HexMesh {
                 for &(r, wr) in &GAUSS {
                     for &(s, ws) in &GAUSS {
                         for &(t, wt) in &GAUSS {
-                            volume += wr * ws * wt * shape_and_jacobian(&corners, r, s, t).1;
+                            volume += wr * ws * wt * trilinear(&corners, r, s, t).2.determinant();
                         }
                     }
                 }
@@ -80,7 +81,8 @@ impl HexMesh {
             for &(r, wr) in &GAUSS {
                 for &(s, ws) in &GAUSS {
                     for &(t, wt) in &GAUSS {
-                        let (n, det) = shape_and_jacobian(&corners, r, s, t);
+                        let (n, _, jacobian) = trilinear(&corners, r, s, t);
+                        let det = jacobian.determinant();
                         let weight = density * wr * ws * wt * det;
                         mass += weight;
                         for k in 0..8 {
