@@ -1,6 +1,11 @@
 //! Fabric geometry at near-fibre level: digital fibres packed in a yarn section and laid out
-//! as straight chains (single fibres, straight yarns, crossing layers of straight yarns).
-//! Woven topologies, relaxation and panels build on these pieces.
+//! as straight chains (single fibres, straight yarns, crossing layers of straight yarns), or
+//! woven: a plain-weave unit cell ([`weave`]) relaxed with periodic boundaries ([`relax`]) and
+//! tiled into panels of stacked layers ([`panel`]).
+
+pub mod panel;
+pub mod relax;
+pub mod weave;
 
 use dea_core::material::InertiaModel;
 use dea_core::nodes::FailureMode;
@@ -148,7 +153,7 @@ impl StraightFabric {
     }
 
     /// Centres of a yarn's fibres in its cross-section: (across, z) offsets [m].
-    fn packing(&self, yarn: &YarnLine, material: &FibreMaterial) -> Vec<[f64; 2]> {
+    pub fn packing(&self, yarn: &YarnLine, material: &FibreMaterial) -> Vec<[f64; 2]> {
         hexagonal_packing(yarn.fibres, self.section(material).contact_diameter)
     }
 
@@ -229,6 +234,109 @@ impl StraightFabric {
     }
 
     /// Builds every node (a whole domain, for single-domain use and tests).
+    pub fn build_all(&self, material: &FibreMaterial) -> Built {
+        self.build(material, |_, _| true)
+    }
+}
+
+/// The target of a run: straight fibres and yarns, or a woven panel. Everything the
+/// partitioner and the set-up need, with no node built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fabric {
+    Straight(StraightFabric),
+    Woven(panel::WovenPanel),
+}
+
+impl Fabric {
+    /// Yarns of the target.
+    pub fn yarn_count(&self) -> usize {
+        match self {
+            Fabric::Straight(f) => f.yarns.len(),
+            Fabric::Woven(p) => p.yarn_count(),
+        }
+    }
+
+    /// Digital fibres of yarn `yarn`.
+    pub fn yarn_fibres(&self, yarn: usize) -> usize {
+        match self {
+            Fabric::Straight(f) => f.yarns[yarn].fibres,
+            Fabric::Woven(p) => p.cell.fibres_per_yarn,
+        }
+    }
+
+    /// Layer of yarn `yarn` (0 on top).
+    pub fn yarn_layer(&self, yarn: usize) -> u32 {
+        match self {
+            Fabric::Straight(f) => f.yarns[yarn].layer,
+            Fabric::Woven(p) => p.place(yarn).layer,
+        }
+    }
+
+    /// Global fibre id of each yarn's first fibre, plus the total at the end.
+    pub fn first_fibres(&self) -> Vec<u32> {
+        match self {
+            Fabric::Straight(f) => f.first_fibres(),
+            Fabric::Woven(p) => (0..=p.yarn_count()).map(|y| (y * p.cell.fibres_per_yarn) as u32).collect(),
+        }
+    }
+
+    /// Nodes per fibre (the same on every fibre).
+    pub fn nodes_per_fibre(&self) -> u32 {
+        match self {
+            Fabric::Straight(f) => f.nodes_per_fibre(),
+            Fabric::Woven(p) => p.nodes_per_fibre(),
+        }
+    }
+
+    /// The one section every fibre has.
+    pub fn section(&self, material: &FibreMaterial) -> FibreSection {
+        match self {
+            Fabric::Straight(f) => f.section(material),
+            Fabric::Woven(p) => p.cell.section.clone(),
+        }
+    }
+
+    /// Centres of yarn `yarn`'s fibres in its cross-section, (across, up) [m].
+    pub fn section_packing(&self, yarn: usize, material: &FibreMaterial) -> Vec<[f64; 2]> {
+        match self {
+            Fabric::Straight(f) => f.packing(&f.yarns[yarn], material),
+            Fabric::Woven(p) => p.cell.packing.clone(),
+        }
+    }
+
+    /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
+    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
+        match self {
+            Fabric::Straight(f) => f.segment_box(yarn, first, last, material),
+            Fabric::Woven(p) => p.segment_box(yarn, first, last),
+        }
+    }
+
+    /// Highest node centre [m].
+    pub fn top(&self, material: &FibreMaterial) -> f64 {
+        match self {
+            Fabric::Straight(f) => f.top(material),
+            Fabric::Woven(p) => p.top(),
+        }
+    }
+
+    /// Lowest node centre [m].
+    pub fn bottom(&self, material: &FibreMaterial) -> f64 {
+        match self {
+            Fabric::Straight(f) => f.bottom(material),
+            Fabric::Woven(p) => p.bottom(),
+        }
+    }
+
+    /// Builds the nodes `keep(yarn, k)` selects, ascending global id.
+    pub fn build(&self, material: &FibreMaterial, keep: impl Fn(usize, u32) -> bool) -> Built {
+        match self {
+            Fabric::Straight(f) => f.build(material, keep),
+            Fabric::Woven(p) => p.build(material, keep),
+        }
+    }
+
+    /// Builds every node.
     pub fn build_all(&self, material: &FibreMaterial) -> Built {
         self.build(material, |_, _| true)
     }

@@ -1,0 +1,373 @@
+//! Dynamic relaxation of a unit cell with periodic boundaries (seed §3.1, ref. [2] of the
+//! seed): the fibres of the initial topology carry an initial yarn tension; rods, bending
+//! springs and fibre–fibre contact (the elastic law 4-8 on the modified diameter 3-1…3-3)
+//! act on every node; nodes near the cell's edges see the images of the nodes across it, and
+//! each fibre's last node is joined to the image of its first. The motion is damped by FIRE
+//! (Bitzek et al., Phys. Rev. Lett. 97, 170201, 2006) until the largest nodal force has
+//! fallen by the asked factor. No friction acts: the relaxed state is an equilibrium of the
+//! conservative forces (docs/theory.md, F3).
+//!
+//! The cell is small (four yarns), so it is relaxed whole by every rank that needs it; the
+//! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
+
+use dea_core::bending::torsional_spring;
+use dea_core::contact::{ContactGeometry, NormalLaw};
+use dea_core::stability::stable_time_step;
+use dea_core::{FibreMaterial, Vec3};
+
+use crate::weave::UnitCell;
+
+/// What the relaxation is asked to reach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RelaxOptions {
+    /// stop when the largest nodal force is this fraction of the initial one [-]
+    pub tolerance: f64,
+    /// give up after this many iterations
+    pub max_iterations: u64,
+}
+
+impl Default for RelaxOptions {
+    fn default() -> Self {
+        Self { tolerance: 1e-7, max_iterations: 2_000_000 }
+    }
+}
+
+/// How the relaxation went.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RelaxReport {
+    pub iterations: u64,
+    /// largest nodal force of the initial topology [N]
+    pub initial_residual_n: f64,
+    /// largest nodal force at the end [N]
+    pub final_residual_n: f64,
+    /// fibre–fibre contacts (overlapping node pairs) at the end
+    pub contacts: usize,
+    /// largest overlap of a contact at the end, over the contact diameter [-]
+    pub largest_overlap_ratio: f64,
+    /// (iteration, largest nodal force [N]) every 1000 iterations and at the end
+    pub history: Vec<(u64, f64)>,
+}
+
+/// Why a cell could not be relaxed.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum RelaxError {
+    #[error("relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)")]
+    NotConverged { iterations: u64, reduction: f64, tolerance: f64 },
+    #[error("relaxation diverged at iteration {iteration}: a nodal force is not finite")]
+    NonFinite { iteration: u64 },
+}
+
+/// Pairs of nodes on different fibres within `reach` of each other, nearest image across the
+/// periodic edges in x and y, ascending (i, j) with i < j. Bins of side >= reach, so only the
+/// 27 bins around a node can hold a partner.
+fn periodic_pairs(cell: &UnitCell, reach: f64) -> Vec<(u32, u32)> {
+    let period = cell.period();
+    let n = cell.nodes_per_period as usize;
+    let bins = ((period / reach).floor() as i64).max(1);
+    let (low, high) = cell.z_range();
+    let layers = (((high - low) / reach).floor() as i64 + 1).max(1);
+    let bin_of = |p: &Vec3| {
+        let wrap = |v: f64| ((v - period * (v / period).floor()) / period * bins as f64).floor().clamp(0.0, (bins - 1) as f64) as i64;
+        (wrap(p.x), wrap(p.y), (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1))
+    };
+    let index = |x: i64, y: i64, z: i64| ((z * bins + y) * bins + x) as usize;
+    let mut heads = vec![Vec::new(); (bins * bins * layers) as usize];
+    for (i, p) in cell.positions.iter().enumerate() {
+        let (x, y, z) = bin_of(p);
+        heads[index(x, y, z)].push(i as u32);
+    }
+    let mut pairs = Vec::new();
+    let mut near = Vec::with_capacity(27);
+    for (i, p) in cell.positions.iter().enumerate() {
+        let (x, y, z) = bin_of(p);
+        near.clear();
+        for dz in -1..=1 {
+            let zz = z + dz;
+            if zz < 0 || zz >= layers {
+                continue;
+            }
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    near.push(index((x + dx).rem_euclid(bins), (y + dy).rem_euclid(bins), zz));
+                }
+            }
+        }
+        // fewer than three bins across wrap onto the same bin: visit each once
+        near.sort_unstable();
+        near.dedup();
+        for &b in &near {
+            for &j in &heads[b] {
+                let j = j as usize;
+                if j <= i || j / n == i / n {
+                    continue;
+                }
+                if minimum_image(cell.positions[j] - p, period).norm() < reach {
+                    pairs.push((i as u32, j as u32));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs
+}
+
+/// Distance between the closest nodes of a warp and a weft fibre of the cell (infinite when
+/// none are within a contact diameter) [m].
+pub(crate) fn closest_crossing(cell: &UnitCell) -> f64 {
+    let n = cell.nodes_per_period as usize;
+    periodic_pairs(cell, cell.section.contact_diameter)
+        .into_iter()
+        .filter(|&(i, j)| cell.direction(i as usize / n) != cell.direction(j as usize / n))
+        .map(|(i, j)| minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period()).norm())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The shortest periodic image of a separation in x and y [m].
+#[inline]
+fn minimum_image(mut d: Vec3, period: f64) -> Vec3 {
+    d.x -= period * (d.x / period).round();
+    d.y -= period * (d.y / period).round();
+    d
+}
+
+/// What sets the rods' force in [`cell_forces`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Rods {
+    /// the cell's rest lengths (the relaxed cell as the solver will see it)
+    Rest,
+    /// each fibre's rest length follows its current length so that it carries the fibre
+    /// tension: material is drawn in or let out as on the loom
+    Tension,
+}
+
+/// Rest length of the elements of a fibre of current length `length` that carries `tension`
+/// on average [m].
+fn tensioned_rest_length(cell: &UnitCell, material: &FibreMaterial, length: f64) -> f64 {
+    length / cell.nodes_per_period as f64 / (1.0 + cell.fibre_tension / (material.longitudinal_modulus * cell.section.area))
+}
+
+/// Forces on every node of the cell [N]: rods (4-2), bending springs (5-1), elastic contact
+/// (4-8) of the listed pairs. Returns (contacts, largest overlap / contact diameter).
+fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], force: &mut [Vec3]) -> (usize, f64) {
+    let n = cell.nodes_per_period as usize;
+    let section = &cell.section;
+    let stiffness = material.longitudinal_modulus * section.area;
+    force.fill(Vec3::zeros());
+    // element k of a fibre joins node k to node k + 1 (the image of node 0 after the last)
+    let mut direction = vec![Vec3::zeros(); n];
+    let mut length = vec![0.0; n];
+    for fibre in 0..cell.fibres() {
+        let base = fibre * n;
+        let closure = cell.closure(fibre);
+        for k in 0..n {
+            let next = if k + 1 == n { cell.positions[base] + closure } else { cell.positions[base + k + 1] };
+            let axis = next - cell.positions[base + k];
+            length[k] = axis.norm();
+            direction[k] = axis / length[k];
+        }
+        let rest = match rods {
+            Rods::Rest => cell.rest_lengths[fibre],
+            Rods::Tension => tensioned_rest_length(cell, material, length.iter().sum()),
+        };
+        for k in 0..n {
+            let strain = (length[k] - rest) / rest;
+            let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
+            let tension = direction[k] * (scale * stiffness * strain);
+            force[base + k] += tension;
+            force[base + (k + 1) % n] -= tension;
+        }
+        if section.torsional_stiffness > 0.0 {
+            for k in 0..n {
+                let previous = (k + n - 1) % n;
+                let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness);
+                force[base + previous] += on_prev;
+                force[base + (k + 1) % n] += on_next;
+                force[base + k] -= on_prev + on_next;
+            }
+        }
+    }
+    let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
+    let (mut contacts, mut largest) = (0, 0.0f64);
+    for &(i, j) in pairs {
+        let (i, j) = (i as usize, j as usize);
+        let d = minimum_image(cell.positions[j] - cell.positions[i], cell.period());
+        let distance = d.norm();
+        let overlap = section.contact_diameter - distance;
+        if overlap <= 0.0 {
+            continue;
+        }
+        contacts += 1;
+        largest = largest.max(overlap / section.contact_diameter);
+        let (response, _) = law.evaluate(&geometry, overlap, 0.0);
+        let push = d * (response.force / distance);
+        force[i] -= push;
+        force[j] += push;
+    }
+    (contacts, largest)
+}
+
+fn largest_force(force: &[Vec3]) -> f64 {
+    force.iter().map(|f| f.norm()).fold(0.0, f64::max)
+}
+
+/// Relaxes `cell` in place under constant fibre tension with the contact law `law` (its
+/// loading curve), then gives every fibre the rest length at which its rods carry that
+/// tension in the relaxed shape, so the relaxed cell is in equilibrium as the solver will see
+/// it. The section (nominal element length, contact diameter, spring rigidity) stays.
+pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
+    let law = *law;
+    let section = cell.section.clone();
+    let mass = section.node_mass(material);
+    let critical = stable_time_step(material, std::slice::from_ref(&section), &law, 0.0, 0.9);
+    // FIRE's constants (Bitzek et al. 2006)
+    let (n_min, f_inc, f_dec, alpha_start, f_alpha) = (5u64, 1.1, 0.5, 0.1, 0.99);
+    let (mut dt, mut alpha, mut since_negative) = (0.25 * critical, alpha_start, 0u64);
+    let skin = 0.5 * section.contact_diameter;
+    let reach = section.contact_diameter + skin;
+    let mut pairs = periodic_pairs(cell, reach);
+    let mut anchor = cell.positions.clone();
+    let count = cell.positions.len();
+    let mut force = vec![Vec3::zeros(); count];
+    let mut velocity = vec![Vec3::zeros(); count];
+    cell_forces(cell, material, &law, Rods::Tension, &pairs, &mut force);
+    let initial = largest_force(&force);
+    let mut residual = initial;
+    let mut history = vec![(0, initial)];
+    let mut iteration = 0;
+    while residual > options.tolerance * initial {
+        if iteration == options.max_iterations {
+            return Err(RelaxError::NotConverged { iterations: iteration, reduction: residual / initial, tolerance: options.tolerance });
+        }
+        iteration += 1;
+        // FIRE: steer the velocity towards the force while the motion goes downhill
+        let power: f64 = force.iter().zip(&velocity).map(|(f, v)| f.dot(v)).sum();
+        if power > 0.0 {
+            let speed = velocity.iter().map(|v| v.norm_squared()).sum::<f64>().sqrt();
+            let push = force.iter().map(|f| f.norm_squared()).sum::<f64>().sqrt();
+            for (v, f) in velocity.iter_mut().zip(&force) {
+                *v = *v * (1.0 - alpha) + f * (alpha * speed / push);
+            }
+            since_negative += 1;
+            if since_negative > n_min {
+                dt = (dt * f_inc).min(critical);
+                alpha *= f_alpha;
+            }
+        } else {
+            velocity.fill(Vec3::zeros());
+            since_negative = 0;
+            dt *= f_dec;
+            alpha = alpha_start;
+        }
+        for ((x, v), f) in cell.positions.iter_mut().zip(&mut velocity).zip(&force) {
+            *v += f * (dt / mass);
+            *x += *v * dt;
+        }
+        let moved = cell.positions.iter().zip(&anchor).map(|(x, a)| (x - a).norm_squared()).fold(0.0, f64::max).sqrt();
+        if 2.0 * moved > skin {
+            pairs = periodic_pairs(cell, reach);
+            anchor.clone_from(&cell.positions);
+        }
+        cell_forces(cell, material, &law, Rods::Tension, &pairs, &mut force);
+        residual = largest_force(&force);
+        if !residual.is_finite() {
+            return Err(RelaxError::NonFinite { iteration });
+        }
+        if iteration % 1000 == 0 {
+            history.push((iteration, residual));
+        }
+    }
+    for fibre in 0..cell.fibres() {
+        cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre));
+    }
+    // the forces the solver will see: the same as the last iteration's, as the rest lengths
+    // are those the tension gave
+    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut force);
+    residual = largest_force(&force);
+    history.push((iteration, residual));
+    Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::weave::PlainWeave;
+
+    fn km2_706(fibres: usize) -> PlainWeave {
+        PlainWeave::km2_style_706(fibres)
+    }
+
+    #[test]
+    fn periodic_pairs_match_brute_force() {
+        let material = FibreMaterial::kevlar_km2();
+        let cell = km2_706(7).unit_cell(&material).unwrap();
+        let reach = 1.5 * cell.section.contact_diameter;
+        let n = cell.nodes_per_period as usize;
+        let mut expected = Vec::new();
+        for i in 0..cell.positions.len() {
+            for j in i + 1..cell.positions.len() {
+                if i / n != j / n && minimum_image(cell.positions[j] - cell.positions[i], cell.period()).norm() < reach {
+                    expected.push((i as u32, j as u32));
+                }
+            }
+        }
+        assert!(!expected.is_empty());
+        assert_eq!(periodic_pairs(&cell, reach), expected);
+    }
+
+    #[test]
+    fn relaxation_reaches_equilibrium_and_keeps_the_fabric_real() {
+        let material = FibreMaterial::kevlar_km2();
+        let law = NormalLaw::ElastoPlasticKm2;
+        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        let (crimp, thickness) = (cell.crimp(), cell.thickness());
+        let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
+        assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
+        // the solver's forces on the relaxed cell are the converged ones
+        let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
+        let mut force = vec![Vec3::zeros(); cell.positions.len()];
+        cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut force);
+        assert!((largest_force(&force) - report.final_residual_n).abs() <= 1e-9 * report.initial_residual_n);
+        // tension pulls the yarns straighter and flatter; no contact is compressed beyond the
+        // strain the stable time step is designed for
+        assert!(cell.crimp() < crimp && cell.thickness() < thickness);
+        assert!(report.contacts > 0 && report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN, "{}", report.largest_overlap_ratio);
+        // style 706: 180 g/m^2 (DuPont), within 2 %
+        assert!((cell.areal_density(&material) / 0.180 - 1.0).abs() < 0.02, "{}", cell.areal_density(&material));
+        // every element carries the fibre tension on average
+        let n = cell.nodes_per_period as usize;
+        for fibre in 0..cell.fibres() {
+            let strain = cell.fibre_length(fibre) / (n as f64 * cell.rest_lengths[fibre]) - 1.0;
+            assert!((strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension - 1.0).abs() < 1e-9);
+        }
+        // the same bits every time
+        let mut again = km2_706(4).unit_cell(&material).unwrap();
+        relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
+        assert_eq!(again, cell);
+    }
+
+    #[test]
+    fn a_relaxation_that_cannot_finish_says_so() {
+        let material = FibreMaterial::kevlar_km2();
+        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10 }).unwrap_err();
+        assert!(matches!(error, RelaxError::NotConverged { iterations: 10, .. }));
+    }
+
+    #[test]
+    fn internal_forces_sum_to_zero() {
+        let material = FibreMaterial::kevlar_km2();
+        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        // push the yarns into each other so that contacts act too
+        for p in cell.positions.iter_mut() {
+            p.z *= 0.6;
+        }
+        let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
+        let mut force = vec![Vec3::zeros(); cell.positions.len()];
+        let law = NormalLaw::Elastic { transverse_modulus: material.transverse_modulus };
+        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut force);
+        assert!(contacts > 0);
+        let total: Vec3 = force.iter().sum();
+        let scale = largest_force(&force);
+        assert!(total.norm() < 1e-10 * scale * force.len() as f64, "{total}");
+    }
+}
