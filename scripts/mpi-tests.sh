@@ -64,6 +64,11 @@ check restart-on-three-ranks-is-identical bash -c 'mpi 3 run --restart $work/ter
 check sigusr1-through-mpirun bash -c '$MPIRUN_LINE -np 2 $bin run $work/long.json --out $work/usr1 & runner=$!; sleep 3;     kill -USR1 $runner; wait $runner; code=$?; echo "exit $code"; test $code -eq 75 && test -f $work/usr1/checkpoint/manifest.h5'
 check truncated-checkpoint-refused bash -c 'part=$work/usr1/checkpoint/part-00000.h5; head -c 2000 $part >$part.cut && mv $part.cut $part;     mpi 2 run --restart $work/usr1/checkpoint --out $work/usr1 2>$work/cut.err; code=$?; cat $work/cut.err;     test $code -eq 4 && grep -q "part-00000.h5" $work/cut.err'
 # the benchmark runs under mpirun and reports every key
+# the woven fabric: the relaxed cell is the same on 1, 2 and 4 ranks, and the default case
+# (a four-layer KM2 706 patch struck by the FSP) runs on 2 ranks to its end
+check fabric-cell-identical-on-1-2-4-ranks bash -c 'for r in 1 2 4; do mpi $r fabric --out $work/fabric$r || exit 1; done; \
+    $bin compare $work/fabric1/cell.h5 $work/fabric2/cell.h5 && $bin compare $work/fabric1/cell.h5 $work/fabric4/cell.h5 && test -f $work/fabric4/cell.xdmf'
+check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -q "\"perforated\": true" $work/default/summary.json'
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
     && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
            grep -q "\"$key\"" $work/bench.json || { echo "bench lacks $key"; exit 1; }; done && grep -q "\"ranks\":2" $work/bench.json'

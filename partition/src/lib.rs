@@ -12,7 +12,7 @@
 //! segment. [`QualityReport`] predicts the cost before a cluster hour is spent.
 
 use dea_core::{FibreId, FibreMaterial, Rank, Vec3, CHAIN_STENCIL};
-use dea_fabric::StraightFabric;
+use dea_fabric::Fabric;
 use serde::Serialize;
 
 /// Work of one node's rods, bending and integration relative to one contact-list entry:
@@ -23,6 +23,9 @@ pub const NODE_WORK_PER_CONTACT_ENTRY: f64 = 12.0;
 pub const PROJECTILE_CANDIDATE_WORK: f64 = 12.0;
 /// Bytes a ghost node costs per step in the forward halo: position and element state.
 pub const HALO_BYTES_PER_GHOST: usize = 4 * std::mem::size_of::<f64>();
+
+/// Held while METIS runs (see [`partition`]).
+static METIS_STATE: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// METIS algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,16 +91,17 @@ pub struct SegmentGraph {
 
 /// Positions per segment: 64, or fewer (down to 4) so that each rank has at least 32
 /// segments to balance with.
-pub fn default_segment_positions(fabric: &StraightFabric, ranks: usize) -> u32 {
-    let positions = fabric.yarns.len() as u64 * fabric.nodes_per_fibre() as u64;
+pub fn default_segment_positions(fabric: &Fabric, ranks: usize) -> u32 {
+    let positions = fabric.yarn_count() as u64 * fabric.nodes_per_fibre() as u64;
     (positions / (32 * ranks.max(1) as u64)).clamp(4, 64) as u32
 }
 
-/// Expected contact-list entries per node inside a straight yarn: for every pair of fibres
-/// closer than `reach`, the nodes of the other fibre within reach of a node.
-fn in_yarn_entries_per_node(fabric: &StraightFabric, fibres: usize, material: &FibreMaterial, reach: f64) -> f64 {
+/// Expected contact-list entries per node inside a yarn, as if it were straight: for every
+/// pair of fibres closer than `reach`, the nodes of the other fibre within reach of a node.
+fn in_yarn_entries_per_node(fabric: &Fabric, yarn: usize, material: &FibreMaterial, reach: f64) -> f64 {
     let section = fabric.section(material);
-    let centres = dea_fabric::hexagonal_packing(fibres, section.contact_diameter);
+    let centres = fabric.section_packing(yarn, material);
+    let fibres = centres.len();
     let mut entries = 0.0;
     for (a, p) in centres.iter().enumerate() {
         for (b, q) in centres.iter().enumerate() {
@@ -117,19 +121,20 @@ fn overlap_volume(low_a: &Vec3, high_a: &Vec3, low_b: &Vec3, high_b: &Vec3) -> f
 
 /// Builds the segment graph. `reach` is the contact search distance (largest contact
 /// diameter plus the Verlet skin) [m].
-pub fn segment_graph(fabric: &StraightFabric, material: &FibreMaterial, reach: f64, shot: Option<ShotLine>, segment_positions: u32) -> SegmentGraph {
+pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot: Option<ShotLine>, segment_positions: u32) -> SegmentGraph {
     let segment_positions = segment_positions.max(1);
     let nodes_per_fibre = fabric.nodes_per_fibre();
     let section = fabric.section(material);
     let pad = 0.5 * section.contact_diameter;
     let mut segments = Vec::new();
     let mut first_segment = vec![0u32];
-    for (y, yarn) in fabric.yarns.iter().enumerate() {
-        let entries = in_yarn_entries_per_node(fabric, yarn.fibres, material, reach);
+    for y in 0..fabric.yarn_count() {
+        let fibres = fabric.yarn_fibres(y);
+        let entries = in_yarn_entries_per_node(fabric, y, material, reach);
         let mut first = 0;
         while first < nodes_per_fibre {
             let last = (first + segment_positions - 1).min(nodes_per_fibre - 1);
-            let nodes = yarn.fibres as u64 * (last - first + 1) as u64;
+            let nodes = fibres as u64 * (last - first + 1) as u64;
             let (low, high) = fabric.segment_box(y, first, last, material);
             let (low, high) = (low.add_scalar(-pad), high.add_scalar(pad));
             let mut work = nodes as f64 * (NODE_WORK_PER_CONTACT_ENTRY + entries);
@@ -148,9 +153,9 @@ pub fn segment_graph(fabric: &StraightFabric, material: &FibreMaterial, reach: f
     let mut adjacency: Vec<Vec<Adjacency>> = vec![Vec::new(); segments.len()];
     // consecutive segments of a yarn: the chain stencil and the in-yarn contacts across the cut
     let along_ghosts = CHAIN_STENCIL.max((reach / section.element_length).ceil() as u32) as f64;
-    for y in 0..fabric.yarns.len() {
+    for y in 0..fabric.yarn_count() {
         for s in first_segment[y]..first_segment[y + 1] - 1 {
-            let ghosts = along_ghosts * fabric.yarns[y].fibres as f64;
+            let ghosts = along_ghosts * fabric.yarn_fibres(y) as f64;
             adjacency[s as usize].push(Adjacency { segment: s + 1, ghosts_needed: ghosts });
             adjacency[s as usize + 1].push(Adjacency { segment: s, ghosts_needed: ghosts });
         }
@@ -269,9 +274,15 @@ pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<P
     let vwgt: Vec<metis::Idx> = graph.segments.iter().map(|s| (s.work.round() as metis::Idx).max(1)).collect();
     let mut part: Vec<metis::Idx> = vec![0; n];
     let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy).map_err(|e| PartitionError::Metis(e.into()))?.set_vwgt(&vwgt).set_adjwgt(&adjwgt);
-    let edge_cut = match method {
-        Method::KWay => graph.part_kway(&mut part),
-        Method::RecursiveBisection => graph.part_recursive(&mut part),
+    // METIS draws from GKlib's one global random state, seeded per call: two partitions at
+    // once in one process (threads of the test suite) would interleave their draws and give
+    // different answers for the same graph
+    let edge_cut = {
+        let _only_one = METIS_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        match method {
+            Method::KWay => graph.part_kway(&mut part),
+            Method::RecursiveBisection => graph.part_recursive(&mut part),
+        }
     }
     .map_err(PartitionError::Metis)?;
     Ok(make(part.iter().map(|&p| Rank(p as u32)).collect(), edge_cut as i64))
@@ -340,11 +351,11 @@ mod tests {
     use super::*;
     use dea_core::material::InertiaModel;
 
-    fn panel(layers: usize, yarns: usize, fibres: usize, length: f64) -> (StraightFabric, FibreMaterial, f64) {
+    fn panel(layers: usize, yarns: usize, fibres: usize, length: f64) -> (Fabric, FibreMaterial, f64) {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(layers, yarns, fibres, length, 4.63e-8 / fibres as f64, 0.5, InertiaModel::Locked, 0.3, 3.8e9, &material);
+        let fabric = dea_fabric::StraightFabric::cross_ply(layers, yarns, fibres, length, 4.63e-8 / fibres as f64, 0.5, InertiaModel::Locked, 0.3, 3.8e9, &material);
         let reach = 1.25 * fabric.section(&material).contact_diameter;
-        (fabric, material, reach)
+        (Fabric::Straight(fabric), material, reach)
     }
 
     #[test]

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod comm;
 pub mod deformable;
 pub mod distributed;
+pub mod fabric;
 pub mod progress;
 pub mod run;
 pub mod setup;

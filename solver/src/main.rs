@@ -24,7 +24,7 @@ enum Exit {
 
 #[derive(Parser)]
 #[command(name = "dea-mpi", version, about = "Fibre-level ballistic impact solver (modified digital element approach)", long_about = None,
-    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure, 75 stopped by a signal after writing a checkpoint.")]
+    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi fabric case.json          # relax a woven case's cell, report the fabric\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure, 75 stopped by a signal after writing a checkpoint.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -56,6 +56,20 @@ enum Command {
         /// the whole job then ends at once
         #[arg(long, hide = true)]
         panic_on_rank: Option<u32>,
+    },
+    /// Generate and relax a woven case's unit cell, build its panel over the job's ranks
+    /// (each rank only its own part) and report the fabric: OUT/cell.h5 (reusable as
+    /// target.cell_file), OUT/cell.xdmf (ParaView) and OUT/fabric.json.
+    #[command(after_help = "Examples:\n  dea-mpi fabric\n  mpirun -np 4 dea-mpi fabric cases/km2_706_patch.json --out out/fabric")]
+    Fabric {
+        /// case file with a woven_panel target; none: the built-in default case
+        case: Option<PathBuf>,
+        /// output directory
+        #[arg(long, default_value = "out/fabric")]
+        out: PathBuf,
+        /// METIS algorithm for the partition over the job's ranks
+        #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
+        method: PartitionMethod,
     },
     /// Validate a case and print it resolved, without running.
     #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
@@ -176,8 +190,9 @@ fn method_of(method: PartitionMethod) -> dea_partition::Method {
 fn setup_exit(error: &SetupError) -> Exit {
     match error {
         SetupError::Partition(_) => Exit::Usage,
-        SetupError::Numerical(_) => Exit::Numerical,
+        SetupError::Numerical(_) | SetupError::Relaxation(_) => Exit::Numerical,
         SetupError::Checkpoint(_) | SetupError::Mesh(_) => Exit::File,
+        SetupError::Case(_) => Exit::BadCase,
     }
 }
 
@@ -201,7 +216,8 @@ fn main() -> ExitCode {
                     "material": problem.material,
                     "sections": [problem.fabric.section(&problem.material)],
                     "projectile": setup::describe_projectile(projectile, &case.projectile().expect("validated case").body, problem.deformable.as_ref()),
-                    "yarns": problem.fabric.yarns.len(),
+                    "yarns": problem.fabric.yarn_count(),
+                    "relaxation": problem.relaxation,
                     "fibres": fibres,
                     "nodes": fibres * problem.fabric.nodes_per_fibre() as u64,
                     "time_step_s": problem.time_step,
@@ -360,6 +376,41 @@ fn main() -> ExitCode {
             }
             Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
         },
+        Command::Fabric { case, out, method } => {
+            let (session, comm) = match MpiComm::initialize() {
+                Ok(mpi) => mpi,
+                Err(e) => return fail(Exit::Usage, e),
+            };
+            let case = match load_shared(&comm, case.as_ref()) {
+                Ok(case) => case,
+                Err((code, message)) => return fail_all(&session, code, message),
+            };
+            match dea_mpi::fabric::fabric(&case, comm, method_of(method), &out) {
+                Ok(Some(report)) => {
+                    let (c, p) = (&report.cell, &report.panel);
+                    if let Some(r) = &report.relaxation {
+                        println!(
+                            "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
+                            r.iterations, report.relaxation_s, r.initial_residual_n, r.final_residual_n, r.contacts, 100.0 * r.largest_overlap_ratio
+                        );
+                    }
+                    println!(
+                        "cell: thickness {:.1} um, crimp {:.2} %, yarn {:.0} x {:.0} um, fibre volume fraction {:.3}, {:.1} g/m^2 ({:+.2} % from style 706's 180)",
+                        1e6 * c.thickness_m, 100.0 * c.crimp, 1e6 * c.yarn_width_m, 1e6 * c.yarn_thickness_m, c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, 100.0 * report.style_706_areal_density_deviation
+                    );
+                    println!(
+                        "panel: {} x {} cells ({:.2} mm square), {} layers {:.1} um apart ({:.1} um thick), {} yarns, {} fibres, {} nodes; results in {}",
+                        p.cells_per_side, p.cells_per_side, 1e3 * p.side_m, p.layers, 1e6 * p.layer_pitch_m, 1e6 * p.thickness_m, p.yarns, p.fibres, p.nodes, out.display()
+                    );
+                    for r in &report.ranks {
+                        println!("rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node", r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node);
+                    }
+                    ExitCode::SUCCESS
+                }
+                Ok(None) => ExitCode::SUCCESS,
+                Err(e) => fail_all(&session, setup_exit(&e), e),
+            }
+        }
         Command::Bench { json, nodes, steps } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,

@@ -16,8 +16,12 @@ use std::path::Path;
 
 use dea_core::domain::BrokenCount;
 use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
+use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
-use dea_fabric::StraightFabric;
+use dea_fabric::panel::WovenPanel;
+use dea_fabric::relax::{largest_overlap_ratio, relax, RelaxOptions, RelaxReport};
+use dea_fabric::weave::UnitCell;
+use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
@@ -31,7 +35,9 @@ pub const INITIAL_GAP: f64 = 1e-6;
 /// Everything about a case that needs no node: material, fabric, laws, projectile, time step.
 pub struct Problem {
     pub material: FibreMaterial,
-    pub fabric: StraightFabric,
+    pub fabric: Fabric,
+    /// how the woven target's unit cell was relaxed (none when read from a cell file)
+    pub relaxation: Option<RelaxReport>,
     pub contact: ContactParameters,
     pub failure: FailureParameters,
     pub strength: Strength,
@@ -49,12 +55,12 @@ pub struct Problem {
 impl Problem {
     /// Layer of each yarn.
     pub fn layer_of_yarn(&self) -> Vec<u32> {
-        self.fabric.yarns.iter().map(|y| y.layer).collect()
+        (0..self.fabric.yarn_count()).map(|y| self.fabric.yarn_layer(y)).collect()
     }
 
     /// Layers of the target.
     pub fn layers(&self) -> usize {
-        self.fabric.yarns.iter().map(|y| y.layer as usize + 1).max().unwrap_or(1)
+        (0..self.fabric.yarn_count()).map(|y| self.fabric.yarn_layer(y) as usize + 1).max().unwrap_or(1)
     }
 
     /// Fibres of the whole target.
@@ -73,9 +79,33 @@ pub enum SetupError {
     /// a checkpoint that cannot be read or does not fit the case
     #[error("{0}")]
     Checkpoint(String),
-    /// a projectile mesh that cannot be read or is not a closed surface
+    /// a projectile mesh or fabric cell file that cannot be read or is not what it claims
     #[error("{0}")]
     Mesh(String),
+    /// a case that parses but describes something that cannot be built (a yarn section too
+    /// wide for its spacing)
+    #[error("{0}")]
+    Case(String),
+    /// a unit cell whose relaxation does not converge
+    #[error("{0}")]
+    Relaxation(String),
+}
+
+/// The unit cell of a woven target, relaxed with the case's contact law (or read from its
+/// cell file, then without a report); `None` for other targets.
+pub fn woven_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { weave, cell_file, relaxation, .. } = &case.target else {
+        return Ok(None);
+    };
+    if let Some(path) = cell_file {
+        return read_cell(path).map(|cell| Some((cell, None))).map_err(SetupError::Mesh);
+    }
+    let weave = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
+    let mut cell = weave.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
+    let law = case.normal_law(material).expect("validated case");
+    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations };
+    let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    Ok(Some((cell, Some(report))))
 }
 
 /// Resolves a validated case (reading or generating the projectile's mesh).
@@ -88,17 +118,24 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         _ => f64::INFINITY,
     };
     let mu = case.contact.friction_coefficient;
+    let mut relaxation = None;
     let fabric = match &case.target {
         TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
-            StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic)
+            Fabric::Straight(StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic))
         }
         TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
             let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
-            StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic)
+            Fabric::Straight(StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic))
         }
         TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
             let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
-            StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material)
+            Fabric::Straight(StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material))
+        }
+        TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
+            let (cell, report) = woven_cell(case, &material)?.expect("a woven target");
+            relaxation = report;
+            let cells = ((side_m / cell.period()).round() as u32).max(1);
+            Fabric::Woven(WovenPanel::new(Arc::new(cell), cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
     };
     let section = fabric.section(&material);
@@ -128,7 +165,13 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         }
     };
     let sections = [section];
-    let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), case.run.time_step_safety);
+    // a relaxed fabric starts with its crossings pressed in: the contacts may already be
+    // deeper than the design strain, and stiffer there
+    let starting_strain = match &fabric {
+        Fabric::Woven(panel) => 1.25 * largest_overlap_ratio(&panel.cell),
+        Fabric::Straight(_) => 0.0,
+    };
+    let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);
     if let Some(body) = &deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
         let section = &sections[0];
@@ -136,7 +179,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         time_step = time_step.min(case.run.time_step_safety * body.stable_time_step(per_area));
     }
     let reach = sections[0].contact_diameter + contact.skin;
-    Ok(Problem { material, fabric, contact, failure, strength, projectile, aim, deformable, time_step, reach })
+    Ok(Problem { material, fabric, relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
 }
 
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
@@ -287,7 +330,13 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 /// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
 /// (the benchmark squeezes its yarn this way).
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
-    let mut problem = shared_problem(&comm, case)?;
+    let problem = shared_problem(&comm, case)?;
+    assemble(problem, comm, method, segment_positions, adjust)
+}
+
+/// The rank of a resolved problem: partition, own nodes (`adjust` applied), Weibull
+/// strengths, ghosts, initial forces.
+pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
     let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
     let body = take_body(&mut problem, comm.rank());
@@ -342,7 +391,7 @@ fn agree_on<C: Comm, T>(comm: &C, local: Result<T, SetupError>, elsewhere: impl 
 
 /// [`problem`] on every rank, failing together (a mesh file one node cannot read ends the
 /// whole job).
-fn shared_problem<C: Comm>(comm: &C, case: &Case) -> Result<Problem, SetupError> {
+pub fn shared_problem<C: Comm>(comm: &C, case: &Case) -> Result<Problem, SetupError> {
     agree_on(comm, problem(case), || SetupError::Mesh("another rank could not read the projectile mesh".into()))
 }
 

@@ -135,6 +135,18 @@ fn a_meshed_oblique_projectile_gives_the_same_bits_on_any_ranks_and_after_a_rest
 }
 
 #[test]
+fn a_woven_panel_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_starts_at_rest() {
+    // two shifted layers of relaxed KM2 706 in a clamp, Weibull strengths, a small sphere
+    let case = case_file("woven_two_layer_clamp.json");
+    let dir = scratch("woven");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.max_projectile_force_n > 0.0, "the sphere struck");
+    assert!(reference.energy_balance_error < 0.01, "energy balance {}", reference.energy_balance_error);
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_deformable_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_a_steel_one_strikes_like_a_rigid_one() {
     let case = case_file("four_layer_deformable_sphere.json");
     let dir = scratch("deformable");

@@ -15,7 +15,7 @@ use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::stability::stable_time_step;
 use dea_core::{FibreMaterial, Vec3};
 
-use crate::weave::UnitCell;
+use crate::weave::{CellStatistics, UnitCell};
 
 /// What the relaxation is asked to reach.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,6 +46,10 @@ pub struct RelaxReport {
     pub largest_overlap_ratio: f64,
     /// (iteration, largest nodal force [N]) every 1000 iterations and at the end
     pub history: Vec<(u64, f64)>,
+    /// the micro-geometry of the initial topology
+    pub before: CellStatistics,
+    /// the relaxed micro-geometry
+    pub after: CellStatistics,
 }
 
 /// Why a cell could not be relaxed.
@@ -120,6 +124,16 @@ pub(crate) fn closest_crossing(cell: &UnitCell) -> f64 {
         .filter(|&(i, j)| cell.direction(i as usize / n) != cell.direction(j as usize / n))
         .map(|(i, j)| minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period()).norm())
         .fold(f64::INFINITY, f64::min)
+}
+
+/// Deepest overlap of two nodes of the cell (different fibres, periodic images included),
+/// over the contact diameter [-]: where the fabric's contacts start.
+pub fn largest_overlap_ratio(cell: &UnitCell) -> f64 {
+    let d = cell.section.contact_diameter;
+    periodic_pairs(cell, d)
+        .into_iter()
+        .map(|(i, j)| (d - minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period()).norm()) / d)
+        .fold(0.0, f64::max)
 }
 
 /// The shortest periodic image of a separation in x and y [m].
@@ -216,9 +230,10 @@ fn largest_force(force: &[Vec3]) -> f64 {
 /// it. The section (nominal element length, contact diameter, spring rigidity) stays.
 pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
     let law = *law;
+    let before = cell.statistics(material);
     let section = cell.section.clone();
     let mass = section.node_mass(material);
-    let critical = stable_time_step(material, std::slice::from_ref(&section), &law, 0.0, 0.9);
+    let critical = stable_time_step(material, std::slice::from_ref(&section), &law, 0.0, 0.5, 0.9);
     // FIRE's constants (Bitzek et al. 2006)
     let (n_min, f_inc, f_dec, alpha_start, f_alpha) = (5u64, 1.1, 0.5, 0.1, 0.99);
     let (mut dt, mut alpha, mut since_negative) = (0.25 * critical, alpha_start, 0u64);
@@ -284,7 +299,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
     let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
-    Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history })
+    Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history, before, after: cell.statistics(material) })
 }
 
 #[cfg(test)]

@@ -281,7 +281,36 @@ fn equal_chord_stations(amplitude: f64, s: f64, n: u32) -> (Vec<(f64, f64)>, f64
     (walk(chord).0, chord)
 }
 
+/// The micro-geometry of a cell (seed Table 3-7 compares thickness; §3.3.4 the rest).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CellStatistics {
+    /// node-centre range plus one fibre diameter [m]
+    pub thickness_m: f64,
+    /// mean fibre path length over the period, minus one [-]
+    pub crimp: f64,
+    /// mean across-spread of a yarn's fibres plus one diameter [m]
+    pub yarn_width_m: f64,
+    /// mean vertical spread of a yarn's fibres plus one diameter [m]
+    pub yarn_thickness_m: f64,
+    /// fibre volume over cell area times thickness [-]
+    pub fibre_volume_fraction: f64,
+    /// [kg/m^2]
+    pub areal_density_kg_m2: f64,
+}
+
 impl UnitCell {
+    /// The cell's micro-geometry.
+    pub fn statistics(&self, material: &FibreMaterial) -> CellStatistics {
+        CellStatistics {
+            thickness_m: self.thickness(),
+            crimp: self.crimp(),
+            yarn_width_m: self.yarn_width(),
+            yarn_thickness_m: self.yarn_thickness(),
+            fibre_volume_fraction: self.fibre_volume_fraction(),
+            areal_density_kg_m2: self.areal_density(material),
+        }
+    }
+
     /// Side of the square cell, `2 s` [m].
     pub fn period(&self) -> f64 {
         2.0 * self.yarn_spacing

@@ -8,6 +8,8 @@ use dea_projectile::elastic::ElasticModel;
 use dea_projectile::generate::{FspDimensions, Solid};
 use dea_core::weibull::{WeibullMode, WeibullStrength};
 use dea_core::FibreMaterial;
+use dea_fabric::panel::Boundary;
+use dea_fabric::weave::PlainWeave;
 use serde::{Deserialize, Serialize};
 
 /// A case error: where and why.
@@ -78,7 +80,7 @@ impl Default for MaterialSpec {
     }
 }
 
-/// What the projectile strikes (woven panels arrive with the fabric generator).
+/// What the projectile strikes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TargetSpec {
@@ -119,6 +121,145 @@ pub enum TargetSpec {
         /// element length / digital fibre diameter [-]
         element_length_ratio: f64,
     },
+    /// a plain-woven panel: a unit cell generated and relaxed with periodic boundaries
+    /// (or read from a `dea-mpi fabric` cell file), tiled to a square and stacked in layers;
+    /// layer 0 is on top, struck first
+    WovenPanel {
+        /// the weave of every layer (ignored parts must be absent when `cell_file` is set)
+        #[serde(default)]
+        weave: WeaveSpec,
+        /// a relaxed cell written by `dea-mpi fabric` (`cell.h5`), used instead of relaxing
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cell_file: Option<std::path::PathBuf>,
+        /// side of the square panel, rounded to whole unit cells (at least one) [m]
+        side_m: f64,
+        /// number of layers (1..=28 and beyond, up to 100)
+        layers: usize,
+        /// gap between the contact surfaces of neighbouring layers; 0 = touching [m]
+        #[serde(default)]
+        layer_gap_m: f64,
+        /// in-plane shift of each layer relative to the one above (x, y) [m]
+        #[serde(default)]
+        layer_shift_m: [f64; 2],
+        /// how the panel is held: {"kind": "fixed_edges"} or {"kind": "clamp", "opening_m": ...}
+        #[serde(default = "default_boundary")]
+        boundary: BoundarySpec,
+        /// when the relaxation stops
+        #[serde(default)]
+        relaxation: RelaxationSpec,
+    },
+}
+
+/// A plain weave: a fabric preset with optional overrides.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeaveSpec {
+    /// "km2_style_706": KM2 600 denier, 34 x 34 yarns per inch (DuPont; docs/theory.md F1)
+    pub preset: String,
+    /// digital fibres per yarn (1..=400)
+    pub fibres_per_yarn: usize,
+    /// centre distance of neighbouring parallel yarns [m]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub yarn_spacing_m: Option<f64>,
+    /// width / thickness of the yarn section the fibres are packed in [-]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub section_aspect: Option<f64>,
+    /// initial crimp before relaxation; default: the least that keeps crossing yarns apart [-]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_crimp: Option<f64>,
+    /// tension of a yarn during relaxation, kept in the relaxed fabric [N]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub yarn_tension_n: Option<f64>,
+    /// element length / digital fibre diameter [-]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub element_length_ratio: Option<f64>,
+}
+
+impl Default for WeaveSpec {
+    fn default() -> Self {
+        Self { preset: "km2_style_706".into(), fibres_per_yarn: 4, yarn_spacing_m: None, section_aspect: None, initial_crimp: None, yarn_tension_n: None, element_length_ratio: None }
+    }
+}
+
+/// Panel support.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum BoundarySpec {
+    /// both ends of every fibre fixed
+    FixedEdges,
+    /// every node outside a centred square opening fixed (seed §6.2.2: 12 in in 15 in fabric)
+    Clamp {
+        /// side of the opening [m]
+        opening_m: f64,
+    },
+}
+
+fn default_boundary() -> BoundarySpec {
+    BoundarySpec::FixedEdges
+}
+
+/// When the relaxation of the unit cell stops.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RelaxationSpec {
+    /// largest nodal force at the end over the initial one [-]
+    #[serde(default = "default_relaxation_tolerance")]
+    pub tolerance: f64,
+    /// iterations before giving up (exit 5)
+    #[serde(default = "default_relaxation_iterations")]
+    pub max_iterations: u64,
+}
+
+fn default_relaxation_tolerance() -> f64 {
+    1e-6
+}
+
+fn default_relaxation_iterations() -> u64 {
+    500_000
+}
+
+impl Default for RelaxationSpec {
+    fn default() -> Self {
+        Self { tolerance: default_relaxation_tolerance(), max_iterations: default_relaxation_iterations() }
+    }
+}
+
+impl WeaveSpec {
+    /// The weave the spec names (validated: call [`Case::validate`] first for field errors).
+    pub fn plain_weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<PlainWeave, CaseError> {
+        let mut weave = match self.preset.as_str() {
+            "km2_style_706" => PlainWeave::km2_style_706(fibre_count_at("target.weave.fibres_per_yarn", self.fibres_per_yarn)?),
+            other => return Err(invalid("target.weave.preset", format!("unknown fabric {other:?}; known: \"km2_style_706\""))),
+        };
+        weave.inertia = bending;
+        weave.friction_coefficient = friction_coefficient;
+        if let Some(v) = self.yarn_spacing_m {
+            weave.yarn_spacing = positive("target.weave.yarn_spacing_m", v)?;
+        }
+        if let Some(v) = self.section_aspect {
+            weave.section_aspect = ranged("target.weave.section_aspect", v, 1.0, 50.0)?;
+        }
+        if let Some(v) = self.initial_crimp {
+            weave.initial_crimp = Some(ranged("target.weave.initial_crimp", v, 0.0, 0.5)?);
+        }
+        if let Some(v) = self.yarn_tension_n {
+            weave.yarn_tension = positive("target.weave.yarn_tension_n", v)?;
+        }
+        if let Some(v) = self.element_length_ratio {
+            weave.element_length_ratio = ratio("target.weave.element_length_ratio", v)?;
+        }
+        Ok(weave)
+    }
+}
+
+impl BoundarySpec {
+    /// The panel boundary.
+    pub fn boundary(&self) -> Boundary {
+        match *self {
+            BoundarySpec::FixedEdges => Boundary::FixedEdges,
+            BoundarySpec::Clamp { opening_m } => Boundary::Clamp { opening_m },
+        }
+    }
 }
 
 /// KM2 600 denier: 600 g per 9000 m at 1440 kg/m^3 (PHYSICS.md §6).
@@ -589,6 +730,32 @@ impl Case {
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
+            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation } => {
+                if cell_file.is_some() && *weave != WeaveSpec::default() {
+                    return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
+                }
+                weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
+                positive("target.side_m", *side_m)?;
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                non_negative("target.layer_gap_m", *layer_gap_m)?;
+                for (axis, v) in ["x", "y"].iter().zip(layer_shift_m) {
+                    if !v.is_finite() {
+                        return Err(invalid(&format!("target.layer_shift_m.{axis}"), format!("must be finite, got {v}")));
+                    }
+                }
+                if let BoundarySpec::Clamp { opening_m } = boundary {
+                    positive("target.boundary.opening_m", *opening_m)?;
+                    if *opening_m >= *side_m {
+                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                    }
+                }
+                ranged("target.relaxation.tolerance", relaxation.tolerance, 1e-14, 0.1)?;
+                if relaxation.max_iterations == 0 {
+                    return Err(invalid("target.relaxation.max_iterations", "must be >= 1, got 0"));
+                }
+            }
         }
         match self.bending {
             InertiaModel::Effective { k1, k2 } => {
@@ -622,10 +789,22 @@ impl Case {
 }
 
 fn fibre_count(value: usize) -> Result<usize, CaseError> {
+    fibre_count_at("target.fibres_per_yarn", value)
+}
+
+fn fibre_count_at(path: &str, value: usize) -> Result<usize, CaseError> {
     if (1..=400).contains(&value) {
         Ok(value)
     } else {
-        Err(invalid("target.fibres_per_yarn", format!("must be in 1..=400, got {value}")))
+        Err(invalid(path, format!("must be in 1..=400, got {value}")))
+    }
+}
+
+fn ranged(path: &str, value: f64, low: f64, high: f64) -> Result<f64, CaseError> {
+    if value.is_finite() && value >= low && value <= high {
+        Ok(value)
+    } else {
+        Err(invalid(path, format!("must be in [{low}, {high}], got {value}")))
     }
 }
 
@@ -658,32 +837,46 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     Ok(case)
 }
 
-/// Reads, parses and validates a case file; a relative mesh file is taken relative to the
-/// case file and made absolute (so that a checkpoint's copy of the case finds it too).
+/// Reads, parses and validates a case file; a relative mesh or cell file is taken relative to
+/// the case file and made absolute (so that a checkpoint's copy of the case finds it too).
 pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
     let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
     let mut case = parse_case(&text, &path.display().to_string())?;
-    if let Some(file) = case.projectile.mesh_file.as_mut().filter(|f| f.is_relative()) {
-        let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
+    let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
+    let cell_file = match &mut case.target {
+        TargetSpec::WovenPanel { cell_file, .. } => cell_file.as_mut(),
+        _ => None,
+    };
+    for file in [case.projectile.mesh_file.as_mut(), cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
         let joined = base.join(&*file);
         *file = std::path::absolute(&joined).unwrap_or(joined);
     }
     Ok(case)
 }
 
-/// The built-in default case: a 19-fibre KM2 600 denier straight yarn, 1 in long, clamped,
-/// struck at its centre by the 17-grain FSP (meshed, its measured edge radii resolved) at
-/// 100 m/s, long enough for the FSP to pass through.
+/// The built-in default case: a 10 mm square patch of four layers of KM2 style 706 (4
+/// digital fibres per yarn, the unit cell relaxed on the spot), every fibre end fixed, struck
+/// at its centre by the 17-grain FSP (meshed, its measured edge radii resolved) at 400 m/s,
+/// until it is through (about 20 us) or 30 us have passed.
 pub fn default_case() -> Case {
     Case {
-        name: "default-straight-yarn".into(),
+        name: "default-km2-706-patch".into(),
         material: MaterialSpec::default(),
-        target: TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: 19, length_m: 0.0254, element_length_ratio: 0.5 },
+        target: TargetSpec::WovenPanel {
+            weave: WeaveSpec::default(),
+            cell_file: None,
+            side_m: 0.01,
+            layers: 4,
+            layer_gap_m: 0.0,
+            layer_shift_m: [0.0, 0.0],
+            boundary: BoundarySpec::FixedEdges,
+            relaxation: RelaxationSpec::default(),
+        },
         bending: default_bending(),
         contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
         failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
-        projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 100.0, ..Default::default() },
-        run: RunSpec { end_time_s: 90e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
+        projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 400.0, ..Default::default() },
+        run: RunSpec { end_time_s: 30e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
     }
 }
 
@@ -709,8 +902,8 @@ mod tests {
 
     #[test]
     fn errors_name_the_field() {
-        let e = error_for(|v| v["target"]["fibres_per_yarn"] = 0.into());
-        assert_eq!(e.path, "target.fibres_per_yarn");
+        let e = error_for(|v| v["target"]["weave"]["fibres_per_yarn"] = 0.into());
+        assert_eq!(e.path, "target.weave.fibres_per_yarn");
         assert!(e.message.contains("got 0"), "{e}");
         let e = error_for(|v| v["run"]["bogus"] = 1.into());
         assert_eq!(e.path, "run.bogus");
@@ -766,6 +959,46 @@ mod tests {
         assert!(matches!(sphere.projectile().unwrap().body, ProjectileBody::Analytic(RigidShape::Sphere { .. })));
         sphere.projectile.mesh_divisions = Some(4);
         assert_eq!(sphere.projectile().unwrap().body, ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 });
+    }
+
+    #[test]
+    fn woven_targets_name_their_bad_fields() {
+        let e = error_for(|v| v["target"]["layers"] = 0.into());
+        assert_eq!(e.path, "target.layers");
+        let e = error_for(|v| v["target"]["weave"]["preset"] = "style_999".into());
+        assert_eq!(e.path, "target.weave.preset");
+        let e = error_for(|v| v["target"]["weave"]["section_aspect"] = 0.5.into());
+        assert_eq!(e.path, "target.weave.section_aspect");
+        let e = error_for(|v| v["target"]["weave"]["yarn_tension_n"] = (-1.0).into());
+        assert_eq!(e.path, "target.weave.yarn_tension_n");
+        let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 0.02 }));
+        assert_eq!(e.path, "target.boundary.opening_m");
+        assert!(e.message.contains("smaller than the panel"), "{e}");
+        let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "glued" }));
+        assert!(e.path.starts_with("target") && e.message.contains("glued") && e.message.contains("clamp"), "{e}");
+        let e = error_for(|v| v["target"]["relaxation"] = serde_json::json!({ "max_iterations": 0 }));
+        assert_eq!(e.path, "target.relaxation.max_iterations");
+        let e = error_for(|v| {
+            v["target"]["cell_file"] = "cell.h5".into();
+            v["target"]["weave"]["fibres_per_yarn"] = 7.into();
+        });
+        assert_eq!(e.path, "target.weave");
+        let e = error_for(|v| v["target"]["layer_gap"] = 0.into());
+        assert!(e.path.starts_with("target") && e.message.contains("unknown field"), "{e}");
+    }
+
+    #[test]
+    fn a_relative_cell_file_is_found_beside_the_case() {
+        let dir = std::env::temp_dir().join(format!("dea-case-cell-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut value = default_json();
+        value["target"].as_object_mut().unwrap().remove("weave");
+        value["target"]["cell_file"] = "relaxed/cell.h5".into();
+        std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
+        let case = load_case(&dir.join("case.json")).unwrap();
+        let TargetSpec::WovenPanel { cell_file: Some(file), .. } = case.target else { panic!("a woven target with a cell file") };
+        assert!(file.is_absolute() && file.ends_with("relaxed/cell.h5"), "{}", file.display());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

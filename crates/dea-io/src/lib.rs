@@ -1,6 +1,7 @@
 //! Case files (JSON, SI units, validated with field paths), presets, and HDF5 results.
 
 pub mod case;
+pub mod cell;
 pub mod checkpoint;
 pub mod results;
 pub mod snapshot;

@@ -1,0 +1,147 @@
+//! `dea-mpi fabric`: generate and relax a woven target's unit cell, build the panel the way a
+//! run does (each rank only its own yarn segments plus ghosts), and report the fabric: the
+//! relaxed cell (`cell.h5`, with `cell.xdmf` for ParaView) and its statistics with the
+//! panel's size, node counts and memory per node (`fabric.json`).
+
+use std::path::Path;
+use std::time::Instant;
+
+use dea_core::Rank;
+use dea_fabric::relax::RelaxReport;
+use dea_fabric::Fabric;
+use dea_io::case::Case;
+use dea_partition::Method;
+use serde::Serialize;
+
+use crate::comm::Comm;
+use crate::setup::{self, SetupError};
+
+/// Style 706's areal density (DuPont data sheet, as quoted in PHYSICS.md §6) [kg/m^2].
+pub const STYLE_706_AREAL_DENSITY: f64 = 0.180;
+
+/// The panel a woven case builds.
+#[derive(Clone, Debug, Serialize)]
+pub struct PanelStatistics {
+    pub cells_per_side: u32,
+    /// [m]
+    pub side_m: f64,
+    pub layers: u32,
+    /// distance between the node centres of neighbouring layers [m]
+    pub layer_pitch_m: f64,
+    /// from the top of the first layer to the bottom of the last, fibre surfaces included [m]
+    pub thickness_m: f64,
+    pub yarns: usize,
+    pub fibres: usize,
+    pub nodes: u64,
+    /// one layer [kg/m^2]
+    pub areal_density_kg_m2: f64,
+    /// every layer [kg]
+    pub mass_kg: f64,
+}
+
+/// One rank's share of the panel.
+#[derive(Clone, Debug, Serialize)]
+pub struct RankShare {
+    pub rank: u32,
+    pub owned_nodes: u64,
+    pub ghost_nodes: u64,
+    /// generating the rank's nodes, fetching its ghosts and building its contact lists [s]
+    pub build_s: f64,
+    /// growth of the resident set over the build, per owned node [bytes]
+    pub bytes_per_node: f64,
+}
+
+/// What `dea-mpi fabric` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct FabricReport {
+    pub case: String,
+    /// the relaxation (none when the cell came from a file)
+    pub relaxation: Option<RelaxReport>,
+    /// relaxing the cell on each rank [s]
+    pub relaxation_s: f64,
+    /// the cell as the panel uses it
+    pub cell: dea_fabric::weave::CellStatistics,
+    pub panel: PanelStatistics,
+    pub ranks: Vec<RankShare>,
+    /// (areal density of a layer / 180 g/m^2) - 1, for the style 706 preset
+    pub style_706_areal_density_deviation: f64,
+}
+
+/// Resident set size of this process [bytes] (0 where /proc is not there).
+fn resident_bytes() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|text| text.lines().find(|l| l.starts_with("VmRSS:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
+        .map_or(0.0, |kilobytes| 1024.0 * kilobytes)
+}
+
+/// Runs the command on the ranks of `comm`; rank 0 writes `out` and returns the report.
+pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Result<Option<FabricReport>, SetupError> {
+    if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
+        return Err(SetupError::Case("target.kind: `dea-mpi fabric` needs a woven_panel target".into()));
+    }
+    let started = Instant::now();
+    let problem = setup::shared_problem(&comm, case)?;
+    let relaxation_s = started.elapsed().as_secs_f64();
+    let Fabric::Woven(panel) = problem.fabric.clone() else { unreachable!("a woven target builds a woven panel") };
+    let (material, relaxation) = (problem.material.clone(), problem.relaxation.clone());
+    let (resident, started) = (resident_bytes(), Instant::now());
+    let run = setup::assemble(problem, comm, method, None, |_| {})?;
+    let build_s = started.elapsed().as_secs_f64();
+    let grown = resident_bytes() - resident;
+    let (owned, ghosts) = (run.domain.nodes.n_owned as u64, run.ghosts() as u64);
+    let comm = &run.comm;
+    let ranks = comm.size();
+    let mut counts = vec![0i64; 2 * ranks];
+    let me = comm.rank().0 as usize;
+    counts[2 * me] = owned as i64;
+    counts[2 * me + 1] = ghosts as i64;
+    comm.sum_i64(&mut counts);
+    let timings = comm.gather_f64(&[build_s, grown]);
+    if comm.rank() != Rank(0) {
+        return Ok(None);
+    }
+    let timings = timings.expect("rank 0 gathers");
+    let shares = (0..ranks)
+        .map(|r| RankShare {
+            rank: r as u32,
+            owned_nodes: counts[2 * r] as u64,
+            ghost_nodes: counts[2 * r + 1] as u64,
+            build_s: timings[r][0],
+            bytes_per_node: timings[r][1] / (counts[2 * r] as f64).max(1.0),
+        })
+        .collect();
+    let cell = &panel.cell;
+    let areal_density = panel.areal_density(&material);
+    let statistics = PanelStatistics {
+        cells_per_side: panel.cells,
+        side_m: panel.side(),
+        layers: panel.layers,
+        layer_pitch_m: panel.layer_pitch,
+        thickness_m: panel.top() - panel.bottom() + cell.section.diameter,
+        yarns: panel.yarn_count(),
+        fibres: panel.yarn_count() * cell.fibres_per_yarn,
+        nodes: panel.node_count(),
+        areal_density_kg_m2: areal_density,
+        mass_kg: areal_density * panel.side() * panel.side() * panel.layers as f64,
+    };
+    let report = FabricReport {
+        case: case.name.clone(),
+        relaxation,
+        relaxation_s,
+        cell: cell.statistics(&material),
+        panel: statistics,
+        ranks: shares,
+        style_706_areal_density_deviation: areal_density / STYLE_706_AREAL_DENSITY - 1.0,
+    };
+    let failed = |e: &dyn std::fmt::Display| SetupError::Mesh(format!("{}: {e}", out.display()));
+    std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
+    let report_json = serde_json::to_string_pretty(&report).expect("report serialises");
+    // the cell file holds nothing that depends on the ranks or the clock
+    let relaxation_json = serde_json::to_string(&report.relaxation).expect("report serialises");
+    let cell_json = serde_json::to_string(&report.cell).expect("statistics serialise");
+    dea_io::cell::write_cell(&out.join("cell.h5"), cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
+    dea_io::cell::write_cell_xdmf(out, cell).map_err(|e| failed(&e))?;
+    std::fs::write(out.join("fabric.json"), &report_json).map_err(|e| failed(&e))?;
+    Ok(Some(report))
+}

@@ -1,0 +1,58 @@
+//! `dea-mpi fabric` on 1, 2 and 4 ranks: the relaxed cell has the same bits, the panel's
+//! nodes are split without loss, the cell file is reusable by a case, and a cell file that
+//! is not one is refused naming the file.
+
+use std::path::PathBuf;
+
+use dea_io::case::{default_case, TargetSpec};
+use dea_io::cell::read_cell;
+use dea_mpi::comm::local::run_local;
+use dea_mpi::fabric::{fabric, FabricReport};
+use dea_mpi::setup::{problem, SetupError};
+use dea_partition::Method;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("dea-fabric-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+#[test]
+fn the_relaxed_cell_has_the_same_bits_on_one_two_and_four_ranks_and_is_reusable() {
+    let case = default_case();
+    let dir = scratch("ranks");
+    let mut reports: Vec<FabricReport> = Vec::new();
+    for ranks in [1, 2, 4] {
+        let out = dir.join(ranks.to_string());
+        let report = run_local(ranks, |comm| fabric(&case, comm, Method::KWay, &out).expect("fabric succeeds")).into_iter().next().flatten().expect("rank 0 reports");
+        assert_eq!(report.ranks.len(), ranks);
+        assert_eq!(report.ranks.iter().map(|r| r.owned_nodes).sum::<u64>(), report.panel.nodes, "every node owned once");
+        reports.push(report);
+    }
+    let cells: Vec<_> = [1, 2, 4].iter().map(|r| read_cell(&dir.join(r.to_string()).join("cell.h5")).unwrap()).collect();
+    assert!(cells.iter().all(|c| *c == cells[0]), "the same relaxed cell on 1, 2 and 4 ranks");
+    let relaxation = reports[0].relaxation.as_ref().expect("relaxed here");
+    assert!(reports.iter().all(|r| r.relaxation.as_ref().unwrap().final_residual_n.to_bits() == relaxation.final_residual_n.to_bits()));
+    assert!(relaxation.final_residual_n <= 1e-6 * relaxation.initial_residual_n);
+    // style 706: within 2 % of 180 g/m^2; four layers of about a quarter millimetre
+    assert!(reports[0].style_706_areal_density_deviation.abs() < 0.02, "{}", reports[0].style_706_areal_density_deviation);
+    assert!(reports[0].cell.thickness_m > 1.5e-4 && reports[0].cell.thickness_m < 4e-4, "{}", reports[0].cell.thickness_m);
+    assert!(dir.join("1/cell.xdmf").exists() && dir.join("1/fabric.json").exists());
+    // a case naming the cell file builds the same panel without relaxing
+    let mut reused = case.clone();
+    let TargetSpec::WovenPanel { weave, cell_file, .. } = &mut reused.target else { panic!("the default case is woven") };
+    *weave = Default::default();
+    *cell_file = Some(dir.join("1/cell.h5"));
+    let (fresh, again) = (problem(&case).unwrap(), problem(&reused).unwrap());
+    assert!(again.relaxation.is_none());
+    assert!(fresh.fabric == again.fabric, "the panel from the file is the panel relaxed on the spot");
+    assert_eq!(fresh.time_step.to_bits(), again.time_step.to_bits());
+    // a file that is not a cell file: exit 4, naming the file
+    std::fs::write(dir.join("bad.h5"), b"not a cell").unwrap();
+    *match &mut reused.target { TargetSpec::WovenPanel { cell_file, .. } => cell_file, _ => unreachable!() } = Some(dir.join("bad.h5"));
+    match problem(&reused) {
+        Err(SetupError::Mesh(message)) => assert!(message.contains("bad.h5"), "{message}"),
+        other => panic!("expected a file error, got {:?}", other.map(|_| ())),
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
