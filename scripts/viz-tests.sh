@@ -2,7 +2,7 @@
 # Checks the results against the tools users open them with: installs Debian's ParaView,
 # Xvfb, h5py and matplotlib when missing, runs the four-layer panel on 2 ranks, opens its
 # fields.xdmf in ParaView (arrays, time steps, an offscreen PNG) and draws the plots of
-# scripts/plot-run.py. Debian's Python modules need /usr/bin/python3.
+# scripts/plot-run.py; relaxes the default case's woven cell and opens its cell.xdmf. Debian's Python modules need /usr/bin/python3.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/mpi-env.sh
@@ -20,6 +20,8 @@ check panel-with-snapshots "${MPIRUN[@]}" -np 2 target/release/dea-mpi run cases
 check paraview-opens-the-run xvfb-run -a /usr/bin/python3 scripts/paraview-check.py "$work/panel" "$work/panel/fields.png"
 check image-is-not-empty test -s "$work/panel/fields.png"
 check plots /usr/bin/python3 scripts/plot-run.py "$work/panel"
+check fabric-of-the-default-case target/release/dea-mpi fabric --out "$work/fabric"
+check paraview-opens-the-cell xvfb-run -a /usr/bin/python3 scripts/paraview-cell.py "$work/fabric"
 check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer panel_side; do test -s $work/panel/plots/\$f.png || exit 1; done"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
