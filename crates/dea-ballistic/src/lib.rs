@@ -1,0 +1,40 @@
+//! Ballistic-limit statistics and velocity designs, MPI-free.
+//!
+//! - [`fit`]: the probability of perforation against striking velocity, `P(v) = F(a + b v)`,
+//!   with `F` logistic or normal (probit), fitted by maximum likelihood; V50, V10, V90 and
+//!   their 95 % confidence intervals by the delta method.
+//! - [`mil_std_662f`]: the V50 of MIL-STD-662F, the mean of equal numbers of the highest
+//!   partial and the lowest complete penetrations within a velocity spread.
+//! - [`lambert_jonas`]: the residual-velocity fit `v_r = a (v^p - v_bl^p)^(1/p)`.
+//! - [`design`]: which velocity to shoot next (bisection, up-and-down, Langlie, Monte Carlo).
+
+pub mod design;
+pub mod fit;
+pub mod lambert_jonas;
+pub mod mil_std_662f;
+
+use serde::{Deserialize, Serialize};
+
+/// One shot's outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Shot {
+    /// striking velocity [m/s]
+    pub velocity: f64,
+    /// a complete penetration
+    pub perforated: bool,
+    /// residual velocity of a perforation, 0 for a partial [m/s]
+    pub residual_velocity: f64,
+}
+
+/// Why an estimate cannot be made from the shots at hand.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EstimateError {
+    #[error("no zone of mixed results: the lowest complete penetration ({lowest_complete:.1} m/s) is not below the highest partial ({highest_partial:.1} m/s), so the likelihood has no maximum")]
+    NoMixedZone { lowest_complete: f64, highest_partial: f64 },
+    #[error("{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations")]
+    TooFewShots { needed: usize, partials: usize, completes: usize },
+    #[error("the {count} highest partials and {count} lowest completes span {spread:.1} m/s, more than the {allowed:.1} m/s allowed")]
+    SpreadTooWide { count: usize, spread: f64, allowed: f64 },
+    #[error("the fit did not converge")]
+    NotConverged,
+}
