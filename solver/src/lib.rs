@@ -3,6 +3,7 @@
 //! binary (`main.rs`) is the command line.
 
 pub mod bench;
+pub mod campaign;
 pub mod comm;
 pub mod deformable;
 pub mod distributed;

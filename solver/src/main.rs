@@ -5,7 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use dea_core::Rank;
+use dea_io::campaign::{load_campaign, Campaign};
 use dea_io::case::{default_case, load_case, parse_case, Case};
+use dea_mpi::campaign::{CampaignError, Group};
 use dea_mpi::comm::mpi::{MpiComm, MpiSession};
 use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
@@ -24,7 +26,7 @@ enum Exit {
 
 #[derive(Parser)]
 #[command(name = "dea-mpi", version, about = "Fibre-level ballistic impact solver (modified digital element approach)", long_about = None,
-    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi fabric case.json          # relax a woven case's cell, report the fabric\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure, 75 stopped by a signal after writing a checkpoint.")]
+    after_help = "Examples:\n  dea-mpi run                       # built-in default case, results in ./out\n  mpirun -np 4 dea-mpi run case.json --out results/\n  dea-mpi check case.json           # validate and print the resolved case\n  dea-mpi fabric case.json          # relax a woven case's cell, report the fabric\n  mpirun -np 4 dea-mpi v50 campaign.json --ranks-per-shot 2   # a V50 campaign, two shots at a time\n  dea-mpi bench --json              # node-step cost, one JSON object\n  dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs\n\nExit codes: 0 done (a perforation is a result), 1 compare found differences, 2 usage, 3 bad case, 4 mesh/file error, 5 numerical failure, 75 stopped by a signal after writing a checkpoint.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -70,6 +72,23 @@ enum Command {
         /// METIS algorithm for the partition over the job's ranks
         #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
         method: PartitionMethod,
+    },
+    /// Run a V50 campaign: the shots its design asks for, on groups of --ranks-per-shot ranks
+    /// firing concurrently; every shot's record is kept the moment it ends (OUT/shots/), so a
+    /// rerun skips finished shots and resumes an interrupted one from its checkpoint. Writes
+    /// OUT/v50.json (logistic and probit V10/V50/V90 with 95 % intervals, MIL-STD-662F,
+    /// Lambert-Jonas, bisection brackets) and OUT/provenance.json. SIGTERM or SIGUSR1:
+    /// every group checkpoints its shot and the job stops with exit code 75.
+    #[command(after_help = "Examples:\n  mpirun -np 4 dea-mpi v50 campaign.json --out out/v50 --ranks-per-shot 2\n  dea-mpi v50 campaign.json --out out/v50          # again: only the missing shots run")]
+    V50 {
+        /// campaign file (JSON)
+        campaign: PathBuf,
+        /// output directory
+        #[arg(long, default_value = "out/v50")]
+        out: PathBuf,
+        /// ranks per shot (divides the job's ranks); default: all of them, one shot at a time
+        #[arg(long)]
+        ranks_per_shot: Option<usize>,
     },
     /// Validate a case and print it resolved, without running.
     #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
@@ -165,6 +184,34 @@ fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, 
     let text = String::from_utf8_lossy(payload).into_owned();
     match code {
         0 => parse_case(&text, "case from rank 0").map_err(|e| (Exit::BadCase, e.to_string())),
+        3 => Err((Exit::BadCase, text)),
+        _ => Err((Exit::File, text)),
+    }
+}
+
+/// Rank 0 reads the campaign and its case; every rank gets them (or the same error).
+fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, Case, String), (Exit, String)> {
+    let mut message = Vec::new();
+    if comm.rank() == Rank(0) {
+        let loaded = std::fs::read_to_string(path)
+            .map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))
+            .and_then(|text| load_campaign(path).map(|(campaign, case)| (campaign, case, text)).map_err(|e| (Exit::BadCase, e.to_string())));
+        match loaded {
+            Ok(loaded) => {
+                message.push(0);
+                message.extend(serde_json::to_string(&loaded).expect("campaign serialises").bytes());
+            }
+            Err((code, text)) => {
+                message.push(code as u8);
+                message.extend(text.bytes());
+            }
+        }
+    }
+    comm.broadcast_bytes(&mut message);
+    let (&code, payload) = message.split_first().expect("rank 0 always sends a code");
+    let text = String::from_utf8_lossy(payload).into_owned();
+    match code {
+        0 => serde_json::from_str(&text).map_err(|e| (Exit::BadCase, format!("campaign from rank 0: {e}"))),
         3 => Err((Exit::BadCase, text)),
         _ => Err((Exit::File, text)),
     }
@@ -279,23 +326,7 @@ fn main() -> ExitCode {
                 case.run.end_time_s,
                 ranks
             );
-            let options = RunOptions {
-                case_name: &case.name,
-                case_json: &json,
-                end_time: case.run.end_time_s,
-                history_interval: case.run.history_interval_steps,
-                stop_when_decided: case.run.stop_on_perforation,
-                out: &out,
-                fibres: run.fibres,
-                layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
-                snapshot_interval: case.run.snapshot_interval_steps,
-                checkpoints: dea_mpi::run::CheckpointPolicy {
-                    every_steps: case.run.checkpoint_interval_steps,
-                    every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
-                    stop_signal: Some(stop_signal),
-                },
-                resume,
-            };
+            let options = RunOptions::for_case(&case, &json, &out, &run, Some(stop_signal), resume);
             match dea_mpi::run::run(&mut run, &options) {
                 Ok(Some(summary)) => {
                     println!(
@@ -376,6 +407,80 @@ fn main() -> ExitCode {
             }
             Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
         },
+        Command::V50 { campaign, out, ranks_per_shot } => {
+            let (session, comm) = match MpiComm::initialize() {
+                Ok(mpi) => mpi,
+                Err(e) => return fail(Exit::Usage, e),
+            };
+            let ranks = comm.size();
+            let per_shot = ranks_per_shot.unwrap_or(ranks);
+            if per_shot == 0 || ranks % per_shot != 0 {
+                return fail_all(&session, Exit::Usage, format!("--ranks-per-shot {per_shot} does not divide the job's {ranks} ranks"));
+            }
+            let (campaign_spec, case, text) = match load_campaign_shared(&comm, &campaign) {
+                Ok(loaded) => loaded,
+                Err((code, message)) => return fail_all(&session, code, message),
+            };
+            let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
+                if let Err(e) = signal_hook::flag::register(signal, stop_signal.clone()) {
+                    return fail_all(&session, Exit::Usage, format!("cannot handle signal {signal}: {e}"));
+                }
+            }
+            let _logging = match dea_mpi::progress::init_logging(comm.rank().0, None) {
+                Ok(span) => span,
+                Err(e) => return fail(Exit::File, format!("logging: {e}")),
+            };
+            let group = Group { index: comm.rank().0 as usize / per_shot, count: ranks / per_shot };
+            let group_comm = comm.split(group.index as u32);
+            let result = dea_mpi::campaign::run_group(&campaign_spec, &case, group_comm, group, &out, Some(stop_signal));
+            let code = match &result {
+                Ok(()) => 0,
+                Err(CampaignError::Setup { error, .. }) => setup_exit(error) as u8,
+                Err(CampaignError::Run { error: RunError::Numerical(_), .. }) => Exit::Numerical as u8,
+                Err(CampaignError::Run { error: RunError::Interrupted(_), .. }) => Exit::Interrupted as u8,
+                Err(CampaignError::Run { error: RunError::Output(_), .. }) | Err(CampaignError::Output(_)) => Exit::File as u8,
+            };
+            if let Err(e) = &result {
+                // the group's own error: its rank 0 says what it was
+                if comm.rank().0 as usize % per_shot == 0 {
+                    eprintln!("error: group {}: {e}", group.index);
+                }
+            }
+            // the whole job ends with the most serious code of any group
+            let mut worst = [code as f64];
+            comm.max_f64(&mut worst);
+            if worst[0] != 0.0 {
+                session.barrier();
+                return ExitCode::from(worst[0] as u8);
+            }
+            if comm.rank() != Rank(0) {
+                return ExitCode::SUCCESS;
+            }
+            let report = match dea_mpi::campaign::report(&campaign_spec, &out).and_then(|r| dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r)) {
+                Ok(report) => report,
+                Err(e) => return fail(Exit::File, e),
+            };
+            println!("{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}", report.campaign, report.shots.len(), report.partials, report.completes, group.count, per_shot, out.display());
+            for (name, fit) in [("logistic", &report.logistic), ("probit", &report.probit)] {
+                match fit {
+                    Ok(f) => println!("{name:>9}: V50 {:.1} m/s (95 % {:.1}..{:.1}), V10 {:.1}, V90 {:.1}", f.v50.velocity, f.v50.low, f.v50.high, f.v10.velocity, f.v90.velocity),
+                    Err(e) => println!("{name:>9}: {e}"),
+                }
+            }
+            match &report.mil_std_662f {
+                Ok(m) => println!("MIL-STD-662F: V50 {:.1} m/s from {} + {} shots within {:.1} m/s", m.v50, m.count, m.count, m.spread),
+                Err(e) => println!("MIL-STD-662F: {e}"),
+            }
+            match &report.lambert_jonas {
+                Ok(l) => println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s),
+                Err(e) => println!("Lambert-Jonas: {e}"),
+            }
+            for (r, (low, high)) in report.bisection_brackets.iter().enumerate() {
+                println!("bisection {r}: between {low:.1} and {high:.1} m/s (V50 ~ {:.1})", 0.5 * (low + high));
+            }
+            ExitCode::SUCCESS
+        }
         Command::Fabric { case, out, method } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,

@@ -199,6 +199,26 @@ pub struct RunOptions<'a> {
     pub resume: Option<Resume>,
 }
 
+impl<'a> RunOptions<'a> {
+    /// The options a case asks for (`case_json`: the case as JSON, kept in the results), for
+    /// the run `run` was built for.
+    pub fn for_case<C: Comm>(case: &'a dea_io::case::Case, case_json: &'a str, out: &'a Path, run: &Distributed<C>, stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>, resume: Option<Resume>) -> Self {
+        Self {
+            case_name: &case.name,
+            case_json,
+            end_time: case.run.end_time_s,
+            history_interval: case.run.history_interval_steps,
+            stop_when_decided: case.run.stop_on_perforation,
+            out,
+            fibres: run.fibres,
+            layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
+            snapshot_interval: case.run.snapshot_interval_steps,
+            checkpoints: CheckpointPolicy { every_steps: case.run.checkpoint_interval_steps, every_seconds: 60.0 * case.run.checkpoint_interval_minutes, stop_signal },
+            resume,
+        }
+    }
+}
+
 /// Samples the histories: every rank joins the reductions, rank 0 records.
 fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usize) {
     let energy = run.energies();

@@ -48,7 +48,7 @@ fn best_a(shots: &[Shot], v_bl: f64, p: f64) -> (f64, f64) {
 pub fn lambert_jonas(shots: &[Shot]) -> Result<LambertJonas, EstimateError> {
     let completes: Vec<&Shot> = shots.iter().filter(|s| s.perforated).collect();
     if completes.len() < 3 {
-        return Err(EstimateError::TooFewShots { needed: 3, partials: shots.len() - completes.len(), completes: completes.len() });
+        return Err(EstimateError::TooFewPerforations { needed: 3, completes: completes.len() });
     }
     let top = completes.iter().map(|s| s.velocity).fold(f64::INFINITY, f64::min);
     let sse = |v_bl: f64, p: f64| best_a(shots, v_bl, p).1;
@@ -109,6 +109,6 @@ mod tests {
         let noisy: Vec<Shot> = shots.iter().enumerate().map(|(k, s)| Shot { residual_velocity: if s.perforated { s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 } } else { 0.0 }, ..*s }).collect();
         let fit = lambert_jonas(&noisy).unwrap();
         assert!((fit.v_bl - v_bl).abs() < 10.0, "{fit:?}");
-        assert!(matches!(lambert_jonas(&shots[..5]), Err(EstimateError::TooFewShots { .. })));
+        assert!(matches!(lambert_jonas(&shots[..5]), Err(EstimateError::TooFewPerforations { .. })));
     }
 }

@@ -35,6 +35,8 @@ pub enum EstimateError {
     TooFewShots { needed: usize, partials: usize, completes: usize },
     #[error("the {count} highest partials and {count} lowest completes span {spread:.1} m/s, more than the {allowed:.1} m/s allowed")]
     SpreadTooWide { count: usize, spread: f64, allowed: f64 },
+    #[error("{needed} complete penetrations are needed, there are {completes}")]
+    TooFewPerforations { needed: usize, completes: usize },
     #[error("the fit did not converge")]
     NotConverged,
 }

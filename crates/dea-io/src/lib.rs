@@ -1,5 +1,6 @@
 //! Case files (JSON, SI units, validated with field paths), presets, and HDF5 results.
 
+pub mod campaign;
 pub mod case;
 pub mod cell;
 pub mod checkpoint;

@@ -50,6 +50,15 @@ impl MpiComm {
     }
 }
 
+impl MpiComm {
+    /// The ranks of this communicator that give the same `color`, in rank order
+    /// (`MPI_Comm_split`): a campaign's groups of ranks, one per concurrent shot.
+    pub fn split(&self, color: u32) -> Self {
+        let group = self.world.split_by_color(mpi::topology::Color::with_value(color as i32)).expect("every rank names a group");
+        Self { world: group }
+    }
+}
+
 /// Values an in-place reduction copies on the stack: the per-step reductions are this small.
 const STACK_VALUES: usize = 8;
 

@@ -1,0 +1,140 @@
+//! The V50 campaign file: a shot (a case, inline or in a file beside the campaign), a velocity
+//! design, and how the estimates are made. Unknown fields are rejected; every error names its
+//! field.
+
+use std::path::{Path, PathBuf};
+
+use dea_ballistic::design::Design;
+use serde::{Deserialize, Serialize};
+
+use crate::case::{load_case, Case, CaseError};
+
+/// A whole campaign.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Campaign {
+    /// a name for the campaign
+    pub name: String,
+    /// the shot's case file, relative to the campaign file (or `case`, inline)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub case_file: Option<PathBuf>,
+    /// the shot's case, inline (or `case_file`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub case: Option<Case>,
+    /// which velocities are shot
+    pub design: Design,
+    /// independent sequences of a sequential design, each with its own strength seed
+    /// (`failure.seed + replicate`), run concurrently by the rank groups [-]
+    #[serde(default = "one")]
+    pub replicates: usize,
+    /// the MIL-STD-662F estimate: shots of each outcome and the velocity spread allowed
+    #[serde(default)]
+    pub mil_std_662f: MilStdSpec,
+}
+
+fn one() -> usize {
+    1
+}
+
+/// MIL-STD-662F parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MilStdSpec {
+    /// partials and completes each (3, 5 or 7 in the standard)
+    pub count: usize,
+    /// largest spread of the velocities used [m/s] (38.1 m/s = 125 ft/s for 3 + 3)
+    pub spread_m_s: f64,
+}
+
+impl Default for MilStdSpec {
+    fn default() -> Self {
+        Self { count: 3, spread_m_s: 38.1 }
+    }
+}
+
+fn invalid(path: &str, message: impl Into<String>) -> CaseError {
+    CaseError { path: path.to_string(), message: message.into() }
+}
+
+/// Reads and validates a campaign and its shot case; errors name the campaign file, or the
+/// case file and its field.
+pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
+    let source = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
+    let deserializer = &mut serde_json::Deserializer::from_str(&text);
+    let mut campaign: Campaign = serde_path_to_error::deserialize(deserializer).map_err(|e| {
+        let field = e.path().to_string();
+        invalid(if field == "." { &source } else { &field }, format!("{} (in {source})", e.into_inner()))
+    })?;
+    campaign.design.validate().map_err(|message| {
+        let (field, reason) = message.split_once(": ").unwrap_or(("design", &message));
+        invalid(field, format!("{reason} (in {source})"))
+    })?;
+    if !(1..=1000).contains(&campaign.replicates) {
+        return Err(invalid("replicates", format!("must be in 1..=1000, got {} (in {source})", campaign.replicates)));
+    }
+    if campaign.mil_std_662f.count == 0 || !(campaign.mil_std_662f.spread_m_s > 0.0) {
+        return Err(invalid("mil_std_662f", format!("needs count >= 1 and spread_m_s > 0 (in {source})")));
+    }
+    let case = match (&campaign.case_file, &campaign.case) {
+        (Some(file), None) => {
+            let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            let file = base.join(file);
+            let case = load_case(&file)?;
+            campaign.case_file = Some(std::path::absolute(&file).unwrap_or(file));
+            case
+        }
+        (None, Some(case)) => {
+            case.validate().map_err(|e| invalid(&format!("case.{}", e.path), format!("{} (in {source})", e.message)))?;
+            case.clone()
+        }
+        _ => return Err(invalid(&source, "give exactly one of case_file and case")),
+    };
+    Ok((campaign, case))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, value: &serde_json::Value) -> PathBuf {
+        std::fs::create_dir_all(dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, value.to_string()).unwrap();
+        path
+    }
+
+    #[test]
+    fn campaigns_load_and_name_their_bad_fields() {
+        let dir = std::env::temp_dir().join(format!("dea-campaign-{}", std::process::id()));
+        let case = serde_json::to_value(crate::case::default_case()).unwrap();
+        write(&dir, "shot.json", &case);
+        let good = serde_json::json!({ "name": "c", "case_file": "shot.json", "design": { "kind": "bisection", "low_m_s": 100.0, "high_m_s": 600.0, "resolution_m_s": 10.0 } });
+        let (campaign, loaded) = load_campaign(&write(&dir, "good.json", &good)).unwrap();
+        assert_eq!(loaded, crate::case::default_case());
+        assert!(campaign.case_file.unwrap().is_absolute());
+        assert_eq!(campaign.replicates, 1);
+        let error = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = good.clone();
+            edit(&mut value);
+            load_campaign(&write(&dir, "bad.json", &value)).unwrap_err()
+        };
+        let e = error(&|v| v["design"]["high_m_s"] = 50.0.into());
+        assert_eq!(e.path, "design.low_m_s");
+        let e = error(&|v| v["design"]["kind"] = "guess".into());
+        assert!(e.path.starts_with("design") && e.message.contains("guess"), "{e}");
+        let e = error(&|v| v["shots"] = 3.into());
+        assert_eq!(e.path, "shots");
+        let e = error(&|v| v["case"] = case.clone());
+        assert!(e.message.contains("exactly one"), "{e}");
+        let e = error(&|v| {
+            v.as_object_mut().unwrap().remove("case_file");
+            v["case"] = case.clone();
+            v["case"]["run"]["end_time_s"] = (-1.0).into();
+        });
+        assert_eq!(e.path, "case.run.end_time_s");
+        let e = error(&|v| v["case_file"] = "missing.json".into());
+        assert!(e.path.ends_with("missing.json") && e.message.contains("cannot read"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

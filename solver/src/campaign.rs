@@ -1,0 +1,256 @@
+//! `dea-mpi v50`: a campaign of shots at the velocities a design chooses, on groups of ranks
+//! that fire concurrently, every shot's result persisted the moment it ends (a rerun skips
+//! finished shots and resumes an interrupted one from its checkpoint), then the ballistic
+//! limit estimated every way the shots allow.
+//!
+//! Layout of `OUT`: `shots/<id>/` is each shot's run directory (results.h5, summary.json,
+//! checkpoint/); `shots/<id>.json` its record, written (atomically) when it ends;
+//! `v50.json` the estimates; `provenance.json` the campaign, the shot case, the git commit
+//! and every shot's velocity, strength seed and outcome.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use dea_ballistic::design::{bracket, Design};
+use dea_ballistic::fit::{fit, Fit, Link};
+use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
+use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
+use dea_ballistic::Shot;
+use dea_core::Rank;
+use dea_io::campaign::Campaign;
+use dea_io::case::Case;
+use dea_io::checkpoint::manifest_path;
+use dea_partition::Method;
+use serde::{Deserialize, Serialize};
+
+use crate::comm::Comm;
+use crate::run::{run, Resume, RunError, RunOptions};
+use crate::setup::{build, restore, SetupError};
+
+/// Why a campaign stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum CampaignError {
+    #[error("shot {id}: {error}")]
+    Setup { id: String, error: SetupError },
+    #[error("shot {id}: {error}")]
+    Run { id: String, error: RunError },
+    #[error("{0}")]
+    Output(String),
+}
+
+/// One finished shot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShotRecord {
+    /// `r<replicate>-<shot>`: the shot's place in its sequence
+    pub id: String,
+    pub replicate: usize,
+    /// position in its sequence (Monte Carlo: in the campaign)
+    pub index: usize,
+    /// [m/s]
+    pub velocity_m_s: f64,
+    /// strength seed of the shot (`failure.seed` of its case)
+    pub seed: u64,
+    pub perforated: bool,
+    /// [m/s]
+    pub residual_velocity_m_s: f64,
+    /// why the run stopped: perforated, rebounded or end_time
+    pub stopped_by: String,
+    pub steps: u64,
+    pub wall_s: f64,
+    pub ranks: usize,
+    pub max_projectile_force_n: f64,
+}
+
+impl ShotRecord {
+    fn shot(&self) -> Shot {
+        Shot { velocity: self.velocity_m_s, perforated: self.perforated, residual_velocity: if self.perforated { self.residual_velocity_m_s.max(0.0) } else { 0.0 } }
+    }
+}
+
+/// This rank's group: `index` of `count`, each with its own communicator.
+#[derive(Clone, Copy, Debug)]
+pub struct Group {
+    pub index: usize,
+    pub count: usize,
+}
+
+fn shots_directory(out: &Path) -> PathBuf {
+    out.join("shots")
+}
+
+fn shot_id(replicate: usize, index: usize) -> String {
+    format!("r{replicate:03}-{index:05}")
+}
+
+fn record_path(out: &Path, id: &str) -> PathBuf {
+    shots_directory(out).join(format!("{id}.json"))
+}
+
+/// The record of a finished shot, if there is one.
+fn finished(out: &Path, id: &str) -> Option<ShotRecord> {
+    let text = std::fs::read_to_string(record_path(out, id)).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+/// The case of one shot: the campaign's case at `velocity` with strength seed `seed`; it
+/// stops as soon as its outcome is decided.
+pub fn shot_case(case: &Case, campaign: &str, id: &str, velocity: f64, seed: u64) -> Case {
+    let mut shot = case.clone();
+    shot.name = format!("{campaign}-{id}");
+    shot.projectile.velocity_m_s = velocity;
+    shot.failure.seed = seed;
+    shot.run.stop_on_perforation = true;
+    shot
+}
+
+/// Runs one shot on the group (from its checkpoint when an earlier attempt left one) and
+/// gives back the communicator and, on every rank of the group, the record.
+fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index): (usize, usize), stop_signal: Option<Arc<AtomicBool>>) -> Result<(C, ShotRecord), CampaignError> {
+    let directory = shots_directory(out).join(id);
+    let checkpoint = directory.join("checkpoint");
+    let setup = |error| CampaignError::Setup { id: id.to_string(), error };
+    let (case, mut state, resume) = if manifest_path(&checkpoint).exists() {
+        let restored = restore(&checkpoint, comm, Method::KWay).map_err(setup)?;
+        let resume = Resume::from_checkpoint(&restored.global);
+        (restored.case, restored.run, resume)
+    } else {
+        (case.clone(), build(case, comm, Method::KWay, None).map_err(setup)?, None)
+    };
+    let json = serde_json::to_string(&case).expect("case serialises");
+    let options = RunOptions::for_case(&case, &json, &directory, &state, stop_signal, resume);
+    let summary = run(&mut state, &options).map_err(|error| CampaignError::Run { id: id.to_string(), error })?;
+    // the group's rank 0 has the summary; every rank needs the outcome for the next velocity
+    let outcome = state.from_rank0(summary.as_ref().map_or([0.0; 4], |s| [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s]));
+    let record = ShotRecord {
+        id: id.to_string(),
+        replicate,
+        index,
+        velocity_m_s: case.projectile.velocity_m_s,
+        seed: case.failure.seed,
+        perforated: outcome[0] == 1.0,
+        residual_velocity_m_s: outcome[1],
+        stopped_by: summary.as_ref().map_or_else(String::new, |s| s.stopped_by.clone()),
+        steps: outcome[2] as u64,
+        wall_s: outcome[3],
+        ranks: state.comm.size(),
+        max_projectile_force_n: summary.as_ref().map_or(0.0, |s| s.max_projectile_force_n),
+    };
+    if state.comm.rank() == Rank(0) {
+        // written whole, then renamed: a record on disk is a finished shot
+        let path = record_path(out, id);
+        let partial = path.with_extension("json.partial");
+        let text = serde_json::to_string_pretty(&record).expect("record serialises");
+        std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, &path)).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+    }
+    Ok((state.comm, record))
+}
+
+/// Fires this group's shots of the campaign: Monte Carlo shots `group.index`,
+/// `group.index + group.count`, …; the sequences (replicates) of a sequential design
+/// likewise. A shot with a record is not fired again.
+pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Group, out: &Path, stop_signal: Option<Arc<AtomicBool>>) -> Result<(), CampaignError> {
+    std::fs::create_dir_all(shots_directory(out)).map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
+    let base_seed = case.failure.seed;
+    let mut comm = comm;
+    let design = &campaign.design;
+    if design.independent() {
+        let mut index = group.index;
+        while let Some(velocity) = design.planned(index, base_seed) {
+            let id = shot_id(0, index);
+            if finished(out, &id).is_none() {
+                let shot = shot_case(case, &campaign.name, &id, velocity, base_seed.wrapping_add(index as u64));
+                comm = fire(comm, &shot, out, &id, (0, index), stop_signal.clone())?.0;
+            }
+            index += group.count;
+        }
+        return Ok(());
+    }
+    for replicate in (group.index..campaign.replicates).step_by(group.count) {
+        let seed = base_seed.wrapping_add(replicate as u64);
+        let mut history: Vec<Shot> = Vec::new();
+        while let Some(velocity) = design.next(&history, seed) {
+            let index = history.len();
+            let id = shot_id(replicate, index);
+            let record = match finished(out, &id).filter(|r| r.velocity_m_s.to_bits() == velocity.to_bits() && r.seed == seed) {
+                Some(record) => record,
+                None => {
+                    let shot = shot_case(case, &campaign.name, &id, velocity, seed);
+                    let (back, record) = fire(comm, &shot, out, &id, (replicate, index), stop_signal.clone())?;
+                    comm = back;
+                    record
+                }
+            };
+            history.push(record.shot());
+        }
+    }
+    Ok(())
+}
+
+/// The estimates from every shot on record.
+#[derive(Clone, Debug, Serialize)]
+pub struct CampaignReport {
+    pub campaign: String,
+    pub shots: Vec<ShotRecord>,
+    pub partials: usize,
+    pub completes: usize,
+    /// each estimate, or why it cannot be made
+    pub logistic: Result<Fit, String>,
+    pub probit: Result<Fit, String>,
+    pub mil_std_662f: Result<MilStdEstimate, String>,
+    pub lambert_jonas: Result<LambertJonas, String>,
+    /// a bisection's final bracket per replicate: (highest partial, lowest complete) [m/s]
+    pub bisection_brackets: Vec<(f64, f64)>,
+}
+
+/// Reads every shot record of the campaign in `out` and estimates the ballistic limit.
+pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, CampaignError> {
+    let directory = shots_directory(out);
+    let mut shots: Vec<ShotRecord> = Vec::new();
+    let entries = std::fs::read_dir(&directory).map_err(|e| CampaignError::Output(format!("{}: {e}", directory.display())))?;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.extension().is_some_and(|e| e == "json") {
+            let text = std::fs::read_to_string(&path).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+            shots.push(serde_json::from_str(&text).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?);
+        }
+    }
+    shots.sort_by(|a, b| a.id.cmp(&b.id));
+    let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
+    let text = |e: dea_ballistic::EstimateError| e.to_string();
+    let bisection_brackets = match campaign.design {
+        Design::Bisection { low_m_s, high_m_s, .. } => (0..campaign.replicates)
+            .map(|r| bracket(low_m_s, high_m_s, &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>()))
+            .collect(),
+        _ => Vec::new(),
+    };
+    Ok(CampaignReport {
+        campaign: campaign.name.clone(),
+        partials: outcomes.iter().filter(|s| !s.perforated).count(),
+        completes: outcomes.iter().filter(|s| s.perforated).count(),
+        logistic: fit(&outcomes, Link::Logistic).map_err(text),
+        probit: fit(&outcomes, Link::Probit).map_err(text),
+        mil_std_662f: mil_std_662f(&outcomes, campaign.mil_std_662f.count, campaign.mil_std_662f.spread_m_s).map_err(text),
+        lambert_jonas: lambert_jonas(&outcomes).map_err(text),
+        bisection_brackets,
+        shots,
+    })
+}
+
+/// The commit the binary was built from (`git rev-parse HEAD` at build time).
+pub const GIT_COMMIT: &str = env!("DEA_GIT_COMMIT");
+
+/// Writes `v50.json` and `provenance.json` (the campaign and case as loaded, the commit, and
+/// every shot's velocity, seed and outcome).
+pub fn write_report(report: &CampaignReport, campaign: &Campaign, case: &Case, campaign_text: &str, out: &Path) -> Result<(), CampaignError> {
+    let failed = |e: std::io::Error| CampaignError::Output(format!("{}: {e}", out.display()));
+    std::fs::write(out.join("v50.json"), serde_json::to_string_pretty(report).expect("report serialises")).map_err(failed)?;
+    let provenance = serde_json::json!({
+        "git_commit": GIT_COMMIT,
+        "campaign_file": campaign_text,
+        "campaign": campaign,
+        "case": case,
+        "shots": report.shots.iter().map(|s| serde_json::json!({ "id": s.id, "velocity_m_s": s.velocity_m_s, "seed": s.seed, "perforated": s.perforated, "residual_velocity_m_s": s.residual_velocity_m_s, "run": format!("shots/{}", s.id) })).collect::<Vec<_>>(),
+    });
+    std::fs::write(out.join("provenance.json"), serde_json::to_string_pretty(&provenance).expect("provenance serialises")).map_err(failed)
+}
