@@ -69,6 +69,13 @@ check truncated-checkpoint-refused bash -c 'part=$work/usr1/checkpoint/part-0000
 check fabric-cell-identical-on-1-2-4-ranks bash -c 'for r in 1 2 4; do mpi $r fabric --out $work/fabric$r || exit 1; done; \
     $bin compare $work/fabric1/cell.h5 $work/fabric2/cell.h5 && $bin compare $work/fabric1/cell.h5 $work/fabric4/cell.h5 && test -f $work/fabric4/cell.xdmf'
 check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -q "\"perforated\": true" $work/default/summary.json'
+# V50 campaigns: two groups of one rank fire the Monte Carlo shots with the same bits as one
+# rank alone; a bisection on one group of two ranks; a group size that does not divide
+check v50-groups-give-the-same-shots bash -c 'mpi 1 v50 cases/v50_tiny_monte_carlo.json --out $work/mc1 && mpi 2 v50 cases/v50_tiny_monte_carlo.json --out $work/mc2 --ranks-per-shot 1 \
+    && for shot in $work/mc1/shots/*/; do $bin compare $shot/results.h5 $work/mc2/shots/$(basename $shot)/results.h5 >/dev/null || exit 1; done \
+    && test $(ls $work/mc2/shots/*.json | wc -l) -eq 12 && grep -q git_commit $work/mc2/provenance.json'
+check v50-bisection-two-ranks-per-shot bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/bisection --ranks-per-shot 2 | tee $work/bisection.log && grep -q "bisection 0: between" $work/bisection.log'
+check v50-ranks-per-shot-must-divide bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/nodiv --ranks-per-shot 3; test $? -eq 2'
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
     && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
            grep -q "\"$key\"" $work/bench.json || { echo "bench lacks $key"; exit 1; }; done && grep -q "\"ranks\":2" $work/bench.json'
