@@ -443,7 +443,7 @@ fn main() -> ExitCode {
             };
             if let Err(e) = &result {
                 // the group's own error: its rank 0 says what it was
-                if comm.rank().0 as usize % per_shot == 0 {
+                if comm.rank().0 as usize == group.index * per_shot {
                     eprintln!("error: group {}: {e}", group.index);
                 }
             }

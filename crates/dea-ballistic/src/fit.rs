@@ -147,7 +147,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
     loop {
         let (g, h) = derivatives(a, b);
         let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-        if !(det > 0.0) || iterations > 200 {
+        if det.is_nan() || det <= 0.0 || iterations > 200 {
             return Err(EstimateError::NotConverged);
         }
         let step = [(h[1][1] * g[0] - h[0][1] * g[1]) / det, (h[0][0] * g[1] - h[1][0] * g[0]) / det];
@@ -169,7 +169,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
     }
     let (_, h) = derivatives(a, b);
     let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return Err(EstimateError::NotConverged);
     }
     let covariance = [[h[1][1] / det, -h[0][1] / det], [-h[1][0] / det, h[0][0] / det]];

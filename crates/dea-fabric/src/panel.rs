@@ -247,13 +247,9 @@ mod tests {
     use super::*;
     use crate::weave::PlainWeave;
 
-    fn km2_706(fibres: usize) -> PlainWeave {
-        PlainWeave::km2_style_706(fibres)
-    }
-
     fn panel(cells: u32, layers: u32, fibres: usize) -> (WovenPanel, FibreMaterial) {
         let material = FibreMaterial::kevlar_km2();
-        let cell = km2_706(fibres).unit_cell(&material).unwrap();
+        let cell = PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap();
         let panel = WovenPanel::new(Arc::new(cell), cells, layers, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         (panel, material)
     }

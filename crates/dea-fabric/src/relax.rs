@@ -307,14 +307,10 @@ mod tests {
     use super::*;
     use crate::weave::PlainWeave;
 
-    fn km2_706(fibres: usize) -> PlainWeave {
-        PlainWeave::km2_style_706(fibres)
-    }
-
     #[test]
     fn periodic_pairs_match_brute_force() {
         let material = FibreMaterial::kevlar_km2();
-        let cell = km2_706(7).unit_cell(&material).unwrap();
+        let cell = PlainWeave::km2_style_706(7).unit_cell(&material).unwrap();
         let reach = 1.5 * cell.section.contact_diameter;
         let n = cell.nodes_per_period as usize;
         let mut expected = Vec::new();
@@ -333,7 +329,7 @@ mod tests {
     fn relaxation_reaches_equilibrium_and_keeps_the_fabric_real() {
         let material = FibreMaterial::kevlar_km2();
         let law = NormalLaw::ElastoPlasticKm2;
-        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         let (crimp, thickness) = (cell.crimp(), cell.thickness());
         let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
         assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
@@ -355,7 +351,7 @@ mod tests {
             assert!((strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension - 1.0).abs() < 1e-9);
         }
         // the same bits every time
-        let mut again = km2_706(4).unit_cell(&material).unwrap();
+        let mut again = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
         assert_eq!(again, cell);
     }
@@ -363,7 +359,7 @@ mod tests {
     #[test]
     fn a_relaxation_that_cannot_finish_says_so() {
         let material = FibreMaterial::kevlar_km2();
-        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10 }).unwrap_err();
         assert!(matches!(error, RelaxError::NotConverged { iterations: 10, .. }));
     }
@@ -371,7 +367,7 @@ mod tests {
     #[test]
     fn internal_forces_sum_to_zero() {
         let material = FibreMaterial::kevlar_km2();
-        let mut cell = km2_706(4).unit_cell(&material).unwrap();
+        let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         // push the yarns into each other so that contacts act too
         for p in cell.positions.iter_mut() {
             p.z *= 0.6;

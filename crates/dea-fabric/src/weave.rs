@@ -415,10 +415,6 @@ impl UnitCell {
 mod tests {
     use super::*;
 
-    fn km2_706(fibres: usize) -> PlainWeave {
-        PlainWeave::km2_style_706(fibres)
-    }
-
     #[test]
     fn packing_fills_a_flat_section_without_overlap() {
         for (count, aspect) in [(1, 7.0), (4, 7.0), (7, 1.0), (19, 3.0), (100, 6.0)] {
@@ -451,7 +447,7 @@ mod tests {
     #[test]
     fn cell_has_the_spacing_crimp_and_mass_asked_for() {
         let material = FibreMaterial::kevlar_km2();
-        let mut weave = km2_706(4);
+        let mut weave = PlainWeave::km2_style_706(4);
         weave.initial_crimp = Some(0.06);
         let cell = weave.unit_cell(&material).unwrap();
         assert_eq!(cell.positions.len(), 16 * cell.nodes_per_period as usize);
@@ -482,7 +478,7 @@ mod tests {
     fn crossing_yarns_start_apart_and_alternate() {
         let material = FibreMaterial::kevlar_km2();
         for fibres in [1, 4, 7] {
-            let cell = km2_706(fibres).unit_cell(&material).unwrap();
+            let cell = PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap();
             let d = cell.section.contact_diameter;
             let mut closest = f64::INFINITY;
             for a in 0..cell.fibres() {
@@ -509,10 +505,10 @@ mod tests {
 
     #[test]
     fn a_section_wider_than_the_spacing_is_refused() {
-        let mut weave = km2_706(40);
+        let mut weave = PlainWeave::km2_style_706(40);
         weave.section_aspect = 100.0;
         assert!(matches!(weave.unit_cell(&FibreMaterial::kevlar_km2()), Err(WeaveError::TooWide { .. })));
-        let mut weave = km2_706(4);
+        let mut weave = PlainWeave::km2_style_706(4);
         weave.initial_crimp = Some(1e-5);
         assert!(matches!(weave.unit_cell(&FibreMaterial::kevlar_km2()), Err(WeaveError::CrimpTooSmall { .. })));
     }

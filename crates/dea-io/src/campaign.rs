@@ -73,7 +73,8 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     if !(1..=1000).contains(&campaign.replicates) {
         return Err(invalid("replicates", format!("must be in 1..=1000, got {} (in {source})", campaign.replicates)));
     }
-    if campaign.mil_std_662f.count == 0 || !(campaign.mil_std_662f.spread_m_s > 0.0) {
+    let spread = campaign.mil_std_662f.spread_m_s;
+    if campaign.mil_std_662f.count == 0 || spread.is_nan() || spread <= 0.0 {
         return Err(invalid("mil_std_662f", format!("needs count >= 1 and spread_m_s > 0 (in {source})")));
     }
     let case = match (&campaign.case_file, &campaign.case) {

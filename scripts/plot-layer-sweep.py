@@ -1,0 +1,68 @@
+#!/usr/bin/python3
+"""The V50 of a layer sweep (jobs/v50-layer-sweep.sh OUTDIR) against the number of layers:
+a Markdown table on stdout (logistic V50 with its 95 % interval, probit, MIL-STD-662F,
+Lambert-Jonas, shots) and OUTDIR/v50-layers.png with the interval as a band, beside the
+seed's Table 6-1 (modified DEA, the I0 and I_inf bounds, and the experiment).
+
+    /usr/bin/python3 scripts/plot-layer-sweep.py OUTDIR [--title TEXT]
+"""
+import argparse
+import json
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+# seed Table 6-1 (PHYSICS.md section 7), m/s
+SEED_LAYERS = [1, 4, 8, 12, 16, 20, 24, 28]
+SEED_MODIFIED_DEA = [135, 305, 407, 435, 475, 505, 525, 545]
+SEED_I0 = [220, 475, 570, 625, 645, 665, 675, 683]
+SEED_I_INF = [85, 190, 300, 315, 355, 430, 430, 450]
+SEED_EXPERIMENT_LAYERS = [4, 8, 12, 16, 20, 24, 28]
+SEED_EXPERIMENT = [245, 287, 416, 441, 511, 506, 549]
+
+parser = argparse.ArgumentParser()
+parser.add_argument("out")
+parser.add_argument("--title", default="V50 against layers")
+args = parser.parse_args()
+layers = [int(line) for line in open(os.path.join(args.out, "layers.txt")) if line.strip()]
+rows, points = [], []
+value = lambda estimate, key: estimate["Ok"][key] if "Ok" in estimate else None
+fmt = lambda v: "–" if v is None else f"{v:.1f}"
+for count in layers:
+    path = os.path.join(args.out, str(count), "v50.json")
+    if not os.path.exists(path):
+        rows.append(f"| {count} | not run | | | | | |")
+        continue
+    report = json.load(open(path))
+    logistic = report["logistic"].get("Ok")
+    v50 = logistic["v50"] if logistic else None
+    probit = value(report["probit"], "v50")
+    interval = f"{v50['low']:.1f}–{v50['high']:.1f}" if v50 else "–"
+    rows.append(
+        f"| {count} | {fmt(v50 and v50['velocity'])} | {interval} "
+        f"| {fmt(probit and probit['velocity'])} | {fmt(value(report['mil_std_662f'], 'v50'))} | {fmt(value(report['lambert_jonas'], 'v_bl'))} "
+        f"| {len(report['shots'])} ({report['partials']} / {report['completes']}) |"
+    )
+    if v50:
+        points.append((count, v50["velocity"], v50["low"], v50["high"]))
+print("| layers | logistic V50 [m/s] | 95 % interval | probit V50 | MIL-STD-662F | Lambert–Jonas v_bl | shots (partial / complete) |")
+print("|---|---|---|---|---|---|---|")
+print("\n".join(rows))
+figure, axes = plt.subplots(figsize=(7, 4.5))
+if points:
+    x, v, low, high = zip(*points)
+    axes.fill_between(x, low, high, alpha=0.3, label="this run: 95 % interval")
+    axes.plot(x, v, "o-", label="this run: logistic V50")
+axes.plot(SEED_LAYERS, SEED_MODIFIED_DEA, "s--", label="seed: modified DEA")
+axes.plot(SEED_LAYERS, SEED_I0, ":", color="grey", label="seed: I0 / I_inf bounds")
+axes.plot(SEED_LAYERS, SEED_I_INF, ":", color="grey")
+axes.plot(SEED_EXPERIMENT_LAYERS, SEED_EXPERIMENT, "k^", label="seed: experiment")
+axes.set_xlabel("layers")
+axes.set_ylabel("V50 [m/s]")
+axes.set_title(args.title)
+axes.legend(fontsize=8)
+figure.tight_layout()
+figure.savefig(os.path.join(args.out, "v50-layers.png"), dpi=120)
