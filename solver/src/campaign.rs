@@ -146,25 +146,40 @@ fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index):
     Ok((state.comm, record))
 }
 
+/// How far a group got.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// every shot of the group's share is on record
+    Complete,
+    /// the group fired its `max_shots` and stopped; a later run continues
+    Paused,
+}
+
 /// Fires this group's shots of the campaign: Monte Carlo shots `group.index`,
 /// `group.index + group.count`, …; the sequences (replicates) of a sequential design
-/// likewise. A shot with a record is not fired again.
-pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Group, out: &Path, stop_signal: Option<Arc<AtomicBool>>) -> Result<(), CampaignError> {
+/// likewise. A shot with a record is not fired again; at most `max_shots` are fired (a job's
+/// share of a campaign spread over several jobs).
+pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Group, out: &Path, max_shots: Option<usize>, stop_signal: Option<Arc<AtomicBool>>) -> Result<Progress, CampaignError> {
     std::fs::create_dir_all(shots_directory(out)).map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
     let base_seed = case.failure.seed;
     let mut comm = comm;
+    let mut budget = max_shots.unwrap_or(usize::MAX);
     let design = &campaign.design;
     if design.independent() {
         let mut index = group.index;
         while let Some(velocity) = design.planned(index, base_seed) {
             let id = shot_id(0, index);
             if finished(out, &id).is_none() {
+                if budget == 0 {
+                    return Ok(Progress::Paused);
+                }
+                budget -= 1;
                 let shot = shot_case(case, &campaign.name, &id, velocity, base_seed.wrapping_add(index as u64));
                 comm = fire(comm, &shot, out, &id, (0, index), stop_signal.clone())?.0;
             }
             index += group.count;
         }
-        return Ok(());
+        return Ok(Progress::Complete);
     }
     for replicate in (group.index..campaign.replicates).step_by(group.count) {
         let seed = base_seed.wrapping_add(replicate as u64);
@@ -175,6 +190,10 @@ pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Grou
             let record = match finished(out, &id).filter(|r| r.velocity_m_s.to_bits() == velocity.to_bits() && r.seed == seed) {
                 Some(record) => record,
                 None => {
+                    if budget == 0 {
+                        return Ok(Progress::Paused);
+                    }
+                    budget -= 1;
                     let shot = shot_case(case, &campaign.name, &id, velocity, seed);
                     let (back, record) = fire(comm, &shot, out, &id, (replicate, index), stop_signal.clone())?;
                     comm = back;
@@ -184,7 +203,7 @@ pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Grou
             history.push(record.shot());
         }
     }
-    Ok(())
+    Ok(Progress::Complete)
 }
 
 /// The estimates from every shot on record.

@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use dea_core::Rank;
 use dea_io::campaign::{load_campaign, Campaign};
 use dea_io::case::{default_case, load_case, parse_case, Case};
-use dea_mpi::campaign::{CampaignError, Group};
+use dea_mpi::campaign::{CampaignError, Group, Progress};
 use dea_mpi::comm::mpi::{MpiComm, MpiSession};
 use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
@@ -89,6 +89,10 @@ enum Command {
         /// ranks per shot (divides the job's ranks); default: all of them, one shot at a time
         #[arg(long)]
         ranks_per_shot: Option<usize>,
+        /// fire at most this many new shots per group, then stop (exit 0; the next run
+        /// continues): a campaign spread over several jobs
+        #[arg(long)]
+        shots_per_group: Option<usize>,
     },
     /// Validate a case and print it resolved, without running.
     #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
@@ -407,7 +411,7 @@ fn main() -> ExitCode {
             }
             Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
         },
-        Command::V50 { campaign, out, ranks_per_shot } => {
+        Command::V50 { campaign, out, ranks_per_shot, shots_per_group } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
@@ -433,9 +437,9 @@ fn main() -> ExitCode {
             };
             let group = Group { index: comm.rank().0 as usize / per_shot, count: ranks / per_shot };
             let group_comm = comm.split(group.index as u32);
-            let result = dea_mpi::campaign::run_group(&campaign_spec, &case, group_comm, group, &out, Some(stop_signal));
+            let result = dea_mpi::campaign::run_group(&campaign_spec, &case, group_comm, group, &out, shots_per_group, Some(stop_signal));
             let code = match &result {
-                Ok(()) => 0,
+                Ok(_) => 0,
                 Err(CampaignError::Setup { error, .. }) => setup_exit(error) as u8,
                 Err(CampaignError::Run { error: RunError::Numerical(_), .. }) => Exit::Numerical as u8,
                 Err(CampaignError::Run { error: RunError::Interrupted(_), .. }) => Exit::Interrupted as u8,
@@ -454,8 +458,13 @@ fn main() -> ExitCode {
                 session.barrier();
                 return ExitCode::from(worst[0] as u8);
             }
+            let mut paused = [matches!(result, Ok(Progress::Paused)) as u8 as f64];
+            comm.max_f64(&mut paused);
             if comm.rank() != Rank(0) {
                 return ExitCode::SUCCESS;
+            }
+            if paused[0] != 0.0 {
+                println!("{}: paused after --shots-per-group {} new shots per group; run again to continue", campaign_spec.name, shots_per_group.unwrap_or(0));
             }
             let report = match dea_mpi::campaign::report(&campaign_spec, &out).and_then(|r| dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r)) {
                 Ok(report) => report,
