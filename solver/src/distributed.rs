@@ -27,7 +27,7 @@ use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
 
 /// f64 words of a ghost record at a rebuild.
-const RECORD_WORDS: usize = 11;
+const RECORD_WORDS: usize = 12;
 /// f64 words per ghost in the per-step halo: position and element failure state.
 pub const HALO_WORDS: usize = 4;
 /// f64 words of the projectile state broadcast.
@@ -428,6 +428,7 @@ impl<C: Comm> Distributed<C> {
                     e.rest_length[i],
                     e.tensile_strength[i],
                     word(e.failure[i] as u64),
+                    nodes.rest_angle[i],
                 ]);
             }
             candidates.push(list);
@@ -461,6 +462,7 @@ impl<C: Comm> Distributed<C> {
                         rest_length: w[8],
                         tensile_strength: w[9],
                         failure: FailureMode::from_code(integer(w[10]) as u8).expect("a failure code sent by a rank"),
+                        rest_angle: w[11],
                     });
                 }
             }

@@ -100,10 +100,10 @@ pub fn woven_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(UnitC
     if let Some(path) = cell_file {
         return read_cell(path).map(|cell| Some((cell, None))).map_err(SetupError::Mesh);
     }
-    let weave = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
-    let mut cell = weave.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
+    let plain = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
+    let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
     let law = case.normal_law(material).expect("validated case");
-    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations };
+    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations, bending_at_rest: weave.bending_at_rest };
     let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, Some(report))))
 }

@@ -190,7 +190,7 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let material = FibreMaterial::kevlar_km2();
     let law = NormalLaw::ElastoPlasticKm2;
     let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000 }).unwrap();
+    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, ..Default::default() }).unwrap();
     let period = cell.period();
     let panel = WovenPanel::new(std::sync::Arc::new(cell), 5, 2, 0.0, [0.3 * period, 0.1 * period], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
@@ -205,4 +205,34 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
     // and the layers do touch: some node pair across them is in contact range
     assert!(report.final_residual_n < 1e-6 * report.initial_residual_n);
+}
+
+/// A woven fibre's bending springs rest in its relaxed crimp: the panel starts without
+/// bending moments, so without shear stress (5-4, 5-5); with springs straight at rest the
+/// crimp holds them bent and the elements start sheared (docs/theory.md F4).
+#[test]
+fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
+    use dea_fabric::panel::{Boundary, WovenPanel};
+    use dea_fabric::relax::{relax, BendingAtRest, RelaxOptions};
+    use dea_fabric::weave::PlainWeave;
+    let material = FibreMaterial::kevlar_km2();
+    let law = NormalLaw::ElastoPlasticKm2;
+    let largest_shear = |bending_at_rest| {
+        let mut cell = PlainWeave::km2_style_706(1).unit_cell(&material).unwrap();
+        relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, bending_at_rest }).unwrap();
+        let panel = WovenPanel::new(std::sync::Arc::new(cell), 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
+        let built = panel.build_all(&material);
+        let area = built.sections[0].area;
+        let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+        let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
+        let domain = Domain::assemble(material.clone(), built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
+        let nodes = &domain.nodes;
+        (0..nodes.n_owned)
+            .filter(|&i| nodes.prev[i] != dea_core::NONE && nodes.next[i] != dea_core::NONE && nodes.next[nodes.next[i] as usize] != dea_core::NONE)
+            .map(|i| dea_core::bending::max_shear_stress(dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending, i), area))
+            .fold(0.0, f64::max)
+    };
+    let (as_woven, straight) = (largest_shear(BendingAtRest::AsWoven), largest_shear(BendingAtRest::Straight));
+    assert!(as_woven < 1e-6 * 0.7672e9, "as woven: {as_woven:.3e} Pa");
+    assert!(straight > 0.3 * 0.7672e9, "straight at rest: {straight:.3e} Pa");
 }

@@ -39,16 +39,24 @@ fn theta_over_sine(theta: f64, sine: f64) -> f64 {
 
 /// Forces of one torsional spring with rigidity `k_t` at a node joining the elements
 /// `a = x_i - x_prev` and `b = x_next - x_i`, given as unit vectors and inverse lengths, from
-/// the exact gradient of `U = K_t theta^2 / 2` (seed 5-1). Returns (force on prev, force on
-/// next, theta, moment vector `K_t theta n`). The moment is `(a^ x b^) K_t theta / sin(theta)`,
-/// so the plane's normal needs no normalisation.
+/// the exact gradient of `U = K_t (theta - theta_0)^2 / 2` (seed 5-1; `rest` = theta_0, 0 for
+/// a straight fibre). Returns (force on prev, force on next, theta, moment vector
+/// `K_t (theta - theta_0) n`). The moment is `(a^ x b^) K_t (theta - theta_0) / sin(theta)`,
+/// so the plane's normal needs no normalisation. A spring bent at rest has no defined
+/// direction when pulled exactly straight: it pushes nowhere there.
 #[inline]
-pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
+pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_t: f64, rest: f64) -> (Vec3, Vec3, f64, Vec3) {
     let cross = ua.cross(&ub);
     let sine = cross.norm();
     let cosine = ua.dot(&ub);
     let theta = sine.atan2(cosine);
-    let factor = k_t * theta_over_sine(theta, sine);
+    let factor = if rest == 0.0 {
+        k_t * theta_over_sine(theta, sine)
+    } else if sine > 1e-12 {
+        k_t * (theta - rest) / sine
+    } else {
+        0.0
+    };
     let on_prev = (ua * cosine - ub) * (factor * inverse_la);
     let on_next = (ua - ub * cosine) * (factor * inverse_lb);
     (on_prev, on_next, theta, cross * factor)
@@ -64,12 +72,13 @@ pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSect
             scratch.on_prev[i].fill(0.0);
             scratch.on_next[i].fill(0.0);
             scratch.moment[i].fill(0.0);
-            scratch.angle[i] = 0.0;
+            // a spring that does not act holds no energy
+            scratch.angle[i] = nodes.rest_angle[i];
             continue;
         }
         let p = p as usize;
         let (on_prev, on_next, theta, moment) =
-            torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t);
+            torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
         scratch.on_prev[i] = on_prev;
         scratch.on_next[i] = on_next;
         scratch.moment[i] = moment;
@@ -95,32 +104,51 @@ mod tests {
     use super::*;
 
     fn spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
-        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t)
+        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, 0.0)
     }
 
-    fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64) -> f64 {
+    fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64, rest: f64) -> f64 {
         let (a, b) = (xi - xp, xn - xi);
         let theta = a.cross(&b).norm().atan2(a.dot(&b));
-        0.5 * k_t * theta * theta
+        0.5 * k_t * (theta - rest) * (theta - rest)
     }
 
     #[test]
     fn spring_forces_are_the_exact_gradient_of_the_bending_energy() {
         let (xp, xi, xn) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2));
         let k_t = 2.5;
-        let (on_prev, on_next, _, _) = spring(xi - xp, xn - xi, k_t);
-        let on_self = -(on_prev + on_next);
-        let h = 1e-6;
-        for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
-            for axis in 0..3 {
-                let mut plus = [xp, xi, xn];
-                let mut minus = [xp, xi, xn];
-                plus[node][axis] += h;
-                minus[node][axis] -= h;
-                let numeric = -(energy(plus[0], plus[1], plus[2], k_t) - energy(minus[0], minus[1], minus[2], k_t)) / (2.0 * h);
-                assert!((numeric - analytic[axis]).abs() < 1e-6, "node {node} axis {axis}: {numeric} vs {}", analytic[axis]);
+        for rest in [0.0, 0.2, 0.9] {
+            let (a, b) = (xi - xp, xn - xi);
+            let (on_prev, on_next, _, _) = torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest);
+            let on_self = -(on_prev + on_next);
+            let h = 1e-6;
+            for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
+                for axis in 0..3 {
+                    let mut plus = [xp, xi, xn];
+                    let mut minus = [xp, xi, xn];
+                    plus[node][axis] += h;
+                    minus[node][axis] -= h;
+                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest) - energy(minus[0], minus[1], minus[2], k_t, rest)) / (2.0 * h);
+                    assert!((numeric - analytic[axis]).abs() < 1e-6, "rest {rest}, node {node} axis {axis}: {numeric} vs {}", analytic[axis]);
+                }
             }
         }
+    }
+
+    #[test]
+    fn a_spring_at_its_rest_angle_pushes_nowhere_and_resists_both_ways() {
+        let bend = |angle: f64| Vec3::new(angle.cos(), angle.sin(), 0.0);
+        let rest = 0.3;
+        let (on_prev, on_next, theta, moment) = torsional_spring(Vec3::x(), 1.0, bend(rest), 1.0, 2.0, rest);
+        assert!((theta - rest).abs() < 1e-15);
+        assert!(on_prev.norm() + on_next.norm() + moment.norm() < 1e-15);
+        // straightened a little or bent further: the moment turns it back towards its rest
+        let (_, _, _, less) = torsional_spring(Vec3::x(), 1.0, bend(0.8 * rest), 1.0, 2.0, rest);
+        let (_, _, _, more) = torsional_spring(Vec3::x(), 1.0, bend(1.2 * rest), 1.0, 2.0, rest);
+        assert!(less.z < 0.0 && more.z > 0.0 && (less.z + more.z).abs() < 1e-12);
+        // pulled exactly straight, its direction is undefined: no force
+        let (on_prev, on_next, _, _) = torsional_spring(Vec3::x(), 1.0, Vec3::x(), 1.0, 2.0, rest);
+        assert_eq!(on_prev.norm() + on_next.norm(), 0.0);
     }
 
     #[test]

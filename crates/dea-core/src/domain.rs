@@ -62,6 +62,8 @@ pub struct GhostRecord {
     pub section: u16,
     pub clamped: bool,
     pub last: bool,
+    /// rest angle of the node's bending spring [rad]
+    pub rest_angle: f64,
     /// rest length of the node's element [m]
     pub rest_length: f64,
     /// tensile strength of the node's element [Pa]
@@ -278,6 +280,7 @@ impl Domain {
         self.elements.truncate(n_owned);
         for g in ghosts {
             self.nodes.push(g.gid, g.position, Vec3::zeros(), 0.0, g.fibre, g.along, g.section, g.clamped, g.last);
+            *self.nodes.rest_angle.last_mut().expect("just pushed") = g.rest_angle;
             self.elements.push(g.rest_length, g.tensile_strength, g.failure);
         }
         self.nodes.link_chains();
@@ -614,10 +617,11 @@ impl Domain {
         }
     }
 
-    /// Energy `K_t theta^2 / 2` of the spring at node `i` as computed this step.
+    /// Energy `K_t (theta - theta_0)^2 / 2` of the spring at node `i` as computed this step.
     fn spring_energy(&self, i: usize) -> f64 {
         let k_t = self.sections[self.nodes.section[i] as usize].torsional_stiffness;
-        0.5 * k_t * self.bending.angle[i] * self.bending.angle[i]
+        let bent = self.bending.angle[i] - self.nodes.rest_angle[i];
+        0.5 * k_t * bent * bent
     }
 
     /// Every owned node has finite force and position, and a stiffness the time step can

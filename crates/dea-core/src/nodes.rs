@@ -36,6 +36,9 @@ pub struct Nodes {
     pub clamped: Vec<bool>,
     /// the node is the last of its fibre (so a missing `next` is an end, not a missing ghost)
     pub last: Vec<bool>,
+    /// turning angle at which the node's bending spring is at rest: 0 for a straight fibre,
+    /// the relaxed angle of a woven one (docs/theory.md F4) [rad]
+    pub rest_angle: Vec<f64>,
 }
 
 /// Why an element failed (seed eq. 5-6 split by the dominant term).
@@ -103,6 +106,7 @@ impl Nodes {
         self.next.push(NONE);
         self.clamped.push(clamped);
         self.last.push(last);
+        self.rest_angle.push(0.0);
     }
 
     /// Drops every ghost, keeping the owned nodes.
@@ -120,6 +124,7 @@ impl Nodes {
         self.next.truncate(n);
         self.clamped.truncate(n);
         self.last.truncate(n);
+        self.rest_angle.truncate(n);
     }
 
     /// The first owned node (ascending local index) whose chain stencil of `depth` nodes on

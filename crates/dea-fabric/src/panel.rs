@@ -151,6 +151,12 @@ impl WovenPanel {
         }
     }
 
+    /// Rest angle of the bending spring at node `k` of fibre `fibre` of yarn `yarn` [rad].
+    pub fn rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64 {
+        let n = self.cell.nodes_per_period;
+        self.cell.rest_angles[self.cell_fibre(yarn, fibre) * n as usize + ((k + 3 * n / 4) % n) as usize]
+    }
+
     /// Whether a node at `position`, `k` along its fibre, is held by the boundary.
     pub fn clamped(&self, position: &Vec3, k: u32) -> bool {
         match self.boundary {
@@ -215,6 +221,7 @@ impl WovenPanel {
                         self.clamped(&position, k),
                         k == last,
                     );
+                    *nodes.rest_angle.last_mut().expect("just pushed") = self.rest_angle(yarn, fibre, k);
                     elements.push(if k == last { 0.0 } else { rest }, self.tensile_strength, FailureMode::Intact);
                 }
             }

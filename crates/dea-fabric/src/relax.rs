@@ -24,11 +24,24 @@ pub struct RelaxOptions {
     pub tolerance: f64,
     /// give up after this many iterations
     pub max_iterations: u64,
+    /// what the bending springs hold at rest
+    pub bending_at_rest: BendingAtRest,
+}
+
+/// The shape in which a woven fibre's bending springs are at rest (docs/theory.md F4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BendingAtRest {
+    /// the relaxed, crimped shape: the cell relaxes without bending (pin-jointed chains, as
+    /// the seed's DEA relaxation) and each spring takes its relaxed angle as its rest angle
+    AsWoven,
+    /// straight: the springs act during relaxation and the crimp holds them bent
+    Straight,
 }
 
 impl Default for RelaxOptions {
     fn default() -> Self {
-        Self { tolerance: 1e-7, max_iterations: 2_000_000 }
+        Self { tolerance: 1e-7, max_iterations: 2_000_000, bending_at_rest: BendingAtRest::AsWoven }
     }
 }
 
@@ -126,6 +139,25 @@ pub(crate) fn closest_crossing(cell: &UnitCell) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Turning angle at every node of the cell, each fibre closed on its periodic image [rad].
+fn turning_angles(cell: &UnitCell) -> Vec<f64> {
+    let n = cell.nodes_per_period as usize;
+    let mut angles = vec![0.0; cell.positions.len()];
+    for fibre in 0..cell.fibres() {
+        let closure = cell.closure(fibre);
+        let at = |k: isize| {
+            let wrapped = k.rem_euclid(n as isize) as usize;
+            let shift = k.div_euclid(n as isize) as f64;
+            cell.positions[fibre * n + wrapped] + closure * shift
+        };
+        for k in 0..n as isize {
+            let (a, b) = (at(k) - at(k - 1), at(k + 1) - at(k));
+            angles[fibre * n + k as usize] = a.cross(&b).norm().atan2(a.dot(&b));
+        }
+    }
+    angles
+}
+
 /// Deepest overlap of two nodes of the cell (different fibres, periodic images included),
 /// over the contact diameter [-]: where the fabric's contacts start.
 pub fn largest_overlap_ratio(cell: &UnitCell) -> f64 {
@@ -162,7 +194,7 @@ fn tensioned_rest_length(cell: &UnitCell, material: &FibreMaterial, length: f64)
 
 /// Forces on every node of the cell [N]: rods (4-2), bending springs (5-1), elastic contact
 /// (4-8) of the listed pairs. Returns (contacts, largest overlap / contact diameter).
-fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], force: &mut [Vec3]) -> (usize, f64) {
+fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, bending: bool, pairs: &[(u32, u32)], force: &mut [Vec3]) -> (usize, f64) {
     let n = cell.nodes_per_period as usize;
     let section = &cell.section;
     let stiffness = material.longitudinal_modulus * section.area;
@@ -190,10 +222,10 @@ fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods:
             force[base + k] += tension;
             force[base + (k + 1) % n] -= tension;
         }
-        if section.torsional_stiffness > 0.0 {
+        if bending && section.torsional_stiffness > 0.0 {
             for k in 0..n {
                 let previous = (k + n - 1) % n;
-                let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness);
+                let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness, cell.rest_angles[base + k]);
                 force[base + previous] += on_prev;
                 force[base + (k + 1) % n] += on_next;
                 force[base + k] -= on_prev + on_next;
@@ -230,6 +262,8 @@ fn largest_force(force: &[Vec3]) -> f64 {
 /// it. The section (nominal element length, contact diameter, spring rigidity) stays.
 pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
     let law = *law;
+    let bending = options.bending_at_rest == BendingAtRest::Straight;
+    cell.rest_angles.fill(0.0);
     let before = cell.statistics(material);
     let section = cell.section.clone();
     let mass = section.node_mass(material);
@@ -244,7 +278,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
     let count = cell.positions.len();
     let mut force = vec![Vec3::zeros(); count];
     let mut velocity = vec![Vec3::zeros(); count];
-    cell_forces(cell, material, &law, Rods::Tension, &pairs, &mut force);
+    cell_forces(cell, material, &law, Rods::Tension, bending, &pairs, &mut force);
     let initial = largest_force(&force);
     let mut residual = initial;
     let mut history = vec![(0, initial)];
@@ -282,7 +316,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
             pairs = periodic_pairs(cell, reach);
             anchor.clone_from(&cell.positions);
         }
-        cell_forces(cell, material, &law, Rods::Tension, &pairs, &mut force);
+        cell_forces(cell, material, &law, Rods::Tension, bending, &pairs, &mut force);
         residual = largest_force(&force);
         if !residual.is_finite() {
             return Err(RelaxError::NonFinite { iteration });
@@ -294,9 +328,12 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
     for fibre in 0..cell.fibres() {
         cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre));
     }
+    if !bending {
+        cell.rest_angles = turning_angles(cell);
+    }
     // the forces the solver will see: the same as the last iteration's, as the rest lengths
-    // are those the tension gave
-    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut force);
+    // are those the tension gave and the springs rest at their angles (or acted throughout)
+    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, true, &pairs, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
     Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history, before, after: cell.statistics(material) })
@@ -331,12 +368,12 @@ mod tests {
         let law = NormalLaw::ElastoPlasticKm2;
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         let (crimp, thickness) = (cell.crimp(), cell.thickness());
-        let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
+        let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
         assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
         // the solver's forces on the relaxed cell are the converged ones
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
-        cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut force);
+        cell_forces(&cell, &material, &law, Rods::Rest, true, &pairs, &mut force);
         assert!((largest_force(&force) - report.final_residual_n).abs() <= 1e-9 * report.initial_residual_n);
         // tension pulls the yarns straighter and flatter; no contact is compressed beyond the
         // strain the stable time step is designed for
@@ -352,7 +389,7 @@ mod tests {
         }
         // the same bits every time
         let mut again = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000 }).unwrap();
+        relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
         assert_eq!(again, cell);
     }
 
@@ -360,7 +397,7 @@ mod tests {
     fn a_relaxation_that_cannot_finish_says_so() {
         let material = FibreMaterial::kevlar_km2();
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10 }).unwrap_err();
+        let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10, ..Default::default() }).unwrap_err();
         assert!(matches!(error, RelaxError::NotConverged { iterations: 10, .. }));
     }
 
@@ -375,7 +412,7 @@ mod tests {
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
         let law = NormalLaw::Elastic { transverse_modulus: material.transverse_modulus };
-        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut force);
+        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, true, &pairs, &mut force);
         assert!(contacts > 0);
         let total: Vec3 = force.iter().sum();
         let scale = largest_force(&force);

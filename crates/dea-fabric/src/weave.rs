@@ -102,6 +102,9 @@ pub struct UnitCell {
     /// rest length of every element of each cell fibre; the section's element length is
     /// their mean [m]
     pub rest_lengths: Vec<f64>,
+    /// rest angle of the bending spring at every node, ordered as `positions` (0 until a
+    /// relaxation makes the as-woven shape the springs' rest) [rad]
+    pub rest_angles: Vec<f64>,
     /// tension of one digital fibre: the yarn tension over the fibres of the yarn [N]
     pub fibre_tension: f64,
     /// the packing of the yarn section: (across, up) offsets of the fibres [m]
@@ -238,7 +241,8 @@ impl PlainWeave {
         }
         let rest_lengths = vec![section.element_length; 4 * packing.len()];
         let fibre_tension = self.yarn_tension / self.fibres_per_yarn as f64;
-        UnitCell { yarn_spacing: s, fibres_per_yarn: self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, fibre_tension, packing, initial_amplitude: amplitude }
+        let rest_angles = vec![0.0; positions.len()];
+        UnitCell { yarn_spacing: s, fibres_per_yarn: self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, rest_angles, fibre_tension, packing, initial_amplitude: amplitude }
     }
 }
 

@@ -9,6 +9,7 @@ use dea_projectile::generate::{FspDimensions, Solid};
 use dea_core::weibull::{WeibullMode, WeibullStrength};
 use dea_core::FibreMaterial;
 use dea_fabric::panel::Boundary;
+use dea_fabric::relax::BendingAtRest;
 use dea_fabric::weave::PlainWeave;
 use serde::{Deserialize, Serialize};
 
@@ -173,11 +174,19 @@ pub struct WeaveSpec {
     /// element length / digital fibre diameter [-]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub element_length_ratio: Option<f64>,
+    /// the shape the bending springs rest in: "as_woven" (the relaxed crimp, the default) or
+    /// "straight" (the crimp holds them bent; docs/theory.md F4)
+    #[serde(default = "as_woven")]
+    pub bending_at_rest: BendingAtRest,
+}
+
+fn as_woven() -> BendingAtRest {
+    BendingAtRest::AsWoven
 }
 
 impl Default for WeaveSpec {
     fn default() -> Self {
-        Self { preset: "km2_style_706".into(), fibres_per_yarn: 4, yarn_spacing_m: None, section_aspect: None, initial_crimp: None, yarn_tension_n: None, element_length_ratio: None }
+        Self { preset: "km2_style_706".into(), fibres_per_yarn: 4, yarn_spacing_m: None, section_aspect: None, initial_crimp: None, yarn_tension_n: None, element_length_ratio: None, bending_at_rest: BendingAtRest::AsWoven }
     }
 }
 

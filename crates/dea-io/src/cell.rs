@@ -10,7 +10,7 @@ use dea_fabric::weave::UnitCell;
 use crate::results::{write_scalars, write_text_attribute, write_vectors};
 
 /// Format tag of a cell file.
-pub const CELL_FORMAT: &str = "dea-mpi relaxed cell 1";
+pub const CELL_FORMAT: &str = "dea-mpi relaxed cell 2";
 
 /// The section's values in the `section` dataset, in order, with their units.
 const SECTION_FIELDS: &str = "diameter m, area m^2, element_length m, contact_diameter m, moment_of_inertia m^4, torsional_stiffness N m/rad, filaments_per_fibre -";
@@ -27,6 +27,7 @@ pub fn write_cell(path: &Path, cell: &UnitCell, report_json: &str, statistics_js
     let values = [section.diameter, section.area, section.element_length, section.contact_diameter, section.moment_of_inertia, section.torsional_stiffness, section.filaments_per_fibre];
     write_scalars(&group, "section", &values, SECTION_FIELDS)?;
     write_scalars(&group, "rest_length", &cell.rest_lengths, "m")?;
+    write_scalars(&group, "rest_angle", &cell.rest_angles, "rad")?;
     let packing: Vec<f64> = cell.packing.iter().flatten().copied().collect();
     let dataset = group.new_dataset::<f64>().shape([cell.packing.len(), 2]).create("packing")?;
     dataset.write_raw(&packing)?;
@@ -77,6 +78,7 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
     let flat: Vec<f64> = file.dataset("position").and_then(|d| d.read_raw()).map_err(|e| wrap("position", e))?;
     let positions: Vec<Vec3> = flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
     let rest_lengths: Vec<f64> = file.dataset("rest_length").and_then(|d| d.read_raw()).map_err(|e| wrap("rest_length", e))?;
+    let rest_angles: Vec<f64> = file.dataset("rest_angle").and_then(|d| d.read_raw()).map_err(|e| wrap("rest_angle", e))?;
     let flat: Vec<f64> = file.dataset("packing").and_then(|d| d.read_raw()).map_err(|e| wrap("packing", e))?;
     let packing: Vec<[f64; 2]> = flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
     let fibres_per_yarn = count("fibres_per_yarn")? as usize;
@@ -89,12 +91,13 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
         section,
         positions,
         rest_lengths,
+        rest_angles,
         fibre_tension: scalar("fibre_tension")?,
         packing,
         initial_amplitude: scalar("initial_amplitude")?,
     };
     let fibres = 4 * fibres_per_yarn;
-    if fibres_per_yarn == 0 || nodes_per_period < 4 || cell.positions.len() != fibres * nodes_per_period as usize || cell.rest_lengths.len() != fibres || cell.packing.len() != fibres_per_yarn {
+    if fibres_per_yarn == 0 || nodes_per_period < 4 || cell.positions.len() != fibres * nodes_per_period as usize || cell.rest_angles.len() != cell.positions.len() || cell.rest_lengths.len() != fibres || cell.packing.len() != fibres_per_yarn {
         return Err(format!("{name}: inconsistent sizes ({} positions, {} rest lengths, {} packing points for {fibres_per_yarn} fibres per yarn and {nodes_per_period} nodes per period)", cell.positions.len(), cell.rest_lengths.len(), cell.packing.len()));
     }
     Ok(cell)
