@@ -213,6 +213,8 @@ pub struct CampaignReport {
     pub shots: Vec<ShotRecord>,
     pub partials: usize,
     pub completes: usize,
+    /// partials that were still undecided at the case's end time (see docs/theory.md V1)
+    pub held_at_end: usize,
     /// each estimate, or why it cannot be made
     pub logistic: Result<Fit, String>,
     pub probit: Result<Fit, String>,
@@ -246,6 +248,7 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
     Ok(CampaignReport {
         campaign: campaign.name.clone(),
         partials: outcomes.iter().filter(|s| !s.perforated).count(),
+        held_at_end: shots.iter().filter(|s| s.stopped_by == "end_time_s").count(),
         completes: outcomes.iter().filter(|s| s.perforated).count(),
         logistic: fit(&outcomes, Link::Logistic).map_err(text),
         probit: fit(&outcomes, Link::Probit).map_err(text),

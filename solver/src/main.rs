@@ -471,6 +471,9 @@ fn main() -> ExitCode {
                 Err(e) => return fail(Exit::File, e),
             };
             println!("{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}", report.campaign, report.shots.len(), report.partials, report.completes, group.count, per_shot, out.display());
+            if report.held_at_end > 0 {
+                println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
+            }
             for (name, fit) in [("logistic", &report.logistic), ("probit", &report.probit)] {
                 match fit {
                     Ok(f) => println!("{name:>9}: V50 {:.1} m/s (95 % {:.1}..{:.1}), V10 {:.1}, V90 {:.1}", f.v50.velocity, f.v50.low, f.v50.high, f.v10.velocity, f.v90.velocity),

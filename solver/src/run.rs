@@ -88,6 +88,10 @@ impl StageSeconds {
     }
 }
 
+/// Below this fraction of the peak contact force, what still touches a projectile past the
+/// back face does not hold it (docs/theory.md V1).
+pub const HELD_FRACTION: f64 = 0.01;
+
 /// How the shot ends, judged from the projectile against the target's extent along z.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Outcome {
@@ -97,8 +101,10 @@ enum Outcome {
 }
 
 /// Decides a shot: perforated once the projectile has passed the target's initial back face,
-/// still moves forward, and every fibre it touches is broken somewhere (what hangs on it
-/// are loose fragments); rebounded once it moves back, clear of the target and of contact.
+/// still moves forward, and nothing holds it back: every fibre it touches is broken
+/// somewhere (what hangs on it are loose fragments), or what still touches it resists with
+/// less than [`HELD_FRACTION`] of the peak force so far (fibres pushed aside along its flank);
+/// rebounded once it moves back, clear of the target and of contact.
 /// Every rank takes part in the reductions; rank 0 decides and tells the others.
 struct Judge {
     direction: Vec3,
@@ -117,7 +123,7 @@ impl Judge {
         Self { direction, back_face, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
     }
 
-    fn outcome<C: Comm>(&self, run: &Distributed<C>) -> Outcome {
+    fn outcome<C: Comm>(&self, run: &Distributed<C>, max_force: f64) -> Outcome {
         let broken = run.fibres_with_broken_elements(self.fibres);
         let domain = &run.domain;
         let contacts = &domain.projectile_contacts;
@@ -131,7 +137,8 @@ impl Judge {
         if run.comm.rank() == Rank(0) {
             let projectile = domain.projectile.as_ref().expect("runs have a projectile");
             let forward = projectile.velocity.dot(&self.direction);
-            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && !held {
+            let resisting = -projectile.force.dot(&self.direction);
+            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && (!held || resisting <= HELD_FRACTION * max_force) {
                 decision = Outcome::Perforated;
             } else if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
                 decision = Outcome::Rebounded;
@@ -279,7 +286,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         if run.domain.step.is_multiple_of(options.history_interval) {
             let clock = Instant::now();
             sample(run, &mut histories, options.layers);
-            decided = judge.outcome(run);
+            decided = judge.outcome(run, max_force);
             output_seconds += clock.elapsed().as_secs_f64();
             if options.stop_when_decided && decided != Outcome::Undecided {
                 stopped_by = format!("{decided:?}").to_lowercase();
@@ -304,7 +311,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {
         sample(run, &mut histories, options.layers);
-        decided = judge.outcome(run);
+        decided = judge.outcome(run, max_force);
     }
     // the final state is the last snapshot, written by each rank for its own nodes
     if options.snapshot_interval.is_none_or(|n| !run.domain.step.is_multiple_of(n)) {
