@@ -476,7 +476,10 @@ fn main() -> ExitCode {
             }
             for (name, fit) in [("logistic", &report.logistic), ("probit", &report.probit)] {
                 match fit {
-                    Ok(f) => println!("{name:>9}: V50 {:.1} m/s (95 % {:.1}..{:.1}), V10 {:.1}, V90 {:.1}", f.v50.velocity, f.v50.low, f.v50.high, f.v10.velocity, f.v90.velocity),
+                    Ok(f) => println!(
+                        "{name:>9}: V50 {:.1} m/s (95 %: {:.1}..{:.1} delta method, {:.1}..{:.1} profile likelihood), V10 {:.1}, V90 {:.1}",
+                        f.v50.velocity, f.v50.low, f.v50.high, f.v50.profile_low, f.v50.profile_high, f.v10.velocity, f.v90.velocity
+                    ),
                     Err(e) => println!("{name:>9}: {e}"),
                 }
             }

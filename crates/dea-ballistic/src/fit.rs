@@ -76,9 +76,14 @@ pub struct Limit {
     pub velocity: f64,
     /// standard error [m/s]
     pub standard_error: f64,
-    /// 95 % confidence interval (delta method) [m/s]
+    /// 95 % confidence interval (delta method, symmetric) [m/s]
     pub low: f64,
     pub high: f64,
+    /// 95 % profile-likelihood interval: the velocities whose best curve through them is
+    /// within chi^2(1, 0.95) / 2 of the maximum log-likelihood; asymmetric, and better than
+    /// the delta method for few shots [m/s] (infinite where the shots do not bound it)
+    pub profile_low: f64,
+    pub profile_high: f64,
 }
 
 /// A fitted curve.
@@ -181,7 +186,8 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         let gradient = [-scale / b, -scale * (q - a) / (b * b)];
         let variance = gradient[0] * gradient[0] * covariance[0][0] + 2.0 * gradient[0] * gradient[1] * covariance[0][1] + gradient[1] * gradient[1] * covariance[1][1];
         let standard_error = variance.max(0.0).sqrt();
-        Limit { probability: p, velocity, standard_error, low: velocity - z * standard_error, high: velocity + z * standard_error }
+        let (profile_low, profile_high) = profile_interval(shots, link, mean, scale, q, (velocity - mean) / scale, b, current);
+        Limit { probability: p, velocity, standard_error, low: velocity - z * standard_error, high: velocity + z * standard_error, profile_low, profile_high }
     };
     Ok(Fit {
         link,
@@ -194,6 +200,86 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         shots: shots.len(),
         iterations,
     })
+}
+
+/// chi^2 with one degree of freedom at 0.95.
+const CHI2_95: f64 = 3.841_458_820_694_124;
+
+/// Largest log-likelihood of the curves through `F^-1(p) = q` at standardised velocity `m`:
+/// `z = q + b (u - m)`, maximised over the slope `b > 0` by Newton's method from `b0` (the
+/// log-likelihood is concave in b). A slope that runs away means the shots separate there:
+/// the supremum is then taken at the largest slope reached.
+fn profile(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m: f64, b0: f64) -> f64 {
+    let value = |b: f64| -> f64 {
+        shots
+            .iter()
+            .map(|s| {
+                let p = link.cdf(q + b * ((s.velocity - mean) / scale - m));
+                if s.perforated { p.max(f64::MIN_POSITIVE).ln() } else { (1.0 - p).max(f64::MIN_POSITIVE).ln() }
+            })
+            .sum()
+    };
+    let mut b = b0;
+    let mut best = value(b);
+    for _ in 0..100 {
+        let (mut g, mut h) = (0.0, 0.0);
+        for s in shots {
+            let u = (s.velocity - mean) / scale - m;
+            let (d1, d2) = link.score(q + b * u, s.perforated);
+            g += d1 * u;
+            h += d2 * u * u;
+        }
+        let step = if h < 0.0 { -g / h } else { g.signum() * b };
+        let mut t = 1.0;
+        let mut moved = false;
+        for _ in 0..60 {
+            let candidate = b + t * step;
+            if candidate > 0.0 {
+                let v = value(candidate);
+                if v >= best {
+                    (b, best, moved) = (candidate, v, true);
+                    break;
+                }
+            }
+            t *= 0.5;
+        }
+        if !moved || (t * step).abs() < 1e-12 * b.max(1.0) || b > 1e6 {
+            break;
+        }
+    }
+    best
+}
+
+/// The profile-likelihood interval of `V_p` around its estimate `m_hat` (standardised), in
+/// m/s: each bound found by stepping out until the deviance exceeds chi^2(1, 0.95), then
+/// bisecting.
+#[allow(clippy::too_many_arguments)]
+fn profile_interval(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m_hat: f64, b_hat: f64, best: f64) -> (f64, f64) {
+    let deviance = |m: f64| 2.0 * (best - profile(shots, link, mean, scale, q, m, b_hat));
+    let bound = |direction: f64| -> f64 {
+        let (mut inside, mut step) = (m_hat, 0.05);
+        let mut outside = None;
+        for _ in 0..40 {
+            let trial = inside + direction * step;
+            if deviance(trial) > CHI2_95 {
+                outside = Some(trial);
+                break;
+            }
+            inside = trial;
+            step *= 1.6;
+        }
+        let Some(mut outside) = outside else { return direction * f64::INFINITY };
+        for _ in 0..60 {
+            let mid = 0.5 * (inside + outside);
+            if deviance(mid) > CHI2_95 {
+                outside = mid;
+            } else {
+                inside = mid;
+            }
+        }
+        mean + scale * 0.5 * (inside + outside)
+    };
+    (bound(-1.0), bound(1.0))
 }
 
 #[cfg(test)]
@@ -218,21 +304,41 @@ mod tests {
             let (v50, width) = (300.0, 15.0);
             // over many simulated campaigns, the 95 % interval holds the true V50 about 95 %
             // of the time, and each fit is close
-            let mut covered = 0;
+            let (mut covered, mut profile_covered) = (0, 0);
             for seed in 0..200 {
                 let shots = simulated(link, v50, width, 60, seed);
                 let fit = fit(&shots, link).unwrap();
                 assert!((fit.v50.velocity - v50).abs() < 5.0 * fit.v50.standard_error, "{link:?} seed {seed}: {:?}", fit.v50);
                 covered += (fit.v50.low <= v50 && v50 <= fit.v50.high) as usize;
+                profile_covered += (fit.v50.profile_low <= v50 && v50 <= fit.v50.profile_high) as usize;
+                assert!(fit.v50.profile_low < fit.v50.velocity && fit.v50.velocity < fit.v50.profile_high);
                 assert!(fit.v10.velocity < fit.v50.velocity && fit.v50.velocity < fit.v90.velocity);
             }
             assert!((180..=197).contains(&covered), "{link:?}: {covered} of 200 intervals hold the true V50");
+            assert!((180..=197).contains(&profile_covered), "{link:?}: {profile_covered} of 200 profile intervals hold the true V50");
             // a large campaign pins the curve down
             let fit = fit(&simulated(link, v50, width, 4000, 7), link).unwrap();
             assert!((fit.v50.velocity - v50).abs() < 2.0, "{:?}", fit.v50);
             let v90 = v50 + width * link.quantile(0.9);
             assert!((fit.v90.velocity - v90).abs() < 3.0, "{:?} vs {v90}", fit.v90);
         }
+    }
+
+    #[test]
+    fn the_profile_interval_ends_where_the_deviance_reaches_chi_squared() {
+        // a small campaign: the interval is asymmetric, and its ends lie on the deviance level
+        let shots = simulated(Link::Logistic, 300.0, 15.0, 14, 5);
+        let fit = fit(&shots, Link::Logistic).unwrap();
+        let n = shots.len() as f64;
+        let mean = shots.iter().map(|s| s.velocity).sum::<f64>() / n;
+        let scale = (shots.iter().map(|s| (s.velocity - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let b_hat = fit.slope * scale;
+        for end in [fit.v50.profile_low, fit.v50.profile_high] {
+            let deviance = 2.0 * (fit.log_likelihood - profile(&shots, Link::Logistic, mean, scale, 0.0, (end - mean) / scale, b_hat));
+            assert!((deviance - CHI2_95).abs() < 1e-6, "deviance {deviance} at {end}");
+        }
+        let (below, above) = (fit.v50.velocity - fit.v50.profile_low, fit.v50.profile_high - fit.v50.velocity);
+        assert!((below - above).abs() > 1e-3 * (below + above), "asymmetric: {below} {above}");
     }
 
     #[test]
