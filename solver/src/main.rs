@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use dea_core::Rank;
 use dea_io::campaign::{load_campaign, Campaign};
-use dea_io::case::{default_case, load_case, parse_case, Case};
+use dea_io::case::{default_case, load_case, Case};
 use dea_mpi::campaign::{CampaignError, Group, Progress};
 use dea_mpi::comm::mpi::{MpiComm, MpiSession};
 use dea_mpi::comm::Comm;
@@ -167,15 +167,15 @@ fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
     }
 }
 
-/// Rank 0 reads the case and every rank gets it, or the same error: a file missing on one
+/// Rank 0 runs `load` and every rank gets its value, or the same error: a file missing on one
 /// node's file system cannot split the job.
-fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
+fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(comm: &impl Comm, load: impl FnOnce() -> Result<T, (Exit, String)>) -> Result<T, (Exit, String)> {
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
-        match load(path) {
-            Ok(case) => {
+        match load() {
+            Ok(value) => {
                 message.push(0);
-                message.extend(serde_json::to_string(&case).expect("case serialises").bytes());
+                message.extend(serde_json::to_string(&value).expect("what rank 0 read serialises").bytes());
             }
             Err((code, text)) => {
                 message.push(code as u8);
@@ -187,38 +187,24 @@ fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, 
     let (&code, payload) = message.split_first().expect("rank 0 always sends a code");
     let text = String::from_utf8_lossy(payload).into_owned();
     match code {
-        0 => parse_case(&text, "case from rank 0").map_err(|e| (Exit::BadCase, e.to_string())),
+        0 => serde_json::from_str(&text).map_err(|e| (Exit::BadCase, format!("from rank 0: {e}"))),
         3 => Err((Exit::BadCase, text)),
         _ => Err((Exit::File, text)),
     }
 }
 
-/// Rank 0 reads the campaign and its case; every rank gets them (or the same error).
+/// Rank 0 reads the case (no path: the default case); every rank gets it.
+fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
+    from_rank0(comm, || load(path))
+}
+
+/// Rank 0 reads the campaign, its case and its text; every rank gets them.
 fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, Case, String), (Exit, String)> {
-    let mut message = Vec::new();
-    if comm.rank() == Rank(0) {
-        let loaded = std::fs::read_to_string(path)
-            .map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))
-            .and_then(|text| load_campaign(path).map(|(campaign, case)| (campaign, case, text)).map_err(|e| (Exit::BadCase, e.to_string())));
-        match loaded {
-            Ok(loaded) => {
-                message.push(0);
-                message.extend(serde_json::to_string(&loaded).expect("campaign serialises").bytes());
-            }
-            Err((code, text)) => {
-                message.push(code as u8);
-                message.extend(text.bytes());
-            }
-        }
-    }
-    comm.broadcast_bytes(&mut message);
-    let (&code, payload) = message.split_first().expect("rank 0 always sends a code");
-    let text = String::from_utf8_lossy(payload).into_owned();
-    match code {
-        0 => serde_json::from_str(&text).map_err(|e| (Exit::BadCase, format!("campaign from rank 0: {e}"))),
-        3 => Err((Exit::BadCase, text)),
-        _ => Err((Exit::File, text)),
-    }
+    from_rank0(comm, || {
+        let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+        let (campaign, case) = load_campaign(path).map_err(|e| (Exit::BadCase, e.to_string()))?;
+        Ok((campaign, case, text))
+    })
 }
 
 /// Ends every rank of a collective error: rank 0 prints the message once, all ranks wait

@@ -28,10 +28,8 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
             elements.tension[i].fill(0.0);
             continue;
         }
-        let stiffness = material.longitudinal_modulus * sections[nodes.section[i] as usize].area;
-        let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
         // force on the first node points along the element when stretched (4-2)
-        elements.tension[i] = direction * (scale * stiffness * strain);
+        elements.tension[i] = direction * axial_force(material, sections[nodes.section[i] as usize].area, strain);
     }
 }
 
@@ -55,6 +53,15 @@ pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &Bendin
         }
         nodes.force[i] = axial + spring;
     }
+}
+
+/// Axial force of an element of section area `area` at `strain` (4-2): `E_L A eps`, scaled
+/// in compression [N].
+#[inline]
+pub fn axial_force(material: &FibreMaterial, area: f64, strain: f64) -> f64 {
+    let stiffness = material.longitudinal_modulus * area;
+    let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
+    scale * stiffness * strain
 }
 
 /// Axial strain energy of element `i`: `E A l0 eps^2 / 2` (scaled in compression) [J].

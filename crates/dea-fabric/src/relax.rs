@@ -11,6 +11,7 @@
 //! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
 
 use dea_core::bending::torsional_spring;
+use dea_core::rod::axial_force;
 use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::stability::stable_time_step;
 use dea_core::{FibreMaterial, Vec3};
@@ -176,14 +177,15 @@ fn minimum_image(mut d: Vec3, period: f64) -> Vec3 {
     d
 }
 
-/// What sets the rods' force in [`cell_forces`].
+/// Which forces [`cell_forces`] evaluates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Rods {
-    /// the cell's rest lengths (the relaxed cell as the solver will see it)
+    /// the cell as the solver will see it: its rest lengths, its bending springs
     Rest,
-    /// each fibre's rest length follows its current length so that it carries the fibre
-    /// tension: material is drawn in or let out as on the loom
-    Tension,
+    /// during relaxation: each fibre's rest length follows its current length so that it
+    /// carries the fibre tension (material drawn in or let out as on the loom); the bending
+    /// springs act only when `bending` (springs straight at rest)
+    Tension { bending: bool },
 }
 
 /// Rest length of the elements of a fibre of current length `length` that carries `tension`
@@ -194,14 +196,21 @@ fn tensioned_rest_length(cell: &UnitCell, material: &FibreMaterial, length: f64)
 
 /// Forces on every node of the cell [N]: rods (4-2), bending springs (5-1), elastic contact
 /// (4-8) of the listed pairs. Returns (contacts, largest overlap / contact diameter).
-fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, bending: bool, pairs: &[(u32, u32)], force: &mut [Vec3]) -> (usize, f64) {
+/// Per-fibre element directions and lengths, reused by every force evaluation.
+#[derive(Default)]
+struct ChainScratch {
+    direction: Vec<Vec3>,
+    length: Vec<f64>,
+}
+
+fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
     let n = cell.nodes_per_period as usize;
     let section = &cell.section;
-    let stiffness = material.longitudinal_modulus * section.area;
     force.fill(Vec3::zeros());
     // element k of a fibre joins node k to node k + 1 (the image of node 0 after the last)
-    let mut direction = vec![Vec3::zeros(); n];
-    let mut length = vec![0.0; n];
+    chain.direction.resize(n, Vec3::zeros());
+    chain.length.resize(n, 0.0);
+    let (direction, length) = (&mut chain.direction, &mut chain.length);
     for fibre in 0..cell.fibres() {
         let base = fibre * n;
         let closure = cell.closure(fibre);
@@ -213,16 +222,15 @@ fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods:
         }
         let rest = match rods {
             Rods::Rest => cell.rest_lengths[fibre],
-            Rods::Tension => tensioned_rest_length(cell, material, length.iter().sum()),
+            Rods::Tension { .. } => tensioned_rest_length(cell, material, length.iter().sum()),
         };
         for k in 0..n {
             let strain = (length[k] - rest) / rest;
-            let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
-            let tension = direction[k] * (scale * stiffness * strain);
+            let tension = direction[k] * axial_force(material, section.area, strain);
             force[base + k] += tension;
             force[base + (k + 1) % n] -= tension;
         }
-        if bending && section.torsional_stiffness > 0.0 {
+        if rods != (Rods::Tension { bending: false }) && section.torsional_stiffness > 0.0 {
             for k in 0..n {
                 let previous = (k + n - 1) % n;
                 let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness, cell.rest_angles[base + k]);
@@ -277,8 +285,9 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
     let mut anchor = cell.positions.clone();
     let count = cell.positions.len();
     let mut force = vec![Vec3::zeros(); count];
+    let mut chain = ChainScratch::default();
     let mut velocity = vec![Vec3::zeros(); count];
-    cell_forces(cell, material, &law, Rods::Tension, bending, &pairs, &mut force);
+    cell_forces(cell, material, &law, Rods::Tension { bending }, &pairs, &mut chain, &mut force);
     let initial = largest_force(&force);
     let mut residual = initial;
     let mut history = vec![(0, initial)];
@@ -316,7 +325,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
             pairs = periodic_pairs(cell, reach);
             anchor.clone_from(&cell.positions);
         }
-        cell_forces(cell, material, &law, Rods::Tension, bending, &pairs, &mut force);
+        cell_forces(cell, material, &law, Rods::Tension { bending }, &pairs, &mut chain, &mut force);
         residual = largest_force(&force);
         if !residual.is_finite() {
             return Err(RelaxError::NonFinite { iteration });
@@ -333,7 +342,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
     }
     // the forces the solver will see: the same as the last iteration's, as the rest lengths
     // are those the tension gave and the springs rest at their angles (or acted throughout)
-    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, true, &pairs, &mut force);
+    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut chain, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
     Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history, before, after: cell.statistics(material) })
@@ -373,7 +382,7 @@ mod tests {
         // the solver's forces on the relaxed cell are the converged ones
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
-        cell_forces(&cell, &material, &law, Rods::Rest, true, &pairs, &mut force);
+        cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
         assert!((largest_force(&force) - report.final_residual_n).abs() <= 1e-9 * report.initial_residual_n);
         // tension pulls the yarns straighter and flatter; no contact is compressed beyond the
         // strain the stable time step is designed for
@@ -412,7 +421,7 @@ mod tests {
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
         let law = NormalLaw::Elastic { transverse_modulus: material.transverse_modulus };
-        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, true, &pairs, &mut force);
+        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
         assert!(contacts > 0);
         let total: Vec3 = force.iter().sum();
         let scale = largest_force(&force);
