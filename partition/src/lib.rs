@@ -92,14 +92,14 @@ pub struct SegmentGraph {
 /// Positions per segment: 64, or fewer (down to 4) so that each rank has at least 32
 /// segments to balance with.
 pub fn default_segment_positions(fabric: &Fabric, ranks: usize) -> u32 {
-    let positions = fabric.yarn_count() as u64 * fabric.nodes_per_fibre() as u64;
+    let positions: u64 = (0..fabric.yarn_count()).map(|y| fabric.nodes_per_fibre(y) as u64).sum();
     (positions / (32 * ranks.max(1) as u64)).clamp(4, 64) as u32
 }
 
 /// Expected contact-list entries per node inside a yarn, as if it were straight: for every
 /// pair of fibres closer than `reach`, the nodes of the other fibre within reach of a node.
 fn in_yarn_entries_per_node(fabric: &Fabric, yarn: usize, material: &FibreMaterial, reach: f64) -> f64 {
-    let section = fabric.section(material);
+    let section = &fabric.sections(material)[fabric.yarn_section(yarn)];
     let centres = fabric.section_packing(yarn, material);
     let fibres = centres.len();
     let mut entries = 0.0;
@@ -123,12 +123,12 @@ fn overlap_volume(low_a: &Vec3, high_a: &Vec3, low_b: &Vec3, high_b: &Vec3) -> f
 /// diameter plus the Verlet skin) [m].
 pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot: Option<ShotLine>, segment_positions: u32) -> SegmentGraph {
     let segment_positions = segment_positions.max(1);
-    let nodes_per_fibre = fabric.nodes_per_fibre();
-    let section = fabric.section(material);
-    let pad = 0.5 * section.contact_diameter;
+    let sections = fabric.sections(material);
     let mut segments = Vec::new();
     let mut first_segment = vec![0u32];
     for y in 0..fabric.yarn_count() {
+        let nodes_per_fibre = fabric.nodes_per_fibre(y);
+        let pad = 0.5 * sections[fabric.yarn_section(y)].contact_diameter;
         let fibres = fabric.yarn_fibres(y);
         let entries = in_yarn_entries_per_node(fabric, y, material, reach);
         let mut first = 0;
@@ -152,8 +152,8 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
     }
     let mut adjacency: Vec<Vec<Adjacency>> = vec![Vec::new(); segments.len()];
     // consecutive segments of a yarn: the chain stencil and the in-yarn contacts across the cut
-    let along_ghosts = CHAIN_STENCIL.max((reach / section.element_length).ceil() as u32) as f64;
     for y in 0..fabric.yarn_count() {
+        let along_ghosts = CHAIN_STENCIL.max((reach / sections[fabric.yarn_section(y)].element_length).ceil() as u32) as f64;
         for s in first_segment[y]..first_segment[y + 1] - 1 {
             let ghosts = along_ghosts * fabric.yarn_fibres(y) as f64;
             adjacency[s as usize].push(Adjacency { segment: s + 1, ghosts_needed: ghosts });

@@ -53,6 +53,8 @@ pub struct Summary {
     pub broken_elements_by_layer: Vec<u64>,
     /// why the run stopped
     pub stopped_by: String,
+    /// the settle before the shot, when the case asks for one (not known after a restart)
+    pub settle: Option<crate::distributed::SettleReport>,
 }
 
 /// Stage times of the step, of the communication and of output [s].
@@ -381,6 +383,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         energy_absorbed_by_layer_j: energy_by_layer,
         broken_elements_by_layer: broken_by_layer,
         stopped_by,
+        settle: run.settled,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");
     std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;

@@ -18,9 +18,9 @@ use dea_core::domain::BrokenCount;
 use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
-use dea_fabric::panel::WovenPanel;
-use dea_fabric::relax::{largest_overlap_ratio, relax, RelaxOptions, RelaxReport};
-use dea_fabric::weave::UnitCell;
+use dea_fabric::panel::{CoarseYarns, WovenPanel};
+use dea_fabric::relax::{relax, RelaxOptions, RelaxReport};
+use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
@@ -38,6 +38,8 @@ pub struct Problem {
     pub fabric: Fabric,
     /// how the woven target's unit cell was relaxed (none when read from a cell file)
     pub relaxation: Option<RelaxReport>,
+    /// how a hybrid woven target's coarse cell was relaxed
+    pub coarse_relaxation: Option<RelaxReport>,
     pub contact: ContactParameters,
     pub failure: FailureParameters,
     pub strength: Strength,
@@ -91,21 +93,50 @@ pub enum SetupError {
     Relaxation(String),
 }
 
-/// The unit cell of a woven target, relaxed with the case's contact law (or read from its
-/// cell file, then without a report); `None` for other targets.
+/// A relaxed cell: read from `file` (then without a report), or generated from `weave` and
+/// relaxed with the case's contact law. `field` names the case field a weave error is about.
+fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weave: impl FnOnce() -> Result<PlainWeave, String>, field: &str) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
+    let TargetSpec::WovenPanel { weave: spec, relaxation, .. } = &case.target else { unreachable!("a woven target") };
+    if let Some(path) = file {
+        return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh);
+    }
+    let plain = weave().map_err(SetupError::Case)?;
+    let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
+    let law = case.normal_law(material).expect("validated case");
+    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations, bending_at_rest: spec.bending_at_rest };
+    let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
+    Ok((cell, Some(report)))
+}
+
+/// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
+/// case's contact law (or read from its cell file, then without a report); `None` for other
+/// targets.
 pub fn woven_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel { weave, cell_file, relaxation, .. } = &case.target else {
+    let TargetSpec::WovenPanel { weave, cell_file, .. } = &case.target else {
         return Ok(None);
     };
-    if let Some(path) = cell_file {
-        return read_cell(path).map(|cell| Some((cell, None))).map_err(SetupError::Mesh);
+    let plain = || weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string());
+    relaxed_cell(case, material, cell_file.as_deref(), plain, "target.weave").map(Some)
+}
+
+/// The coarse yarns' cell of a hybrid woven target, relaxed like the fine one (or read from
+/// its file); `None` when the target is not hybrid. Its yarn spacing must be the fine cell's.
+pub fn coarse_cell(case: &Case, material: &FibreMaterial, fine: &UnitCell) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { weave, hybrid: Some(hybrid), .. } = &case.target else {
+        return Ok(None);
+    };
+    let plain = || {
+        let fine = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string())?;
+        hybrid.coarse_weave(&fine).map_err(|e| e.to_string())
+    };
+    let (cell, report) = relaxed_cell(case, material, hybrid.cell_file.as_deref(), plain, "target.hybrid")?;
+    if cell.yarn_spacing != fine.yarn_spacing || cell.fibres_per_yarn >= fine.fibres_per_yarn {
+        return Err(SetupError::Case(format!(
+            "target.hybrid.cell_file: the coarse cell ({} fibres per yarn, spacing {:e} m) must have fewer fibres than the fine one ({}) and the same spacing ({:e} m)",
+            cell.fibres_per_yarn, cell.yarn_spacing, fine.fibres_per_yarn, fine.yarn_spacing
+        )));
     }
-    let plain = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
-    let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
-    let law = case.normal_law(material).expect("validated case");
-    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations, bending_at_rest: weave.bending_at_rest };
-    let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
-    Ok(Some((cell, Some(report))))
+    Ok(Some((cell, report)))
 }
 
 /// Resolves a validated case (reading or generating the projectile's mesh).
@@ -118,7 +149,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         _ => f64::INFINITY,
     };
     let mu = case.contact.friction_coefficient;
-    let mut relaxation = None;
+    let (mut relaxation, mut coarse_relaxation) = (None, None);
     let fabric = match &case.target {
         TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
             Fabric::Straight(StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic))
@@ -131,14 +162,25 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
             Fabric::Straight(StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material))
         }
-        TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
+        TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, hybrid, .. } => {
             let (cell, report) = woven_cell(case, &material)?.expect("a woven target");
             relaxation = report;
+            let coarse = match coarse_cell(case, &material, &cell)? {
+                Some((coarse, report)) => {
+                    coarse_relaxation = report;
+                    let fine_half_width = hybrid.as_ref().expect("a hybrid target").fine_half_width_m;
+                    Some(CoarseYarns { cell: Arc::new(coarse), fine_half_width })
+                }
+                None => None,
+            };
             let cells = ((side_m / cell.period()).round() as u32).max(1);
-            Fabric::Woven(WovenPanel::new(Arc::new(cell), cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
+            Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
     };
-    let section = fabric.section(&material);
+    let sections = fabric.sections(&material);
+    // the fine section: the one the projectile meets
+    let section = &sections[0];
+    let largest_contact_diameter = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
     let contact = ContactParameters {
         law,
         friction_coefficient: mu,
@@ -150,8 +192,8 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
     // diameters (§4.2.2)
-    let (reach, cell) = (0.5 * section.contact_diameter + contact.skin, 1.3 * section.contact_diameter);
-    let top = fabric.top(&material) + 0.5 * section.contact_diameter;
+    let (reach, cell) = (0.5 * largest_contact_diameter + contact.skin, 1.3 * section.contact_diameter);
+    let top = fabric.top(&material) + 0.5 * largest_contact_diameter;
     let (projectile, aim, deformable) = match resolved.deformable {
         None => {
             let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
@@ -164,22 +206,20 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             (projectile, aim, Some(body))
         }
     };
-    let sections = [section];
     // a relaxed fabric starts with its crossings pressed in: the contacts may already be
     // deeper than the design strain, and stiffer there
     let starting_strain = match &fabric {
-        Fabric::Woven(panel) => 1.25 * largest_overlap_ratio(&panel.cell),
+        Fabric::Woven(panel) => 1.25 * panel.largest_overlap_ratio(),
         Fabric::Straight(_) => 0.0,
     };
     let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);
     if let Some(body) = &deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
-        let section = &sections[0];
         let per_area = (1.0 + contact.projectile_friction_coefficient) * design_contact_stiffness(section, &contact.law) / (section.contact_diameter * section.element_length);
         time_step = time_step.min(case.run.time_step_safety * body.stable_time_step(per_area));
     }
-    let reach = sections[0].contact_diameter + contact.skin;
-    Ok(Problem { material, fabric, relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
+    let reach = largest_contact_diameter + contact.skin;
+    Ok(Problem { material, fabric, relaxation, coarse_relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
 }
 
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
@@ -331,7 +371,11 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 /// (the benchmark squeezes its yarn this way).
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
-    assemble(problem, comm, method, segment_positions, adjust)
+    let mut run = assemble(problem, comm, method, segment_positions, adjust)?;
+    if let Some(settle) = &case.run.settle {
+        run.settle(settle.time_s, settle.damping())?;
+    }
+    Ok(run)
 }
 
 /// The rank of a resolved problem: partition, own nodes (`adjust` applied), Weibull
@@ -348,7 +392,7 @@ pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_
             }
         }
     }
-    let mut run = Distributed::new(comm, domain, partition, problem.fabric.nodes_per_fibre(), problem.reach, body)?;
+    let mut run = Distributed::new(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, body)?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
     Ok(run)
@@ -407,8 +451,8 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();
-    let nodes_per_fibre = problem.fabric.nodes_per_fibre() as u64;
-    let owned = |gid: u64| partition.rank_of(FibreId((gid / nodes_per_fibre) as u32), (gid % nodes_per_fibre) as u32) == me;
+    let stride = problem.fabric.gid_stride() as u64;
+    let owned = |gid: u64| partition.rank_of(FibreId((gid / stride) as u32), (gid % stride) as u32) == me;
     let mut state = NodeState::default();
     let mut read = Ok(());
     for part in 0..global.parts {
@@ -434,7 +478,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     if me == Rank(0) {
         domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
     }
-    let mut run = Distributed::restore(comm, domain, partition, nodes_per_fibre as u32, problem.reach, &state, &global.projectile, body).map_err(|e| match e {
+    let mut run = Distributed::restore(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, &state, &global.projectile, body).map_err(|e| match e {
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;

@@ -192,7 +192,7 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
     let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, ..Default::default() }).unwrap();
     let period = cell.period();
-    let panel = WovenPanel::new(std::sync::Arc::new(cell), 5, 2, 0.0, [0.3 * period, 0.1 * period], Boundary::FixedEdges, 3.8e9);
+    let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 5, 2, 0.0, [0.3 * period, 0.1 * period], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
     let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
@@ -220,7 +220,7 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
     let largest_shear = |bending_at_rest| {
         let mut cell = PlainWeave::km2_style_706(1).unit_cell(&material).unwrap();
         relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, bending_at_rest }).unwrap();
-        let panel = WovenPanel::new(std::sync::Arc::new(cell), 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
+        let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         let built = panel.build_all(&material);
         let area = built.sections[0].area;
         let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };

@@ -185,6 +185,9 @@ pub struct Domain {
     /// this domain integrates the projectile and counts its energy (rank 0); the others
     /// hold a copy that the driver overwrites every step
     pub owns_projectile: bool,
+    /// mass-proportional damping rate of the fibre nodes: nonzero only while a target
+    /// settles before the shot [1/s]
+    pub damping: f64,
     pair_data: Vec<PairData>,
     /// chain stiffness of each section (stability check) [N/m]
     chain_stiffness: Vec<f64>,
@@ -256,6 +259,7 @@ impl Domain {
             step: 0,
             times: StageTimes::default(),
             owns_projectile: true,
+            damping: 0.0,
             pair_data,
             chain_stiffness,
             contact_stiffness: vec![0.0; n_owned],
@@ -309,6 +313,7 @@ impl Domain {
 
     /// Half-step velocity update of owned nodes and the owned projectile.
     pub fn kick(&mut self, half_dt: f64) {
+        self.damp(half_dt);
         integrate::kick(&mut self.nodes, half_dt);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
@@ -318,11 +323,62 @@ impl Domain {
     /// Half-step velocity update, then position update, of owned nodes and the owned
     /// projectile.
     pub fn kick_drift(&mut self, half_dt: f64, dt: f64) {
+        self.damp(half_dt);
         integrate::kick_drift(&mut self.nodes, half_dt, dt);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
         }
+    }
+
+    /// The damping of a settle over a half step (none in a shot).
+    fn damp(&mut self, half_dt: f64) {
+        if self.damping > 0.0 {
+            integrate::damp(&mut self.nodes, (-self.damping * half_dt).exp());
+        }
+    }
+
+    /// Starts the shot from the present positions as if they were built so: every node at
+    /// rest, no contact history (each contact starts on its loading curve, as the relaxed
+    /// cell's do), nothing dissipated or broken, time zero, and the projectile's candidates
+    /// due for a refresh.
+    pub fn start_afresh(&mut self) {
+        self.nodes.velocity.fill(Vec3::zeros());
+        self.pairs.forget_history();
+        let contacts = &mut self.projectile_contacts;
+        contacts.touching.fill(false);
+        contacts.max_overlap.fill(0.0);
+        contacts.node_reference.clear();
+        for ledger in [&mut self.ledger.friction_dissipated, &mut self.ledger.plastic_dissipated, &mut self.ledger.fracture_released] {
+            ledger.fill(0.0);
+        }
+        self.broken = BrokenCount::default();
+        self.time = 0.0;
+        self.step = 0;
+    }
+
+    /// Largest force on an owned node that is free to move [N].
+    pub fn largest_free_force(&self) -> f64 {
+        (0..self.nodes.n_owned).filter(|&i| !self.nodes.clamped[i]).map(|i| self.nodes.force[i].norm()).fold(0.0, f64::max)
+    }
+
+    /// Largest overlap of a listed fibre pair, one of whose nodes is free to move, over its
+    /// contact distance [-].
+    pub fn largest_overlap_ratio(&self) -> f64 {
+        let nodes = &self.nodes;
+        let n_sections = self.sections.len();
+        let mut largest = 0.0f64;
+        for i in 0..nodes.n_owned {
+            for k in self.pairs.row(i) {
+                let j = self.pairs.partner[k] as usize;
+                if nodes.clamped[i] && nodes.clamped[j] {
+                    continue;
+                }
+                let reach = self.pair_data[nodes.section[i] as usize * n_sections + nodes.section[j] as usize].reach;
+                largest = largest.max((reach - (nodes.position[j] - nodes.position[i]).norm()) / reach);
+            }
+        }
+        largest
     }
 
     /// Largest displacement of an owned node since the last build of the fibre lists [m].

@@ -17,6 +17,14 @@ pub fn kick(nodes: &mut Nodes, h: f64) {
     }
 }
 
+/// Scales the velocity of every owned node by `factor`: mass-proportional damping
+/// `dv/dt = -c v` over a half step is `factor = exp(-c h)` (a settle, never a shot).
+pub fn damp(nodes: &mut Nodes, factor: f64) {
+    for v in &mut nodes.velocity[..nodes.n_owned] {
+        *v *= factor;
+    }
+}
+
 /// Half-step velocity update followed by the position update (4-19, 4-20), in one pass
 /// over the owned nodes; clamped nodes keep zero velocity and their position.
 pub fn kick_drift(nodes: &mut Nodes, h: f64, dt: f64) {

@@ -96,6 +96,14 @@ impl NeighbourList {
         self.partner.is_empty()
     }
 
+    /// Forgets every pair's contact history: the pairs stay, as if none had touched yet.
+    pub fn forget_history(&mut self) {
+        self.anchor.fill(Vec3::zeros());
+        self.spring_stiffness.fill(0.0);
+        self.touching.fill(false);
+        self.max_overlap.fill(0.0);
+    }
+
     /// Rebuilds the lists of all owned nodes against all local nodes, carrying the history
     /// of pairs that persist (matched by partner global id).
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {

@@ -260,7 +260,7 @@ impl Fabric {
     pub fn yarn_fibres(&self, yarn: usize) -> usize {
         match self {
             Fabric::Straight(f) => f.yarns[yarn].fibres,
-            Fabric::Woven(p) => p.cell.fibres_per_yarn,
+            Fabric::Woven(p) => p.yarn_fibres(yarn),
         }
     }
 
@@ -276,23 +276,50 @@ impl Fabric {
     pub fn first_fibres(&self) -> Vec<u32> {
         match self {
             Fabric::Straight(f) => f.first_fibres(),
-            Fabric::Woven(p) => (0..=p.yarn_count()).map(|y| (y * p.cell.fibres_per_yarn) as u32).collect(),
+            Fabric::Woven(p) => p.first_fibres().to_vec(),
         }
     }
 
-    /// Nodes per fibre (the same on every fibre).
-    pub fn nodes_per_fibre(&self) -> u32 {
+    /// Nodes of every fibre of yarn `yarn`.
+    pub fn nodes_per_fibre(&self, yarn: usize) -> u32 {
         match self {
             Fabric::Straight(f) => f.nodes_per_fibre(),
-            Fabric::Woven(p) => p.nodes_per_fibre(),
+            Fabric::Woven(p) => p.nodes_per_fibre(yarn),
         }
     }
 
-    /// The one section every fibre has.
-    pub fn section(&self, material: &FibreMaterial) -> FibreSection {
+    /// Nodes of every fibre, yarn by yarn.
+    pub fn nodes_per_yarn_fibre(&self) -> Vec<u32> {
+        (0..self.yarn_count()).map(|y| self.nodes_per_fibre(y)).collect()
+    }
+
+    /// Node `k` of fibre `f` has global id `f * gid_stride + k`.
+    pub fn gid_stride(&self) -> u32 {
         match self {
-            Fabric::Straight(f) => f.section(material),
-            Fabric::Woven(p) => p.cell.section.clone(),
+            Fabric::Straight(f) => f.nodes_per_fibre(),
+            Fabric::Woven(p) => p.gid_stride(),
+        }
+    }
+
+    /// Nodes of the whole target.
+    pub fn node_count(&self) -> u64 {
+        (0..self.yarn_count()).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
+    }
+
+    /// The sections of the target's fibres; the first is the finest (a hybrid panel's fine
+    /// yarns), which the projectile meets first.
+    pub fn sections(&self, material: &FibreMaterial) -> Vec<FibreSection> {
+        match self {
+            Fabric::Straight(f) => vec![f.section(material)],
+            Fabric::Woven(p) => p.sections(),
+        }
+    }
+
+    /// Index of yarn `yarn`'s section in [`Self::sections`].
+    pub fn yarn_section(&self, yarn: usize) -> usize {
+        match self {
+            Fabric::Straight(_) => 0,
+            Fabric::Woven(p) => p.yarn_section(yarn),
         }
     }
 
@@ -300,7 +327,7 @@ impl Fabric {
     pub fn section_packing(&self, yarn: usize, material: &FibreMaterial) -> Vec<[f64; 2]> {
         match self {
             Fabric::Straight(f) => f.packing(&f.yarns[yarn], material),
-            Fabric::Woven(p) => p.cell.packing.clone(),
+            Fabric::Woven(p) => p.yarn_cell(yarn).packing.clone(),
         }
     }
 

@@ -171,7 +171,7 @@ pub fn largest_overlap_ratio(cell: &UnitCell) -> f64 {
 
 /// The shortest periodic image of a separation in x and y [m].
 #[inline]
-fn minimum_image(mut d: Vec3, period: f64) -> Vec3 {
+pub(crate) fn minimum_image(mut d: Vec3, period: f64) -> Vec3 {
     d.x -= period * (d.x / period).round();
     d.y -= period * (d.y / period).round();
     d

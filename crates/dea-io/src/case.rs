@@ -148,7 +148,46 @@ pub enum TargetSpec {
         /// when the relaxation stops
         #[serde(default)]
         relaxation: RelaxationSpec,
+        /// coarse yarns away from the impact point: a yarn-based hybrid mesh (seed §2.3.4.1)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        hybrid: Option<HybridSpec>,
     },
+}
+
+/// A yarn-based hybrid mesh: the yarns whose centrelines pass within `fine_half_width_m` of
+/// the panel's centre keep the weave's digital fibres; the others have fewer, thicker ones
+/// with longer elements, in a cell of their own relaxed the same way (or read from a file).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HybridSpec {
+    /// distance from the panel's centre within which a yarn's centreline makes it fine [m]
+    pub fine_half_width_m: f64,
+    /// digital fibres of a coarse yarn (1..=400, fewer than a fine yarn's); absent when
+    /// `cell_file` gives the coarse cell
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fibres_per_yarn: Option<usize>,
+    /// element length / digital fibre diameter of the coarse yarns; default: the weave's [-]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub element_length_ratio: Option<f64>,
+    /// a relaxed coarse cell written by `dea-mpi fabric` (`coarse_cell.h5`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell_file: Option<std::path::PathBuf>,
+}
+
+impl HybridSpec {
+    /// The coarse yarns' weave: `fine` with the coarse fibre count and element length.
+    pub fn coarse_weave(&self, fine: &PlainWeave) -> Result<PlainWeave, CaseError> {
+        let fibres = self.fibres_per_yarn.ok_or_else(|| invalid("target.hybrid.fibres_per_yarn", "is needed unless target.hybrid.cell_file gives the coarse cell"))?;
+        let fibres = fibre_count_at("target.hybrid.fibres_per_yarn", fibres)?;
+        if fibres >= fine.fibres_per_yarn {
+            return Err(invalid("target.hybrid.fibres_per_yarn", format!("must be fewer than the fine yarns' {} digital fibres, got {fibres}", fine.fibres_per_yarn)));
+        }
+        let mut coarse = PlainWeave { fibres_per_yarn: fibres, ..fine.clone() };
+        if let Some(v) = self.element_length_ratio {
+            coarse.element_length_ratio = ratio("target.hybrid.element_length_ratio", v)?;
+        }
+        Ok(coarse)
+    }
 }
 
 /// A plain weave: a fabric preset with optional overrides.
@@ -414,6 +453,30 @@ pub struct RunSpec {
     /// write a checkpoint every this many minutes of wall time [min]
     #[serde(default = "default_checkpoint_minutes")]
     pub checkpoint_interval_minutes: f64,
+    /// a damped settle of the assembled target before the shot (a hybrid panel's crossings
+    /// of fine and coarse yarns start out of balance); none: the shot starts as built
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settle: Option<SettleSpec>,
+}
+
+/// The settle before the shot: the target moves without friction, failure or projectile
+/// under mass-proportional damping, then starts the shot at rest with fresh contact
+/// histories (docs/theory.md F6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SettleSpec {
+    /// simulated time of the settle [s]
+    pub time_s: f64,
+    /// damping rate c of `m dv/dt = F - c m v`; default 10 / time_s [1/s]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping_per_s: Option<f64>,
+}
+
+impl SettleSpec {
+    /// The damping rate [1/s].
+    pub fn damping(&self) -> f64 {
+        self.damping_per_s.unwrap_or(10.0 / self.time_s)
+    }
 }
 
 fn default_checkpoint_minutes() -> f64 {
@@ -739,12 +802,28 @@ impl Case {
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation } => {
+            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation, hybrid } => {
                 if cell_file.is_some() && *weave != WeaveSpec::default() {
                     return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
                 }
-                weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
+                let fine = weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
                 positive("target.side_m", *side_m)?;
+                if let Some(hybrid) = hybrid {
+                    positive("target.hybrid.fine_half_width_m", hybrid.fine_half_width_m)?;
+                    if hybrid.fine_half_width_m >= 0.5 * side_m {
+                        return Err(invalid("target.hybrid.fine_half_width_m", format!("must be less than half the panel (side_m = {side_m}), got {}: every yarn would be fine", hybrid.fine_half_width_m)));
+                    }
+                    match (&hybrid.cell_file, cell_file) {
+                        (Some(_), _) if hybrid.fibres_per_yarn.is_some() || hybrid.element_length_ratio.is_some() => {
+                            return Err(invalid("target.hybrid.cell_file", "a coarse cell file carries its fibres and elements: leave target.hybrid.fibres_per_yarn and element_length_ratio out"));
+                        }
+                        (Some(_), _) => {}
+                        (None, Some(_)) => return Err(invalid("target.hybrid.cell_file", "the fine cell comes from target.cell_file, so the coarse one must come from a file too")),
+                        (None, None) => {
+                            hybrid.coarse_weave(&fine)?;
+                        }
+                    }
+                }
                 if *layers < 1 || *layers > 100 {
                     return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
                 }
@@ -779,6 +858,12 @@ impl Case {
             positive("contact.skin_m", skin)?;
         }
         positive("run.end_time_s", self.run.end_time_s)?;
+        if let Some(settle) = &self.run.settle {
+            ranged("run.settle.time_s", settle.time_s, 1e-9, 1e-3)?;
+            if let Some(damping) = settle.damping_per_s {
+                positive("run.settle.damping_per_s", damping)?;
+            }
+        }
         let safety = self.run.time_step_safety;
         if !(safety > 0.0 && safety <= 1.0) {
             return Err(invalid("run.time_step_safety", format!("must be in (0, 1], got {safety}")));
@@ -852,11 +937,11 @@ pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
     let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
     let mut case = parse_case(&text, &path.display().to_string())?;
     let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
-    let cell_file = match &mut case.target {
-        TargetSpec::WovenPanel { cell_file, .. } => cell_file.as_mut(),
-        _ => None,
+    let (cell_file, coarse_cell_file) = match &mut case.target {
+        TargetSpec::WovenPanel { cell_file, hybrid, .. } => (cell_file.as_mut(), hybrid.as_mut().and_then(|h| h.cell_file.as_mut())),
+        _ => (None, None),
     };
-    for file in [case.projectile.mesh_file.as_mut(), cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
+    for file in [case.projectile.mesh_file.as_mut(), cell_file, coarse_cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
         let joined = base.join(&*file);
         *file = std::path::absolute(&joined).unwrap_or(joined);
     }
@@ -880,12 +965,13 @@ pub fn default_case() -> Case {
             layer_shift_m: [0.0, 0.0],
             boundary: BoundarySpec::FixedEdges,
             relaxation: RelaxationSpec::default(),
+            hybrid: None,
         },
         bending: default_bending(),
         contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
         failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
         projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 400.0, ..Default::default() },
-        run: RunSpec { end_time_s: 30e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes() },
+        run: RunSpec { end_time_s: 30e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes(), settle: None },
     }
 }
 
