@@ -3,8 +3,9 @@
 
     jobs/cost.py CAMPAIGN.json [--ns-per-node-step 380] [--tasks 64] [--ranks-per-shot 16]
 
-The shot's node count and its step count at the end time come from `dea-mpi check` (a shot
-that is decided earlier stops earlier, so this is an upper bound). The cost of a node-step
+The shot's node count and its step count at the end time (plus a settle's, run.settle) come
+from `dea-mpi check` (a shot that is decided earlier stops earlier, so this is an upper
+bound). The cost of a node-step
 is MEASURED on this machine: 380 ns for the default case (four layers of woven KM2 706 under
 the FSP: failures, frequent list rebuilds; docs/performance.md); the straight-yarn bench
 gives 66 ns, a fabric at rest far from the projectile costs about that. Wall time assumes
@@ -38,8 +39,13 @@ else:
 checked = subprocess.run([os.path.join(root, "target/release/dea-mpi"), "check", case_path], capture_output=True, text=True)
 if checked.returncode != 0:
     sys.exit(checked.stderr.strip())
-resolved = json.loads(checked.stdout)["resolved"]
+checked = json.loads(checked.stdout)
+resolved = checked["resolved"]
 nodes, steps = resolved["nodes"], resolved["steps"]
+# a settle before the shot (run.settle) costs its steps too
+settle = checked["case"]["run"].get("settle")
+if settle:
+    steps += math.ceil(settle["time_s"] / resolved["time_step_s"])
 design = campaign["design"]
 replicates = campaign.get("replicates", 1)
 if design["kind"] == "bisection":

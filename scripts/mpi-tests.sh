@@ -68,6 +68,11 @@ check truncated-checkpoint-refused bash -c 'part=$work/usr1/checkpoint/part-0000
 # (a four-layer KM2 706 patch struck by the FSP) runs on 2 ranks to its end
 check fabric-cell-identical-on-1-2-4-ranks bash -c 'for r in 1 2 4; do mpi $r fabric --out $work/fabric$r || exit 1; done; \
     $bin compare $work/fabric1/cell.h5 $work/fabric2/cell.h5 && $bin compare $work/fabric1/cell.h5 $work/fabric4/cell.h5 && test -f $work/fabric4/cell.xdmf'
+# a hybrid panel (fine and coarse yarns) settled before the shot: the same bits on 1 and 4
+# ranks, and `dea-mpi fabric` writes both cells
+check hybrid-settled-identical-on-4-ranks bash -c 'mpi 1 run cases/hybrid_two_layer_settle.json --out $work/hyb1 && mpi 4 run cases/hybrid_two_layer_settle.json --out $work/hyb4 \
+    && $bin compare $work/hyb1/results.h5 $work/hyb4/results.h5 && grep -q "\"largest_force_after_n\"" $work/hyb4/summary.json \
+    && mpi 2 fabric cases/hybrid_two_layer_settle.json --out $work/hybfabric && test -f $work/hybfabric/coarse_cell.h5 && test -f $work/hybfabric/coarse_cell.xdmf'
 check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -q "\"perforated\": true" $work/default/summary.json'
 # V50 campaigns: two groups of one rank fire the Monte Carlo shots with the same bits as one
 # rank alone; a bisection on one group of two ranks; a group size that does not divide

@@ -1,6 +1,7 @@
 //! `dea-mpi fabric`: generate and relax a woven target's unit cell, build the panel the way a
 //! run does (each rank only its own yarn segments plus ghosts), and report the fabric: the
-//! relaxed cell (`cell.h5`, with `cell.xdmf` for ParaView) and its statistics with the
+//! relaxed cell (`cell.h5`, with `cell.xdmf` for ParaView; a hybrid panel's coarse cell in
+//! `coarse_cell.h5` and `coarse_cell.xdmf`) and its statistics with the
 //! panel's size, node counts and memory per node (`fabric.json`).
 
 use std::path::Path;
@@ -33,6 +34,13 @@ pub struct PanelStatistics {
     pub yarns: usize,
     pub fibres: usize,
     pub nodes: u64,
+    /// nodes of the fine yarns (all of them unless hybrid)
+    pub fine_nodes: u64,
+    /// yarns of the fine kind in one layer, each way (all of them unless hybrid)
+    pub fine_yarns_per_layer: usize,
+    /// deepest fibre contact as built over its contact distance: the relaxed cells', and
+    /// where a hybrid panel's fine and coarse yarns cross [-]
+    pub largest_overlap_ratio: f64,
     /// one layer [kg/m^2]
     pub areal_density_kg_m2: f64,
     /// every layer [kg]
@@ -61,6 +69,11 @@ pub struct FabricReport {
     pub relaxation_s: f64,
     /// the cell as the panel uses it
     pub cell: dea_fabric::weave::CellStatistics,
+    /// a hybrid panel's coarse cell: its relaxation and statistics
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse_relaxation: Option<RelaxReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse_cell: Option<dea_fabric::weave::CellStatistics>,
     pub panel: PanelStatistics,
     pub ranks: Vec<RankShare>,
     /// (areal density of a layer / 180 g/m^2) - 1, for the style 706 preset
@@ -84,7 +97,7 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
     let problem = setup::shared_problem(&comm, case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
     let Fabric::Woven(panel) = problem.fabric.clone() else { unreachable!("a woven target builds a woven panel") };
-    let (material, relaxation) = (problem.material.clone(), problem.relaxation.clone());
+    let (material, relaxation, coarse_relaxation) = (problem.material.clone(), problem.relaxation.clone(), problem.coarse_relaxation.clone());
     let (resident, started) = (resident_bytes(), Instant::now());
     let run = setup::assemble(problem, comm, method, None, |_| {})?;
     let build_s = started.elapsed().as_secs_f64();
@@ -118,10 +131,13 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
         side_m: panel.side(),
         layers: panel.layers,
         layer_pitch_m: panel.layer_pitch,
-        thickness_m: panel.top() - panel.bottom() + cell.section.diameter,
+        thickness_m: panel.top() - panel.bottom() + panel.sections().iter().map(|s| s.diameter).fold(0.0, f64::max),
         yarns: panel.yarn_count(),
-        fibres: panel.yarn_count() * cell.fibres_per_yarn,
+        fibres: *panel.first_fibres().last().expect("a total") as usize,
         nodes: panel.node_count(),
+        fine_nodes: panel.fine_node_count(),
+        fine_yarns_per_layer: (0..panel.yarns_per_layer() / 2).filter(|&y| !panel.is_coarse(y)).count(),
+        largest_overlap_ratio: panel.largest_overlap_ratio(),
         areal_density_kg_m2: areal_density,
         mass_kg: areal_density * panel.side() * panel.side() * panel.layers as f64,
     };
@@ -130,6 +146,8 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
         relaxation,
         relaxation_s,
         cell: cell.statistics(&material),
+        coarse_relaxation,
+        coarse_cell: panel.coarse.as_ref().map(|c| c.cell.statistics(&material)),
         panel: statistics,
         ranks: shares,
         style_706_areal_density_deviation: areal_density / STYLE_706_AREAL_DENSITY - 1.0,
@@ -138,10 +156,13 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
     let report_json = serde_json::to_string_pretty(&report).expect("report serialises");
     // the cell file holds nothing that depends on the ranks or the clock
-    let relaxation_json = serde_json::to_string(&report.relaxation).expect("report serialises");
-    let cell_json = serde_json::to_string(&report.cell).expect("statistics serialise");
-    dea_io::cell::write_cell(&out.join("cell.h5"), cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
-    dea_io::cell::write_cell_xdmf(out, cell).map_err(|e| failed(&e))?;
+    let cells = [("cell", cell, &report.relaxation, Some(report.cell))].into_iter().chain(panel.coarse.as_ref().map(|c| ("coarse_cell", &c.cell, &report.coarse_relaxation, report.coarse_cell)));
+    for (name, cell, relaxation, statistics) in cells {
+        let relaxation_json = serde_json::to_string(relaxation).expect("report serialises");
+        let cell_json = serde_json::to_string(&statistics).expect("statistics serialise");
+        dea_io::cell::write_cell(&out.join(format!("{name}.h5")), cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
+        dea_io::cell::write_cell_xdmf(out, name, cell).map_err(|e| failed(&e))?;
+    }
     std::fs::write(out.join("fabric.json"), &report_json).map_err(|e| failed(&e))?;
     Ok(Some(report))
 }

@@ -508,6 +508,12 @@ fn main() -> ExitCode {
                         "panel: {} x {} cells ({:.2} mm square), {} layers {:.1} um apart ({:.1} um thick), {} yarns, {} fibres, {} nodes; results in {}",
                         p.cells_per_side, p.cells_per_side, 1e3 * p.side_m, p.layers, 1e6 * p.layer_pitch_m, 1e6 * p.thickness_m, p.yarns, p.fibres, p.nodes, out.display()
                     );
+                    if let Some(coarse) = &report.coarse_cell {
+                        println!(
+                            "hybrid: {} fine yarns each way per layer, {} of the nodes fine; coarse cell thickness {:.1} um, crimp {:.2} %; deepest contact as built {:.1} % of a contact distance",
+                            p.fine_yarns_per_layer, p.fine_nodes, 1e6 * coarse.thickness_m, 100.0 * coarse.crimp, 100.0 * p.largest_overlap_ratio
+                        );
+                    }
                     for r in &report.ranks {
                         println!("rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node", r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node);
                     }

@@ -1083,6 +1083,42 @@ mod tests {
     }
 
     #[test]
+    fn hybrid_targets_and_settles_name_their_bad_fields() {
+        let hybrid = |h: serde_json::Value| move |v: &mut serde_json::Value| v["target"]["hybrid"] = h.clone();
+        let ok = |f: &dyn Fn(&mut serde_json::Value)| {
+            let mut v = default_json();
+            f(&mut v);
+            parse_case(&v.to_string(), "case.json")
+        };
+        assert!(ok(&hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 }))).is_ok());
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 4 })));
+        assert_eq!(e.path, "target.hybrid.fibres_per_yarn");
+        assert!(e.message.contains("fewer than the fine yarns' 4"), "{e}");
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002 })));
+        assert_eq!(e.path, "target.hybrid.fibres_per_yarn");
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.005, "fibres_per_yarn": 1 })));
+        assert_eq!(e.path, "target.hybrid.fine_half_width_m");
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "element_length_ratio": 9.0 })));
+        assert_eq!(e.path, "target.hybrid.element_length_ratio");
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "cell_file": "coarse.h5" })));
+        assert_eq!(e.path, "target.hybrid.cell_file");
+        let e = error_for(|v| {
+            v["target"].as_object_mut().unwrap().remove("weave");
+            v["target"]["cell_file"] = "cell.h5".into();
+            v["target"]["hybrid"] = serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 });
+        });
+        assert_eq!(e.path, "target.hybrid.cell_file");
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres": 1 })));
+        assert!(e.path.starts_with("target") && e.message.contains("unknown field"), "{e}");
+        let e = error_for(|v| v["run"]["settle"] = serde_json::json!({ "time_s": -1e-6 }));
+        assert_eq!(e.path, "run.settle.time_s");
+        let e = error_for(|v| v["run"]["settle"] = serde_json::json!({ "time_s": 1e-6, "damping_per_s": 0.0 }));
+        assert_eq!(e.path, "run.settle.damping_per_s");
+        let settle = SettleSpec { time_s: 2e-6, damping_per_s: None };
+        assert_eq!(settle.damping(), 5e6);
+    }
+
+    #[test]
     fn a_relative_cell_file_is_found_beside_the_case() {
         let dir = std::env::temp_dir().join(format!("dea-case-cell-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

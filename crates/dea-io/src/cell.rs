@@ -103,8 +103,9 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
     Ok(cell)
 }
 
-/// Writes `cell.xdmf` beside the cell file `cell.h5` in `directory`.
-pub fn write_cell_xdmf(directory: &Path, cell: &UnitCell) -> std::io::Result<()> {
+/// Writes `NAME.xdmf` beside the cell file `NAME.h5` in `directory` (`name` is "cell", or
+/// "coarse_cell" for a hybrid panel's coarse yarns).
+pub fn write_cell_xdmf(directory: &Path, name: &str, cell: &UnitCell) -> std::io::Result<()> {
     let (nodes, segments) = (cell.positions.len(), cell.fibres() * (cell.nodes_per_period as usize - 1));
     let text = format!(
         r#"<?xml version="1.0" ?>
@@ -113,23 +114,23 @@ pub fn write_cell_xdmf(directory: &Path, cell: &UnitCell) -> std::io::Result<()>
   <Domain>
     <Grid Name="relaxed-cell" GridType="Uniform">
       <Topology TopologyType="Polyline" NodesPerElement="2" NumberOfElements="{segments}">
-        <DataItem Dimensions="{segments} 2" NumberType="UInt" Precision="4" Format="HDF">cell.h5:/segments</DataItem>
+        <DataItem Dimensions="{segments} 2" NumberType="UInt" Precision="4" Format="HDF">{name}.h5:/segments</DataItem>
       </Topology>
       <Geometry GeometryType="XYZ">
-        <DataItem Dimensions="{nodes} 3" NumberType="Float" Precision="8" Format="HDF">cell.h5:/position</DataItem>
+        <DataItem Dimensions="{nodes} 3" NumberType="Float" Precision="8" Format="HDF">{name}.h5:/position</DataItem>
       </Geometry>
       <Attribute Name="fibre" AttributeType="Scalar" Center="Node">
-        <DataItem Dimensions="{nodes}" NumberType="UInt" Precision="4" Format="HDF">cell.h5:/fibre</DataItem>
+        <DataItem Dimensions="{nodes}" NumberType="UInt" Precision="4" Format="HDF">{name}.h5:/fibre</DataItem>
       </Attribute>
       <Attribute Name="direction" AttributeType="Scalar" Center="Node">
-        <DataItem Dimensions="{nodes}" NumberType="UInt" Precision="4" Format="HDF">cell.h5:/direction</DataItem>
+        <DataItem Dimensions="{nodes}" NumberType="UInt" Precision="4" Format="HDF">{name}.h5:/direction</DataItem>
       </Attribute>
     </Grid>
   </Domain>
 </Xdmf>
 "#
     );
-    std::fs::write(directory.join("cell.xdmf"), text)
+    std::fs::write(directory.join(format!("{name}.xdmf")), text)
 }
 
 #[cfg(test)]
