@@ -760,6 +760,9 @@ impl<C: Comm> Distributed<C> {
             spring_stiffness: pairs.spring_stiffness.clone(),
             touching: pairs.touching.iter().map(|&t| t as u8).collect(),
             max_overlap: pairs.max_overlap.clone(),
+            retired_length: (0..n).map(|i| pairs.retired_row(i).len() as u32).collect(),
+            retired_gid: pairs.retired_gid.iter().map(|g| g.0).collect(),
+            retired_max_overlap: pairs.retired_max_overlap.clone(),
         }
     }
 
@@ -812,6 +815,13 @@ impl<C: Comm> Distributed<C> {
             return Err(RestoreError::Mismatch("the contact lists rebuilt at the checkpoint differ from the saved ones: the checkpoint does not belong to this build or case".into()));
         }
         let d = &mut restored.domain;
+        // the retired contacts are the interrupted run's (the rebuild above knew no history)
+        d.pairs.retired_start = std::iter::once(0).chain(state.retired_length.iter().scan(0u32, |total, &l| {
+            *total += l;
+            Some(*total)
+        })).collect();
+        d.pairs.retired_gid = state.retired_gid.iter().map(|&g| GlobalNodeId(g)).collect();
+        d.pairs.retired_max_overlap.clone_from(&state.retired_max_overlap);
         let contacts = &mut d.projectile_contacts;
         for i in 0..n {
             d.nodes.position[i] = state.position[i];

@@ -108,6 +108,27 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn the_verlet_skin_changes_no_result() {
+    // a pair dropped by a rebuild keeps its largest overlap in its nodes' retired tables, so
+    // how often lists are rebuilt (the skin) decides nothing; without the table a skin of
+    // twice the default changed the histories from the first samples on (theory I5)
+    let case = panel_case();
+    let dir = scratch("skin");
+    let reference = run_on(&case, 1, &dir.join("default"));
+    let skin = problem(&case).unwrap().contact.skin;
+    for factor in [0.5, 2.0] {
+        let mut other = case.clone();
+        other.contact.skin_m = Some(factor * skin);
+        let name = format!("skin{factor}");
+        let summary = run_on(&other, 2, &dir.join(&name));
+        assert_ne!(summary.neighbour_rebuilds, reference.neighbour_rebuilds, "the skin changes how often lists are built");
+        let differences = compare_results(&dir.join("default/results.h5"), &dir.join(format!("{name}/results.h5"))).unwrap();
+        assert!(differences.is_empty(), "skin x {factor}: {differences:#?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Asserts that `case`, run to `dir/1` on one rank, gives the same bits on 3 ranks
 /// (checkpointing every 700 steps) and after a restart on 2 from their checkpoint.
 fn assert_same_bits_on_three_ranks_and_after_a_restart(case: &Case, dir: &Path) {

@@ -27,6 +27,12 @@ pub struct NeighbourList {
     pub touching: Vec<bool>,
     /// largest overlap reached (elasto-plastic history) [m]
     pub max_overlap: Vec<f64>,
+    /// pairs a rebuild dropped after they had touched, by owned node (row starts,
+    /// `n_owned + 1` entries, once built): partner gid ascending and the largest overlap
+    /// reached, taken up again if the pair comes back, so the skin cannot change a result
+    pub retired_start: Vec<u32>,
+    pub retired_gid: Vec<GlobalNodeId>,
+    pub retired_max_overlap: Vec<f64>,
     /// owned node positions when the lists were built [m]
     pub reference_position: Vec<Vec3>,
     /// Verlet skin [m]
@@ -51,6 +57,9 @@ struct BuildScratch {
     spring_stiffness: Vec<f64>,
     touching: Vec<bool>,
     max_overlap: Vec<f64>,
+    retired_start: Vec<u32>,
+    retired_gid: Vec<GlobalNodeId>,
+    retired_max_overlap: Vec<f64>,
 }
 
 /// Contact cutoff between two nodes: half the sum of the modified diameters (3-3) [m].
@@ -96,12 +105,26 @@ impl NeighbourList {
         self.partner.is_empty()
     }
 
-    /// Forgets every pair's contact history: the pairs stay, as if none had touched yet.
+    /// Forgets every pair's contact history, retired ones included: the pairs stay, as if
+    /// none had touched yet.
     pub fn forget_history(&mut self) {
         self.anchor.fill(Vec3::zeros());
         self.spring_stiffness.fill(0.0);
         self.touching.fill(false);
         self.max_overlap.fill(0.0);
+        self.retired_start.fill(0);
+        self.retired_gid.clear();
+        self.retired_max_overlap.clear();
+    }
+
+    /// Retired pairs of owned node `i`.
+    #[inline]
+    pub fn retired_row(&self, i: usize) -> std::ops::Range<usize> {
+        if self.retired_start.is_empty() {
+            0..0
+        } else {
+            self.retired_start[i] as usize..self.retired_start[i + 1] as usize
+        }
     }
 
     /// Rebuilds the lists of all owned nodes against all local nodes, carrying the history
@@ -148,7 +171,11 @@ impl NeighbourList {
         scratch.spring_stiffness.clear();
         scratch.touching.clear();
         scratch.max_overlap.clear();
+        scratch.retired_start.clear();
+        scratch.retired_gid.clear();
+        scratch.retired_max_overlap.clear();
         scratch.start.push(0);
+        scratch.retired_start.push(0);
         let has_history = self.start.len() == nodes.n_owned + 1;
         for i in 0..nodes.n_owned {
             let xi = nodes.position[i];
@@ -185,22 +212,57 @@ impl NeighbourList {
             scratch.row.sort_unstable();
             // two columns may share slots of the table: a node can be met twice
             scratch.row.dedup();
-            // sorted merge with the previous row of the same owned node
+            // sorted merge with the previous row of the same owned node, and with its retired
+            // pairs (a gid is in one or the other): a listed pair carries its history, a
+            // retired one that is back its largest overlap
             let old = if has_history { self.start[i] as usize..self.start[i + 1] as usize } else { 0..0 };
-            let mut cursor = old.start;
+            let retired = if has_history && !self.retired_start.is_empty() { self.retired_start[i] as usize..self.retired_start[i + 1] as usize } else { 0..0 };
+            let (mut cursor, mut back) = (old.start, retired.start);
             for &(gid, j) in &scratch.row {
                 while cursor < old.end && self.partner_gid[cursor] < gid {
                     cursor += 1;
                 }
+                while back < retired.end && self.retired_gid[back] < gid {
+                    back += 1;
+                }
                 let carried = cursor < old.end && self.partner_gid[cursor] == gid;
+                let returned = back < retired.end && self.retired_gid[back] == gid;
                 scratch.partner.push(j);
                 scratch.partner_gid.push(gid);
                 scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
                 scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
                 scratch.touching.push(carried && self.touching[cursor]);
-                scratch.max_overlap.push(if carried { self.max_overlap[cursor] } else { 0.0 });
+                scratch.max_overlap.push(if carried {
+                    self.max_overlap[cursor]
+                } else if returned {
+                    self.retired_max_overlap[back]
+                } else {
+                    0.0
+                });
             }
             scratch.start.push(scratch.partner.len() as u32);
+            // retired now: the old row's pairs that touched and are gone, and the retired
+            // pairs still gone, merged by gid
+            let row = &scratch.row;
+            let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
+            let (mut a, mut b) = (old.start, retired.start);
+            loop {
+                let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
+                let (gid, max_overlap) = if from_list {
+                    a += 1;
+                    (self.partner_gid[a - 1], self.max_overlap[a - 1])
+                } else if b < retired.end {
+                    b += 1;
+                    (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
+                } else {
+                    break;
+                };
+                if max_overlap > 0.0 && gone(gid) {
+                    scratch.retired_gid.push(gid);
+                    scratch.retired_max_overlap.push(max_overlap);
+                }
+            }
+            scratch.retired_start.push(scratch.retired_gid.len() as u32);
         }
         std::mem::swap(&mut self.start, &mut scratch.start);
         std::mem::swap(&mut self.partner, &mut scratch.partner);
@@ -209,6 +271,9 @@ impl NeighbourList {
         std::mem::swap(&mut self.spring_stiffness, &mut scratch.spring_stiffness);
         std::mem::swap(&mut self.touching, &mut scratch.touching);
         std::mem::swap(&mut self.max_overlap, &mut scratch.max_overlap);
+        std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
+        std::mem::swap(&mut self.retired_gid, &mut scratch.retired_gid);
+        std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
         self.builds += 1;
@@ -405,5 +470,25 @@ mod tests {
             assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64, "history follows the partner");
             assert!(list.touching[k]);
         }
+        // the dropped pairs are retired on both sides; when the node comes back they take
+        // up their largest overlap again (not their friction: they stopped touching)
+        let returning: Vec<GlobalNodeId> = list.retired_gid[list.retired_row(0)].to_vec();
+        assert!(!returning.is_empty() && returning.windows(2).all(|g| g[0] < g[1]));
+        assert!(list.retired_max_overlap[list.retired_row(0)].iter().zip(&returning).all(|(&m, g)| m == g.0 as f64));
+        nodes.position[0] -= Vec3::new(1.0, 0.0, 0.0);
+        list.rebuild(&nodes, &sections);
+        assert_eq!(list.partner_gid[list.row(0)], returning[..]);
+        for k in list.row(0) {
+            assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64);
+            assert!(!list.touching[k] && list.anchor[k] == Vec3::zeros());
+        }
+        assert!(list.retired_gid.is_empty(), "nothing is retired once every pair is back");
+        for i in 1..nodes.n_owned {
+            for k in list.row(i) {
+                assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64, "the partners kept theirs too");
+            }
+        }
+        list.forget_history();
+        assert!(list.max_overlap.iter().all(|&m| m == 0.0) && list.retired_row(0).is_empty());
     }
 }

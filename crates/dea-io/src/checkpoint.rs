@@ -16,7 +16,7 @@ use dea_core::Vec3;
 
 use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
 
-const FORMAT: &str = "dea-mpi checkpoint 3";
+const FORMAT: &str = "dea-mpi checkpoint 4";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -65,11 +65,17 @@ pub struct NodeState {
     pub spring_stiffness: Vec<f64>,
     pub touching: Vec<u8>,
     pub max_overlap: Vec<f64>,
+    /// retired contacts of each node (pairs dropped after touching): partner gid and
+    /// largest overlap [m]
+    pub retired_length: Vec<u32>,
+    pub retired_gid: Vec<u64>,
+    pub retired_max_overlap: Vec<f64>,
 }
 
 impl NodeState {
-    /// Appends row `k` of `other`, whose contact entries are `entries`.
-    fn push_row(&mut self, other: &NodeState, k: usize, entries: std::ops::Range<usize>) {
+    /// Appends row `k` of `other`, whose contact entries are `entries` and retired
+    /// contacts `retired`.
+    fn push_row(&mut self, other: &NodeState, k: usize, (entries, retired): (std::ops::Range<usize>, std::ops::Range<usize>)) {
         self.gid.push(other.gid[k]);
         self.position.push(other.position[k]);
         self.velocity.push(other.velocity[k]);
@@ -90,22 +96,28 @@ impl NodeState {
         self.spring_stiffness.extend_from_slice(&other.spring_stiffness[entries.clone()]);
         self.touching.extend_from_slice(&other.touching[entries.clone()]);
         self.max_overlap.extend_from_slice(&other.max_overlap[entries]);
+        self.retired_length.push(other.retired_length[k]);
+        self.retired_gid.extend_from_slice(&other.retired_gid[retired.clone()]);
+        self.retired_max_overlap.extend_from_slice(&other.retired_max_overlap[retired]);
     }
 
-    /// First contact entry of each row.
-    fn entry_starts(&self) -> Vec<usize> {
-        self.row_length.iter().scan(0usize, |next, &l| {
-            let start = *next;
-            *next += l as usize;
-            Some(start)
-        }).collect()
+    /// Contact entries and retired contacts of each row.
+    fn row_ranges(&self) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+        let ranges = |lengths: &[u32]| -> Vec<std::ops::Range<usize>> {
+            lengths.iter().scan(0usize, |next, &l| {
+                let start = *next;
+                *next += l as usize;
+                Some(start..*next)
+            }).collect()
+        };
+        ranges(&self.row_length).into_iter().zip(ranges(&self.retired_length)).collect()
     }
 
     /// Appends the rows of `other` whose gid `keep` selects (rows stay in their order).
     pub fn append_selected(&mut self, other: &NodeState, keep: impl Fn(u64) -> bool) {
-        for (k, start) in other.entry_starts().into_iter().enumerate() {
+        for (k, ranges) in other.row_ranges().into_iter().enumerate() {
             if keep(other.gid[k]) {
-                self.push_row(other, k, start..start + other.row_length[k] as usize);
+                self.push_row(other, k, ranges);
             }
         }
     }
@@ -114,10 +126,10 @@ impl NodeState {
     pub fn sorted(self) -> NodeState {
         let mut order: Vec<usize> = (0..self.gid.len()).collect();
         order.sort_unstable_by_key(|&k| self.gid[k]);
-        let starts = self.entry_starts();
+        let ranges = self.row_ranges();
         let mut sorted = NodeState::default();
         for k in order {
-            sorted.push_row(&self, k, starts[k]..starts[k] + self.row_length[k] as usize);
+            sorted.push_row(&self, k, ranges[k].clone());
         }
         sorted
     }
@@ -176,6 +188,9 @@ impl NodeState {
             .floats(&self.spring_stiffness)
             .bytes(&self.touching)
             .floats(&self.max_overlap)
+            .integers(self.retired_length.iter().map(|&l| l as u64))
+            .integers(self.retired_gid.iter().copied())
+            .floats(&self.retired_max_overlap)
             .value()
     }
 }
@@ -267,6 +282,9 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "spring_stiffness", &part.spring_stiffness, "N/m")?;
         write_bytes(&file, "touching", &part.touching, "bool")?;
         write_scalars(&file, "max_overlap", &part.max_overlap, "m")?;
+        write_scalars(&file, "retired_length", &part.retired_length, "entries")?;
+        write_scalars(&file, "retired_gid", &part.retired_gid, "-")?;
+        write_scalars(&file, "retired_max_overlap", &part.retired_max_overlap, "m")?;
         write_scalars(&file, "checksum", &[part.checksum()], "CRC-32")?;
         file.flush()?;
     }
@@ -323,6 +341,9 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         spring_stiffness: file.dataset("spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
         touching: file.dataset("touching").and_then(|d| d.read_raw()).map_err(fail)?,
         max_overlap: file.dataset("max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_length: file.dataset("retired_length").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_gid: file.dataset("retired_gid").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_max_overlap: file.dataset("retired_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
     };
     let n = part.gid.len();
     let node_lengths = [
@@ -340,10 +361,13 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.projectile_touching.len(),
         part.projectile_max_overlap.len(),
         part.row_length.len(),
+        part.retired_length.len(),
     ];
     let entries: usize = part.row_length.iter().map(|&l| l as usize).sum();
     let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.spring_stiffness.len(), part.touching.len(), part.max_overlap.len()];
-    if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) {
+    let retired: usize = part.retired_length.iter().map(|&l| l as usize).sum();
+    let retired_lengths = [part.retired_gid.len(), part.retired_max_overlap.len()];
+    if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) || retired_lengths.iter().any(|&l| l != retired) {
         return Err(error(path, "arrays of different lengths: the part is damaged"));
     }
     let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
@@ -436,6 +460,11 @@ mod tests {
                 p.spring_stiffness.push(e as f64 * 100.0);
                 p.touching.push((e % 2) as u8);
                 p.max_overlap.push(e as f64 * 1e-7);
+            }
+            p.retired_length.push((g % 2) as u32);
+            for e in 0..g % 2 {
+                p.retired_gid.push(g * 100 + e);
+                p.retired_max_overlap.push(g as f64 * 1e-8);
             }
         }
         p
