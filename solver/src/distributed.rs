@@ -754,6 +754,8 @@ impl<C: Comm> Distributed<C> {
             projectile_spring_stiffness: contacts.spring_stiffness.clone(),
             projectile_touching: contacts.touching.iter().map(|&t| t as u8).collect(),
             projectile_max_overlap: contacts.max_overlap.clone(),
+            projectile_anchor_triangle: contacts.anchor_triangle.clone(),
+            projectile_anchor_weights: contacts.anchor_weights.iter().map(|&w| Vec3::from(w)).collect(),
             row_length: (0..n).map(|i| pairs.row(i).len() as u32).collect(),
             partner_gid: pairs.partner_gid.iter().map(|g| g.0).collect(),
             anchor: pairs.anchor.clone(),
@@ -834,6 +836,8 @@ impl<C: Comm> Distributed<C> {
             contacts.spring_stiffness[i] = state.projectile_spring_stiffness[i];
             contacts.touching[i] = state.projectile_touching[i] != 0;
             contacts.max_overlap[i] = state.projectile_max_overlap[i];
+            contacts.anchor_triangle[i] = state.projectile_anchor_triangle[i];
+            contacts.anchor_weights[i] = state.projectile_anchor_weights[i].into();
         }
         if let Some(p) = &mut d.projectile {
             set_projectile_words(p, projectile);

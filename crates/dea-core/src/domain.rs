@@ -76,8 +76,13 @@ pub struct GhostRecord {
 pub struct ProjectileContacts {
     /// owned nodes within reach of the projectile at the last build, ascending
     pub candidates: Vec<u32>,
-    /// friction anchor: body origin relative to the node at first touch, body frame [m]
+    /// friction anchor: the partner point relative to the node at first touch, body frame:
+    /// the body origin on a rigid body, the touched material point of a deforming surface [m]
     pub anchor: Vec<Vec3>,
+    /// a deforming surface's material point the friction is anchored to: the triangle and
+    /// barycentric weights of the contact point at first touch (docs/theory.md I6)
+    pub anchor_triangle: Vec<u32>,
+    pub anchor_weights: Vec<[f64; 3]>,
     /// stiffness of the friction spring at its last evaluation [N/m]
     pub spring_stiffness: Vec<f64>,
     /// node overlaps the projectile
@@ -244,6 +249,8 @@ impl Domain {
                 torque_on_projectile: vec![Vec3::zeros(); n_owned],
                 triangle: vec![NONE; n_owned],
                 weights: vec![[0.0; 3]; n_owned],
+                anchor_triangle: vec![NONE; n_owned],
+                anchor_weights: vec![[0.0; 3]; n_owned],
                 ..Default::default()
             },
             nodes,
@@ -570,8 +577,18 @@ impl Domain {
                 self.ledger.plastic_dissipated[i] += law.dissipated(&geometry, max_overlap) - law.dissipated(&geometry, previous_max);
                 contacts.max_overlap[i] = max_overlap;
             }
-            // body origin relative to the node plays the partner's role of the fibre pairs
-            let relative = -body;
+            // the partner of the fibre pairs: the body origin of a rigid body (its frame turns
+            // with it); on a deforming surface, which moves against that frame, the material
+            // point touched first, found again by its triangle and weights
+            let deforming = projectile.shape.deforming_mesh();
+            if !contacts.touching[i] && deforming.is_some() {
+                contacts.anchor_triangle[i] = point.triangle;
+                contacts.anchor_weights[i] = point.weights;
+            }
+            let relative = match deforming {
+                Some(mesh) => mesh.surface.point_at(contacts.anchor_triangle[i], contacts.anchor_weights[i]) - body,
+                None => -body,
+            };
             let mut force_body = normal * response.force;
             if !contacts.touching[i] {
                 contacts.touching[i] = true;
@@ -581,6 +598,14 @@ impl Domain {
                 let friction = stick_slip(relative, normal, &mut contacts.anchor[i], &mut contacts.spring_stiffness[i], response.force, response.stiffness, mu);
                 force_body += friction.force;
                 self.ledger.friction_dissipated[i] += friction.dissipated;
+                if let (Some(mesh), true) = (deforming, friction.dissipated > 0.0) {
+                    // after a slip, anchor to the material point under the node now (where
+                    // the reaction acts), keeping the spring's elastic stretch
+                    let under = mesh.surface.point_at(point.triangle, point.weights) - body;
+                    contacts.anchor[i] += under - relative;
+                    contacts.anchor_triangle[i] = point.triangle;
+                    contacts.anchor_weights[i] = point.weights;
+                }
             }
             let force = projectile.to_world_vector(&force_body);
             let surface_point = self.nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * self.sections[self.nodes.section[i] as usize].contact_diameter - overlap);

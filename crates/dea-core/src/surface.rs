@@ -228,6 +228,14 @@ impl MassProperties {
 }
 
 impl TriangleSurface {
+    /// The point of triangle `triangle` at barycentric `weights`, body frame [m]: a material
+    /// point that moves with a deforming surface.
+    pub fn point_at(&self, triangle: u32, weights: [f64; 3]) -> Vec3 {
+        let corners = self.triangles[triangle as usize];
+        let v = |k: usize| self.vertices[corners[k] as usize];
+        v(0) * weights[0] + v(1) * weights[1] + v(2) * weights[2]
+    }
+
     /// A surface whose queries find triangles within `reach` [m], with cubes of edge `cell`
     /// [m]. Refuses open, inside-out and degenerate surfaces.
     pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<Self, SurfaceError> {

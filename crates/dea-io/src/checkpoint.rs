@@ -56,6 +56,10 @@ pub struct NodeState {
     pub projectile_spring_stiffness: Vec<f64>,
     pub projectile_touching: Vec<u8>,
     pub projectile_max_overlap: Vec<f64>,
+    /// a deforming projectile's material point the friction is anchored to: triangle and
+    /// barycentric weights
+    pub projectile_anchor_triangle: Vec<u32>,
+    pub projectile_anchor_weights: Vec<Vec3>,
     /// fibre contact-list entries of each node
     pub row_length: Vec<u32>,
     /// per entry: partner gid, friction anchor [m], touching, largest overlap [m]
@@ -90,6 +94,8 @@ impl NodeState {
         self.projectile_spring_stiffness.push(other.projectile_spring_stiffness[k]);
         self.projectile_touching.push(other.projectile_touching[k]);
         self.projectile_max_overlap.push(other.projectile_max_overlap[k]);
+        self.projectile_anchor_triangle.push(other.projectile_anchor_triangle[k]);
+        self.projectile_anchor_weights.push(other.projectile_anchor_weights[k]);
         self.row_length.push(other.row_length[k]);
         self.partner_gid.extend_from_slice(&other.partner_gid[entries.clone()]);
         self.anchor.extend_from_slice(&other.anchor[entries.clone()]);
@@ -182,6 +188,8 @@ impl NodeState {
             .floats(&self.projectile_spring_stiffness)
             .bytes(&self.projectile_touching)
             .floats(&self.projectile_max_overlap)
+            .integers(self.projectile_anchor_triangle.iter().map(|&t| t as u64))
+            .vectors(&self.projectile_anchor_weights)
             .integers(self.row_length.iter().map(|&l| l as u64))
             .integers(self.partner_gid.iter().copied())
             .vectors(&self.anchor)
@@ -276,6 +284,8 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "projectile_spring_stiffness", &part.projectile_spring_stiffness, "N/m")?;
         write_bytes(&file, "projectile_touching", &part.projectile_touching, "bool")?;
         write_scalars(&file, "projectile_max_overlap", &part.projectile_max_overlap, "m")?;
+        write_scalars(&file, "projectile_anchor_triangle", &part.projectile_anchor_triangle, "-")?;
+        write_vectors(&file, "projectile_anchor_weights", &part.projectile_anchor_weights, "-")?;
         write_scalars(&file, "row_length", &part.row_length, "entries")?;
         write_scalars(&file, "partner_gid", &part.partner_gid, "-")?;
         write_vectors(&file, "anchor", &part.anchor, "m")?;
@@ -335,6 +345,8 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         projectile_spring_stiffness: file.dataset("projectile_spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_touching: file.dataset("projectile_touching").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_max_overlap: file.dataset("projectile_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_anchor_triangle: file.dataset("projectile_anchor_triangle").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_anchor_weights: vectors("projectile_anchor_weights")?,
         row_length: file.dataset("row_length").and_then(|d| d.read_raw()).map_err(fail)?,
         partner_gid: file.dataset("partner_gid").and_then(|d| d.read_raw()).map_err(fail)?,
         anchor: vectors("anchor")?,
@@ -360,6 +372,8 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.projectile_spring_stiffness.len(),
         part.projectile_touching.len(),
         part.projectile_max_overlap.len(),
+        part.projectile_anchor_triangle.len(),
+        part.projectile_anchor_weights.len(),
         part.row_length.len(),
         part.retired_length.len(),
     ];
@@ -453,6 +467,8 @@ mod tests {
             p.projectile_spring_stiffness.push(g as f64 * 10.0);
             p.projectile_touching.push(1);
             p.projectile_max_overlap.push(1e-6);
+            p.projectile_anchor_triangle.push(g as u32);
+            p.projectile_anchor_weights.push(Vec3::new(0.2, 0.3, 0.5));
             p.row_length.push((g % 3) as u32);
             for e in 0..g % 3 {
                 p.partner_gid.push(g * 10 + e);
