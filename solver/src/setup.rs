@@ -371,9 +371,16 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 /// (the benchmark squeezes its yarn this way).
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
+    let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
     let mut run = assemble(problem, comm, method, segment_positions, adjust)?;
-    if let Some(settle) = &case.run.settle {
-        run.settle(settle.time_s, settle.damping())?;
+    match &case.run.settle {
+        Some(settle) => {
+            run.settle(settle.time_s, settle.damping())?;
+        }
+        None if hybrid && run.comm.rank() == Rank(0) => {
+            tracing::warn!("case {:?}: a hybrid panel starts out of balance where fine and coarse yarns cross; add run.settle (docs/theory.md F8, F9)", case.name);
+        }
+        None => {}
     }
     Ok(run)
 }

@@ -7,7 +7,7 @@
 //! the yarns that pass near the impact point fine (many digital fibres, short elements) and
 //! the others coarse (few fibres, long elements). Each yarn repeats the fibres of its own
 //! relaxed cell along its whole length, so no yarn has a seam; where a fine yarn crosses a
-//! coarse one, each keeps the crimp it has against its own kind (docs/theory.md F5).
+//! coarse one, each keeps the crimp it has against its own kind (docs/theory.md F8).
 
 use std::sync::Arc;
 
