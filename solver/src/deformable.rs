@@ -24,6 +24,9 @@ pub struct DeformableProjectile {
     pub strain_energy: f64,
     /// the first element found inverted (the run stops at the next step, on every rank)
     pub inverted: Option<usize>,
+    /// steps of the body per step of the run: its smallest elements may need a shorter step
+    /// than the fibres (theory P9); 1 unless set
+    pub substeps: u32,
 }
 
 impl DeformableProjectile {
@@ -32,7 +35,7 @@ impl DeformableProjectile {
         let volume: f64 = mesh.volumes().iter().sum();
         let (_, node_of_vertex, triangles) = compact(&mesh.nodes, &mesh.surface().triangles);
         let material = ElasticMaterial { density: mass / volume, youngs_modulus, poisson_ratio, model };
-        Ok(Self { body: ElasticBody::new(mesh, material)?, node_of_vertex, triangles, strain_energy: 0.0, inverted: None })
+        Ok(Self { body: ElasticBody::new(mesh, material)?, node_of_vertex, triangles, strain_energy: 0.0, inverted: None, substeps: 1 })
     }
 
     /// Stable time step of the body with fibres pressing on its surface [s]: each surface
@@ -42,14 +45,24 @@ impl DeformableProjectile {
     /// body's light surface nodes ring against the stiff contacts.
     pub fn stable_time_step(&self, stiffness_per_area: f64) -> f64 {
         let elastic = 2.0 / self.body.stable_time_step();
+        2.0 / (elastic * elastic + self.contact_frequency_squared(stiffness_per_area)).sqrt()
+    }
+
+    /// The stable step of the surface nodes on the contact stiffness alone [s]: the bound
+    /// on the run's step when the body subcycles (its elements then take their own).
+    pub fn contact_time_step(&self, stiffness_per_area: f64) -> f64 {
+        2.0 / self.contact_frequency_squared(stiffness_per_area).sqrt()
+    }
+
+    /// Highest squared frequency of a surface node on the contact stiffness [1/s^2].
+    fn contact_frequency_squared(&self, stiffness_per_area: f64) -> f64 {
         let mut area = vec![0.0; self.node_of_vertex.len()];
         for t in &self.triangles {
             let [a, b, c] = t.map(|v| self.body.position[self.node_of_vertex[v as usize] as usize]);
             let third = (b - a).cross(&(c - a)).norm() / 6.0;
             t.iter().for_each(|&v| area[v as usize] += third);
         }
-        let highest = self.node_of_vertex.iter().zip(&area).map(|(&n, a)| (elastic * elastic + stiffness_per_area * a / self.body.mass[n as usize]).sqrt()).fold(elastic, f64::max);
-        2.0 / highest
+        self.node_of_vertex.iter().zip(&area).map(|(&n, a)| stiffness_per_area * a / self.body.mass[n as usize]).fold(0.0, f64::max)
     }
 
     /// Surface vertices relative to `centre` into `surface` [m].

@@ -62,6 +62,17 @@ pub fn set_projectile_words(p: &mut RigidProjectile, words: &[f64]) {
     p.orientation = UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
 }
 
+/// A reaction as the words of a message or checkpoint.
+fn reaction_words(r: &Reaction) -> [f64; REACTION_WORDS] {
+    let [f, t, w] = [r.force, r.torque, Vec3::from(r.weights)];
+    [word(r.gid.0), f.x, f.y, f.z, t.x, t.y, t.z, word(r.triangle as u64), w.x, w.y, w.z]
+}
+
+/// Inverse of [`reaction_words`].
+fn reaction_from_words(w: &[f64]) -> Reaction {
+    Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]), triangle: integer(w[7]) as u32, weights: [w[8], w[9], w[10]] }
+}
+
 fn word(value: u64) -> f64 {
     f64::from_bits(value)
 }
@@ -278,8 +289,17 @@ impl<C: Comm> Distributed<C> {
         let clock = Instant::now();
         self.domain.kick_drift(half, time_step);
         if let Some(body) = &mut self.deformable {
-            body.body.kick(half);
-            body.body.drift(time_step);
+            // subcycles: the body's own elements, with the fibres' last reactions held, then
+            // the last one's first half; the fibres meet its surface once per step
+            let substep = time_step / body.substeps as f64;
+            for _ in 1..body.substeps {
+                body.body.kick(0.5 * substep);
+                body.body.drift(substep);
+                body.forces(&self.reactions);
+                body.body.kick(0.5 * substep);
+            }
+            body.body.kick(0.5 * substep);
+            body.body.drift(substep);
         }
         self.domain.times.integrate += clock.elapsed().as_secs_f64();
         self.broadcast_projectile()?;
@@ -304,7 +324,7 @@ impl<C: Comm> Distributed<C> {
         let clock = Instant::now();
         self.domain.kick(half);
         if let Some(body) = &mut self.deformable {
-            body.body.kick(half);
+            body.body.kick(0.5 * time_step / body.substeps as f64);
         }
         self.domain.time += time_step;
         self.domain.step += 1;
@@ -391,11 +411,13 @@ impl<C: Comm> Distributed<C> {
     }
 
     /// The projectile's state for a checkpoint (rank 0): the rigid words, and a deformable
-    /// body's nodes and element rotations after them.
+    /// body's nodes and element rotations after them, then the fibres' last reactions (a
+    /// subcycling body holds them over the next step).
     pub fn projectile_state(&self) -> Vec<f64> {
         let mut words = self.domain.projectile.as_ref().map(|p| projectile_words(p).to_vec()).unwrap_or_default();
         if let Some(body) = &self.deformable {
             words.extend(body.body.state_words());
+            words.extend(self.reactions.iter().flat_map(reaction_words));
         }
         words
     }
@@ -407,23 +429,10 @@ impl<C: Comm> Distributed<C> {
         }
         let clock = Instant::now();
         self.reaction_words.clear();
-        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| {
-            let [f, t, w] = [r.force, r.torque, Vec3::from(r.weights)];
-            [word(r.gid.0), f.x, f.y, f.z, t.x, t.y, t.z, word(r.triangle as u64), w.x, w.y, w.z]
-        }));
+        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| reaction_words(&r)));
         if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
             self.reactions.clear();
-            self.reactions.extend(
-                all.iter()
-                    .flat_map(|words| words.chunks_exact(REACTION_WORDS))
-                    .map(|w| Reaction {
-                        gid: GlobalNodeId(integer(w[0])),
-                        force: Vec3::new(w[1], w[2], w[3]),
-                        torque: Vec3::new(w[4], w[5], w[6]),
-                        triangle: integer(w[7]) as u32,
-                        weights: [w[8], w[9], w[10]],
-                    }),
-            );
+            self.reactions.extend(all.iter().flat_map(|words| words.chunks_exact(REACTION_WORDS)).map(reaction_from_words));
             self.reactions.sort_unstable_by_key(|r| r.gid);
             let load = dea_core::domain::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
@@ -775,9 +784,15 @@ impl<C: Comm> Distributed<C> {
     /// position, velocity and force is put back and the ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
     pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, state: &NodeState, projectile: &[f64], mut deformable: Option<DeformableProjectile>) -> Result<Self, RestoreError> {
+        let mut reactions = Vec::new();
         if let Some(deformable) = &mut deformable {
             let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
-            deformable.body.set_state_words(words).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", words.len())))?;
+            let (body, held) = words.split_at(deformable.body.state_words().len().min(words.len()));
+            deformable.body.set_state_words(body).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
+            if held.len() % REACTION_WORDS != 0 {
+                return Err(RestoreError::Mismatch(format!("the checkpoint's {} words of projectile reactions are not whole records", held.len())));
+            }
+            reactions.extend(held.chunks_exact(REACTION_WORDS).map(reaction_from_words));
         }
         let n = domain.nodes.n_owned;
         if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
@@ -792,6 +807,7 @@ impl<C: Comm> Distributed<C> {
             set_projectile_words(p, projectile);
         }
         let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
+        restored.reactions = reactions;
         let d = &mut restored.domain;
         // the lists rebuilt from the same positions are the interrupted run's lists
         let mut entry = 0usize;

@@ -194,7 +194,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     // diameters (§4.2.2)
     let (reach, cell) = (0.5 * largest_contact_diameter + contact.skin, 1.3 * section.contact_diameter);
     let top = fabric.top(&material) + 0.5 * largest_contact_diameter;
-    let (projectile, aim, deformable) = match resolved.deformable {
+    let (projectile, aim, mut deformable) = match resolved.deformable {
         None => {
             let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
             (projectile, aim, None)
@@ -213,10 +213,23 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Fabric::Straight(_) => 0.0,
     };
     let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);
-    if let Some(body) = &deformable {
+    if let Some(body) = &mut deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
         let per_area = (1.0 + contact.projectile_friction_coefficient) * design_contact_stiffness(section, &contact.law) / (section.contact_diameter * section.element_length);
-        time_step = time_step.min(case.run.time_step_safety * body.stable_time_step(per_area));
+        let safety = case.run.time_step_safety;
+        let whole = safety * body.stable_time_step(per_area);
+        if whole < time_step {
+            // where the body's small elements would shorten the run's step, they take
+            // substeps of their own instead; the contact still bounds the run's step
+            let run_step = time_step.min(safety * body.contact_time_step(per_area));
+            let substeps = (run_step / (safety * body.body.stable_time_step())).ceil() as u32;
+            if substeps > 1 {
+                body.substeps = substeps;
+                time_step = run_step;
+            } else {
+                time_step = whole;
+            }
+        }
     }
     let reach = largest_contact_diameter + contact.skin;
     Ok(Problem { material, fabric, relaxation, coarse_relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
@@ -303,7 +316,7 @@ pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, 
     };
     let elastic = deformable.map_or(serde_json::Value::Null, |d| {
         let m = d.body.material;
-        serde_json::json!({ "model": format!("{:?}", m.model), "density_kg_m3": m.density, "youngs_modulus_pa": m.youngs_modulus, "poisson_ratio": m.poisson_ratio, "wave_speed_m_s": m.wave_speed(), "element_time_step_s": d.body.stable_time_step() })
+        serde_json::json!({ "model": format!("{:?}", m.model), "density_kg_m3": m.density, "youngs_modulus_pa": m.youngs_modulus, "poisson_ratio": m.poisson_ratio, "wave_speed_m_s": m.wave_speed(), "element_time_step_s": d.body.stable_time_step(), "substeps": d.substeps })
     });
     serde_json::json!({
         "shape": shape,

@@ -204,6 +204,30 @@ fn a_deformable_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart_
 }
 
 #[test]
+fn a_finely_meshed_steel_projectile_subcycles_and_strikes_like_a_rigid_one() {
+    // 2273 nodes: the smallest hexahedra need half the fibres' step, so the body takes two
+    // substeps per step with the fibres' reactions held (theory P9) instead of halving the run's
+    let mut case = case_file("four_layer_deformable_sphere.json");
+    case.projectile.mesh_divisions = Some(8);
+    let p = problem(&case).unwrap();
+    assert_eq!(p.deformable.as_ref().map(|b| b.substeps), Some(2));
+    let mut unmeshed = case.clone();
+    unmeshed.projectile.mesh_divisions = Some(4);
+    assert_eq!(p.time_step, problem(&unmeshed).unwrap().time_step, "the run keeps the fibres' step");
+    let dir = scratch("subcycled");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.energy_balance_error < 0.01, "energy balance {}", reference.energy_balance_error);
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    let mut rigid = case.clone();
+    rigid.projectile.deformable = None;
+    let rigid = run_on(&rigid, 1, &dir.join("rigid"));
+    let relative = |a: f64, b: f64| (a / b - 1.0).abs();
+    assert!(relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.02, "{} vs {}", reference.max_projectile_force_n, rigid.max_projectile_force_n);
+    assert!(relative(reference.residual_velocity_m_s, rigid.residual_velocity_m_s) < 0.03, "{} vs {}", reference.residual_velocity_m_s, rigid.residual_velocity_m_s);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn friction_on_a_soft_deforming_projectile_keeps_the_energy_balance() {
     // a rubber-soft sphere (neo-Hookean, 2.09e8 Pa, Table 4-5) flattens against the yarns:
     // friction anchored in the body's translating frame created 12.9 % of the energy here;
