@@ -41,6 +41,9 @@ pub struct PanelStatistics {
     /// deepest fibre contact as built over its contact distance: the relaxed cells', and
     /// where a hybrid panel's fine and coarse yarns cross [-]
     pub largest_overlap_ratio: f64,
+    /// how much farther apart the fine region's layers start than fine tiles alone would
+    /// stack (a hybrid panel whose coarse yarns are thicker; docs/theory.md F8) [m]
+    pub fine_layer_gap_m: f64,
     /// one layer [kg/m^2]
     pub areal_density_kg_m2: f64,
     /// every layer [kg]
@@ -138,6 +141,7 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
         fine_nodes: panel.fine_node_count(),
         fine_yarns_per_layer: (0..panel.yarns_per_layer() / 2).filter(|&y| !panel.is_coarse(y)).count(),
         largest_overlap_ratio: panel.largest_overlap_ratio(),
+        fine_layer_gap_m: panel.fine_layer_gap(),
         areal_density_kg_m2: areal_density,
         mass_kg: areal_density * panel.side() * panel.side() * panel.layers as f64,
     };

@@ -510,8 +510,8 @@ fn main() -> ExitCode {
                     );
                     if let Some(coarse) = &report.coarse_cell {
                         println!(
-                            "hybrid: {} fine yarns each way per layer, {} of the nodes fine; coarse cell thickness {:.1} um, crimp {:.2} %; deepest contact as built {:.1} % of a contact distance",
-                            p.fine_yarns_per_layer, p.fine_nodes, 1e6 * coarse.thickness_m, 100.0 * coarse.crimp, 100.0 * p.largest_overlap_ratio
+                            "hybrid: {} fine yarns each way per layer, {} of the nodes fine; coarse cell thickness {:.1} um, crimp {:.2} %; deepest contact as built {:.1} % of a contact distance; the fine region's layers start {:.1} um apart",
+                            p.fine_yarns_per_layer, p.fine_nodes, 1e6 * coarse.thickness_m, 100.0 * coarse.crimp, 100.0 * p.largest_overlap_ratio, 1e6 * p.fine_layer_gap_m
                         );
                     }
                     for r in &report.ranks {

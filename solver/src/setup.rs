@@ -385,6 +385,17 @@ pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: O
 pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
     let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
+    if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
+        // layers that start apart where the shot strikes are struck one by one
+        if panel.layers > 1 && panel.fine_layer_gap() > 0.1 * panel.cell.thickness() {
+            tracing::warn!(
+                "case {:?}: the coarse yarns are thicker than the fine ones, so the fine region's layers start {:.0} um apart (fine layer {:.0} um thick); choose a coarse fibre count whose relaxed thickness is close to the fine one's (docs/theory.md F8)",
+                case.name,
+                1e6 * panel.fine_layer_gap(),
+                1e6 * panel.cell.thickness()
+            );
+        }
+    }
     let mut run = assemble(problem, comm, method, segment_positions, adjust)?;
     match &case.run.settle {
         Some(settle) => {

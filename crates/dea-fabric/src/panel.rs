@@ -377,6 +377,13 @@ impl WovenPanel {
         mass / (self.side() * self.side())
     }
 
+    /// How much farther apart the layers of the fine kind of tile start than that kind alone
+    /// would stack: a hybrid panel's pitch is its thickest kind's, so where the coarse yarns
+    /// are thicker the fine region's layers begin with this gap (0 when not hybrid) [m].
+    pub fn fine_layer_gap(&self) -> f64 {
+        self.layer_pitch - touching_pitch(&self.cell, self.layer_shift, self.layer_gap)
+    }
+
     /// Deepest overlap of two nodes of the panel as built, over their contact distance [-]:
     /// that of each relaxed cell, and where a hybrid panel's fine and coarse yarns cross.
     pub fn largest_overlap_ratio(&self) -> f64 {
