@@ -492,7 +492,7 @@ mod tests {
     fn a_rank_builds_exactly_its_piece() {
         let (panel, material) = panel(2, 2, 4);
         let whole = panel.build_all(&material);
-        let keep = |y: usize, k: u32| (y + k as usize / 7) % 3 == 0;
+        let keep = |y: usize, k: u32| (y + k as usize / 7).is_multiple_of(3);
         let piece = panel.build(&material, keep);
         let n = panel.gid_stride() as u64;
         let mut w = 0;
@@ -589,7 +589,7 @@ mod tests {
             assert!(closest >= 1.0 - 1e-12, "{shift:?}: layers {closest} contact distances apart");
             // where fine crosses coarse the two relaxed shapes may overlap: the panel says how much
             assert!(panel.largest_overlap_ratio() >= crate::relax::largest_overlap_ratio(&panel.cell));
-            let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 0;
+            let keep = |y: usize, k: u32| (y + k as usize / 5).is_multiple_of(3);
             let piece = panel.build(&material, keep);
             let mut whole = built.nodes.gid.iter().enumerate();
             for i in 0..piece.nodes.len() {

@@ -150,7 +150,7 @@ pub enum TargetSpec {
         relaxation: RelaxationSpec,
         /// coarse yarns away from the impact point: a yarn-based hybrid mesh (seed §2.3.4.1)
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        hybrid: Option<HybridSpec>,
+        hybrid: Option<Box<HybridSpec>>,
     },
 }
 
