@@ -62,6 +62,15 @@ struct BuildScratch {
     retired_max_overlap: Vec<f64>,
 }
 
+/// Row `i` of compressed rows with starts `starts` (empty while no row is built).
+#[inline]
+fn compressed_row(starts: &[u32], i: usize) -> std::ops::Range<usize> {
+    match starts.get(i..i + 2) {
+        Some(&[first, end]) => first as usize..end as usize,
+        _ => 0..0,
+    }
+}
+
 /// Contact cutoff between two nodes: half the sum of the modified diameters (3-3) [m].
 #[inline]
 pub fn contact_distance(sections: &[FibreSection], nodes: &Nodes, i: usize, j: usize) -> f64 {
@@ -93,7 +102,7 @@ impl NeighbourList {
     /// Pair range of owned node `i`.
     #[inline]
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {
-        self.start[i] as usize..self.start[i + 1] as usize
+        compressed_row(&self.start, i)
     }
 
     /// Number of stored pairs (each physical pair appears once per owned endpoint).
@@ -120,11 +129,7 @@ impl NeighbourList {
     /// Retired pairs of owned node `i`.
     #[inline]
     pub fn retired_row(&self, i: usize) -> std::ops::Range<usize> {
-        if self.retired_start.is_empty() {
-            0..0
-        } else {
-            self.retired_start[i] as usize..self.retired_start[i + 1] as usize
-        }
+        compressed_row(&self.retired_start, i)
     }
 
     /// Rebuilds the lists of all owned nodes against all local nodes, carrying the history
@@ -215,8 +220,7 @@ impl NeighbourList {
             // sorted merge with the previous row of the same owned node, and with its retired
             // pairs (a gid is in one or the other): a listed pair carries its history, a
             // retired one that is back its largest overlap
-            let old = if has_history { self.start[i] as usize..self.start[i + 1] as usize } else { 0..0 };
-            let retired = if has_history && !self.retired_start.is_empty() { self.retired_start[i] as usize..self.retired_start[i + 1] as usize } else { 0..0 };
+            let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
             let (mut cursor, mut back) = (old.start, retired.start);
             for &(gid, j) in &scratch.row {
                 while cursor < old.end && self.partner_gid[cursor] < gid {

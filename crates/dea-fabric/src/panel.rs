@@ -203,7 +203,7 @@ impl WovenPanel {
 
     /// The sections of the panel's fibres: the fine (or only) one, then the coarse one.
     pub fn sections(&self) -> Vec<FibreSection> {
-        std::iter::once(&self.cell).chain(self.coarse.as_ref().map(|c| &c.cell)).map(|c| c.section.clone()).collect()
+        self.cells_used().map(|c| c.section.clone()).collect()
     }
 
     /// Digital fibres of yarn `yarn`.
@@ -223,7 +223,7 @@ impl WovenPanel {
 
     /// Global ids of fibre `f` are `f * stride + k`: the most nodes any fibre has.
     pub fn gid_stride(&self) -> u32 {
-        std::iter::once(&self.cell).chain(self.coarse.as_ref().map(|c| &c.cell)).map(|c| self.cells * c.nodes_per_period + 1).max().expect("a fine cell")
+        self.cells_used().map(|c| self.cells * c.nodes_per_period + 1).max().expect("a fine cell")
     }
 
     /// Side of one layer, `2 s cells` [m].
@@ -290,7 +290,7 @@ impl WovenPanel {
         }
     }
 
-    /// The cells the panel repeats.
+    /// The cells the panel repeats: the fine (or only) one, then the coarse one.
     fn cells_used(&self) -> impl Iterator<Item = &UnitCell> {
         std::iter::once(&*self.cell).chain(self.coarse.as_ref().map(|c| &*c.cell))
     }
