@@ -3,9 +3,11 @@
 //! woven: a plain-weave unit cell ([`weave`]) relaxed with periodic boundaries ([`relax`]) and
 //! tiled into panels of stacked layers ([`panel`]).
 
+pub mod cell;
 pub mod panel;
 pub mod relax;
 pub mod weave;
+pub mod weave3d;
 
 use dea_core::material::InertiaModel;
 use dea_core::nodes::FailureMode;

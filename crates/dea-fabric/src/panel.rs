@@ -397,7 +397,7 @@ impl WovenPanel {
                 let reach = 0.5 * (warp.section.contact_diameter + weft.section.contact_diameter);
                 for p in warp_nodes {
                     for q in weft_nodes {
-                        let distance = relax::minimum_image(q - p, period).norm();
+                        let distance = relax::minimum_image(q - p, [period, period]).norm();
                         largest = largest.max((reach - distance) / reach);
                     }
                 }

@@ -7,7 +7,7 @@
 //! fallen by the asked factor. No friction acts: the relaxed state is an equilibrium of the
 //! conservative forces (docs/theory.md, F3).
 //!
-//! The cell is small (four yarns), so it is relaxed whole by every rank that needs it; the
+//! The cell is small (a few yarns), so it is relaxed whole by every rank that needs it; the
 //! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
 
 use dea_core::bending::torsional_spring;
@@ -16,7 +16,7 @@ use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::stability::stable_time_step;
 use dea_core::{FibreMaterial, Vec3};
 
-use crate::weave::{CellStatistics, UnitCell};
+use crate::cell::{CellStatistics, PeriodicCell};
 
 /// What the relaxation is asked to reach.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,18 +78,18 @@ pub enum RelaxError {
 /// Pairs of nodes on different fibres within `reach` of each other, nearest image across the
 /// periodic edges in x and y, ascending (i, j) with i < j. Bins of side >= reach, so only the
 /// 27 bins around a node can hold a partner.
-fn periodic_pairs(cell: &UnitCell, reach: f64) -> Vec<(u32, u32)> {
-    let period = cell.period();
-    let n = cell.nodes_per_period as usize;
-    let bins = ((period / reach).floor() as i64).max(1);
+fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<(u32, u32)> {
+    let period = cell.period;
+    let fibre_of = node_fibres(cell);
+    let bins = period.map(|p| ((p / reach).floor() as i64).max(1));
     let (low, high) = cell.z_range();
     let layers = (((high - low) / reach).floor() as i64 + 1).max(1);
     let bin_of = |p: &Vec3| {
-        let wrap = |v: f64| ((v - period * (v / period).floor()) / period * bins as f64).floor().clamp(0.0, (bins - 1) as f64) as i64;
-        (wrap(p.x), wrap(p.y), (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1))
+        let wrap = |v: f64, axis: usize| ((v - period[axis] * (v / period[axis]).floor()) / period[axis] * bins[axis] as f64).floor().clamp(0.0, (bins[axis] - 1) as f64) as i64;
+        (wrap(p.x, 0), wrap(p.y, 1), (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1))
     };
-    let index = |x: i64, y: i64, z: i64| ((z * bins + y) * bins + x) as usize;
-    let mut heads = vec![Vec::new(); (bins * bins * layers) as usize];
+    let index = |x: i64, y: i64, z: i64| ((z * bins[1] + y) * bins[0] + x) as usize;
+    let mut heads = vec![Vec::new(); (bins[0] * bins[1] * layers) as usize];
     for (i, p) in cell.positions.iter().enumerate() {
         let (x, y, z) = bin_of(p);
         heads[index(x, y, z)].push(i as u32);
@@ -106,7 +106,7 @@ fn periodic_pairs(cell: &UnitCell, reach: f64) -> Vec<(u32, u32)> {
             }
             for dy in -1..=1 {
                 for dx in -1..=1 {
-                    near.push(index((x + dx).rem_euclid(bins), (y + dy).rem_euclid(bins), zz));
+                    near.push(index((x + dx).rem_euclid(bins[0]), (y + dy).rem_euclid(bins[1]), zz));
                 }
             }
         }
@@ -116,7 +116,7 @@ fn periodic_pairs(cell: &UnitCell, reach: f64) -> Vec<(u32, u32)> {
         for &b in &near {
             for &j in &heads[b] {
                 let j = j as usize;
-                if j <= i || j / n == i / n {
+                if j <= i || fibre_of[j] == fibre_of[i] {
                     continue;
                 }
                 if minimum_image(cell.positions[j] - p, period).norm() < reach {
@@ -129,31 +129,37 @@ fn periodic_pairs(cell: &UnitCell, reach: f64) -> Vec<(u32, u32)> {
     pairs
 }
 
-/// Distance between the closest nodes of a warp and a weft fibre of the cell (infinite when
-/// none are within a contact diameter) [m].
-pub(crate) fn closest_crossing(cell: &UnitCell) -> f64 {
-    let n = cell.nodes_per_period as usize;
+/// The fibre of every node of the cell.
+fn node_fibres(cell: &PeriodicCell) -> Vec<u32> {
+    (0..cell.fibres()).flat_map(|f| std::iter::repeat_n(f as u32, cell.fibre_nodes(f).len())).collect()
+}
+
+/// Distance between the closest nodes of two fibres `counted(fibre_a, fibre_b)` picks
+/// (infinite when none are within a contact diameter) [m].
+pub(crate) fn closest_approach(cell: &PeriodicCell, counted: impl Fn(usize, usize) -> bool) -> f64 {
+    let fibre_of = node_fibres(cell);
     periodic_pairs(cell, cell.section.contact_diameter)
         .into_iter()
-        .filter(|&(i, j)| cell.direction(i as usize / n) != cell.direction(j as usize / n))
-        .map(|(i, j)| minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period()).norm())
+        .filter(|&(i, j)| counted(fibre_of[i as usize] as usize, fibre_of[j as usize] as usize))
+        .map(|(i, j)| minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period).norm())
         .fold(f64::INFINITY, f64::min)
 }
 
 /// Turning angle at every node of the cell, each fibre closed on its periodic image [rad].
-fn turning_angles(cell: &UnitCell) -> Vec<f64> {
-    let n = cell.nodes_per_period as usize;
+fn turning_angles(cell: &PeriodicCell) -> Vec<f64> {
     let mut angles = vec![0.0; cell.positions.len()];
     for fibre in 0..cell.fibres() {
+        let nodes = cell.fibre_nodes(fibre);
+        let (base, n) = (nodes.start, nodes.len());
         let closure = cell.closure(fibre);
         let at = |k: isize| {
             let wrapped = k.rem_euclid(n as isize) as usize;
             let shift = k.div_euclid(n as isize) as f64;
-            cell.positions[fibre * n + wrapped] + closure * shift
+            cell.positions[base + wrapped] + closure * shift
         };
         for k in 0..n as isize {
             let (a, b) = (at(k) - at(k - 1), at(k + 1) - at(k));
-            angles[fibre * n + k as usize] = a.cross(&b).norm().atan2(a.dot(&b));
+            angles[base + k as usize] = a.cross(&b).norm().atan2(a.dot(&b));
         }
     }
     angles
@@ -161,19 +167,19 @@ fn turning_angles(cell: &UnitCell) -> Vec<f64> {
 
 /// Deepest overlap of two nodes of the cell (different fibres, periodic images included),
 /// over the contact diameter [-]: where the fabric's contacts start.
-pub fn largest_overlap_ratio(cell: &UnitCell) -> f64 {
+pub fn largest_overlap_ratio(cell: &PeriodicCell) -> f64 {
     let d = cell.section.contact_diameter;
     periodic_pairs(cell, d)
         .into_iter()
-        .map(|(i, j)| (d - minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period()).norm()) / d)
+        .map(|(i, j)| (d - minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period).norm()) / d)
         .fold(0.0, f64::max)
 }
 
 /// The shortest periodic image of a separation in x and y [m].
 #[inline]
-pub(crate) fn minimum_image(mut d: Vec3, period: f64) -> Vec3 {
-    d.x -= period * (d.x / period).round();
-    d.y -= period * (d.y / period).round();
+pub(crate) fn minimum_image(mut d: Vec3, period: [f64; 2]) -> Vec3 {
+    d.x -= period[0] * (d.x / period[0]).round();
+    d.y -= period[1] * (d.y / period[1]).round();
     d
 }
 
@@ -188,10 +194,10 @@ enum Rods {
     Tension { bending: bool },
 }
 
-/// Rest length of the elements of a fibre of current length `length` that carries `tension`
-/// on average [m].
-fn tensioned_rest_length(cell: &UnitCell, material: &FibreMaterial, length: f64) -> f64 {
-    length / cell.nodes_per_period as f64 / (1.0 + cell.fibre_tension / (material.longitudinal_modulus * cell.section.area))
+/// Rest length of the `elements` elements of a fibre of current length `length` that carries
+/// the cell's fibre tension on average [m].
+fn tensioned_rest_length(cell: &PeriodicCell, material: &FibreMaterial, length: f64, elements: usize) -> f64 {
+    length / elements as f64 / (1.0 + cell.fibre_tension / (material.longitudinal_modulus * cell.section.area))
 }
 
 /// Forces on every node of the cell [N]: rods (4-2), bending springs (5-1), elastic contact
@@ -203,16 +209,16 @@ struct ChainScratch {
     length: Vec<f64>,
 }
 
-fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
-    let n = cell.nodes_per_period as usize;
+fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
     let section = &cell.section;
     force.fill(Vec3::zeros());
-    // element k of a fibre joins node k to node k + 1 (the image of node 0 after the last)
-    chain.direction.resize(n, Vec3::zeros());
-    chain.length.resize(n, 0.0);
-    let (direction, length) = (&mut chain.direction, &mut chain.length);
     for fibre in 0..cell.fibres() {
-        let base = fibre * n;
+        let nodes = cell.fibre_nodes(fibre);
+        let (base, n) = (nodes.start, nodes.len());
+        // element k of a fibre joins node k to node k + 1 (the image of node 0 after the last)
+        chain.direction.resize(n, Vec3::zeros());
+        chain.length.resize(n, 0.0);
+        let (direction, length) = (&mut chain.direction[..n], &mut chain.length[..n]);
         let closure = cell.closure(fibre);
         for k in 0..n {
             let next = if k + 1 == n { cell.positions[base] + closure } else { cell.positions[base + k + 1] };
@@ -222,7 +228,7 @@ fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods:
         }
         let rest = match rods {
             Rods::Rest => cell.rest_lengths[fibre],
-            Rods::Tension { .. } => tensioned_rest_length(cell, material, length.iter().sum()),
+            Rods::Tension { .. } => tensioned_rest_length(cell, material, length.iter().sum(), n),
         };
         for k in 0..n {
             let strain = (length[k] - rest) / rest;
@@ -244,7 +250,7 @@ fn cell_forces(cell: &UnitCell, material: &FibreMaterial, law: &NormalLaw, rods:
     let (mut contacts, mut largest) = (0, 0.0f64);
     for &(i, j) in pairs {
         let (i, j) = (i as usize, j as usize);
-        let d = minimum_image(cell.positions[j] - cell.positions[i], cell.period());
+        let d = minimum_image(cell.positions[j] - cell.positions[i], cell.period);
         let distance = d.norm();
         let overlap = section.contact_diameter - distance;
         if overlap <= 0.0 {
@@ -268,7 +274,7 @@ fn largest_force(force: &[Vec3]) -> f64 {
 /// loading curve), then gives every fibre the rest length at which its rods carry that
 /// tension in the relaxed shape, so the relaxed cell is in equilibrium as the solver will see
 /// it. The section (nominal element length, contact diameter, spring rigidity) stays.
-pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
+pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
     let law = *law;
     let bending = options.bending_at_rest == BendingAtRest::Straight;
     cell.rest_angles.fill(0.0);
@@ -335,7 +341,7 @@ pub fn relax(cell: &mut UnitCell, material: &FibreMaterial, law: &NormalLaw, opt
         }
     }
     for fibre in 0..cell.fibres() {
-        cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre));
+        cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre), cell.fibre_nodes(fibre).len());
     }
     if !bending {
         cell.rest_angles = turning_angles(cell);
@@ -362,7 +368,7 @@ mod tests {
         let mut expected = Vec::new();
         for i in 0..cell.positions.len() {
             for j in i + 1..cell.positions.len() {
-                if i / n != j / n && minimum_image(cell.positions[j] - cell.positions[i], cell.period()).norm() < reach {
+                if i / n != j / n && minimum_image(cell.positions[j] - cell.positions[i], cell.periodic.period).norm() < reach {
                     expected.push((i as u32, j as u32));
                 }
             }

@@ -4,7 +4,12 @@
 //! periodic relaxation ([`crate::relax`]).
 
 use dea_core::material::InertiaModel;
+use std::ops::{Deref, DerefMut};
+
 use dea_core::{FibreMaterial, FibreSection, Vec3};
+
+pub use crate::cell::{CellStatistics, YarnDirection};
+use crate::cell::{CellYarn, PeriodicCell, YarnRole};
 
 /// Why a weave cannot be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -13,15 +18,6 @@ pub enum WeaveError {
     TooWide { packed_width: f64, spacing: f64 },
     #[error("initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart")]
     CrimpTooSmall { requested: f64, minimum: f64 },
-}
-
-/// Direction of a yarn in the plane of the fabric.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum YarnDirection {
-    /// warp, along x
-    Warp,
-    /// weft, along y
-    Weft,
 }
 
 /// Centres of `count` digital fibres in a flat yarn section: points of a hexagonal lattice of
@@ -86,31 +82,54 @@ pub struct PlainWeave {
 /// weft 0 and 1 along y at x = 0 and x = s. Warp 0 passes over weft 0 at the origin.
 pub const CELL_YARNS: [(YarnDirection, usize); 4] = [(YarnDirection::Warp, 0), (YarnDirection::Warp, 1), (YarnDirection::Weft, 0), (YarnDirection::Weft, 1)];
 
-/// A periodic unit cell: every fibre a closed chain of `nodes_per_period` nodes over one
-/// period `2 s`; the node after the last is the first shifted by the period along the yarn.
+/// A plain-weave unit cell: the [`PeriodicCell`] of the four [`CELL_YARNS`], `2 s` square,
+/// with what a panel needs to tile it (its fibres all have `nodes_per_period` nodes, and the
+/// yarns' packing). It reads as its periodic cell.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UnitCell {
+    pub periodic: PeriodicCell,
     /// centre distance of neighbouring parallel yarns; the cell is `2 s` square [m]
     pub yarn_spacing: f64,
     pub fibres_per_yarn: usize,
     /// nodes of one fibre in one period
     pub nodes_per_period: u32,
-    /// section of every digital fibre (element length = the rest length) [m]
-    pub section: FibreSection,
-    /// node positions, fibre-major: yarn (in [`CELL_YARNS`] order), fibre, node [m]
-    pub positions: Vec<Vec3>,
-    /// rest length of every element of each cell fibre; the section's element length is
-    /// their mean [m]
-    pub rest_lengths: Vec<f64>,
-    /// rest angle of the bending spring at every node, ordered as `positions` (0 until a
-    /// relaxation makes the as-woven shape the springs' rest) [rad]
-    pub rest_angles: Vec<f64>,
-    /// tension of one digital fibre: the yarn tension over the fibres of the yarn [N]
-    pub fibre_tension: f64,
     /// the packing of the yarn section: (across, up) offsets of the fibres [m]
     pub packing: Vec<[f64; 2]>,
     /// amplitude of the initial centreline [m]
     pub initial_amplitude: f64,
+}
+
+impl Deref for UnitCell {
+    type Target = PeriodicCell;
+    fn deref(&self) -> &PeriodicCell {
+        &self.periodic
+    }
+}
+
+impl DerefMut for UnitCell {
+    fn deref_mut(&mut self) -> &mut PeriodicCell {
+        &mut self.periodic
+    }
+}
+
+impl UnitCell {
+    /// Assembles a plain-weave cell from the positions of its four yarns (in [`CELL_YARNS`]
+    /// order), checking the sizes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(yarn_spacing: f64, fibres_per_yarn: usize, nodes_per_period: u32, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64, packing: Vec<[f64; 2]>, initial_amplitude: f64) -> Result<Self, crate::cell::CellError> {
+        if packing.len() != fibres_per_yarn || nodes_per_period % 4 != 0 {
+            return Err(crate::cell::CellError::Sizes(format!("{} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period (a multiple of 4)", packing.len())));
+        }
+        let yarns = CELL_YARNS.iter().map(|&(direction, _)| CellYarn { direction, role: YarnRole::Plain, fibres: fibres_per_yarn, nodes_per_period }).collect();
+        let period = 2.0 * yarn_spacing;
+        let periodic = PeriodicCell::new([period, period], yarns, section, positions, rest_lengths, rest_angles, fibre_tension)?;
+        Ok(Self { periodic, yarn_spacing, fibres_per_yarn, nodes_per_period, packing, initial_amplitude })
+    }
+
+    /// Side of the square cell, `2 s` [m].
+    pub fn period(&self) -> f64 {
+        2.0 * self.yarn_spacing
+    }
 }
 
 /// Length of one half-wave `s` of `z = A cos(pi x / s)`, relative to `s` (crimp + 1), by
@@ -211,7 +230,7 @@ impl PlainWeave {
             // diameter no smaller than the final one
             if nodes_per_period == previous && grown.contact_diameter <= section.contact_diameter {
                 let cell = self.lay_out(grown.clone(), packing, &stations, amplitude, nodes_per_period);
-                let closest = crate::relax::closest_crossing(&cell);
+                let closest = crate::relax::closest_approach(&cell, |a, b| cell.direction(a) != cell.direction(b));
                 if closest >= cell.section.contact_diameter {
                     return Ok(cell);
                 }
@@ -242,7 +261,7 @@ impl PlainWeave {
         let rest_lengths = vec![section.element_length; 4 * packing.len()];
         let fibre_tension = self.yarn_tension / self.fibres_per_yarn as f64;
         let rest_angles = vec![0.0; positions.len()];
-        UnitCell { yarn_spacing: s, fibres_per_yarn: self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, rest_angles, fibre_tension, packing, initial_amplitude: amplitude }
+        UnitCell::new(s, self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, rest_angles, fibre_tension, packing, amplitude).expect("a laid-out cell fits its yarns")
     }
 }
 
@@ -283,136 +302,6 @@ fn equal_chord_stations(amplitude: f64, s: f64, n: u32) -> (Vec<(f64, f64)>, f64
     }
     let chord = 0.5 * (low + high);
     (walk(chord).0, chord)
-}
-
-/// The micro-geometry of a cell (seed Table 3-7 compares thickness; §3.3.4 the rest).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct CellStatistics {
-    /// node-centre range plus one fibre diameter [m]
-    pub thickness_m: f64,
-    /// mean fibre path length over the period, minus one [-]
-    pub crimp: f64,
-    /// mean across-spread of a yarn's fibres plus one diameter [m]
-    pub yarn_width_m: f64,
-    /// mean vertical spread of a yarn's fibres plus one diameter [m]
-    pub yarn_thickness_m: f64,
-    /// fibre volume over cell area times thickness [-]
-    pub fibre_volume_fraction: f64,
-    /// [kg/m^2]
-    pub areal_density_kg_m2: f64,
-}
-
-impl UnitCell {
-    /// The cell's micro-geometry.
-    pub fn statistics(&self, material: &FibreMaterial) -> CellStatistics {
-        CellStatistics {
-            thickness_m: self.thickness(),
-            crimp: self.crimp(),
-            yarn_width_m: self.yarn_width(),
-            yarn_thickness_m: self.yarn_thickness(),
-            fibre_volume_fraction: self.fibre_volume_fraction(),
-            areal_density_kg_m2: self.areal_density(material),
-        }
-    }
-
-    /// Side of the square cell, `2 s` [m].
-    pub fn period(&self) -> f64 {
-        2.0 * self.yarn_spacing
-    }
-
-    /// Fibres of the cell.
-    pub fn fibres(&self) -> usize {
-        CELL_YARNS.len() * self.fibres_per_yarn
-    }
-
-    /// Direction of fibre `fibre` of the cell.
-    pub fn direction(&self, fibre: usize) -> YarnDirection {
-        CELL_YARNS[fibre / self.fibres_per_yarn].0
-    }
-
-    /// Translation from a fibre's last node to the image of its first node [m].
-    pub fn closure(&self, fibre: usize) -> Vec3 {
-        match self.direction(fibre) {
-            YarnDirection::Warp => Vec3::new(self.period(), 0.0, 0.0),
-            YarnDirection::Weft => Vec3::new(0.0, self.period(), 0.0),
-        }
-    }
-
-    /// Position of node `k` of cell fibre `fibre` [m].
-    pub fn position(&self, fibre: usize, k: u32) -> Vec3 {
-        self.positions[fibre * self.nodes_per_period as usize + k as usize]
-    }
-
-    /// Lowest and highest node centre [m].
-    pub fn z_range(&self) -> (f64, f64) {
-        self.positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.z), h.max(p.z)))
-    }
-
-    /// Thickness of the fabric: node-centre range plus one fibre diameter (the surfaces of the
-    /// outermost fibres) [m].
-    pub fn thickness(&self) -> f64 {
-        let (low, high) = self.z_range();
-        high - low + self.section.diameter
-    }
-
-    /// Mean crimp of the fibres: path length over one period / period - 1 [-].
-    pub fn crimp(&self) -> f64 {
-        let total: f64 = (0..self.fibres()).map(|f| self.fibre_length(f)).sum();
-        total / (self.fibres() as f64 * self.period()) - 1.0
-    }
-
-    /// Mean width of the yarns: the largest across-spread of a yarn's fibre centres at a node
-    /// station plus one diameter, averaged over stations and yarns [m].
-    pub fn yarn_width(&self) -> f64 {
-        self.section_extent(|direction, p| match direction {
-            YarnDirection::Warp => p.y,
-            YarnDirection::Weft => p.x,
-        })
-    }
-
-    /// Mean thickness of the yarns, measured like [`Self::yarn_width`] in z [m].
-    pub fn yarn_thickness(&self) -> f64 {
-        self.section_extent(|_, p| p.z)
-    }
-
-    fn section_extent(&self, coordinate: impl Fn(YarnDirection, &Vec3) -> f64) -> f64 {
-        let n = self.nodes_per_period;
-        let mut total = 0.0;
-        for (y, (direction, _)) in CELL_YARNS.iter().enumerate() {
-            for k in 0..n {
-                let values = (0..self.fibres_per_yarn).map(|f| coordinate(*direction, &self.position(y * self.fibres_per_yarn + f, k)));
-                let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
-                total += high - low;
-            }
-        }
-        total / (CELL_YARNS.len() as f64 * n as f64) + self.section.diameter
-    }
-
-    /// Rest length of the fibres of the cell, all elements [m].
-    fn material_length(&self) -> f64 {
-        self.rest_lengths.iter().sum::<f64>() * self.nodes_per_period as f64
-    }
-
-    /// Fibre volume fraction of the layer: fibre volume over cell area times thickness [-].
-    pub fn fibre_volume_fraction(&self) -> f64 {
-        self.section.area * self.material_length() / (self.period() * self.period() * self.thickness())
-    }
-
-    /// Mass of one cell over its area [kg/m^2].
-    pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
-        material.density * self.section.area * self.material_length() / (self.period() * self.period())
-    }
-
-    /// Length of cell fibre `fibre` over one period, node to node [m].
-    pub fn fibre_length(&self, fibre: usize) -> f64 {
-        let n = self.nodes_per_period as usize;
-        (0..n)
-            .map(|k| {
-                let next = if k + 1 == n { self.positions[fibre * n] + self.closure(fibre) } else { self.positions[fibre * n + k + 1] };
-                (next - self.positions[fibre * n + k]).norm()
-            })
-            .sum()
-    }
 }
 
 #[cfg(test)]
