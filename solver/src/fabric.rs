@@ -83,6 +83,68 @@ pub struct FabricReport {
     pub style_706_areal_density_deviation: f64,
 }
 
+/// What `dea-mpi fabric` reports for a 3-D weave's cell (`fabric.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CellReport {
+    pub case: String,
+    pub relaxation: RelaxReport,
+    /// generating and relaxing the cell [s]
+    pub relaxation_s: f64,
+    /// the relaxed cell's micro-geometry
+    pub cell: dea_fabric::cell::CellStatistics,
+    /// relaxed thickness / initial thickness - 1 [-]
+    pub thickness_change: f64,
+    /// mean crimp of the filler, stuffer and binder fibres after relaxation [-]
+    pub crimp_by_role: std::collections::BTreeMap<String, f64>,
+    /// size of the cell along x and y [m]
+    pub period_m: [f64; 2],
+    pub yarns: Vec<dea_fabric::cell::CellYarn>,
+    pub fibres: usize,
+    pub nodes: usize,
+}
+
+/// `dea-mpi fabric` on a `three_d_weave_cell` target: rank 0 generates and relaxes the cell
+/// and writes `cell.h5`, `cell.xdmf` and `fabric.json` to `out`; the other ranks wait.
+pub fn fabric_cell<C: Comm>(case: &Case, comm: C, out: &Path) -> Result<Option<CellReport>, SetupError> {
+    let outcome = if comm.rank() == Rank(0) { Some(write_relaxed_cell(case, out)) } else { None };
+    // every rank leaves with the same verdict
+    let mut failed = [if outcome.as_ref().is_some_and(Result::is_err) { 1.0 } else { 0.0 }];
+    comm.max_f64(&mut failed);
+    match outcome {
+        Some(result) => result.map(Some),
+        None if failed[0] > 0.0 => Err(SetupError::Case("rank 0 could not build the cell (it says why)".into())),
+        None => Ok(None),
+    }
+}
+
+fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError> {
+    let material = case.material().expect("validated case");
+    let started = Instant::now();
+    let (cell, relaxation) = setup::three_d_cell(case, &material)?.expect("a 3-D weave target");
+    let relaxation_s = started.elapsed().as_secs_f64();
+    let roles = [("filler", dea_fabric::cell::YarnRole::Filler), ("stuffer", dea_fabric::cell::YarnRole::Stuffer), ("binder", dea_fabric::cell::YarnRole::Binder)];
+    let report = CellReport {
+        case: case.name.clone(),
+        thickness_change: relaxation.after.thickness_m / relaxation.before.thickness_m - 1.0,
+        relaxation,
+        relaxation_s,
+        cell: cell.statistics(&material),
+        crimp_by_role: roles.iter().filter_map(|(name, role)| Some((name.to_string(), cell.crimp_of(*role)?))).collect(),
+        period_m: cell.period,
+        yarns: cell.yarns.clone(),
+        fibres: cell.fibres(),
+        nodes: cell.positions.len(),
+    };
+    let failed = |e: &dyn std::fmt::Display| SetupError::Mesh(format!("{}: {e}", out.display()));
+    std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
+    let relaxation_json = serde_json::to_string(&report.relaxation).expect("report serialises");
+    let cell_json = serde_json::to_string(&report.cell).expect("statistics serialise");
+    dea_io::cell::write_periodic_cell(&out.join("cell.h5"), &cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
+    dea_io::cell::write_cell_xdmf(out, "cell", &cell).map_err(|e| failed(&e))?;
+    std::fs::write(out.join("fabric.json"), serde_json::to_string_pretty(&report).expect("report serialises")).map_err(|e| failed(&e))?;
+    Ok(report)
+}
+
 /// Resident set size of this process [bytes] (0 where /proc is not there).
 fn resident_bytes() -> f64 {
     std::fs::read_to_string("/proc/self/status")

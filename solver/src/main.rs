@@ -491,6 +491,26 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail_all(&session, code, message),
             };
+            if matches!(case.target, dea_io::case::TargetSpec::ThreeDWeaveCell { .. }) {
+                return match dea_mpi::fabric::fabric_cell(&case, comm, &out) {
+                    Ok(Some(report)) => {
+                        let (r, c) = (&report.relaxation, &report.cell);
+                        println!(
+                            "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
+                            r.iterations, report.relaxation_s, r.initial_residual_n, r.final_residual_n, r.contacts, 100.0 * r.largest_overlap_ratio
+                        );
+                        let crimps: Vec<String> = report.crimp_by_role.iter().map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp)).collect();
+                        println!(
+                            "cell: {:.2} x {:.2} mm, {} yarns, {} fibres, {} nodes; thickness {:.1} -> {:.1} um ({:+.1} %), crimp {}, fibre volume fraction {:.3}, {:.1} g/m^2; results in {}",
+                            1e3 * report.period_m[0], 1e3 * report.period_m[1], report.yarns.len(), report.fibres, report.nodes, 1e6 * r.before.thickness_m, 1e6 * c.thickness_m,
+                            100.0 * report.thickness_change, crimps.join(", "), c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, out.display()
+                        );
+                        ExitCode::SUCCESS
+                    }
+                    Ok(None) => ExitCode::SUCCESS,
+                    Err(e) => fail_all(&session, setup_exit(&e), e),
+                };
+            }
             match dea_mpi::fabric::fabric(&case, comm, method_of(method), &out) {
                 Ok(Some(report)) => {
                     let (c, p) = (&report.cell, &report.panel);

@@ -19,7 +19,8 @@ use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_fabric::panel::{CoarseYarns, WovenPanel};
-use dea_fabric::relax::{relax, RelaxOptions, RelaxReport};
+use dea_fabric::relax::{relax, RelaxReport};
+use dea_fabric::cell::PeriodicCell;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
@@ -103,9 +104,22 @@ fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weav
     let plain = weave().map_err(SetupError::Case)?;
     let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
     let law = case.normal_law(material).expect("validated case");
-    let options = RelaxOptions { tolerance: relaxation.tolerance, max_iterations: relaxation.max_iterations, bending_at_rest: spec.bending_at_rest };
+    let options = relaxation.options(spec.bending_at_rest);
     let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
     Ok((cell, Some(report)))
+}
+
+/// The 3-D weave cell of a `three_d_weave_cell` target, generated and relaxed with the case's
+/// contact law; `None` for other targets.
+pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, RelaxReport)>, SetupError> {
+    let TargetSpec::ThreeDWeaveCell { weave, relaxation } = &case.target else {
+        return Ok(None);
+    };
+    let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
+    let mut cell = spec.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
+    let law = case.normal_law(material).expect("validated case");
+    let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    Ok(Some((cell, report)))
 }
 
 /// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
@@ -175,6 +189,9 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             };
             let cells = ((side_m / cell.period()).round() as u32).max(1);
             Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
+        }
+        TargetSpec::ThreeDWeaveCell { .. } => {
+            return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; panels of 3-D weaves are not built, so it cannot be struck".into()));
         }
     };
     let sections = fabric.sections(&material);

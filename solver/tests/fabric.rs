@@ -56,3 +56,42 @@ fn the_relaxed_cell_has_the_same_bits_on_one_two_and_four_ranks_and_is_reusable(
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A 2-layer orthogonal weave of KM2 600 denier yarns (4 digital fibres; binders of half the
+/// area), small enough to relax in seconds.
+fn orthogonal_cell_case() -> dea_io::case::Case {
+    let mut case = default_case();
+    case.name = "orthogonal-km2".into();
+    let text = r#"{"pattern": "orthogonal", "filler_layers": 2, "pick_spacing_m": 1.0e-3, "end_spacing_m": 0.8e-3,
+        "filler": {"area_m2": 4.63e-8, "section_aspect": 3.0}, "filler_fibres": 4,
+        "binder": {"area_m2": 2.315e-8, "section_aspect": 2.0}}"#;
+    case.target = TargetSpec::ThreeDWeaveCell { weave: serde_json::from_str(text).unwrap(), relaxation: serde_json::from_str(r#"{"tolerance": 1e-6, "max_iterations": 400000}"#).unwrap() };
+    case.validate().unwrap();
+    case
+}
+
+#[test]
+fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
+    let case = orthogonal_cell_case();
+    let dir = scratch("3d");
+    let reports = run_local(2, |comm| dea_mpi::fabric::fabric_cell(&case, comm, &dir).expect("the cell relaxes"));
+    assert!(reports[1].is_none(), "rank 0 reports");
+    let report = reports.into_iter().next().flatten().expect("rank 0 reports");
+    assert!(report.relaxation.final_residual_n <= 1e-6 * report.relaxation.initial_residual_n);
+    assert!(report.thickness_change < 0.0, "the binder's tension compacts the cell: {}", report.thickness_change);
+    assert_eq!(report.crimp_by_role.keys().map(String::as_str).collect::<Vec<_>>(), ["binder", "filler", "stuffer"]);
+    // the file holds the relaxed cell bit for bit, and ParaView's description of it
+    let (_, written) = dea_io::cell::read_periodic(&dir.join("cell.h5")).unwrap();
+    let (relaxed, _) = dea_mpi::setup::three_d_cell(&case, &case.material().unwrap()).unwrap().unwrap();
+    assert!(written == relaxed, "cell.h5 is the relaxed cell");
+    assert_eq!(written.fibres(), report.fibres);
+    assert!(dir.join("cell.xdmf").exists());
+    // panels tile plain-weave cells only: a run refuses the target, a panel refuses the file
+    match problem(&case) {
+        Err(SetupError::Case(message)) => assert!(message.contains("three_d_weave_cell"), "{message}"),
+        other => panic!("expected a case error, got {:?}", other.map(|_| ())),
+    }
+    let error = read_cell(&dir.join("cell.h5")).unwrap_err();
+    assert!(error.contains("cell.h5") && error.contains("not a plain-weave cell"), "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -75,10 +75,32 @@ pub enum RelaxError {
     NonFinite { iteration: u64 },
 }
 
+/// Two nodes of different fibres within reach of each other: `j`'s nearest image relative to
+/// `i` is `x_j - x_i - image * period` (x and y).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PeriodicPair {
+    i: u32,
+    j: u32,
+    /// periods to take off the separation along x and y (whole numbers) [-]
+    image: [f64; 2],
+}
+
+impl PeriodicPair {
+    /// The separation `x_j - x_i` of the pair's images, as [`minimum_image`] gives it while
+    /// neither node has moved by half a period since the pair was listed [m].
+    #[inline]
+    fn separation(&self, positions: &[Vec3], period: [f64; 2]) -> Vec3 {
+        let mut d = positions[self.j as usize] - positions[self.i as usize];
+        d.x -= period[0] * self.image[0];
+        d.y -= period[1] * self.image[1];
+        d
+    }
+}
+
 /// Pairs of nodes on different fibres within `reach` of each other, nearest image across the
 /// periodic edges in x and y, ascending (i, j) with i < j. Bins of side >= reach, so only the
 /// 27 bins around a node can hold a partner.
-fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<(u32, u32)> {
+fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
     let period = cell.period;
     let fibre_of = node_fibres(cell);
     let bins = period.map(|p| ((p / reach).floor() as i64).max(1));
@@ -119,13 +141,16 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<(u32, u32)> {
                 if j <= i || fibre_of[j] == fibre_of[i] {
                     continue;
                 }
-                if minimum_image(cell.positions[j] - p, period).norm() < reach {
-                    pairs.push((i as u32, j as u32));
+                let d = cell.positions[j] - p;
+                let image = [(d.x / period[0]).round(), (d.y / period[1]).round()];
+                let pair = PeriodicPair { i: i as u32, j: j as u32, image };
+                if pair.separation(&cell.positions, period).norm() < reach {
+                    pairs.push(pair);
                 }
             }
         }
     }
-    pairs.sort_unstable();
+    pairs.sort_unstable_by_key(|p| (p.i, p.j));
     pairs
 }
 
@@ -140,8 +165,8 @@ pub(crate) fn closest_approach(cell: &PeriodicCell, counted: impl Fn(usize, usiz
     let fibre_of = node_fibres(cell);
     periodic_pairs(cell, cell.section.contact_diameter)
         .into_iter()
-        .filter(|&(i, j)| counted(fibre_of[i as usize] as usize, fibre_of[j as usize] as usize))
-        .map(|(i, j)| minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period).norm())
+        .filter(|p| counted(fibre_of[p.i as usize] as usize, fibre_of[p.j as usize] as usize))
+        .map(|p| p.separation(&cell.positions, cell.period).norm())
         .fold(f64::INFINITY, f64::min)
 }
 
@@ -171,7 +196,7 @@ pub fn largest_overlap_ratio(cell: &PeriodicCell) -> f64 {
     let d = cell.section.contact_diameter;
     periodic_pairs(cell, d)
         .into_iter()
-        .map(|(i, j)| (d - minimum_image(cell.positions[j as usize] - cell.positions[i as usize], cell.period).norm()) / d)
+        .map(|p| (d - p.separation(&cell.positions, cell.period).norm()) / d)
         .fold(0.0, f64::max)
 }
 
@@ -209,7 +234,7 @@ struct ChainScratch {
     length: Vec<f64>,
 }
 
-fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[(u32, u32)], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
+fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[PeriodicPair], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
     let section = &cell.section;
     force.fill(Vec3::zeros());
     for fibre in 0..cell.fibres() {
@@ -248,9 +273,9 @@ fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, r
     }
     let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
     let (mut contacts, mut largest) = (0, 0.0f64);
-    for &(i, j) in pairs {
-        let (i, j) = (i as usize, j as usize);
-        let d = minimum_image(cell.positions[j] - cell.positions[i], cell.period);
+    for pair in pairs {
+        let (i, j) = (pair.i as usize, pair.j as usize);
+        let d = pair.separation(&cell.positions, cell.period);
         let distance = d.norm();
         let overlap = section.contact_diameter - distance;
         if overlap <= 0.0 {
@@ -374,7 +399,7 @@ mod tests {
             }
         }
         assert!(!expected.is_empty());
-        assert_eq!(periodic_pairs(&cell, reach), expected);
+        assert_eq!(periodic_pairs(&cell, reach).iter().map(|p| (p.i, p.j)).collect::<Vec<_>>(), expected);
     }
 
     #[test]

@@ -313,7 +313,7 @@ impl ThreeDWeave {
     /// the others with gaps in 0..=L, a stuffer on one gap, and the yarns of a column in
     /// strict bottom-to-top order at every filler column, at most one of them changing gap
     /// between two columns (so no two yarns of a column cross or run together steeply).
-    fn check_topology(&self) -> Result<(), Weave3dError> {
+    pub fn check_topology(&self) -> Result<(), Weave3dError> {
         let fail = |message: String| Err(Weave3dError::Topology(message));
         let columns = self.filler_columns();
         if self.filler_layers < 1 || columns < 2 {

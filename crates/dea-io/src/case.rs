@@ -11,6 +11,7 @@ use dea_core::FibreMaterial;
 use dea_fabric::panel::Boundary;
 use dea_fabric::relax::BendingAtRest;
 use dea_fabric::weave::PlainWeave;
+use dea_fabric::weave3d::{Pattern, ThreeDWeave, WarpPath, YarnKind};
 use serde::{Deserialize, Serialize};
 
 /// A case error: where and why.
@@ -152,6 +153,106 @@ pub enum TargetSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         hybrid: Option<Box<HybridSpec>>,
     },
+    /// a 3-D woven unit cell (seed chapter 3: orthogonal, layer-to-layer, angle interlock),
+    /// generated and relaxed with periodic boundaries by `dea-mpi fabric`. Panels of 3-D
+    /// weaves are not built, so a run refuses it.
+    ThreeDWeaveCell {
+        weave: Box<Weave3dSpec>,
+        /// when the relaxation stops
+        #[serde(default)]
+        relaxation: RelaxationSpec,
+    },
+}
+
+/// A 3-D weave: a named pattern or a table of gaps, and its yarns.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Weave3dSpec {
+    /// "orthogonal", "layer_to_layer" or "angle_interlock"; absent when `columns` is given
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern: Option<Pattern>,
+    /// the warp-direction columns across the cell, each a stack of yarns listed bottom to
+    /// top: {"role": "stuffer" | "binder", "gaps": [gap at each filler column]}, gap 0 below
+    /// every filler layer, gap L above them all
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub columns: Option<Vec<Vec<WarpPath>>>,
+    /// layers of filler (weft) yarns
+    pub filler_layers: u32,
+    /// centre distance of neighbouring filler columns, along x [m]
+    pub pick_spacing_m: f64,
+    /// centre distance of neighbouring warp-direction columns, along y [m]
+    pub end_spacing_m: f64,
+    /// the filler yarn: {"area_m2", "section_aspect"}
+    pub filler: YarnKind,
+    /// digital fibres of a filler yarn (1..=400); every digital fibre has the filler's
+    /// section, so other yarns hold round(area / fibre area) of them
+    pub filler_fibres: usize,
+    /// the stuffer yarn; default: the filler's
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stuffer: Option<YarnKind>,
+    /// the binder yarn; default: the filler's
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub binder: Option<YarnKind>,
+    /// element length / digital fibre diameter; default 0.5 [-]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub element_length_ratio: Option<f64>,
+    /// tension of a filler yarn during relaxation, the same stress in every yarn; default 0.5 [N]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filler_tension_n: Option<f64>,
+    /// the shape the bending springs rest in: "as_woven" (default) or "straight" (F4)
+    #[serde(default = "as_woven")]
+    pub bending_at_rest: BendingAtRest,
+}
+
+impl Weave3dSpec {
+    /// The weave the spec describes, every field checked.
+    pub fn weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<ThreeDWeave, CaseError> {
+        let layers = self.filler_layers;
+        if !(1..=50).contains(&layers) {
+            return Err(invalid("target.weave.filler_layers", format!("must be in 1..=50, got {layers}")));
+        }
+        let columns = match (self.pattern, &self.columns) {
+            (Some(_), Some(_)) => return Err(invalid("target.weave.columns", "give a pattern or columns, not both")),
+            (None, None) => return Err(invalid("target.weave.pattern", "is needed unless target.weave.columns gives the topology")),
+            (Some(pattern), None) if layers < 2 => return Err(invalid("target.weave.filler_layers", format!("the {pattern:?} pattern needs at least 2 filler layers, got {layers}"))),
+            (Some(pattern), None) => pattern.columns(layers),
+            (None, Some(columns)) => columns.clone(),
+        };
+        let kind = |path: &str, kind: &YarnKind| -> Result<YarnKind, CaseError> {
+            positive(&format!("{path}.area_m2"), kind.area_m2)?;
+            ranged(&format!("{path}.section_aspect"), kind.section_aspect, 1.0, 50.0)?;
+            Ok(*kind)
+        };
+        let filler = kind("target.weave.filler", &self.filler)?;
+        let mut weave = ThreeDWeave {
+            filler_layers: layers,
+            columns,
+            pick_spacing: positive("target.weave.pick_spacing_m", self.pick_spacing_m)?,
+            end_spacing: positive("target.weave.end_spacing_m", self.end_spacing_m)?,
+            filler,
+            filler_fibres: fibre_count_at("target.weave.filler_fibres", self.filler_fibres)?,
+            stuffer: kind("target.weave.stuffer", self.stuffer.as_ref().unwrap_or(&filler))?,
+            binder: kind("target.weave.binder", self.binder.as_ref().unwrap_or(&filler))?,
+            element_length_ratio: 0.5,
+            filler_tension: 0.5,
+            inertia: bending,
+            friction_coefficient,
+        };
+        for (path, kind) in [("target.weave.stuffer", weave.stuffer), ("target.weave.binder", weave.binder)] {
+            let fibres = weave.fibres_of(&kind);
+            if fibres > 400 {
+                return Err(invalid(&format!("{path}.area_m2"), format!("holds {fibres} digital fibres of the filler's section, more than 400")));
+            }
+        }
+        if let Some(v) = self.element_length_ratio {
+            weave.element_length_ratio = ratio("target.weave.element_length_ratio", v)?;
+        }
+        if let Some(v) = self.filler_tension_n {
+            weave.filler_tension = positive("target.weave.filler_tension_n", v)?;
+        }
+        weave.check_topology().map_err(|e| invalid("target.weave", e.to_string()))?;
+        Ok(weave)
+    }
 }
 
 /// A yarn-based hybrid mesh: the yarns whose centrelines pass within `fine_half_width_m` of
@@ -269,6 +370,21 @@ fn default_relaxation_iterations() -> u64 {
 impl Default for RelaxationSpec {
     fn default() -> Self {
         Self { tolerance: default_relaxation_tolerance(), max_iterations: default_relaxation_iterations() }
+    }
+}
+
+impl RelaxationSpec {
+    fn validate(&self) -> Result<(), CaseError> {
+        ranged("target.relaxation.tolerance", self.tolerance, 1e-14, 0.1)?;
+        if self.max_iterations == 0 {
+            return Err(invalid("target.relaxation.max_iterations", "must be >= 1, got 0"));
+        }
+        Ok(())
+    }
+
+    /// The relaxation's options, with the springs resting as `bending_at_rest` says.
+    pub fn options(&self, bending_at_rest: BendingAtRest) -> dea_fabric::relax::RelaxOptions {
+        dea_fabric::relax::RelaxOptions { tolerance: self.tolerance, max_iterations: self.max_iterations, bending_at_rest }
     }
 }
 
@@ -839,10 +955,11 @@ impl Case {
                         return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
                     }
                 }
-                ranged("target.relaxation.tolerance", relaxation.tolerance, 1e-14, 0.1)?;
-                if relaxation.max_iterations == 0 {
-                    return Err(invalid("target.relaxation.max_iterations", "must be >= 1, got 0"));
-                }
+                relaxation.validate()?;
+            }
+            TargetSpec::ThreeDWeaveCell { weave, relaxation } => {
+                weave.weave(self.bending, self.contact.friction_coefficient)?;
+                relaxation.validate()?;
             }
         }
         match self.bending {
@@ -1054,6 +1171,36 @@ mod tests {
         assert!(matches!(sphere.projectile().unwrap().body, ProjectileBody::Analytic(RigidShape::Sphere { .. })));
         sphere.projectile.mesh_divisions = Some(4);
         assert_eq!(sphere.projectile().unwrap().body, ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 });
+    }
+
+    #[test]
+    fn three_d_weave_cells_name_their_bad_fields() {
+        let weave = |edit: &dyn Fn(&mut serde_json::Value)| {
+            error_for(|v| {
+                v["target"] = serde_json::json!({ "kind": "three_d_weave_cell", "weave": { "pattern": "orthogonal", "filler_layers": 3, "pick_spacing_m": 1e-3,
+                    "end_spacing_m": 1e-3, "filler": { "area_m2": 4.63e-8, "section_aspect": 3.0 }, "filler_fibres": 4 } });
+                edit(v);
+            })
+        };
+        // serde reads a tagged target whole, so an unknown pattern is placed at the target
+        let e = weave(&|v| v["target"]["weave"]["pattern"] = "satin".into());
+        assert!(e.path == "target" && e.message.contains("satin") && e.message.contains("layer_to_layer"), "{e}");
+        let e = weave(&|v| v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]]));
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave.columns", "give a pattern or columns, not both (in case.json)"));
+        let e = weave(&|v| v["target"]["weave"]["filler_layers"] = 1.into());
+        assert_eq!(e.path, "target.weave.filler_layers");
+        let e = weave(&|v| v["target"]["weave"]["binder"] = serde_json::json!({ "area_m2": 0.0, "section_aspect": 2.0 }));
+        assert_eq!(e.path, "target.weave.binder.area_m2");
+        let e = weave(&|v| v["target"]["weave"]["filler_fibres"] = 0.into());
+        assert_eq!(e.path, "target.weave.filler_fibres");
+        let e = weave(&|v| {
+            v["target"]["weave"].as_object_mut().unwrap().remove("pattern");
+            v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "stuffer", "gaps": [1, 1] }, { "role": "binder", "gaps": [3, 0] }]]);
+        });
+        assert_eq!(e.path, "target.weave");
+        assert!(e.message.contains("columns[0][1]") && e.message.contains("cross"), "{e}");
+        let e = weave(&|v| v["target"]["relaxation"] = serde_json::json!({ "tolerance": 0.5 }));
+        assert_eq!(e.path, "target.relaxation.tolerance");
     }
 
     #[test]
