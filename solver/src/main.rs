@@ -241,6 +241,21 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail(code, message),
             };
+            if let dea_io::case::TargetSpec::ThreeDWeaveCell { weave, .. } = &case.target {
+                // a cell for `dea-mpi fabric`: its initial layout, not relaxed
+                let material = case.material().expect("validated case");
+                let laid_out = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string()).and_then(|w| w.unit_cell(&material).map_err(|e| format!("target.weave: {e}")));
+                let cell = match laid_out {
+                    Ok(cell) => cell,
+                    Err(message) => return fail(Exit::BadCase, message),
+                };
+                let resolved = serde_json::json!({
+                    "case": case,
+                    "resolved": { "material": material, "section": cell.section, "period_m": cell.period, "yarns": cell.yarns, "fibres": cell.fibres(), "nodes": cell.positions.len(), "initial": cell.statistics(&material) }
+                });
+                println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+                return ExitCode::SUCCESS;
+            }
             let problem = match setup::problem(&case) {
                 Ok(problem) => problem,
                 Err(e) => return fail(setup_exit(&e), e),

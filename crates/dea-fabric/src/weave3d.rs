@@ -40,8 +40,9 @@ pub enum Weave3dError {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Pattern {
-    /// stuffers in every inner gap of one column; a binder beside them from the top gap to the
-    /// bottom one and back over two filler columns
+    /// stuffers in every inner gap of a column; beside it a binder from the top gap to the
+    /// bottom one and back over two filler columns; then stuffers again and a binder in
+    /// opposite phase, so that every filler column is bound on both faces
     Orthogonal,
     /// one binder per column, each wrapping two neighbouring filler layers (gap b + 2 to gap
     /// b and back), neighbouring columns in opposite phase
@@ -85,8 +86,8 @@ impl Pattern {
         let binder = |gaps: Vec<u32>| WarpPath { role: PathRole::Binder, gaps };
         match self {
             Pattern::Orthogonal => {
-                let stuffers = (1..layers).map(|g| WarpPath { role: PathRole::Stuffer, gaps: vec![g, g] }).collect();
-                vec![stuffers, vec![binder(vec![layers, 0])]]
+                let stuffers: Vec<WarpPath> = (1..layers).map(|g| WarpPath { role: PathRole::Stuffer, gaps: vec![g, g] }).collect();
+                vec![stuffers.clone(), vec![binder(vec![layers, 0])], stuffers, vec![binder(vec![0, layers])]]
             }
             Pattern::LayerToLayer => (0..layers.saturating_sub(1)).map(|b| vec![binder(if b % 2 == 0 { vec![b + 2, b] } else { vec![b, b + 2] })]).collect(),
             Pattern::AngleInterlock => {
@@ -251,6 +252,15 @@ fn turn_angle(height: f64, room: f64, radius: f64) -> Option<f64> {
     Some(0.5 * (low + high))
 }
 
+/// The radius a binder turns on to rise `height` within `room`: as gentle as the room allows
+/// (two arcs alone where they fit, otherwise arcs filling 90 % of the room around a steep
+/// run), never under `tightest`. The fewer elements a turn bends over, the bumpier the
+/// node-to-node contacts of its fibres and the slower the relaxation.
+fn turn_radius(height: f64, room: f64, tightest: f64) -> f64 {
+    let arcs_alone = (room * room + height * height) / (4.0 * height);
+    arcs_alone.min(0.45 * room).max(tightest)
+}
+
 /// A packed section: its fibres' (across, up) offsets and its extents.
 struct Packed {
     offsets: Vec<[f64; 2]>,
@@ -410,10 +420,10 @@ impl ThreeDWeave {
         // contact diameter, a twentieth of a diameter clear of the fillers
         let margin = 0.05 * d;
         let room = self.pick_spacing - filler.width - 2.0 * margin;
-        let radius = binder.largest_up + 0.5 * d + margin;
+        let tightest = binder.largest_up + 0.5 * d + margin;
         let binds = self.columns.iter().flatten().any(|p| p.role == PathRole::Binder && p.gaps.iter().any(|&g| g != p.gaps[0]));
         if binds && room <= 0.0 {
-            return Err(Weave3dError::NoRoomToTurn { filler_width: filler.width, room: room.max(0.0), needed: 2.0 * radius });
+            return Err(Weave3dError::NoRoomToTurn { filler_width: filler.width, room: room.max(0.0), needed: 2.0 * tightest });
         }
         let step = 0.02 * section.diameter;
         let (mut yarns, mut positions, mut rest_lengths) = (Vec::new(), Vec::new(), Vec::new());
@@ -446,6 +456,7 @@ impl ThreeDWeave {
                         centreline.extend((0..samples).map(|s| (x + half_plateau + room * s as f64 / samples as f64, z, 0.0)));
                     } else {
                         let levels = path.gaps[c].abs_diff(path.gaps[(c + 1) % columns]);
+                        let radius = turn_radius((z_next - z).abs(), room, tightest);
                         let phi = turn_angle((z_next - z).abs(), room, radius).ok_or(Weave3dError::TooSteep { levels, room, radius })?;
                         turn(&mut centreline, x + half_plateau, z, z_next, room, radius, phi, step);
                     }
@@ -485,7 +496,7 @@ impl ThreeDWeave {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::relax::{relax, RelaxOptions};
+    use crate::relax::{relax, BendingAtRest, RelaxOptions};
     use dea_core::contact::NormalLaw;
 
     /// KM2 600 denier yarns: fillers of 4 digital fibres, stuffers alike, binders of half the
@@ -502,10 +513,8 @@ mod tests {
     #[test]
     fn patterns_have_the_seed_topologies() {
         let orthogonal = Pattern::Orthogonal.columns(3);
-        assert_eq!(orthogonal, vec![
-            vec![WarpPath { role: PathRole::Stuffer, gaps: vec![1, 1] }, WarpPath { role: PathRole::Stuffer, gaps: vec![2, 2] }],
-            vec![WarpPath { role: PathRole::Binder, gaps: vec![3, 0] }]
-        ]);
+        let stuffers = vec![WarpPath { role: PathRole::Stuffer, gaps: vec![1, 1] }, WarpPath { role: PathRole::Stuffer, gaps: vec![2, 2] }];
+        assert_eq!(orthogonal, vec![stuffers.clone(), vec![WarpPath { role: PathRole::Binder, gaps: vec![3, 0] }], stuffers, vec![WarpPath { role: PathRole::Binder, gaps: vec![0, 3] }]]);
         let layer_to_layer = Pattern::LayerToLayer.columns(3);
         assert_eq!(layer_to_layer.iter().map(|c| c[0].gaps.clone()).collect::<Vec<_>>(), vec![vec![2, 0], vec![1, 3]]);
         let interlock = Pattern::AngleInterlock.columns(3);
@@ -602,7 +611,9 @@ mod tests {
         let material = FibreMaterial::kevlar_km2();
         let cell = km2_weave(Pattern::Orthogonal, 3).unit_cell(&material).unwrap();
         let fillers = yarn_fibres(&cell, YarnRole::Filler);
-        let binder = yarn_fibres(&cell, YarnRole::Binder);
+        // the first binder (the second column) over the fillers at the first filler column
+        let first_binder = cell.yarns.iter().position(|y| y.role == YarnRole::Binder).unwrap();
+        let binder: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == first_binder).collect();
         let mean_z = |fibres: &[usize], near_x: f64| {
             let points: Vec<Vec3> = fibres.iter().flat_map(|&f| cell.fibre_nodes(f).map(|i| cell.positions[i])).filter(|p| (p.x - near_x).abs() < 0.1e-3).collect();
             points.iter().map(|p| p.z).sum::<f64>() / points.len() as f64
@@ -610,11 +621,16 @@ mod tests {
         let (top, bottom) = (fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::NEG_INFINITY, f64::max), fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::INFINITY, f64::min));
         assert!(mean_z(&binder, 0.0) > top, "over the fillers at the first column");
         assert!(mean_z(&binder, 1.0e-3) < bottom, "under them at the second");
-        // the stuffers lie between the filler layers
-        for (f, gap) in yarn_fibres(&cell, YarnRole::Stuffer).into_iter().map(|f| (f, if cell.fibre_yarn(f) == cell.fibre_yarn(yarn_fibres(&cell, YarnRole::Stuffer)[0]) { 1.0 } else { 2.0 })) {
-            let z = cell.position(f, 0).z;
-            let pitch = (cell.z_range().1 - cell.z_range().0) / 3.0;
-            assert!((z / pitch - gap).abs() < 0.5, "stuffer fibre {f} at {z} in gap {gap}");
+        // the stuffers lie between the filler layers: gaps 1 and 2 in each stuffer column
+        let pitch = (cell.z_range().1 - cell.z_range().0) / 3.0;
+        let stuffers: Vec<usize> = (0..cell.yarns.len()).filter(|&y| cell.yarns[y].role == YarnRole::Stuffer).collect();
+        assert_eq!(stuffers.len(), 4);
+        for (rank, &yarn) in stuffers.iter().enumerate() {
+            let gap = (rank % 2 + 1) as f64;
+            for f in (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == yarn) {
+                let z = cell.position(f, 0).z;
+                assert!((z / pitch - gap).abs() < 0.5, "stuffer fibre {f} at {z} in gap {gap}");
+            }
         }
     }
 
@@ -624,7 +640,7 @@ mod tests {
         let law = NormalLaw::ElastoPlasticKm2;
         let weave = km2_weave(Pattern::Orthogonal, 2);
         let mut cell = weave.unit_cell(&material).unwrap();
-        let options = RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, ..Default::default() };
+        let options = RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight };
         let report = relax(&mut cell, &material, &law, &options).unwrap();
         assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
         // the binder's tension pulls the filler layers together

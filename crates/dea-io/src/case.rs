@@ -199,9 +199,14 @@ pub struct Weave3dSpec {
     /// tension of a filler yarn during relaxation, the same stress in every yarn; default 0.5 [N]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub filler_tension_n: Option<f64>,
-    /// the shape the bending springs rest in: "as_woven" (default) or "straight" (F4)
-    #[serde(default = "as_woven")]
+    /// the shape the bending springs rest in: "straight" (default: the springs act during
+    /// relaxation, which a 3-D cell needs to converge; docs/theory.md F10) or "as_woven" (F4)
+    #[serde(default = "straight")]
     pub bending_at_rest: BendingAtRest,
+}
+
+fn straight() -> BendingAtRest {
+    BendingAtRest::Straight
 }
 
 impl Weave3dSpec {
