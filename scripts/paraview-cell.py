@@ -23,7 +23,8 @@ reader.UpdatePipeline()
 data = servermanager.Fetch(reader)
 points, cells = data.GetNumberOfPoints(), data.GetNumberOfCells()
 arrays = {data.GetPointData().GetArrayName(k) for k in range(data.GetPointData().GetNumberOfArrays())}
-fibres = 4 * report["panel"]["fibres"] // report["panel"]["yarns"]
+# a panel's cell has 4 yarns of equal fibres; a 3-D weave's report counts its fibres
+fibres = 4 * report["panel"]["fibres"] // report["panel"]["yarns"] if "panel" in report else report["fibres"]
 if points == 0 or cells != points - fibres or not {"fibre", "direction"} <= arrays:
     sys.exit(f"cell.xdmf: {points} points, {cells} segments for {fibres} fibres, arrays {sorted(arrays)}")
 bounds = data.GetBounds()
@@ -33,10 +34,11 @@ if not 0.0 < thickness < report["cell"]["thickness_m"]:
 view = GetActiveViewOrCreate("RenderView")
 view.ViewSize = [800, 600]
 display = Show(reader, view)
-ColorBy(display, ("POINTS", "direction"))
+three_d = "panel" not in report
+ColorBy(display, ("POINTS", "role" if three_d else "direction"))
 display.LineWidth = 3.0
-# from above and to the side, the crimp exaggerated 4 times
-display.Scale = [1.0, 1.0, 4.0]
+# from above and to the side; a plain weave's crimp exaggerated 4 times
+display.Scale = [1.0, 1.0, 1.0 if three_d else 4.0]
 view.CameraPosition = [-1.5, -2.5, 1.2]
 view.CameraFocalPoint = [0.0, 0.0, 0.0]
 view.CameraViewUp = [0.0, 0.0, 1.0]

@@ -22,6 +22,8 @@ check image-is-not-empty test -s "$work/panel/fields.png"
 check plots /usr/bin/python3 scripts/plot-run.py "$work/panel"
 check fabric-of-the-default-case target/release/dea-mpi fabric --out "$work/fabric"
 check paraview-opens-the-cell xvfb-run -a /usr/bin/python3 scripts/paraview-cell.py "$work/fabric"
+check fabric-of-a-3d-weave target/release/dea-mpi fabric cases/weave3d_km2_orthogonal_small.json --out "$work/weave3d"
+check paraview-opens-the-3d-cell xvfb-run -a /usr/bin/python3 scripts/paraview-cell.py "$work/weave3d"
 check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer panel_side; do test -s $work/panel/plots/\$f.png || exit 1; done"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
