@@ -117,7 +117,7 @@ impl UnitCell {
     /// order), checking the sizes.
     #[allow(clippy::too_many_arguments)]
     pub fn new(yarn_spacing: f64, fibres_per_yarn: usize, nodes_per_period: u32, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64, packing: Vec<[f64; 2]>, initial_amplitude: f64) -> Result<Self, crate::cell::CellError> {
-        if packing.len() != fibres_per_yarn || nodes_per_period % 4 != 0 {
+        if packing.len() != fibres_per_yarn || !nodes_per_period.is_multiple_of(4) {
             return Err(crate::cell::CellError::Sizes(format!("{} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period (a multiple of 4)", packing.len())));
         }
         let yarns = CELL_YARNS.iter().map(|&(direction, _)| CellYarn { direction, role: YarnRole::Plain, fibres: fibres_per_yarn, nodes_per_period }).collect();

@@ -91,7 +91,7 @@ impl Pattern {
             }
             Pattern::LayerToLayer => (0..layers.saturating_sub(1)).map(|b| vec![binder(if b % 2 == 0 { vec![b + 2, b] } else { vec![b, b + 2] })]).collect(),
             Pattern::AngleInterlock => {
-                let down: Vec<u32> = (0..2 * layers).map(|c| if c <= layers { layers - c } else { c - layers }).collect();
+                let down: Vec<u32> = (0..2 * layers).map(|c| layers.abs_diff(c)).collect();
                 let shifted: Vec<u32> = (0..2 * layers as usize).map(|c| down[(c + layers as usize) % down.len()]).collect();
                 vec![vec![binder(down)], vec![binder(shifted)]]
             }
@@ -203,10 +203,10 @@ impl Polyline {
 /// A centreline in the x–z plane sampled densely: (x, z, angle of the tangent to x).
 type Centreline = Vec<(f64, f64, f64)>;
 
-/// The turn between two heights over `room` along x, starting level at (`x0`, `z0`): an arc
+/// The turn between two heights over `room` along x, starting level at `(x0, z0)`: an arc
 /// of `radius`, a straight run at angle `phi`, an arc back to level at (`x0 + room`, `z1`).
 /// Appends samples `step` apart in arc length (the last point excluded).
-fn turn(samples: &mut Centreline, x0: f64, z0: f64, z1: f64, room: f64, radius: f64, phi: f64, step: f64) {
+fn turn(samples: &mut Centreline, (x0, z0): (f64, f64), z1: f64, room: f64, radius: f64, phi: f64, step: f64) {
     let sign = (z1 - z0).signum();
     let run = (room - 2.0 * radius * phi.sin()) / phi.cos();
     let arc = radius * phi;
@@ -458,7 +458,7 @@ impl ThreeDWeave {
                         let levels = path.gaps[c].abs_diff(path.gaps[(c + 1) % columns]);
                         let radius = turn_radius((z_next - z).abs(), room, tightest);
                         let phi = turn_angle((z_next - z).abs(), room, radius).ok_or(Weave3dError::TooSteep { levels, room, radius })?;
-                        turn(&mut centreline, x + half_plateau, z, z_next, room, radius, phi, step);
+                        turn(&mut centreline, (x + half_plateau, z), z_next, room, radius, phi, step);
                     }
                     if c + 1 == columns {
                         // the last plateau ends where the first one's image starts
@@ -557,7 +557,7 @@ mod tests {
         for (height, room) in [(0.3, 3.0), (5.0, 2.5), (8.0, 2.1), (0.35, 1.2)] {
             let phi = turn_angle(height, room, radius).unwrap();
             let mut samples = Vec::new();
-            turn(&mut samples, 0.0, 0.0, -height, room, radius, phi, step);
+            turn(&mut samples, (0.0, 0.0), -height, room, radius, phi, step);
             let end = samples.last().unwrap();
             assert!((end.0 - room).abs() < 2.0 * step && (end.1 + height).abs() < 2.0 * step, "{height} over {room}: ends at {end:?}");
             // tangent continuity: neighbouring samples' angles and chord directions agree
