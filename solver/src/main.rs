@@ -234,6 +234,14 @@ fn setup_exit(error: &SetupError) -> Exit {
 }
 
 fn main() -> ExitCode {
+    // a closed pipe (`dea-mpi check case.json | head`) ends the process quietly, as it does
+    // any Unix tool, rather than with a panic at the next print
+    // SAFETY: the action only calls emulate_default_handler, which is async-signal-safe
+    let _ = unsafe {
+        signal_hook::low_level::register(signal_hook::consts::SIGPIPE, || {
+            let _ = signal_hook::low_level::emulate_default_handler(signal_hook::consts::SIGPIPE);
+        })
+    };
     let cli = Cli::parse();
     match cli.command {
         Command::Check { case } => {
