@@ -73,6 +73,13 @@ check fabric-cell-identical-on-1-2-4-ranks bash -c 'for r in 1 2 4; do mpi $r fa
 check hybrid-settled-identical-on-4-ranks bash -c 'mpi 1 run cases/hybrid_two_layer_settle.json --out $work/hyb1 && mpi 4 run cases/hybrid_two_layer_settle.json --out $work/hyb4 \
     && $bin compare $work/hyb1/results.h5 $work/hyb4/results.h5 && grep -q "\"largest_force_after_n\"" $work/hyb4/summary.json \
     && mpi 2 fabric cases/hybrid_two_layer_settle.json --out $work/hybfabric && test -f $work/hybfabric/coarse_cell.h5 && test -f $work/hybfabric/coarse_cell.xdmf'
+# a 3-D weave cell: rank 0 relaxes it, the same bits under 1 and 2 ranks; a weave whose binders
+# have no room to turn ends both ranks with exit 3 and one message naming the field
+check weave3d-cell-on-two-ranks bash -c 'mpi 1 fabric cases/weave3d_km2_orthogonal_small.json --out $work/w3d1 \
+    && mpi 2 fabric cases/weave3d_km2_orthogonal_small.json --out $work/w3d2 && $bin compare $work/w3d1/cell.h5 $work/w3d2/cell.h5 && test -f $work/w3d2/cell.xdmf'
+/usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/weave3d_km2_orthogonal_small.json")); c["target"]["weave"]["pick_spacing_m"] = 0.5e-3; json.dump(c, sys.stdout)' >"$work/tight3d.json"
+check weave3d-without-room-on-two-ranks bash -c 'mpi 2 fabric $work/tight3d.json --out $work/tight3d 2>$work/tight3d.err; code=$?; cat $work/tight3d.err; \
+    test $code -eq 3 && test "$(grep -c "pick_spacing_m" $work/tight3d.err)" -eq 1'
 check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -q "\"perforated\": true" $work/default/summary.json'
 # V50 campaigns: two groups of one rank fire the Monte Carlo shots with the same bits as one
 # rank alone; a bisection on one group of two ranks; a group size that does not divide

@@ -116,7 +116,7 @@ pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(Per
         return Ok(None);
     };
     let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
-    let mut cell = spec.unit_cell(material).map_err(|e| SetupError::Case(format!("target.weave: {e}")))?;
+    let mut cell = spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))?;
     let law = case.normal_law(material).expect("validated case");
     let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, report)))

@@ -28,12 +28,27 @@ use crate::weave::elliptical_packing;
 pub enum Weave3dError {
     #[error("{0}")]
     Topology(String),
-    #[error("pick_spacing_m: a filler yarn {filler_width:.3e} m wide leaves {room:.3e} m between filler columns, and a binder needs {needed:.3e} m there to turn (widen the pick spacing, narrow the filler with a smaller section_aspect, or thin the binder)")]
+    #[error("a filler yarn {filler_width:.3e} m wide leaves {room:.3e} m between filler columns, and a binder needs {needed:.3e} m there to turn (widen the pick spacing, narrow the filler with a smaller section_aspect, or thin the binder)")]
     NoRoomToTurn { filler_width: f64, room: f64, needed: f64 },
-    #[error("pick_spacing_m: a binder changing gap by {levels} filler layer(s) cannot turn within {room:.3e} m between filler columns on arcs of radius {radius:.3e} m (widen the pick spacing)")]
+    #[error("a binder changing gap by {levels} filler layer(s) cannot turn within {room:.3e} m between filler columns on arcs of radius {radius:.3e} m (widen the pick spacing)")]
     TooSteep { levels: u32, room: f64, radius: f64 },
     #[error("the yarns cannot be laid out apart: two fibres of different yarns stay {closest:.3e} m apart, under one contact diameter ({contact_diameter:.3e} m) (widen end_spacing_m or pick_spacing_m)")]
     Crowded { closest: f64, contact_diameter: f64 },
+}
+
+impl Weave3dError {
+    /// The case field (under `target.weave`) the error is about; empty for the whole weave.
+    pub fn field(&self) -> &'static str {
+        match self {
+            Weave3dError::Topology(_) | Weave3dError::Crowded { .. } => "",
+            Weave3dError::NoRoomToTurn { .. } | Weave3dError::TooSteep { .. } => ".pick_spacing_m",
+        }
+    }
+
+    /// The error as a case error message: `target.weave[.field]: why`.
+    pub fn in_case(&self) -> String {
+        format!("target.weave{}: {self}", self.field())
+    }
 }
 
 /// The weaves of seed chapter 3 the generator knows by name.
