@@ -80,6 +80,9 @@ check weave3d-cell-on-two-ranks bash -c 'mpi 1 fabric cases/weave3d_km2_orthogon
 /usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/weave3d_km2_orthogonal_small.json")); c["target"]["weave"]["pick_spacing_m"] = 0.5e-3; json.dump(c, sys.stdout)' >"$work/tight3d.json"
 check weave3d-without-room-on-two-ranks bash -c 'mpi 2 fabric $work/tight3d.json --out $work/tight3d 2>$work/tight3d.err; code=$?; cat $work/tight3d.err; \
     test $code -eq 3 && test "$(grep -c "pick_spacing_m" $work/tight3d.err)" -eq 1'
+# a panel tiled from that cell, struck: the same bits on 1 and 2 ranks
+check weave3d-panel-identical-on-2-ranks bash -c 'mpi 1 run cases/weave3d_km2_orthogonal_panel.json --out $work/w3p1 \
+    && mpi 2 run cases/weave3d_km2_orthogonal_panel.json --out $work/w3p2 && $bin compare $work/w3p1/results.h5 $work/w3p2/results.h5'
 check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -q "\"perforated\": true" $work/default/summary.json'
 # V50 campaigns: two groups of one rank fire the Monte Carlo shots with the same bits as one
 # rank alone; a bisection on one group of two ranks; a group size that does not divide

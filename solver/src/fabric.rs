@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use dea_core::Rank;
 use dea_fabric::relax::RelaxReport;
+use dea_fabric::panel::Tiling;
 use dea_fabric::Fabric;
 use dea_io::case::Case;
 use dea_partition::Method;

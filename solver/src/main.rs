@@ -514,7 +514,7 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail_all(&session, code, message),
             };
-            if matches!(case.target, dea_io::case::TargetSpec::ThreeDWeaveCell { .. }) {
+            if matches!(case.target, dea_io::case::TargetSpec::ThreeDWeaveCell { .. } | dea_io::case::TargetSpec::ThreeDWovenPanel { .. }) {
                 return match dea_mpi::fabric::fabric_cell(&case, comm, &out) {
                     Ok(Some(report)) => {
                         let (r, c) = (&report.relaxation, &report.cell);

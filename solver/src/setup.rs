@@ -21,6 +21,7 @@ use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, Glo
 use dea_fabric::panel::{CoarseYarns, WovenPanel};
 use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::cell::PeriodicCell;
+use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
@@ -112,7 +113,7 @@ fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weav
 /// The 3-D weave cell of a `three_d_weave_cell` target, generated and relaxed with the case's
 /// contact law; `None` for other targets.
 pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, RelaxReport)>, SetupError> {
-    let TargetSpec::ThreeDWeaveCell { weave, relaxation } = &case.target else {
+    let (TargetSpec::ThreeDWeaveCell { weave, relaxation } | TargetSpec::ThreeDWovenPanel { weave, relaxation, .. }) = &case.target else {
         return Ok(None);
     };
     let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
@@ -191,7 +192,13 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
         TargetSpec::ThreeDWeaveCell { .. } => {
-            return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; panels of 3-D weaves are not built, so it cannot be struck".into()));
+            return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; to strike it, tile it with kind three_d_woven_panel".into()));
+        }
+        TargetSpec::ThreeDWovenPanel { side_m, layers, boundary, .. } => {
+            let (cell, report) = three_d_cell(case, &material)?.expect("a 3-D woven target");
+            relaxation = Some(report);
+            let tiles = cell.period.map(|p| ((side_m / p).round() as u32).max(1));
+            Fabric::Tiled(TiledPanel::new(Arc::new(cell), tiles, *layers as u32, boundary.boundary(), deterministic))
         }
     };
     let sections = fabric.sections(&material);
@@ -227,6 +234,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     // deeper than the design strain, and stiffer there
     let starting_strain = match &fabric {
         Fabric::Woven(panel) => 1.25 * panel.largest_overlap_ratio(),
+        Fabric::Tiled(panel) => 1.25 * dea_fabric::relax::largest_overlap_ratio(&panel.cell),
         Fabric::Straight(_) => 0.0,
     };
     let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);

@@ -180,6 +180,19 @@ fn a_woven_panel_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_starts
 }
 
 #[test]
+fn a_3d_woven_panel_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
+    // a relaxed orthogonal KM2 cell (fillers, stuffers, binders of their own node counts)
+    // tiled 3 x 2, edges fixed, struck by a small sphere
+    let case = case_file("weave3d_km2_orthogonal_panel.json");
+    let dir = scratch("weave3d");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.max_projectile_force_n > 0.0, "the sphere struck");
+    assert!(reference.energy_balance_error < 0.01, "energy balance {}", reference.energy_balance_error);
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_settled_hybrid_panel_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     // fine yarns (4 fibres) across the middle, coarse ones (1 fibre) outside, settled 2 us
     let case = case_file("hybrid_two_layer_settle.json");

@@ -86,7 +86,7 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
     assert!(written == relaxed, "cell.h5 is the relaxed cell");
     assert_eq!(written.fibres(), report.fibres);
     assert!(dir.join("cell.xdmf").exists());
-    // panels tile plain-weave cells only: a run refuses the target, a panel refuses the file
+    // a run refuses the cell target, and a woven panel refuses its file
     match problem(&case) {
         Err(SetupError::Case(message)) => assert!(message.contains("three_d_weave_cell"), "{message}"),
         other => panic!("expected a case error, got {:?}", other.map(|_| ())),

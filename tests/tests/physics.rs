@@ -184,7 +184,7 @@ fn internal_forces_sum_to_zero_and_rotate_with_the_body() {
 /// shifted layers. The panel's thickness is the cell's, stacked touching.
 #[test]
 fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
-    use dea_fabric::panel::{Boundary, WovenPanel};
+    use dea_fabric::panel::{Boundary, Tiling, WovenPanel};
     use dea_fabric::relax::{relax, RelaxOptions};
     use dea_fabric::weave::PlainWeave;
     let material = FibreMaterial::kevlar_km2();
@@ -207,12 +207,41 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     assert!(report.final_residual_n < 1e-6 * report.initial_residual_n);
 }
 
+/// A panel tiled from a relaxed 3-D woven cell starts, away from its edges, in the
+/// equilibrium of the cell: the solver's forces at interior nodes of both stacked panels are
+/// the relaxation's residual (docs/theory.md F11).
+#[test]
+fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
+    use dea_fabric::panel::{Boundary, Tiling};
+    use dea_fabric::relax::{relax, BendingAtRest, RelaxOptions};
+    use dea_fabric::tiled::TiledPanel;
+    use dea_fabric::weave3d::{Pattern, ThreeDWeave, YarnKind};
+    let material = FibreMaterial::kevlar_km2();
+    let law = NormalLaw::ElastoPlasticKm2;
+    let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
+    let weave = ThreeDWeave::of_pattern(Pattern::Orthogonal, 2, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 });
+    let mut cell = weave.unit_cell(&material).unwrap();
+    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight }).unwrap();
+    let period = cell.period;
+    let panel = TiledPanel::new(std::sync::Arc::new(cell), [4, 3], 2, Boundary::FixedEdges, 3.8e9);
+    let built = panel.build_all(&material);
+    let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
+    let domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
+    let nodes = &domain.nodes;
+    let half = panel.size().map(|s| 0.5 * s);
+    let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| nodes.position[i].x.abs() < half[0] - period[0] && nodes.position[i].y.abs() < half[1] - period[1]).collect();
+    assert!(interior.len() > nodes.n_owned / 10);
+    let largest = interior.iter().map(|&i| nodes.force[i].norm()).fold(0.0, f64::max);
+    assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
+}
+
 /// A woven fibre's bending springs rest in its relaxed crimp: the panel starts without
 /// bending moments, so without shear stress (5-4, 5-5); with springs straight at rest the
 /// crimp holds them bent and the elements start sheared (docs/theory.md F4).
 #[test]
 fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
-    use dea_fabric::panel::{Boundary, WovenPanel};
+    use dea_fabric::panel::{Boundary, Tiling, WovenPanel};
     use dea_fabric::relax::{relax, BendingAtRest, RelaxOptions};
     use dea_fabric::weave::PlainWeave;
     let material = FibreMaterial::kevlar_km2();

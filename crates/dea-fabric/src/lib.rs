@@ -6,8 +6,11 @@
 pub mod cell;
 pub mod panel;
 pub mod relax;
+pub mod tiled;
 pub mod weave;
 pub mod weave3d;
+
+use panel::Tiling;
 
 use dea_core::material::InertiaModel;
 use dea_core::nodes::FailureMode;
@@ -247,6 +250,8 @@ impl StraightFabric {
 pub enum Fabric {
     Straight(StraightFabric),
     Woven(panel::WovenPanel),
+    /// a panel tiled from any periodic cell (a 3-D weave's)
+    Tiled(tiled::TiledPanel),
 }
 
 impl Fabric {
@@ -255,6 +260,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.yarns.len(),
             Fabric::Woven(p) => p.yarn_count(),
+            Fabric::Tiled(p) => p.yarn_count(),
         }
     }
 
@@ -263,6 +269,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.yarns[yarn].fibres,
             Fabric::Woven(p) => p.yarn_fibres(yarn),
+            Fabric::Tiled(p) => p.yarn_fibres(yarn),
         }
     }
 
@@ -271,6 +278,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.yarns[yarn].layer,
             Fabric::Woven(p) => p.place(yarn).layer,
+            Fabric::Tiled(p) => p.layer(yarn),
         }
     }
 
@@ -279,6 +287,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.first_fibres(),
             Fabric::Woven(p) => p.first_fibres().to_vec(),
+            Fabric::Tiled(p) => p.first_fibres().to_vec(),
         }
     }
 
@@ -287,6 +296,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.nodes_per_fibre(),
             Fabric::Woven(p) => p.nodes_per_fibre(yarn),
+            Fabric::Tiled(p) => p.nodes_per_fibre(yarn),
         }
     }
 
@@ -300,6 +310,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.nodes_per_fibre(),
             Fabric::Woven(p) => p.gid_stride(),
+            Fabric::Tiled(p) => p.gid_stride(),
         }
     }
 
@@ -314,6 +325,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => vec![f.section(material)],
             Fabric::Woven(p) => p.sections(),
+            Fabric::Tiled(p) => vec![p.cell.section.clone()],
         }
     }
 
@@ -322,6 +334,7 @@ impl Fabric {
         match self {
             Fabric::Straight(_) => 0,
             Fabric::Woven(p) => p.yarn_section(yarn),
+            Fabric::Tiled(_) => 0,
         }
     }
 
@@ -330,6 +343,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.packing(&f.yarns[yarn], material),
             Fabric::Woven(p) => p.yarn_cell(yarn).packing.clone(),
+            Fabric::Tiled(p) => p.packing(yarn),
         }
     }
 
@@ -338,6 +352,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.segment_box(yarn, first, last, material),
             Fabric::Woven(p) => p.segment_box(yarn, first, last),
+            Fabric::Tiled(p) => p.segment_box(yarn, first, last),
         }
     }
 
@@ -346,6 +361,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.top(material),
             Fabric::Woven(p) => p.top(),
+            Fabric::Tiled(p) => p.top(),
         }
     }
 
@@ -354,6 +370,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.bottom(material),
             Fabric::Woven(p) => p.bottom(),
+            Fabric::Tiled(p) => p.bottom(),
         }
     }
 
@@ -362,6 +379,7 @@ impl Fabric {
         match self {
             Fabric::Straight(f) => f.build(material, keep),
             Fabric::Woven(p) => p.build(material, keep),
+            Fabric::Tiled(p) => p.build(material, keep),
         }
     }
 

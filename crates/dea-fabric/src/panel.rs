@@ -14,6 +14,7 @@ use std::sync::Arc;
 use dea_core::nodes::FailureMode;
 use dea_core::{Elements, FibreId, FibreMaterial, FibreSection, GlobalNodeId, Nodes, Vec3};
 
+use crate::cell::PeriodicCell;
 use crate::relax;
 use crate::weave::{UnitCell, YarnDirection};
 use crate::Built;
@@ -81,7 +82,7 @@ type Sphere = (Vec3, f64);
 /// in x and y, the lower one (`lower`) shifted in plane by `shift`, at which no node of the
 /// upper one (`upper`) is closer to a lower node than their contact radii plus `gap`. Only
 /// nodes within reach of the patterns' facing sides can decide it [m].
-fn pitch_between(upper: &[Sphere], lower: &[Sphere], period: f64, shift: [f64; 2], gap: f64) -> f64 {
+fn pitch_between(upper: &[Sphere], lower: &[Sphere], period: [f64; 2], shift: [f64; 2], gap: f64) -> f64 {
     let largest = upper.iter().chain(lower).map(|s| s.1).fold(0.0, f64::max);
     let reach = 2.0 * largest + gap;
     let low = upper.iter().map(|s| s.0.z).fold(f64::INFINITY, f64::min);
@@ -92,8 +93,8 @@ fn pitch_between(upper: &[Sphere], lower: &[Sphere], period: f64, shift: [f64; 2
     for (u, ru) in &bottom {
         for (l, rl) in &top {
             let clearance = ru + rl + gap;
-            let wrap = |d: f64| d - period * (d / period).round();
-            let (dx, dy) = (wrap(l.x + shift[0] - u.x), wrap(l.y + shift[1] - u.y));
+            let wrap = |d: f64, p: f64| d - p * (d / p).round();
+            let (dx, dy) = (wrap(l.x + shift[0] - u.x, period[0]), wrap(l.y + shift[1] - u.y, period[1]));
             let planar = dx * dx + dy * dy;
             if planar < clearance * clearance {
                 pitch = pitch.max(l.z - u.z + (clearance * clearance - planar).sqrt());
@@ -104,16 +105,16 @@ fn pitch_between(upper: &[Sphere], lower: &[Sphere], period: f64, shift: [f64; 2
 }
 
 /// The nodes of one cell with the contact radius of its section.
-fn spheres(cell: &UnitCell) -> Vec<Sphere> {
+fn spheres(cell: &PeriodicCell) -> Vec<Sphere> {
     cell.positions.iter().map(|p| (*p, 0.5 * cell.section.contact_diameter)).collect()
 }
 
 /// Smallest vertical distance between two copies of `cell`, the lower shifted in plane by
 /// `shift`, at which no node pair of the two is closer than a contact diameter plus `gap`
 /// (periodic in x and y) [m].
-pub fn touching_pitch(cell: &UnitCell, shift: [f64; 2], gap: f64) -> f64 {
+pub fn touching_pitch(cell: &PeriodicCell, shift: [f64; 2], gap: f64) -> f64 {
     let nodes = spheres(cell);
-    pitch_between(&nodes, &nodes, cell.period(), shift, gap)
+    pitch_between(&nodes, &nodes, cell.period, shift, gap)
 }
 
 /// The nodes of a plain-weave tile whose warp yarns repeat `warp` and weft yarns `weft`.
@@ -143,7 +144,7 @@ impl WovenPanel {
                 for (a, upper) in kinds.iter().enumerate() {
                     for (b, lower) in kinds.iter().enumerate() {
                         if a == b || shifted {
-                            pitch = pitch.max(pitch_between(upper, lower, cell.period(), shift, gap));
+                            pitch = pitch.max(pitch_between(upper, lower, [cell.period(); 2], shift, gap));
                         }
                     }
                 }
@@ -305,66 +306,6 @@ impl WovenPanel {
         self.cells_used().map(|c| c.z_range().0).fold(f64::INFINITY, f64::min) - (self.layers as f64 - 1.0) * self.layer_pitch
     }
 
-    /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
-    pub fn segment_box(&self, yarn: usize, first: u32, last: u32) -> (Vec3, Vec3) {
-        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-        for fibre in 0..self.yarn_fibres(yarn) {
-            for k in first..=last {
-                let p = self.position(yarn, fibre, k);
-                low = low.inf(&p);
-                high = high.sup(&p);
-            }
-        }
-        (low, high)
-    }
-
-    /// Builds the nodes `keep(yarn, k)` selects, ascending global id (fibre f, node k has
-    /// id `f * gid_stride + k`). Elements have their cell fibre's rest length l0;
-    /// interior nodes carry `rho A l0`, chain ends half.
-    pub fn build(&self, material: &FibreMaterial, keep: impl Fn(usize, u32) -> bool) -> Built {
-        let sections = self.sections();
-        let stride = self.gid_stride() as u64;
-        let mut nodes = Nodes::default();
-        let mut elements = Elements::default();
-        for yarn in 0..self.yarn_count() {
-            let cell = self.yarn_cell(yarn);
-            let section = self.yarn_section(yarn);
-            let nodes_per_fibre = self.nodes_per_fibre(yarn);
-            let last = nodes_per_fibre - 1;
-            let kept: Vec<u32> = (0..nodes_per_fibre).filter(|&k| keep(yarn, k)).collect();
-            for fibre in 0..cell.fibres_per_yarn {
-                let id = self.first_fibre[yarn] + fibre as u32;
-                let rest = cell.rest_lengths[self.cell_fibre(yarn, fibre)];
-                let interior_mass = material.density * cell.section.area * rest;
-                for &k in &kept {
-                    let end = k == 0 || k == last;
-                    let position = self.position(yarn, fibre, k);
-                    nodes.push(
-                        GlobalNodeId(id as u64 * stride + k as u64),
-                        position,
-                        Vec3::zeros(),
-                        if end { 0.5 * interior_mass } else { interior_mass },
-                        FibreId(id),
-                        k,
-                        section as u16,
-                        self.clamped(yarn, &position, k),
-                        k == last,
-                    );
-                    *nodes.rest_angle.last_mut().expect("just pushed") = self.rest_angle(yarn, fibre, k);
-                    elements.push(if k == last { 0.0 } else { rest }, self.tensile_strength, FailureMode::Intact);
-                }
-            }
-        }
-        nodes.n_owned = nodes.len();
-        nodes.link_chains();
-        Built { sections, nodes, elements }
-    }
-
-    /// Builds every node (a whole domain, for single-domain use and tests).
-    pub fn build_all(&self, material: &FibreMaterial) -> Built {
-        self.build(material, |_, _| true)
-    }
-
     /// Mass of one layer over its plan area [kg/m^2].
     pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
         let mass: f64 = (0..self.yarns_per_layer())
@@ -406,14 +347,132 @@ impl WovenPanel {
         largest
     }
 
-    /// Nodes of the whole panel.
-    pub fn node_count(&self) -> u64 {
-        (0..self.yarn_count()).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
-    }
-
     /// Nodes of the fine yarns of the whole panel (all of them when not hybrid).
     pub fn fine_node_count(&self) -> u64 {
         (0..self.yarn_count()).filter(|&y| !self.is_coarse(y)).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
+    }
+}
+
+/// A panel whose every node is a pure function of (yarn, fibre, k): what the builder needs,
+/// and what it gives (the plain-woven [`WovenPanel`], the [`crate::tiled::TiledPanel`]).
+pub trait Tiling {
+    fn yarns(&self) -> usize;
+    fn fibres_of(&self, yarn: usize) -> usize;
+    fn first_fibre_of(&self, yarn: usize) -> u32;
+    fn nodes_of(&self, yarn: usize) -> u32;
+    fn stride(&self) -> u32;
+    fn section_of(&self, yarn: usize) -> usize;
+    fn all_sections(&self) -> Vec<FibreSection>;
+    /// position of node `k` of fibre `fibre` of yarn `yarn` [m]
+    fn node_position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3;
+    /// rest angle of its bending spring [rad]
+    fn node_rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64;
+    /// rest length of the fibre's elements [m]
+    fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64;
+    fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool;
+    fn strength(&self) -> f64;
+
+    /// Builds the nodes `keep(yarn, k)` selects, ascending global id (fibre f, node k has
+    /// id `f * stride + k`). Elements have their cell fibre's rest length l0; interior nodes
+    /// carry `rho A l0`, chain ends half.
+    fn build(&self, material: &FibreMaterial, keep: impl Fn(usize, u32) -> bool) -> Built {
+        let sections = self.all_sections();
+        let stride = self.stride() as u64;
+        let mut nodes = Nodes::default();
+        let mut elements = Elements::default();
+        for yarn in 0..self.yarns() {
+            let section = self.section_of(yarn);
+            let nodes_per_fibre = self.nodes_of(yarn);
+            let last = nodes_per_fibre - 1;
+            let kept: Vec<u32> = (0..nodes_per_fibre).filter(|&k| keep(yarn, k)).collect();
+            for fibre in 0..self.fibres_of(yarn) {
+                let id = self.first_fibre_of(yarn) + fibre as u32;
+                let rest = self.fibre_rest_length(yarn, fibre);
+                let interior_mass = material.density * sections[section].area * rest;
+                for &k in &kept {
+                    let end = k == 0 || k == last;
+                    let position = self.node_position(yarn, fibre, k);
+                    nodes.push(
+                        GlobalNodeId(id as u64 * stride + k as u64),
+                        position,
+                        Vec3::zeros(),
+                        if end { 0.5 * interior_mass } else { interior_mass },
+                        FibreId(id),
+                        k,
+                        section as u16,
+                        self.held(yarn, &position, k),
+                        k == last,
+                    );
+                    *nodes.rest_angle.last_mut().expect("just pushed") = self.node_rest_angle(yarn, fibre, k);
+                    elements.push(if k == last { 0.0 } else { rest }, self.strength(), FailureMode::Intact);
+                }
+            }
+        }
+        nodes.n_owned = nodes.len();
+        nodes.link_chains();
+        Built { sections, nodes, elements }
+    }
+
+    /// Builds every node (a whole domain, for single-domain use and tests).
+    fn build_all(&self, material: &FibreMaterial) -> Built {
+        self.build(material, |_, _| true)
+    }
+
+    /// Nodes of the whole panel.
+    fn node_count(&self) -> u64 {
+        (0..self.yarns()).map(|y| self.fibres_of(y) as u64 * self.nodes_of(y) as u64).sum()
+    }
+
+    /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
+    fn segment_box(&self, yarn: usize, first: u32, last: u32) -> (Vec3, Vec3) {
+        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for fibre in 0..self.fibres_of(yarn) {
+            for k in first..=last {
+                let p = self.node_position(yarn, fibre, k);
+                low = low.inf(&p);
+                high = high.sup(&p);
+            }
+        }
+        (low, high)
+    }
+}
+
+impl Tiling for WovenPanel {
+    fn yarns(&self) -> usize {
+        self.yarn_count()
+    }
+    fn fibres_of(&self, yarn: usize) -> usize {
+        self.yarn_fibres(yarn)
+    }
+    fn first_fibre_of(&self, yarn: usize) -> u32 {
+        self.first_fibre[yarn]
+    }
+    fn nodes_of(&self, yarn: usize) -> u32 {
+        self.nodes_per_fibre(yarn)
+    }
+    fn stride(&self) -> u32 {
+        self.gid_stride()
+    }
+    fn section_of(&self, yarn: usize) -> usize {
+        self.yarn_section(yarn)
+    }
+    fn all_sections(&self) -> Vec<FibreSection> {
+        self.sections()
+    }
+    fn node_position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3 {
+        self.position(yarn, fibre, k)
+    }
+    fn node_rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64 {
+        self.rest_angle(yarn, fibre, k)
+    }
+    fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64 {
+        self.yarn_cell(yarn).rest_lengths[self.cell_fibre(yarn, fibre)]
+    }
+    fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
+        self.clamped(yarn, position, k)
+    }
+    fn strength(&self) -> f64 {
+        self.tensile_strength
     }
 }
 

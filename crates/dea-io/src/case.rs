@@ -162,6 +162,24 @@ pub enum TargetSpec {
         #[serde(default)]
         relaxation: RelaxationSpec,
     },
+    /// a panel tiled from a relaxed 3-D woven cell, centred on the origin; layer 0 on top
+    ThreeDWovenPanel {
+        weave: Box<Weave3dSpec>,
+        #[serde(default)]
+        relaxation: RelaxationSpec,
+        /// side of the square panel, rounded to whole cells each way (at least one) [m]
+        side_m: f64,
+        /// number of stacked panels, touching (1..=100)
+        #[serde(default = "one_layer")]
+        layers: usize,
+        /// how the panel is held: {"kind": "fixed_edges"} or {"kind": "clamp", "opening_m": ...}
+        #[serde(default = "default_boundary")]
+        boundary: BoundarySpec,
+    },
+}
+
+fn one_layer() -> usize {
+    1
 }
 
 /// A 3-D weave: a named pattern or a table of gaps, and its yarns.
@@ -966,6 +984,20 @@ impl Case {
                 weave.weave(self.bending, self.contact.friction_coefficient)?;
                 relaxation.validate()?;
             }
+            TargetSpec::ThreeDWovenPanel { weave, relaxation, side_m, layers, boundary } => {
+                weave.weave(self.bending, self.contact.friction_coefficient)?;
+                relaxation.validate()?;
+                positive("target.side_m", *side_m)?;
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                if let BoundarySpec::Clamp { opening_m } = boundary {
+                    positive("target.boundary.opening_m", *opening_m)?;
+                    if *opening_m >= *side_m {
+                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                    }
+                }
+            }
         }
         match self.bending {
             InertiaModel::Effective { k1, k2 } => {
@@ -1206,6 +1238,22 @@ mod tests {
         assert!(e.message.contains("columns[0][1]") && e.message.contains("cross"), "{e}");
         let e = weave(&|v| v["target"]["relaxation"] = serde_json::json!({ "tolerance": 0.5 }));
         assert_eq!(e.path, "target.relaxation.tolerance");
+        // the same weave tiled into a panel
+        let panel = |edit: &dyn Fn(&mut serde_json::Value)| {
+            weave(&|v| {
+                v["target"]["kind"] = "three_d_woven_panel".into();
+                v["target"]["side_m"] = 6e-3.into();
+                edit(v);
+            })
+        };
+        let e = panel(&|v| v["target"]["side_m"] = 0.0.into());
+        assert_eq!(e.path, "target.side_m");
+        let e = panel(&|v| v["target"]["layers"] = 0.into());
+        assert_eq!(e.path, "target.layers");
+        let e = panel(&|v| v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 7e-3 }));
+        assert_eq!(e.path, "target.boundary.opening_m");
+        let e = panel(&|v| v["target"]["weave"]["filler_fibres"] = 500.into());
+        assert_eq!(e.path, "target.weave.filler_fibres");
     }
 
     #[test]

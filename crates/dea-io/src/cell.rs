@@ -75,7 +75,7 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
     let wrap = |what: &str, e: hdf5::Error| format!("{name}: {what}: {e}");
     let plain = periodic.yarns.len() == 4 && periodic.yarns.iter().all(|y| y.role == YarnRole::Plain && y.fibres == periodic.yarns[0].fibres && y.nodes_per_period == periodic.yarns[0].nodes_per_period);
     if !plain || !file.link_exists("packing") {
-        return Err(format!("{name}: not a plain-weave cell (a 3-D weave's cell is relaxed and reported by `dea-mpi fabric`, but panels tile plain-weave cells only)"));
+        return Err(format!("{name}: not a plain-weave cell (a woven_panel tiles plain-weave cells only; a 3-D weave is struck as a three_d_woven_panel)"));
     }
     let scalar = |dataset: &str| -> Result<f64, String> {
         let values: Vec<f64> = file.dataset(dataset).and_then(|d| d.read_raw()).map_err(|e| wrap(dataset, e))?;

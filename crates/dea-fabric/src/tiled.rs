@@ -1,0 +1,249 @@
+//! Panels tiled from any relaxed periodic cell (a 3-D weave's, [`crate::weave3d`]): `tiles`
+//! cells along x and y, `layers` of them stacked. A panel yarn is one cell yarn repeated
+//! along its direction, one per tile across; node `k` of its fibre is the cell's node
+//! `k mod n` shifted by `k div n` periods, and the last node is the image of the first, so
+//! every node is a pure function of (yarn, fibre, k) as in a plain-woven panel
+//! ([`crate::panel`], docs/theory.md F6, F11).
+
+use std::sync::Arc;
+
+use dea_core::{FibreMaterial, FibreSection, Vec3};
+
+use crate::cell::{PeriodicCell, YarnDirection};
+use crate::panel::{touching_pitch, Boundary, Tiling};
+
+/// A panel of `layers` identical layers, each `tiles[0] x tiles[1]` cells, centred on the
+/// origin in plan; layer 0 on top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TiledPanel {
+    pub cell: Arc<PeriodicCell>,
+    /// cells along x and y
+    pub tiles: [u32; 2],
+    pub layers: u32,
+    /// vertical distance between the node centres of neighbouring layers: the layers touch
+    /// ([`touching_pitch`] with no shift) [m]
+    pub layer_pitch: f64,
+    pub boundary: Boundary,
+    /// tensile strength given to every element before any Weibull sampling [Pa]
+    pub tensile_strength: f64,
+    /// the cell's yarns along x, then along y
+    cell_yarns: [Vec<usize>; 2],
+    /// global id of each yarn's first fibre, plus the total at the end
+    first_fibre: Vec<u32>,
+}
+
+/// Where a panel yarn lies.
+struct Place {
+    layer: u32,
+    /// 0 along x, 1 along y
+    axis: usize,
+    /// tile across the yarn's direction
+    tile: u32,
+    /// the cell yarn it repeats
+    cell_yarn: usize,
+}
+
+impl TiledPanel {
+    pub fn new(cell: Arc<PeriodicCell>, tiles: [u32; 2], layers: u32, boundary: Boundary, tensile_strength: f64) -> Self {
+        let along = |direction: YarnDirection| (0..cell.yarns.len()).filter(|&y| cell.yarns[y].direction == direction).collect::<Vec<_>>();
+        let cell_yarns = [along(YarnDirection::Warp), along(YarnDirection::Weft)];
+        let layer_pitch = touching_pitch(&cell, [0.0, 0.0], 0.0);
+        let mut panel = Self { cell, tiles, layers, layer_pitch, boundary, tensile_strength, cell_yarns, first_fibre: Vec::new() };
+        let mut first = vec![0u32];
+        for yarn in 0..panel.yarn_count() {
+            first.push(first[yarn] + panel.yarn_fibres(yarn) as u32);
+        }
+        panel.first_fibre = first;
+        panel
+    }
+
+    /// Yarns of one layer: the x yarns of every tile row, then the y yarns of every column.
+    pub fn yarns_per_layer(&self) -> usize {
+        self.cell_yarns[0].len() * self.tiles[1] as usize + self.cell_yarns[1].len() * self.tiles[0] as usize
+    }
+
+    pub fn yarn_count(&self) -> usize {
+        self.yarns_per_layer() * self.layers as usize
+    }
+
+    fn place(&self, yarn: usize) -> Place {
+        let per_layer = self.yarns_per_layer();
+        let (layer, mut within) = (yarn / per_layer, yarn % per_layer);
+        let x_yarns = self.cell_yarns[0].len() * self.tiles[1] as usize;
+        let axis = usize::from(within >= x_yarns);
+        if axis == 1 {
+            within -= x_yarns;
+        }
+        let per_tile = self.cell_yarns[axis].len();
+        Place { layer: layer as u32, axis, tile: (within / per_tile) as u32, cell_yarn: self.cell_yarns[axis][within % per_tile] }
+    }
+
+    /// Layer of yarn `yarn` (0 on top).
+    pub fn layer(&self, yarn: usize) -> u32 {
+        self.place(yarn).layer
+    }
+
+    /// Centres of yarn `yarn`'s fibres in its section at the cell's first node, (across, up)
+    /// about their mean [m].
+    pub fn packing(&self, yarn: usize) -> Vec<[f64; 2]> {
+        let place = self.place(yarn);
+        let first = self.cell_first_fibre(place.cell_yarn);
+        let points: Vec<Vec3> = (first..first + self.yarn_fibres(yarn)).map(|f| self.cell.position(f, 0)).collect();
+        let mean = points.iter().sum::<Vec3>() / points.len() as f64;
+        points.iter().map(|p| [p[1 - place.axis] - mean[1 - place.axis], p.z - mean.z]).collect()
+    }
+
+    /// First cell fibre of cell yarn `cell_yarn`.
+    fn cell_first_fibre(&self, cell_yarn: usize) -> usize {
+        self.cell.yarns[..cell_yarn].iter().map(|y| y.fibres).sum()
+    }
+
+    pub fn yarn_fibres(&self, yarn: usize) -> usize {
+        self.cell.yarns[self.place(yarn).cell_yarn].fibres
+    }
+
+    pub fn first_fibres(&self) -> &[u32] {
+        &self.first_fibre
+    }
+
+    /// Nodes of every fibre of yarn `yarn`: its cell yarn's nodes in each tile along, plus
+    /// the closing node.
+    pub fn nodes_per_fibre(&self, yarn: usize) -> u32 {
+        let place = self.place(yarn);
+        self.tiles[place.axis] * self.cell.yarns[place.cell_yarn].nodes_per_period + 1
+    }
+
+    /// Global ids of fibre `f` are `f * stride + k`: the most nodes any fibre has.
+    pub fn gid_stride(&self) -> u32 {
+        (0..self.yarns_per_layer()).map(|y| self.nodes_per_fibre(y)).max().expect("a yarn")
+    }
+
+    /// Plan size of a layer along x and y [m].
+    pub fn size(&self) -> [f64; 2] {
+        [self.tiles[0] as f64 * self.cell.period[0], self.tiles[1] as f64 * self.cell.period[1]]
+    }
+
+    /// Position of node `k` of fibre `fibre` of yarn `yarn` [m].
+    pub fn position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3 {
+        let place = self.place(yarn);
+        let cell_fibre = self.cell_first_fibre(place.cell_yarn) + fibre;
+        let n = self.cell.yarns[place.cell_yarn].nodes_per_period;
+        let size = self.size();
+        let mut p = self.cell.position(cell_fibre, k % n) + self.cell.closure(cell_fibre) * (k / n) as f64;
+        p[1 - place.axis] += place.tile as f64 * self.cell.period[1 - place.axis];
+        p + Vec3::new(-0.5 * size[0], -0.5 * size[1], -(place.layer as f64) * self.layer_pitch)
+    }
+
+    /// Whether node `k` of a fibre of yarn `yarn`, at `position`, is held by the boundary.
+    pub fn clamped(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
+        match self.boundary {
+            Boundary::FixedEdges => k == 0 || k + 1 == self.nodes_per_fibre(yarn),
+            Boundary::Clamp { opening_m } => position.x.abs() > 0.5 * opening_m || position.y.abs() > 0.5 * opening_m,
+        }
+    }
+
+    /// Highest node centre [m].
+    pub fn top(&self) -> f64 {
+        self.cell.z_range().1
+    }
+
+    /// Lowest node centre [m].
+    pub fn bottom(&self) -> f64 {
+        self.cell.z_range().0 - (self.layers as f64 - 1.0) * self.layer_pitch
+    }
+
+    /// Mass of one layer over its plan area [kg/m^2].
+    pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
+        let mass: f64 = (0..self.yarns_per_layer())
+            .map(|yarn| (0..self.yarn_fibres(yarn)).map(|f| material.density * self.cell.section.area * self.fibre_rest_length(yarn, f) * (self.nodes_per_fibre(yarn) - 1) as f64).sum::<f64>())
+            .sum();
+        let size = self.size();
+        mass / (size[0] * size[1])
+    }
+}
+
+impl Tiling for TiledPanel {
+    fn yarns(&self) -> usize {
+        self.yarn_count()
+    }
+    fn fibres_of(&self, yarn: usize) -> usize {
+        self.yarn_fibres(yarn)
+    }
+    fn first_fibre_of(&self, yarn: usize) -> u32 {
+        self.first_fibre[yarn]
+    }
+    fn nodes_of(&self, yarn: usize) -> u32 {
+        self.nodes_per_fibre(yarn)
+    }
+    fn stride(&self) -> u32 {
+        self.gid_stride()
+    }
+    fn section_of(&self, _yarn: usize) -> usize {
+        0
+    }
+    fn all_sections(&self) -> Vec<FibreSection> {
+        vec![self.cell.section.clone()]
+    }
+    fn node_position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3 {
+        self.position(yarn, fibre, k)
+    }
+    fn node_rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64 {
+        let place = self.place(yarn);
+        let cell_fibre = self.cell_first_fibre(place.cell_yarn) + fibre;
+        let n = self.cell.yarns[place.cell_yarn].nodes_per_period;
+        self.cell.rest_angles[self.cell.fibre_nodes(cell_fibre).start + (k % n) as usize]
+    }
+    fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64 {
+        self.cell.rest_lengths[self.cell_first_fibre(self.place(yarn).cell_yarn) + fibre]
+    }
+    fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
+        self.clamped(yarn, position, k)
+    }
+    fn strength(&self) -> f64 {
+        self.tensile_strength
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::relax::{relax, BendingAtRest, RelaxOptions};
+    use crate::weave3d::{Pattern, ThreeDWeave, YarnKind};
+    use dea_core::contact::NormalLaw;
+
+    fn relaxed_orthogonal() -> (PeriodicCell, FibreMaterial) {
+        let material = FibreMaterial::kevlar_km2();
+        let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
+        let weave = ThreeDWeave::of_pattern(Pattern::Orthogonal, 2, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 });
+        let mut cell = weave.unit_cell(&material).unwrap();
+        relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight }).unwrap();
+        (cell, material)
+    }
+
+    #[test]
+    fn a_tiled_panel_repeats_its_cell_and_keeps_its_mass() {
+        let (cell, material) = relaxed_orthogonal();
+        let panel = TiledPanel::new(Arc::new(cell.clone()), [3, 2], 2, Boundary::FixedEdges, 3.8e9);
+        let built = panel.build(&material, |_, _| true);
+        assert_eq!(built.nodes.len() as u64, panel.node_count());
+        // the layer's mass per area is the cell's: every fibre spans whole periods
+        assert!((panel.areal_density(&material) / cell.areal_density(&material) - 1.0).abs() < 1e-12);
+        // every element of a panel fibre is as long as the cell's, across tiles too
+        for yarn in [0, panel.yarns_per_layer() - 1] {
+            for k in 0..panel.nodes_per_fibre(yarn) - 1 {
+                let place = panel.place(yarn);
+                let f = panel.cell_first_fibre(place.cell_yarn);
+                let n = cell.yarns[place.cell_yarn].nodes_per_period;
+                let expected = (cell.position(f, (k + 1) % n) + if (k + 1) % n == 0 { cell.closure(f) } else { Vec3::zeros() } - cell.position(f, k % n)).norm();
+                assert!(((panel.position(yarn, 0, k + 1) - panel.position(yarn, 0, k)).norm() - expected).abs() < 1e-15, "yarn {yarn} k {k}");
+            }
+        }
+        // centred in plan; layers touching, one pitch apart
+        let (low, high) = built.nodes.position.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), p| (l.inf(p), h.sup(p)));
+        assert!((low.x + high.x).abs() < 0.6 * cell.period[0] && (low.y + high.y).abs() < 0.6 * cell.period[1], "{low} {high}");
+        assert!(panel.layer_pitch > 0.0 && (panel.top() - panel.bottom() - panel.layer_pitch - (cell.z_range().1 - cell.z_range().0)).abs() < 1e-15);
+        // fixed edges hold the two ends of every fibre, and nothing else
+        let held = built.nodes.clamped.iter().filter(|&&c| c).count();
+        assert_eq!(held, 2 * *panel.first_fibres().last().unwrap() as usize);
+    }
+}
