@@ -152,11 +152,7 @@ impl WovenPanel {
             }
         };
         let mut panel = Self { cell, coarse, cells, layers, layer_gap: gap, layer_shift: shift, layer_pitch, boundary, tensile_strength, first_fibre: Vec::new() };
-        let mut first = vec![0u32];
-        for yarn in 0..panel.yarn_count() {
-            first.push(first[yarn] + panel.yarn_fibres(yarn) as u32);
-        }
-        panel.first_fibre = first;
+        panel.first_fibre = first_fibres(panel.yarn_count(), |yarn| panel.yarn_fibres(yarn));
         panel
     }
 
@@ -351,6 +347,16 @@ impl WovenPanel {
     pub fn fine_node_count(&self) -> u64 {
         (0..self.yarn_count()).filter(|&y| !self.is_coarse(y)).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
     }
+}
+
+/// Global id of each yarn's first fibre, plus the total at the end, for `yarns` yarns of
+/// `fibres(yarn)` fibres.
+pub(crate) fn first_fibres(yarns: usize, fibres: impl Fn(usize) -> usize) -> Vec<u32> {
+    let mut first = vec![0u32];
+    for yarn in 0..yarns {
+        first.push(first[yarn] + fibres(yarn) as u32);
+    }
+    first
 }
 
 /// A panel whose every node is a pure function of (yarn, fibre, k): what the builder needs,

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use dea_core::{FibreMaterial, FibreSection, Vec3};
 
 use crate::cell::{PeriodicCell, YarnDirection};
-use crate::panel::{touching_pitch, Boundary, Tiling};
+use crate::panel::{first_fibres, touching_pitch, Boundary, Tiling};
 
 /// A panel of `layers` identical layers, each `tiles[0] x tiles[1]` cells, centred on the
 /// origin in plan; layer 0 on top.
@@ -49,11 +49,7 @@ impl TiledPanel {
         let cell_yarns = [along(YarnDirection::Warp), along(YarnDirection::Weft)];
         let layer_pitch = touching_pitch(&cell, [0.0, 0.0], 0.0);
         let mut panel = Self { cell, tiles, layers, layer_pitch, boundary, tensile_strength, cell_yarns, first_fibre: Vec::new() };
-        let mut first = vec![0u32];
-        for yarn in 0..panel.yarn_count() {
-            first.push(first[yarn] + panel.yarn_fibres(yarn) as u32);
-        }
-        panel.first_fibre = first;
+        panel.first_fibre = first_fibres(panel.yarn_count(), |yarn| panel.yarn_fibres(yarn));
         panel
     }
 
