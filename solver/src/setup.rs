@@ -110,17 +110,22 @@ fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weav
     Ok((cell, Some(report)))
 }
 
-/// The 3-D weave cell of a `three_d_weave_cell` target, generated and relaxed with the case's
-/// contact law; `None` for other targets.
-pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, RelaxReport)>, SetupError> {
-    let (TargetSpec::ThreeDWeaveCell { weave, relaxation } | TargetSpec::ThreeDWovenPanel { weave, relaxation, .. }) = &case.target else {
-        return Ok(None);
+/// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
+/// law, or read from the panel's cell file (then without a report); `None` for other targets.
+pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
+    let (weave, relaxation) = match &case.target {
+        TargetSpec::ThreeDWeaveCell { weave, relaxation } => (weave, relaxation),
+        TargetSpec::ThreeDWovenPanel { cell_file: Some(path), .. } => {
+            return dea_io::cell::read_periodic(path).map(|(_, cell)| Some((cell, None))).map_err(SetupError::Mesh);
+        }
+        TargetSpec::ThreeDWovenPanel { weave: Some(weave), relaxation, .. } => (weave, relaxation),
+        _ => return Ok(None),
     };
     let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
     let mut cell = spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))?;
     let law = case.normal_law(material).expect("validated case");
     let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
-    Ok(Some((cell, report)))
+    Ok(Some((cell, Some(report))))
 }
 
 /// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
@@ -196,7 +201,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         }
         TargetSpec::ThreeDWovenPanel { side_m, layers, boundary, .. } => {
             let (cell, report) = three_d_cell(case, &material)?.expect("a 3-D woven target");
-            relaxation = Some(report);
+            relaxation = report;
             let tiles = cell.period.map(|p| ((side_m / p).round() as u32).max(1));
             Fabric::Tiled(TiledPanel::new(Arc::new(cell), tiles, *layers as u32, boundary.boundary(), deterministic))
         }

@@ -82,7 +82,8 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
     assert_eq!(report.crimp_by_role.keys().map(String::as_str).collect::<Vec<_>>(), ["binder", "filler", "stuffer"]);
     // the file holds the relaxed cell bit for bit, and ParaView's description of it
     let (_, written) = dea_io::cell::read_periodic(&dir.join("cell.h5")).unwrap();
-    let (relaxed, _) = dea_mpi::setup::three_d_cell(&case, &case.material().unwrap()).unwrap().unwrap();
+    let (relaxed, relaxation) = dea_mpi::setup::three_d_cell(&case, &case.material().unwrap()).unwrap().unwrap();
+    assert!(relaxation.is_some(), "relaxed here");
     assert!(written == relaxed, "cell.h5 is the relaxed cell");
     assert_eq!(written.fibres(), report.fibres);
     assert!(dir.join("cell.xdmf").exists());
@@ -93,5 +94,17 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
     }
     let error = read_cell(&dir.join("cell.h5")).unwrap_err();
     assert!(error.contains("cell.h5") && error.contains("not a plain-weave cell"), "{error}");
+    // a 3-D woven panel from the file is the panel relaxed on the spot
+    let TargetSpec::ThreeDWeaveCell { weave, relaxation } = case.target.clone() else { unreachable!("a cell case") };
+    let panel_of = |weave, cell_file| {
+        let mut panel = case.clone();
+        panel.target = TargetSpec::ThreeDWovenPanel { weave, cell_file, relaxation: relaxation.clone(), side_m: 0.006, layers: 1, boundary: dea_io::case::BoundarySpec::FixedEdges };
+        panel.validate().unwrap();
+        panel
+    };
+    let (fresh, again) = (problem(&panel_of(Some(weave), None)).unwrap(), problem(&panel_of(None, Some(dir.join("cell.h5")))).unwrap());
+    assert!(fresh.relaxation.is_some() && again.relaxation.is_none());
+    assert!(fresh.fabric == again.fabric, "the panel from the file is the panel relaxed on the spot");
+    assert_eq!(fresh.time_step.to_bits(), again.time_step.to_bits());
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -164,7 +164,12 @@ pub enum TargetSpec {
     },
     /// a panel tiled from a relaxed 3-D woven cell, centred on the origin; layer 0 on top
     ThreeDWovenPanel {
-        weave: Box<Weave3dSpec>,
+        /// the weave, generated and relaxed at set-up; absent when `cell_file` is given
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        weave: Option<Box<Weave3dSpec>>,
+        /// a relaxed 3-D cell written by `dea-mpi fabric` (`cell.h5`), used instead of relaxing
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cell_file: Option<std::path::PathBuf>,
         #[serde(default)]
         relaxation: RelaxationSpec,
         /// side of the square panel, rounded to whole cells each way (at least one) [m]
@@ -984,8 +989,15 @@ impl Case {
                 weave.weave(self.bending, self.contact.friction_coefficient)?;
                 relaxation.validate()?;
             }
-            TargetSpec::ThreeDWovenPanel { weave, relaxation, side_m, layers, boundary } => {
-                weave.weave(self.bending, self.contact.friction_coefficient)?;
+            TargetSpec::ThreeDWovenPanel { weave, cell_file, relaxation, side_m, layers, boundary } => {
+                match (weave, cell_file) {
+                    (Some(weave), None) => {
+                        weave.weave(self.bending, self.contact.friction_coefficient)?;
+                    }
+                    (None, Some(_)) => {}
+                    (Some(_), Some(_)) => return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out")),
+                    (None, None) => return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell")),
+                }
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
                 if *layers < 1 || *layers > 100 {
@@ -1093,6 +1105,7 @@ pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
     let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
     let (cell_file, coarse_cell_file) = match &mut case.target {
         TargetSpec::WovenPanel { cell_file, hybrid, .. } => (cell_file.as_mut(), hybrid.as_mut().and_then(|h| h.cell_file.as_mut())),
+        TargetSpec::ThreeDWovenPanel { cell_file, .. } => (cell_file.as_mut(), None),
         _ => (None, None),
     };
     for file in [case.projectile.mesh_file.as_mut(), cell_file, coarse_cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
@@ -1246,6 +1259,10 @@ mod tests {
                 edit(v);
             })
         };
+        let e = panel(&|v| v["target"]["cell_file"] = "cell.h5".into());
+        assert_eq!(e.path, "target.weave");
+        let e = panel(&|v| v["target"].as_object_mut().unwrap().remove("weave").map(drop).unwrap_or(()));
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave", "is needed unless target.cell_file gives the relaxed cell (in case.json)"));
         let e = panel(&|v| v["target"]["side_m"] = 0.0.into());
         assert_eq!(e.path, "target.side_m");
         let e = panel(&|v| v["target"]["layers"] = 0.into());
