@@ -252,10 +252,9 @@ fn main() -> ExitCode {
             if let dea_io::case::TargetSpec::ThreeDWeaveCell { weave, .. } = &case.target {
                 // a cell for `dea-mpi fabric`: its initial layout, not relaxed
                 let material = case.material().expect("validated case");
-                let laid_out = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string()).and_then(|w| w.unit_cell(&material).map_err(|e| e.in_case()));
-                let cell = match laid_out {
+                let cell = match setup::laid_out_cell(&case, weave, &material) {
                     Ok(cell) => cell,
-                    Err(message) => return fail(Exit::BadCase, message),
+                    Err(e) => return fail(setup_exit(&e), e),
                 };
                 let resolved = serde_json::json!({
                     "case": case,

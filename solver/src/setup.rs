@@ -24,7 +24,7 @@ use dea_fabric::cell::PeriodicCell;
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec};
+use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
@@ -110,6 +110,12 @@ fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weav
     Ok((cell, Some(report)))
 }
 
+/// The 3-D cell `weave` describes, laid out and not yet relaxed.
+pub fn laid_out_cell(case: &Case, weave: &Weave3dSpec, material: &FibreMaterial) -> Result<PeriodicCell, SetupError> {
+    let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
+    spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))
+}
+
 /// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
 /// law, or read from the panel's cell file (then without a report); `None` for other targets.
 pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
@@ -121,8 +127,7 @@ pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(Per
         TargetSpec::ThreeDWovenPanel { weave: Some(weave), relaxation, .. } => (weave, relaxation),
         _ => return Ok(None),
     };
-    let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
-    let mut cell = spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))?;
+    let mut cell = laid_out_cell(case, weave, material)?;
     let law = case.normal_law(material).expect("validated case");
     let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, Some(report))))

@@ -84,6 +84,8 @@ pub struct PeriodicCell {
     fibre_yarn: Vec<u32>,
     /// first node of every fibre, and the node count at the end
     fibre_start: Vec<usize>,
+    /// first fibre of every yarn, and the fibre count at the end
+    yarn_start: Vec<usize>,
 }
 
 /// The micro-geometry of a cell (seed Table 3-7 compares thickness; §3.3.4 the rest).
@@ -108,7 +110,9 @@ impl PeriodicCell {
     pub fn new(period: [f64; 2], yarns: Vec<CellYarn>, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64) -> Result<Self, CellError> {
         let mut fibre_yarn = Vec::new();
         let mut fibre_start = vec![0];
+        let mut yarn_start = vec![0];
         for (y, yarn) in yarns.iter().enumerate() {
+            yarn_start.push(yarn_start[y] + yarn.fibres);
             if yarn.fibres == 0 || yarn.nodes_per_period < 3 {
                 return Err(CellError::Sizes(format!("yarn {y} has {} fibres of {} nodes (at least 1 of 3)", yarn.fibres, yarn.nodes_per_period)));
             }
@@ -127,7 +131,7 @@ impl PeriodicCell {
                 fibre_yarn.len()
             )));
         }
-        Ok(Self { period, yarns, section, positions, rest_lengths, rest_angles, fibre_tension, fibre_yarn, fibre_start })
+        Ok(Self { period, yarns, section, positions, rest_lengths, rest_angles, fibre_tension, fibre_yarn, fibre_start, yarn_start })
     }
 
     /// Fibres of the cell.
@@ -138,6 +142,11 @@ impl PeriodicCell {
     /// Yarn of fibre `fibre`.
     pub fn fibre_yarn(&self, fibre: usize) -> usize {
         self.fibre_yarn[fibre] as usize
+    }
+
+    /// First fibre of yarn `yarn`.
+    pub fn yarn_first_fibre(&self, yarn: usize) -> usize {
+        self.yarn_start[yarn]
     }
 
     /// Indices of the nodes of fibre `fibre` in `positions`.
@@ -223,15 +232,14 @@ impl PeriodicCell {
 
     fn section_extent(&self, coordinate: impl Fn(YarnDirection, &Vec3) -> f64) -> f64 {
         let (mut total, mut stations) = (0.0, 0usize);
-        let mut first = 0;
-        for yarn in &self.yarns {
+        for (y, yarn) in self.yarns.iter().enumerate() {
+            let first = self.yarn_start[y];
             for k in 0..yarn.nodes_per_period {
                 let values = (first..first + yarn.fibres).map(|f| coordinate(yarn.direction, &self.position(f, k)));
                 let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
                 total += high - low;
             }
             stations += yarn.nodes_per_period as usize;
-            first += yarn.fibres;
         }
         total / stations as f64 + self.section.diameter
     }

@@ -30,6 +30,17 @@ pub enum Boundary {
     Clamp { opening_m: f64 },
 }
 
+impl Boundary {
+    /// Whether node `k` of a fibre of `nodes` nodes, `plan` from the panel's centre in x and y,
+    /// is held.
+    pub fn holds(&self, plan: [f64; 2], k: u32, nodes: u32) -> bool {
+        match *self {
+            Boundary::FixedEdges => k == 0 || k + 1 == nodes,
+            Boundary::Clamp { opening_m } => plan[0].abs() > 0.5 * opening_m || plan[1].abs() > 0.5 * opening_m,
+        }
+    }
+}
+
 /// The coarse yarns of a hybrid panel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CoarseYarns {
@@ -278,13 +289,8 @@ impl WovenPanel {
 
     /// Whether node `k` of a fibre of yarn `yarn`, at `position`, is held by the boundary.
     pub fn clamped(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
-        match self.boundary {
-            Boundary::FixedEdges => k == 0 || k + 1 == self.nodes_per_fibre(yarn),
-            Boundary::Clamp { opening_m } => {
-                let centre = self.plan_centre();
-                (position.x - centre).abs() > 0.5 * opening_m || (position.y - centre).abs() > 0.5 * opening_m
-            }
-        }
+        let centre = self.plan_centre();
+        self.boundary.holds([position.x - centre, position.y - centre], k, self.nodes_per_fibre(yarn))
     }
 
     /// The cells the panel repeats: the fine (or only) one, then the coarse one.
@@ -304,14 +310,7 @@ impl WovenPanel {
 
     /// Mass of one layer over its plan area [kg/m^2].
     pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
-        let mass: f64 = (0..self.yarns_per_layer())
-            .map(|yarn| {
-                let cell = self.yarn_cell(yarn);
-                let elements = (self.nodes_per_fibre(yarn) - 1) as f64;
-                (0..cell.fibres_per_yarn).map(|f| material.density * cell.section.area * cell.rest_lengths[self.cell_fibre(yarn, f)] * elements).sum::<f64>()
-            })
-            .sum();
-        mass / (self.side() * self.side())
+        self.layer_mass(material) / (self.side() * self.side())
     }
 
     /// How much farther apart the layers of the fine kind of tile start than that kind alone
@@ -363,6 +362,8 @@ pub(crate) fn first_fibres(yarns: usize, fibres: impl Fn(usize) -> usize) -> Vec
 /// and what it gives (the plain-woven [`WovenPanel`], the [`crate::tiled::TiledPanel`]).
 pub trait Tiling {
     fn yarns(&self) -> usize;
+    /// yarns of one layer (the first `yarns_in_layer()` yarns are layer 0)
+    fn yarns_in_layer(&self) -> usize;
     fn fibres_of(&self, yarn: usize) -> usize;
     fn first_fibre_of(&self, yarn: usize) -> u32;
     fn nodes_of(&self, yarn: usize) -> u32;
@@ -424,6 +425,17 @@ pub trait Tiling {
         self.build(material, |_, _| true)
     }
 
+    /// Mass of one layer [kg]: every element of its fibres, `rho A l0`.
+    fn layer_mass(&self, material: &FibreMaterial) -> f64 {
+        let sections = self.all_sections();
+        (0..self.yarns_in_layer())
+            .map(|yarn| {
+                let (area, elements) = (sections[self.section_of(yarn)].area, (self.nodes_of(yarn) - 1) as f64);
+                (0..self.fibres_of(yarn)).map(|f| material.density * area * self.fibre_rest_length(yarn, f) * elements).sum::<f64>()
+            })
+            .sum()
+    }
+
     /// Nodes of the whole panel.
     fn node_count(&self) -> u64 {
         (0..self.yarns()).map(|y| self.fibres_of(y) as u64 * self.nodes_of(y) as u64).sum()
@@ -446,6 +458,9 @@ pub trait Tiling {
 impl Tiling for WovenPanel {
     fn yarns(&self) -> usize {
         self.yarn_count()
+    }
+    fn yarns_in_layer(&self) -> usize {
+        self.yarns_per_layer()
     }
     fn fibres_of(&self, yarn: usize) -> usize {
         self.yarn_fibres(yarn)

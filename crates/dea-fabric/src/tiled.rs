@@ -83,15 +83,10 @@ impl TiledPanel {
     /// about their mean [m].
     pub fn packing(&self, yarn: usize) -> Vec<[f64; 2]> {
         let place = self.place(yarn);
-        let first = self.cell_first_fibre(place.cell_yarn);
+        let first = self.cell.yarn_first_fibre(place.cell_yarn);
         let points: Vec<Vec3> = (first..first + self.yarn_fibres(yarn)).map(|f| self.cell.position(f, 0)).collect();
         let mean = points.iter().sum::<Vec3>() / points.len() as f64;
         points.iter().map(|p| [p[1 - place.axis] - mean[1 - place.axis], p.z - mean.z]).collect()
-    }
-
-    /// First cell fibre of cell yarn `cell_yarn`.
-    fn cell_first_fibre(&self, cell_yarn: usize) -> usize {
-        self.cell.yarns[..cell_yarn].iter().map(|y| y.fibres).sum()
     }
 
     pub fn yarn_fibres(&self, yarn: usize) -> usize {
@@ -122,7 +117,7 @@ impl TiledPanel {
     /// Position of node `k` of fibre `fibre` of yarn `yarn` [m].
     pub fn position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3 {
         let place = self.place(yarn);
-        let cell_fibre = self.cell_first_fibre(place.cell_yarn) + fibre;
+        let cell_fibre = self.cell.yarn_first_fibre(place.cell_yarn) + fibre;
         let n = self.cell.yarns[place.cell_yarn].nodes_per_period;
         let size = self.size();
         let mut p = self.cell.position(cell_fibre, k % n) + self.cell.closure(cell_fibre) * (k / n) as f64;
@@ -132,10 +127,7 @@ impl TiledPanel {
 
     /// Whether node `k` of a fibre of yarn `yarn`, at `position`, is held by the boundary.
     pub fn clamped(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
-        match self.boundary {
-            Boundary::FixedEdges => k == 0 || k + 1 == self.nodes_per_fibre(yarn),
-            Boundary::Clamp { opening_m } => position.x.abs() > 0.5 * opening_m || position.y.abs() > 0.5 * opening_m,
-        }
+        self.boundary.holds([position.x, position.y], k, self.nodes_per_fibre(yarn))
     }
 
     /// Highest node centre [m].
@@ -150,17 +142,17 @@ impl TiledPanel {
 
     /// Mass of one layer over its plan area [kg/m^2].
     pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
-        let mass: f64 = (0..self.yarns_per_layer())
-            .map(|yarn| (0..self.yarn_fibres(yarn)).map(|f| material.density * self.cell.section.area * self.fibre_rest_length(yarn, f) * (self.nodes_per_fibre(yarn) - 1) as f64).sum::<f64>())
-            .sum();
         let size = self.size();
-        mass / (size[0] * size[1])
+        self.layer_mass(material) / (size[0] * size[1])
     }
 }
 
 impl Tiling for TiledPanel {
     fn yarns(&self) -> usize {
         self.yarn_count()
+    }
+    fn yarns_in_layer(&self) -> usize {
+        self.yarns_per_layer()
     }
     fn fibres_of(&self, yarn: usize) -> usize {
         self.yarn_fibres(yarn)
@@ -185,12 +177,12 @@ impl Tiling for TiledPanel {
     }
     fn node_rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64 {
         let place = self.place(yarn);
-        let cell_fibre = self.cell_first_fibre(place.cell_yarn) + fibre;
+        let cell_fibre = self.cell.yarn_first_fibre(place.cell_yarn) + fibre;
         let n = self.cell.yarns[place.cell_yarn].nodes_per_period;
         self.cell.rest_angles[self.cell.fibre_nodes(cell_fibre).start + (k % n) as usize]
     }
     fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64 {
-        self.cell.rest_lengths[self.cell_first_fibre(self.place(yarn).cell_yarn) + fibre]
+        self.cell.rest_lengths[self.cell.yarn_first_fibre(self.place(yarn).cell_yarn) + fibre]
     }
     fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
         self.clamped(yarn, position, k)
@@ -228,7 +220,7 @@ mod tests {
         for yarn in [0, panel.yarns_per_layer() - 1] {
             for k in 0..panel.nodes_per_fibre(yarn) - 1 {
                 let place = panel.place(yarn);
-                let f = panel.cell_first_fibre(place.cell_yarn);
+                let f = cell.yarn_first_fibre(place.cell_yarn);
                 let n = cell.yarns[place.cell_yarn].nodes_per_period;
                 let expected = (cell.position(f, (k + 1) % n) + if (k + 1) % n == 0 { cell.closure(f) } else { Vec3::zeros() } - cell.position(f, k % n)).norm();
                 assert!(((panel.position(yarn, 0, k + 1) - panel.position(yarn, 0, k)).norm() - expected).abs() < 1e-15, "yarn {yarn} k {k}");
