@@ -28,7 +28,12 @@ pub struct ExactSum {
 
 impl Default for ExactSum {
     fn default() -> Self {
-        Self { limbs: [0; LIMBS], adds: 0, special_bits: 0, has_special: false }
+        Self {
+            limbs: [0; LIMBS],
+            adds: 0,
+            special_bits: 0,
+            has_special: false,
+        }
     }
 }
 
@@ -44,7 +49,11 @@ impl ExactSum {
             return;
         }
         if !x.is_finite() {
-            let special = if self.has_special { f64::from_bits(self.special_bits) + x } else { x };
+            let special = if self.has_special {
+                f64::from_bits(self.special_bits) + x
+            } else {
+                x
+            };
             self.special_bits = special.to_bits();
             self.has_special = true;
             return;
@@ -53,8 +62,15 @@ impl ExactSum {
         let biased = ((bits >> 52) & 0x7ff) as i64;
         let fraction = (bits & ((1 << 52) - 1)) as i128;
         // x = mantissa * 2^(position - 1074), position >= 0
-        let (mantissa, position) = if biased == 0 { (fraction, 0) } else { (fraction | (1 << 52), biased - 1) };
-        let (index, shift) = ((position / LIMB_BITS as i64) as usize, (position % LIMB_BITS as i64) as u32);
+        let (mantissa, position) = if biased == 0 {
+            (fraction, 0)
+        } else {
+            (fraction | (1 << 52), biased - 1)
+        };
+        let (index, shift) = (
+            (position / LIMB_BITS as i64) as usize,
+            (position % LIMB_BITS as i64) as u32,
+        );
         let mut value = mantissa << shift;
         if x < 0.0 {
             value = -value;
@@ -103,8 +119,20 @@ impl ExactSum {
         // specials cannot be summed as integers: count infinities of each sign and NaNs
         if self.has_special {
             let s = f64::from_bits(self.special_bits);
-            words[LIMBS] = if s.is_nan() { 1 << 40 } else if s > 0.0 { 1 } else { 0 };
-            words[LIMBS + 1] = if s.is_nan() { 0 } else if s < 0.0 { 1 } else { 0 };
+            words[LIMBS] = if s.is_nan() {
+                1 << 40
+            } else if s > 0.0 {
+                1
+            } else {
+                0
+            };
+            words[LIMBS + 1] = if s.is_nan() {
+                0
+            } else if s < 0.0 {
+                1
+            } else {
+                0
+            };
         }
         words
     }
@@ -145,7 +173,9 @@ impl ExactSum {
             }
             limbs.normalise();
         }
-        let Some(top) = limbs.limbs.iter().rposition(|&l| l != 0) else { return 0.0 };
+        let Some(top) = limbs.limbs.iter().rposition(|&l| l != 0) else {
+            return 0.0;
+        };
         // the top four limbs hold at least 97 significant bits; anything below only decides
         // ties, so it becomes a sticky bit far under the rounding position
         let mut head: u128 = 0;
@@ -200,7 +230,10 @@ mod tests {
         assert_eq!(sum(&[1e300, 1e-300, -1e300]), 1e-300);
         // the doubles nearest 0.1, 0.2, 0.3 sum to exactly 2^-55; naive summation gives 2^-54
         assert_eq!(sum(&[0.1, 0.2, -0.3]), 2f64.powi(-55));
-        assert_eq!(sum(&[f64::MIN_POSITIVE / 8.0, f64::MIN_POSITIVE / 8.0]), f64::MIN_POSITIVE / 4.0);
+        assert_eq!(
+            sum(&[f64::MIN_POSITIVE / 8.0, f64::MIN_POSITIVE / 8.0]),
+            f64::MIN_POSITIVE / 4.0
+        );
         assert_eq!(sum(&[-2.5, 1.0]), -1.5);
         assert_eq!(sum(&[]), 0.0);
     }
@@ -218,7 +251,9 @@ mod tests {
     #[test]
     fn order_and_grouping_do_not_change_the_bits() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let mut values: Vec<f64> = (0..5000).map(|_| rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-20..20))).collect();
+        let mut values: Vec<f64> = (0..5000)
+            .map(|_| rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-20..20)))
+            .collect();
         let reference = sum(&values);
         // the naive sum in the same order generally differs in the last bits
         for _ in 0..5 {
@@ -234,7 +269,10 @@ mod tests {
             assert_eq!(merged.value().to_bits(), reference.to_bits());
             let (wa, wb) = (a.to_words(), b.to_words());
             let words: Vec<i64> = wa.iter().zip(wb.iter()).map(|(x, y)| x + y).collect();
-            assert_eq!(ExactSum::from_words(&words).value().to_bits(), reference.to_bits());
+            assert_eq!(
+                ExactSum::from_words(&words).value().to_bits(),
+                reference.to_bits()
+            );
         }
         // and the exact result is within one rounding of a compensated reference
         let mut sorted = values.clone();
@@ -250,7 +288,12 @@ mod tests {
         a.add(f64::INFINITY);
         let mut b = ExactSum::new();
         b.add(f64::NEG_INFINITY);
-        let words: Vec<i64> = a.to_words().iter().zip(b.to_words().iter()).map(|(x, y)| x + y).collect();
+        let words: Vec<i64> = a
+            .to_words()
+            .iter()
+            .zip(b.to_words().iter())
+            .map(|(x, y)| x + y)
+            .collect();
         assert!(ExactSum::from_words(&words).value().is_nan());
         assert_eq!(ExactSum::from_words(&a.to_words()).value(), f64::INFINITY);
     }

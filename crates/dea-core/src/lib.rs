@@ -21,6 +21,7 @@ pub mod projectile;
 pub mod rod;
 pub mod stability;
 pub mod surface;
+pub mod tie;
 pub mod weibull;
 
 pub use domain::{Domain, DomainError, GhostRecord, Reaction, CHAIN_STENCIL};

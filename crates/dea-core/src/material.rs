@@ -84,8 +84,13 @@ impl FibreSection {
         let diameter = (4.0 * area / std::f64::consts::PI).sqrt();
         let filament_area = std::f64::consts::PI * material.filament_diameter.powi(2) / 4.0;
         let filaments_per_fibre = (area / filament_area).max(1.0);
-        let moment_of_inertia =
-            effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia, friction_coefficient);
+        let moment_of_inertia = effective_moment_of_inertia(
+            diameter,
+            material.filament_diameter,
+            filaments_per_fibre,
+            inertia,
+            friction_coefficient,
+        );
         Self {
             diameter,
             area,
@@ -156,10 +161,15 @@ mod tests {
         let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked, 0.3);
         // (5-9): I_inf / I_0 = A_d / A_a = n when the digital fibre carries n filaments' area
         assert!((locked / free - n).abs() / n < 1e-12);
-        let at = |mu| effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, mu);
+        let at = |mu| {
+            effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, mu)
+        };
         assert_eq!(at(0.0), free);
         assert!((at(1.0) - locked).abs() < 1e-12 * locked);
-        assert!((at(2.0) - locked).abs() < 1e-12 * locked, "mu beyond k2 stays locked");
+        assert!(
+            (at(2.0) - locked).abs() < 1e-12 * locked,
+            "mu beyond k2 stays locked"
+        );
         let expected = 0.3f64.powf(0.8) * locked + (1.0 - 0.3f64.powf(0.8)) * free;
         assert!((at(0.3) - expected).abs() < 1e-12 * expected);
     }

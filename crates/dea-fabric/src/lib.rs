@@ -62,12 +62,17 @@ pub struct Built {
     pub sections: Vec<FibreSection>,
     pub nodes: Nodes,
     pub elements: Elements,
+    /// the ties with a built end (docs/theory.md F12)
+    pub ties: Vec<dea_core::tie::Tie>,
 }
 
 /// Centres of `count` circles of diameter `pitch` in a hexagonal close packing, filled ring by
 /// ring from the centre (1, 7, 19, 37 … fill complete rings) [m, m].
 pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
-    let rings = (0..).find(|&r: &i64| (3 * r * (r + 1) + 1) as usize >= count).unwrap_or(0) + 1;
+    let rings = (0..)
+        .find(|&r: &i64| (3 * r * (r + 1) + 1) as usize >= count)
+        .unwrap_or(0)
+        + 1;
     let mut points = Vec::new();
     for a in -rings..=rings {
         for b in -rings..=rings {
@@ -91,9 +96,22 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
 
 impl StraightFabric {
     /// One yarn of `fibres` digital fibres along x, centred on the origin.
-    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64) -> Self {
+    pub fn single_yarn(
+        length: f64,
+        fibres: usize,
+        fibre_area: f64,
+        element_length_ratio: f64,
+        inertia: InertiaModel,
+        friction_coefficient: f64,
+        tensile_strength: f64,
+    ) -> Self {
         Self {
-            yarns: vec![YarnLine { centre: Vec3::zeros(), axis: Axis::X, fibres, layer: 0 }],
+            yarns: vec![YarnLine {
+                centre: Vec3::zeros(),
+                axis: Axis::X,
+                fibres,
+                layer: 0,
+            }],
             length,
             fibre_area,
             element_length_ratio,
@@ -109,16 +127,44 @@ impl StraightFabric {
     /// half a yarn. Yarns sit at the pitch of their envelope (packing radius plus half a
     /// contact diameter, on both sides).
     #[allow(clippy::too_many_arguments)]
-    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64, material: &FibreMaterial) -> Self {
-        let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, friction_coefficient, tensile_strength);
+    pub fn cross_ply(
+        layers: usize,
+        yarns_per_layer: usize,
+        fibres: usize,
+        length: f64,
+        fibre_area: f64,
+        element_length_ratio: f64,
+        inertia: InertiaModel,
+        friction_coefficient: f64,
+        tensile_strength: f64,
+        material: &FibreMaterial,
+    ) -> Self {
+        let mut fabric = Self::single_yarn(
+            length,
+            fibres,
+            fibre_area,
+            element_length_ratio,
+            inertia,
+            friction_coefficient,
+            tensile_strength,
+        );
         let pitch = fabric.yarn_envelope_diameter(material);
         fabric.yarns = (0..layers)
             .flat_map(|l| {
                 (0..yarns_per_layer).map(move |j| {
                     let across = (j as f64 - 0.5 * (yarns_per_layer as f64 - 1.0)) * pitch;
                     let z = -(l as f64) * pitch;
-                    let (centre, axis) = if l % 2 == 0 { (Vec3::new(0.0, across, z), Axis::X) } else { (Vec3::new(across, 0.0, z), Axis::Y) };
-                    YarnLine { centre, axis, fibres, layer: l as u32 }
+                    let (centre, axis) = if l % 2 == 0 {
+                        (Vec3::new(0.0, across, z), Axis::X)
+                    } else {
+                        (Vec3::new(across, 0.0, z), Axis::Y)
+                    };
+                    YarnLine {
+                        centre,
+                        axis,
+                        fibres,
+                        layer: l as u32,
+                    }
                 })
             })
             .collect();
@@ -138,23 +184,34 @@ impl StraightFabric {
 
     /// The one section every fibre has.
     pub fn section(&self, material: &FibreMaterial) -> FibreSection {
-        FibreSection::new(material, self.fibre_area, self.length / self.elements_per_fibre() as f64, self.inertia, self.friction_coefficient)
+        FibreSection::new(
+            material,
+            self.fibre_area,
+            self.length / self.elements_per_fibre() as f64,
+            self.inertia,
+            self.friction_coefficient,
+        )
     }
 
     /// Diameter of the circle enclosing a yarn's fibres (contact diameter included) [m].
     pub fn yarn_envelope_diameter(&self, material: &FibreMaterial) -> f64 {
         let contact = self.section(material).contact_diameter;
         let fibres = self.yarns.first().map_or(1, |y| y.fibres);
-        let radius = hexagonal_packing(fibres, contact).iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
+        let radius = hexagonal_packing(fibres, contact)
+            .iter()
+            .map(|p| p[0].hypot(p[1]))
+            .fold(0.0, f64::max);
         2.0 * radius + contact
     }
 
     /// Global fibre id of each yarn's first fibre, plus the total at the end.
     pub fn first_fibres(&self) -> Vec<u32> {
-        std::iter::once(0).chain(self.yarns.iter().scan(0u32, |total, y| {
-            *total += y.fibres as u32;
-            Some(*total)
-        })).collect()
+        std::iter::once(0)
+            .chain(self.yarns.iter().scan(0u32, |total, y| {
+                *total += y.fibres as u32;
+                Some(*total)
+            }))
+            .collect()
     }
 
     /// Centres of a yarn's fibres in its cross-section: (across, z) offsets [m].
@@ -173,17 +230,43 @@ impl StraightFabric {
 
     /// Highest node centre of the fabric [m].
     pub fn top(&self, material: &FibreMaterial) -> f64 {
-        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)).fold(f64::NEG_INFINITY, f64::max)
+        self.yarns
+            .iter()
+            .map(|y| {
+                y.centre.z
+                    + self
+                        .packing(y, material)
+                        .iter()
+                        .map(|p| p[1])
+                        .fold(f64::NEG_INFINITY, f64::max)
+            })
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// Lowest node centre of the fabric [m].
     pub fn bottom(&self, material: &FibreMaterial) -> f64 {
-        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)).fold(f64::INFINITY, f64::min)
+        self.yarns
+            .iter()
+            .map(|y| {
+                y.centre.z
+                    + self
+                        .packing(y, material)
+                        .iter()
+                        .map(|p| p[1])
+                        .fold(f64::INFINITY, f64::min)
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Axis-aligned box of the node centres of yarn `yarn` between positions `first` and
     /// `last` (inclusive) along its fibres [m].
-    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
+    pub fn segment_box(
+        &self,
+        yarn: usize,
+        first: u32,
+        last: u32,
+        material: &FibreMaterial,
+    ) -> (Vec3, Vec3) {
         let y = &self.yarns[yarn];
         let element_length = self.length / self.elements_per_fibre() as f64;
         let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
@@ -222,20 +305,37 @@ impl StraightFabric {
                         GlobalNodeId(fibre as u64 * nodes_per_fibre as u64 + k as u64),
                         self.position(yarn, offset, k, section.element_length),
                         Vec3::zeros(),
-                        if end { 0.5 * interior_mass } else { interior_mass },
+                        if end {
+                            0.5 * interior_mass
+                        } else {
+                            interior_mass
+                        },
                         FibreId(fibre),
                         k,
                         0,
                         end && self.clamp_ends,
                         k == last,
                     );
-                    elements.push(if k == last { 0.0 } else { section.element_length }, self.tensile_strength, FailureMode::Intact);
+                    elements.push(
+                        if k == last {
+                            0.0
+                        } else {
+                            section.element_length
+                        },
+                        self.tensile_strength,
+                        FailureMode::Intact,
+                    );
                 }
             }
         }
         nodes.n_owned = nodes.len();
         nodes.link_chains();
-        Built { sections: vec![section], nodes, elements }
+        Built {
+            sections: vec![section],
+            nodes,
+            elements,
+            ties: Vec::new(),
+        }
     }
 
     /// Builds every node (a whole domain, for single-domain use and tests).
@@ -302,7 +402,9 @@ impl Fabric {
 
     /// Nodes of every fibre, yarn by yarn.
     pub fn nodes_per_yarn_fibre(&self) -> Vec<u32> {
-        (0..self.yarn_count()).map(|y| self.nodes_per_fibre(y)).collect()
+        (0..self.yarn_count())
+            .map(|y| self.nodes_per_fibre(y))
+            .collect()
     }
 
     /// Node `k` of fibre `f` has global id `f * gid_stride + k`.
@@ -316,7 +418,9 @@ impl Fabric {
 
     /// Nodes of the whole target.
     pub fn node_count(&self) -> u64 {
-        (0..self.yarn_count()).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
+        (0..self.yarn_count())
+            .map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64)
+            .sum()
     }
 
     /// The sections of the target's fibres; the first is the finest (a hybrid panel's fine
@@ -348,7 +452,13 @@ impl Fabric {
     }
 
     /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
-    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
+    pub fn segment_box(
+        &self,
+        yarn: usize,
+        first: u32,
+        last: u32,
+        material: &FibreMaterial,
+    ) -> (Vec3, Vec3) {
         match self {
             Fabric::Straight(f) => f.segment_box(yarn, first, last, material),
             Fabric::Woven(p) => p.segment_box(yarn, first, last),
@@ -401,10 +511,16 @@ mod tests {
             assert_eq!(points.len(), count);
             let max_radius = points.iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
             let rings = [1, 7, 19, 37].iter().position(|&c| c == count).unwrap();
-            assert!((max_radius - rings as f64).abs() < 1e-12, "{count}: {max_radius}");
+            assert!(
+                (max_radius - rings as f64).abs() < 1e-12,
+                "{count}: {max_radius}"
+            );
             for (a, p) in points.iter().enumerate() {
                 for q in &points[a + 1..] {
-                    assert!((p[0] - q[0]).hypot(p[1] - q[1]) >= pitch * (1.0 - 1e-12), "no overlap");
+                    assert!(
+                        (p[0] - q[0]).hypot(p[1] - q[1]) >= pitch * (1.0 - 1e-12),
+                        "no overlap"
+                    );
                 }
             }
         }
@@ -413,12 +529,31 @@ mod tests {
     #[test]
     fn bundle_mass_and_length_are_exact() {
         let material = FibreMaterial::kevlar_km2();
-        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3, 3.8e9);
+        let bundle = StraightFabric::single_yarn(
+            0.01,
+            7,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::Effective { k1: 0.8, k2: 1.0 },
+            0.3,
+            3.8e9,
+        );
         let built = bundle.build_all(&material);
         let total_mass: f64 = built.nodes.mass.iter().sum();
         let expected = material.density * 4.63e-8 * 0.01;
         assert!((total_mass - expected).abs() < 1e-12 * expected);
-        let span = built.nodes.position.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) - built.nodes.position.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+        let span = built
+            .nodes
+            .position
+            .iter()
+            .map(|p| p.x)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - built
+                .nodes
+                .position
+                .iter()
+                .map(|p| p.x)
+                .fold(f64::INFINITY, f64::min);
         assert!((span - 0.01).abs() < 1e-15);
         assert_eq!(built.nodes.clamped.iter().filter(|&&c| c).count(), 14);
         let section = &built.sections[0];
@@ -428,7 +563,18 @@ mod tests {
     #[test]
     fn a_rank_builds_exactly_its_piece_of_the_whole() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(
+            2,
+            2,
+            7,
+            2e-3,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::None,
+            0.3,
+            3.8e9,
+            &material,
+        );
         let whole = fabric.build_all(&material);
         let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
         let piece = fabric.build(&material, keep);
@@ -450,7 +596,18 @@ mod tests {
     #[test]
     fn cross_ply_yarns_touch_without_overlapping() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(
+            3,
+            2,
+            7,
+            1e-3,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::None,
+            0.3,
+            3.8e9,
+            &material,
+        );
         let built = fabric.build_all(&material);
         let contact = built.sections[0].contact_diameter;
         let nodes = &built.nodes;
@@ -462,13 +619,19 @@ mod tests {
                 }
             }
         }
-        assert!((closest - contact).abs() < 1e-9 * contact, "{closest} vs {contact}");
+        assert!(
+            (closest - contact).abs() < 1e-9 * contact,
+            "{closest} vs {contact}"
+        );
         let thickness = fabric.top(&material) - fabric.bottom(&material);
         // three layers at a pitch of three contact diameters (7 fibres: envelope 3 d), plus
         // the packing's own height sqrt(3) d
         let pitch = fabric.yarn_envelope_diameter(&material);
         assert!((pitch - 3.0 * contact).abs() < 1e-12 * contact);
-        assert!((thickness - (2.0 * pitch + 3f64.sqrt() * contact)).abs() < 1e-12 * contact, "{thickness}");
+        assert!(
+            (thickness - (2.0 * pitch + 3f64.sqrt() * contact)).abs() < 1e-12 * contact,
+            "{thickness}"
+        );
         assert_eq!(fabric.first_fibres(), vec![0, 7, 14, 21, 28, 35, 42]);
     }
 }
