@@ -73,6 +73,11 @@ check fabric-cell-identical-on-1-2-4-ranks bash -c 'for r in 1 2 4; do mpi $r fa
 check hybrid-settled-identical-on-4-ranks bash -c 'mpi 1 run cases/hybrid_two_layer_settle.json --out $work/hyb1 && mpi 4 run cases/hybrid_two_layer_settle.json --out $work/hyb4 \
     && $bin compare $work/hyb1/results.h5 $work/hyb4/results.h5 && grep -q "\"largest_force_after_n\"" $work/hyb4/summary.json \
     && mpi 2 fabric cases/hybrid_two_layer_settle.json --out $work/hybfabric && test -f $work/hybfabric/coarse_cell.h5 && test -f $work/hybfabric/coarse_cell.xdmf'
+# a hybrid panel with a fine disc: fine fibres tied to coarse ones across the ranks' borders,
+# the same bits on 1 and 3 ranks; `dea-mpi fabric` reports the ties
+check hybrid-disc-identical-on-3-ranks bash -c 'mpi 1 run cases/hybrid_disc_two_layer_settle.json --out $work/disc1 && mpi 3 run cases/hybrid_disc_two_layer_settle.json --out $work/disc3 \
+    && $bin compare $work/disc1/results.h5 $work/disc3/results.h5 && mpi 2 fabric cases/hybrid_disc_two_layer_settle.json --out $work/discfabric \
+    && grep -q "\"ties\": 64" $work/discfabric/fabric.json'
 # a 3-D weave cell: rank 0 relaxes it, the same bits under 1 and 2 ranks; a weave whose binders
 # have no room to turn ends both ranks with exit 3 and one message naming the field
 check weave3d-cell-on-two-ranks bash -c 'mpi 1 fabric cases/weave3d_km2_orthogonal_small.json --out $work/w3d1 \

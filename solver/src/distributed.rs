@@ -222,18 +222,19 @@ impl<C: Comm> Distributed<C> {
                 chain.entry(r).or_default().push(i as u32);
             }
         }
-        // a tie's owned end is needed by the owner of its other end, wherever it moves
+        // a tie's owned end is needed by the owners of its other ends, wherever they move
         let owned = &nodes.gid[..nodes.n_owned];
         for tie in domain.ties.list() {
-            for (mine, other) in [(tie.fine, tie.coarse), (tie.coarse, tie.fine)] {
-                let (Ok(i), r) = (
-                    owned.binary_search(&mine.gid),
-                    partition.rank_of(other.fibre, other.along),
-                ) else {
+            let ends = [tie.fine, tie.coarse, tie.coarse_next];
+            for mine in &ends {
+                let Ok(i) = owned.binary_search(&mine.gid) else {
                     continue;
                 };
-                if r != me {
-                    chain.entry(r).or_default().push(i as u32);
+                for other in &ends {
+                    let r = partition.rank_of(other.fibre, other.along);
+                    if r != me {
+                        chain.entry(r).or_default().push(i as u32);
+                    }
                 }
             }
         }

@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use dea_core::Rank;
 use dea_fabric::panel::Tiling;
+use dea_fabric::panel::TransitionQuality;
 use dea_fabric::relax::RelaxReport;
 use dea_fabric::Fabric;
 use dea_io::case::Case;
@@ -45,6 +46,10 @@ pub struct PanelStatistics {
     /// how much farther apart the fine region's layers start than fine tiles alone would
     /// stack (a hybrid panel whose coarse yarns are thicker; docs/theory.md F8) [m]
     pub fine_layer_gap_m: f64,
+    /// ties where the yarns of a fine disc end at coarse fibres (docs/theory.md F12)
+    pub ties: usize,
+    /// how far those transitions are from passing the force straight on
+    pub transitions: TransitionQuality,
     /// one layer [kg/m^2]
     pub areal_density_kg_m2: f64,
     /// every layer [kg]
@@ -251,9 +256,9 @@ pub fn fabric<C: Comm>(
         fibres: *panel.first_fibres().last().expect("a total") as usize,
         nodes: panel.node_count(),
         fine_nodes: panel.fine_node_count(),
-        fine_yarns_per_layer: (0..panel.yarns_per_layer() / 2)
-            .filter(|&y| !panel.is_coarse(y))
-            .count(),
+        fine_yarns_per_layer: panel.fine_yarns_per_layer(),
+        ties: panel.ties().len(),
+        transitions: panel.transition_quality(),
         largest_overlap_ratio: panel.largest_overlap_ratio(),
         fine_layer_gap_m: panel.fine_layer_gap(),
         areal_density_kg_m2: areal_density,

@@ -305,6 +305,15 @@ fn main() -> ExitCode {
                     "time_step_s": problem.time_step,
                     "steps": (case.run.end_time_s / problem.time_step).ceil(),
                     "skin_m": problem.contact.skin,
+                    "hybrid": match &problem.fabric {
+                        dea_fabric::Fabric::Woven(panel) if panel.coarse.is_some() => Some(serde_json::json!({
+                            "fine_nodes": panel.fine_node_count(),
+                            "fine_yarns_per_layer": panel.fine_yarns_per_layer(),
+                            "ties": panel.ties().len(),
+                            "transitions": panel.transition_quality(),
+                        })),
+                        _ => None,
+                    },
                 }
             });
             println!(
@@ -672,6 +681,12 @@ fn main() -> ExitCode {
                             "hybrid: {} fine yarns each way per layer, {} of the nodes fine; coarse cell thickness {:.1} um, crimp {:.2} %; deepest contact as built {:.1} % of a contact distance; the fine region's layers start {:.1} um apart",
                             p.fine_yarns_per_layer, p.fine_nodes, 1e6 * coarse.thickness_m, 100.0 * coarse.crimp, 100.0 * p.largest_overlap_ratio, 1e6 * p.fine_layer_gap_m
                         );
+                        if p.ties > 0 {
+                            println!(
+                                "transitions: {} ties; tied fine area differs from a coarse fibre's by up to {:.1} %, and centres up to {:.1} % of a coarse contact diameter off its axis",
+                                p.ties, 100.0 * p.transitions.area_mismatch, 100.0 * p.transitions.eccentricity
+                            );
+                        }
                     }
                     for r in &report.ranks {
                         println!(

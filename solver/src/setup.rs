@@ -732,6 +732,15 @@ pub fn build_adjusted<C: Comm>(
                 1e6 * panel.cell.thickness()
             );
         }
+        let transitions = panel.transition_quality();
+        if transitions.area_mismatch > 0.1 || transitions.eccentricity > 0.1 {
+            tracing::warn!(
+                "case {:?}: where the fine disc's yarns end, a coarse fibre takes up to {:.0} % more or less fine area than its own, or fine ends centred up to {:.0} % of its contact diameter off its axis: the coarse ends bend and part of each wave reflects (one coarse fibre per yarn and fine yarns of full rings, 7 or 19 fibres, avoid both; docs/theory.md F12)",
+                case.name,
+                100.0 * transitions.area_mismatch,
+                100.0 * transitions.eccentricity
+            );
+        }
     }
     let mut run = assemble(problem, comm, method, segment_positions, adjust)?;
     match &case.run.settle {

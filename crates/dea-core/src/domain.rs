@@ -467,7 +467,7 @@ impl Domain {
         if let Some((gid, along)) = self.nodes.missing_chain_neighbour(CHAIN_STENCIL) {
             return Err(DomainError::MissingGhost { gid, along });
         }
-        if let Some((gid, partner)) = self.ties.missing_end() {
+        if let Some((gid, partner)) = self.ties.missing_end(self.nodes.n_owned) {
             return Err(DomainError::MissingTiePartner { gid, partner });
         }
         let clock = Instant::now();

@@ -110,6 +110,17 @@ pub struct WovenPanel {
     first_fibre: Vec<u32>,
 }
 
+/// How far a hybrid panel's transitions are from passing the force straight on
+/// ([`WovenPanel::transition_quality`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct TransitionQuality {
+    /// largest relative difference between a coarse fibre's area and the fine area tied to it [-]
+    pub area_mismatch: f64,
+    /// largest distance of a coarse fibre's tied fine ends' centre from its axis, over its
+    /// contact diameter [-]
+    pub eccentricity: f64,
+}
+
 /// Where a panel yarn lies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct YarnPlace {
@@ -580,13 +591,18 @@ impl WovenPanel {
     }
 
     /// Deepest overlap of two nodes of the panel as built, over their contact distance [-]:
-    /// that of each relaxed cell, and where a hybrid panel's fine and coarse yarns cross.
+    /// that of each relaxed cell, and where a band hybrid's fine and coarse yarns cross.
     pub fn largest_overlap_ratio(&self) -> f64 {
         let mut largest = relax::largest_overlap_ratio(&self.cell);
         if let Some(coarse) = &self.coarse {
             largest = largest.max(relax::largest_overlap_ratio(&coarse.cell));
             let period = self.cell.period();
-            for (warp, weft) in [(&*self.cell, &*coarse.cell), (&*coarse.cell, &*self.cell)] {
+            // in a fine disc both yarns of a crossing are of one kind
+            let mixed_crossings = matches!(coarse.fine, FineRegion::Band { .. });
+            for (warp, weft) in [(&*self.cell, &*coarse.cell), (&*coarse.cell, &*self.cell)]
+                .into_iter()
+                .filter(|_| mixed_crossings)
+            {
                 let warp_nodes =
                     &warp.positions[..2 * warp.fibres_per_yarn * warp.nodes_per_period as usize];
                 let weft_nodes = &weft.positions[weft.positions.len()
@@ -604,11 +620,12 @@ impl WovenPanel {
     }
 
     /// The ties of every transition from a fine piece to a coarse one (docs/theory.md F12):
-    /// each fine fibre's end node joined to a coarse fibre's end node there, nearest pairs
-    /// first, with no coarse fibre taking more than its share (fine fibres over coarse,
-    /// rounded up). A tie has the fine fibre's area, its length as built, and the mass of the
-    /// fine fibre's elements left out, so the yarn's mass per unit of plan length is that of
-    /// its fine or coarse kind on either side of the transition's station.
+    /// each fine fibre's end node joined to a coarse fibre's end there, the nearest across
+    /// the coarse end element's axis first, with no coarse fibre taking more than its share
+    /// (fine fibres over coarse, rounded up). A tie has the fine fibre's area, its place in
+    /// the coarse end element's frame as built, and the mass of the fine fibre's elements
+    /// left out, so the yarn's mass per unit of plan length is that of its fine or coarse
+    /// kind on either side of the transition's station.
     pub fn ties(&self) -> Vec<Tie> {
         let stride = self.gid_stride() as u64;
         let area = self.cell.section.area;
@@ -618,10 +635,11 @@ impl WovenPanel {
             if before.yarn != after.yarn {
                 continue;
             }
-            let ((fine, fine_k), (coarse, coarse_k)) = if before.coarse {
-                ((p, 0), (p - 1, before.nodes - 1))
+            // the coarse end element: its end node at the transition and the node inside
+            let ((fine, fine_k), (coarse, coarse_k, next_k)) = if before.coarse {
+                ((p, 0), (p - 1, before.nodes - 1, before.nodes - 2))
             } else {
-                ((p - 1, before.nodes - 1), (p, 0))
+                ((p - 1, before.nodes - 1), (p, 0, 1))
             };
             let end = |piece: usize, fibre: usize, along: u32| {
                 let f = self.first_fibre[piece] + fibre as u32;
@@ -632,22 +650,27 @@ impl WovenPanel {
                 }
             };
             let (n_fine, n_coarse) = (self.yarn_fibres(fine), self.yarn_fibres(coarse));
-            let coarse_at: Vec<Vec3> = (0..n_coarse)
-                .map(|c| self.position(coarse, c, coarse_k))
-                .collect();
-            let mut pairs: Vec<(f64, usize, usize)> = (0..n_fine)
-                .flat_map(|f| {
-                    let x = self.position(fine, f, fine_k);
-                    coarse_at
-                        .iter()
-                        .enumerate()
-                        .map(move |(c, y)| ((x - y).norm(), f, c))
+            let coarse_at: Vec<(Vec3, Vec3)> = (0..n_coarse)
+                .map(|c| {
+                    (
+                        self.position(coarse, c, coarse_k),
+                        self.position(coarse, c, next_k),
+                    )
                 })
                 .collect();
-            pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+            let mut pairs: Vec<(f64, f64, usize, usize)> = (0..n_fine)
+                .flat_map(|f| {
+                    let x = self.position(fine, f, fine_k);
+                    coarse_at.iter().enumerate().map(move |(c, (end, next))| {
+                        let (axial, radial) = Tie::rest_geometry(&x, end, next);
+                        (radial, axial, f, c)
+                    })
+                })
+                .collect();
+            pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.2, a.3).cmp(&(b.2, b.3))));
             let share = n_fine.div_ceil(n_coarse);
             let (mut tied, mut taken) = (vec![false; n_fine], vec![0; n_coarse]);
-            for (length, f, c) in pairs {
+            for (radial_offset, axial_length, f, c) in pairs {
                 if !tied[f] && taken[c] < share {
                     tied[f] = true;
                     taken[c] += 1;
@@ -656,7 +679,9 @@ impl WovenPanel {
                     ties.push(Tie {
                         fine: end(fine, f, fine_k),
                         coarse: end(coarse, c, coarse_k),
-                        rest_length: length,
+                        coarse_next: end(coarse, c, next_k),
+                        axial_length,
+                        radial_offset,
                         area,
                         fibre_length,
                     });
@@ -664,6 +689,62 @@ impl WovenPanel {
             }
         }
         ties
+    }
+
+    /// Position of a node named by its fibre's global id and its place along it [m].
+    fn node_at(&self, end: &TieEnd) -> Vec3 {
+        let piece = self.first_fibre.partition_point(|&f| f <= end.fibre.0) - 1;
+        self.position(
+            piece,
+            (end.fibre.0 - self.first_fibre[piece]) as usize,
+            end.along,
+        )
+    }
+
+    /// How far the transitions of a fine disc are from passing the yarn's force straight on
+    /// (docs/theory.md F12), over every coarse fibre that ends at one: the largest relative
+    /// difference between its area and the fine area tied to it, and the largest distance of
+    /// the (area-weighted) centre of its tied fine ends from its axis, over its contact
+    /// diameter. Either bends the coarse fibres' ends and reflects part of a wave. Both 0
+    /// without ties.
+    pub fn transition_quality(&self) -> TransitionQuality {
+        let Some(coarse) = &self.coarse else {
+            return TransitionQuality::default();
+        };
+        let mut groups: std::collections::BTreeMap<GlobalNodeId, (f64, Vec3)> = Default::default();
+        for tie in self.ties() {
+            let offset = Tie::offset_across(
+                &self.node_at(&tie.fine),
+                &self.node_at(&tie.coarse),
+                &self.node_at(&tie.coarse_next),
+            );
+            let group = groups.entry(tie.coarse.gid).or_insert((0.0, Vec3::zeros()));
+            group.0 += tie.area;
+            group.1 += offset * tie.area;
+        }
+        let section = &coarse.cell.section;
+        groups
+            .values()
+            .fold(TransitionQuality::default(), |q, (area, moment)| {
+                TransitionQuality {
+                    area_mismatch: q.area_mismatch.max((area / section.area - 1.0).abs()),
+                    eccentricity: q
+                        .eccentricity
+                        .max((moment / *area).norm() / section.contact_diameter),
+                }
+            })
+    }
+
+    /// Warp yarns of one layer that are fine somewhere (all of them unless hybrid).
+    pub fn fine_yarns_per_layer(&self) -> usize {
+        let warp = 2 * self.cells;
+        let fine: std::collections::BTreeSet<u32> = self
+            .pieces
+            .iter()
+            .filter(|p| !p.coarse && p.yarn < warp)
+            .map(|p| p.yarn)
+            .collect();
+        fine.len()
     }
 
     /// Nodes of the fine yarns of the whole panel (all of them when not hybrid).
@@ -1112,11 +1193,15 @@ mod tests {
                     .filter(|t| t.coarse.gid == tie.coarse.gid)
                     .count();
                 assert!(share <= fine.div_ceil(coarse));
-                let i = nodes.gid.binary_search(&tie.fine.gid).unwrap();
-                let j = nodes.gid.binary_search(&tie.coarse.gid).unwrap();
+                let at = |e: &TieEnd| nodes.position[nodes.gid.binary_search(&e.gid).unwrap()];
                 assert_eq!(
-                    (nodes.position[j] - nodes.position[i]).norm(),
-                    tie.rest_length
+                    Tie::rest_geometry(&at(&tie.fine), &at(&tie.coarse), &at(&tie.coarse_next)),
+                    (tie.axial_length, tie.radial_offset)
+                );
+                assert!(
+                    tie.axial_length > 0.0
+                        && tie.coarse_next.fibre == tie.coarse.fibre
+                        && tie.coarse_next.along.abs_diff(tie.coarse.along) == 1
                 );
             }
             let area_across: f64 = ties.iter().take(fine).map(|t| t.area).sum();
