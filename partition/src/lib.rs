@@ -330,6 +330,10 @@ impl Partition {
     }
 }
 
+/// Largest total of the vertex (or edge) weights handed to METIS: a quarter of its 32-bit
+/// index range.
+const WEIGHT_BUDGET: f64 = 5e8;
+
 /// Partitions the segment graph over `ranks` ranks.
 pub fn partition(
     graph: &SegmentGraph,
@@ -351,6 +355,22 @@ pub fn partition(
     if n < ranks {
         return Err(PartitionError::TooFewSegments { segments: n, ranks });
     }
+    // METIS sums the weights in its index type: keep each total well inside it (a 2e8-node
+    // panel's work summed to 3e10 and overflowed, leaving 78 % of the nodes on one rank)
+    let fit = |total: f64| {
+        if total > WEIGHT_BUDGET {
+            WEIGHT_BUDGET / total
+        } else {
+            1.0
+        }
+    };
+    let vertex_scale = fit(graph.segments.iter().map(|s| s.work).sum());
+    let edge_scale = fit(graph
+        .adjacency
+        .iter()
+        .flatten()
+        .map(|e| 2.0 * e.ghosts_needed)
+        .sum());
     let mut xadj: Vec<metis::Idx> = vec![0];
     let mut adjncy: Vec<metis::Idx> = Vec::new();
     let mut adjwgt: Vec<metis::Idx> = Vec::new();
@@ -362,14 +382,14 @@ pub fn partition(
                 .find(|e| e.segment == s as u32)
                 .map_or(0.0, |e| e.ghosts_needed);
             adjncy.push(edge.segment as metis::Idx);
-            adjwgt.push(((edge.ghosts_needed + back).round() as metis::Idx).max(1));
+            adjwgt.push((((edge.ghosts_needed + back) * edge_scale).round() as metis::Idx).max(1));
         }
         xadj.push(adjncy.len() as metis::Idx);
     }
     let vwgt: Vec<metis::Idx> = graph
         .segments
         .iter()
-        .map(|s| (s.work.round() as metis::Idx).max(1))
+        .map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1))
         .collect();
     let mut part: Vec<metis::Idx> = vec![0; n];
     let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy)

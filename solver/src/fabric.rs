@@ -178,16 +178,118 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     Ok(report)
 }
 
+/// What one rank of a large job would hold, built alone ([`fabric_share`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct ShareReport {
+    pub case: String,
+    /// the rank built, of `ranks`
+    pub rank: u32,
+    pub ranks: usize,
+    /// nodes of the whole panel, and of its fine yarns
+    pub panel_nodes: u64,
+    pub fine_nodes: u64,
+    pub ties: usize,
+    /// relaxing the cells [s]
+    pub relaxation_s: f64,
+    /// building the segment graph and partitioning it (rank 0's work in a job) [s]
+    pub partition_s: f64,
+    /// the partition's predicted quality: every rank's owned and ghost nodes, halo bytes
+    pub partition: dea_partition::QualityReport,
+    /// nodes the rank generated (its own, no ghosts) and contact-list entries among them
+    pub owned_nodes: u64,
+    pub contact_entries: u64,
+    /// generating the rank's nodes and building their contact lists [s]
+    pub build_s: f64,
+    /// growth of the resident set over that build, per owned node [bytes]
+    pub bytes_per_node: f64,
+    /// peak resident set of this process [bytes]
+    pub peak_resident_bytes: f64,
+}
+
+/// Builds only rank `rank`'s part of an `ranks`-rank partition of a woven case, in this one
+/// process: what a rank of a job too large for this machine would generate and hold (its
+/// own nodes and their contact lists; its ghosts are predicted by the partition's report).
+/// Writes `out/share.json`.
+pub fn fabric_share(
+    case: &Case,
+    method: Method,
+    rank: Rank,
+    ranks: usize,
+    out: &Path,
+) -> Result<ShareReport, SetupError> {
+    if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
+        return Err(SetupError::Case(
+            "target.kind: `dea-mpi fabric --share` needs a woven_panel target".into(),
+        ));
+    }
+    let started = Instant::now();
+    let problem = setup::problem(case)?;
+    let relaxation_s = started.elapsed().as_secs_f64();
+    let Fabric::Woven(panel) = &problem.fabric else {
+        unreachable!("a woven target builds a woven panel")
+    };
+    let started = Instant::now();
+    let graph = setup::segment_graph(&problem, ranks, None);
+    let partition = dea_partition::partition(&graph, ranks, method)
+        .map_err(|e| SetupError::Partition(e.to_string()))?;
+    let quality = dea_partition::quality(&graph, &partition);
+    let partition_s = started.elapsed().as_secs_f64();
+    drop(graph);
+    // hand the graph's and METIS's freed pages back, so the resident set grows by what the
+    // rank's own part takes rather than refilling them
+    // SAFETY: malloc_trim only releases free heap memory; it touches no live allocation
+    unsafe { libc::malloc_trim(0) };
+    let (resident, started) = (resident_bytes(), Instant::now());
+    let mut domain = setup::own_domain(&problem, &partition, rank, |_| {});
+    domain.pairs.rebuild(&domain.nodes, &domain.sections);
+    let build_s = started.elapsed().as_secs_f64();
+    let owned = domain.nodes.n_owned as u64;
+    let report = ShareReport {
+        case: case.name.clone(),
+        rank: rank.0,
+        ranks,
+        panel_nodes: panel.node_count(),
+        fine_nodes: panel.fine_node_count(),
+        ties: panel.ties().len(),
+        relaxation_s,
+        partition_s,
+        partition: quality,
+        owned_nodes: owned,
+        contact_entries: domain.pairs.partner.len() as u64,
+        build_s,
+        bytes_per_node: (resident_bytes() - resident) / (owned as f64).max(1.0),
+        peak_resident_bytes: peak_resident_bytes(),
+    };
+    let failed = |e: &dyn std::fmt::Display| SetupError::Mesh(format!("{}: {e}", out.display()));
+    std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
+    std::fs::write(
+        out.join("share.json"),
+        serde_json::to_string_pretty(&report).expect("report serialises"),
+    )
+    .map_err(|e| failed(&e))?;
+    Ok(report)
+}
+
+/// Peak resident set size of this process [bytes] (0 where /proc is not there).
+fn peak_resident_bytes() -> f64 {
+    status_kilobytes("VmHWM:") * 1024.0
+}
+
 /// Resident set size of this process [bytes] (0 where /proc is not there).
 fn resident_bytes() -> f64 {
+    status_kilobytes("VmRSS:") * 1024.0
+}
+
+/// A field of /proc/self/status in kB (0 where /proc is not there).
+fn status_kilobytes(field: &str) -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|text| {
             text.lines()
-                .find(|l| l.starts_with("VmRSS:"))
+                .find(|l| l.starts_with(field))
                 .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
         })
-        .map_or(0.0, |kilobytes| 1024.0 * kilobytes)
+        .unwrap_or(0.0)
 }
 
 /// Runs the command on the ranks of `comm`; rank 0 writes `out` and returns the report.

@@ -13,6 +13,27 @@ use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
 use dea_mpi::setup::{self, SetupError};
 
+/// `RANK/RANKS` of `--share`, RANK below RANKS.
+fn parse_share(text: &str) -> Result<(u32, usize), String> {
+    let (rank, ranks) = text
+        .split_once('/')
+        .ok_or_else(|| format!("expected RANK/RANKS, e.g. 0/64, got {text:?}"))?;
+    let rank: u32 = rank
+        .trim()
+        .parse()
+        .map_err(|e| format!("RANK {rank:?}: {e}"))?;
+    let ranks: usize = ranks
+        .trim()
+        .parse()
+        .map_err(|e| format!("RANKS {ranks:?}: {e}"))?;
+    if ranks == 0 || rank as usize >= ranks {
+        return Err(format!(
+            "RANK must be below RANKS (at least 1), got {rank}/{ranks}"
+        ));
+    }
+    Ok((rank, ranks))
+}
+
 /// Exit codes (part of the interface: scripts rely on them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Exit {
@@ -65,7 +86,7 @@ enum Command {
     /// (each rank only its own part) and report the fabric: OUT/cell.h5 (reusable as
     /// target.cell_file), OUT/cell.xdmf (ParaView) and OUT/fabric.json.
     #[command(
-        after_help = "Examples:\n  dea-mpi fabric\n  mpirun -np 4 dea-mpi fabric cases/km2_706_patch.json --out out/fabric"
+        after_help = "Examples:\n  dea-mpi fabric\n  mpirun -np 4 dea-mpi fabric cases/km2_706_patch.json --out out/fabric\n  dea-mpi fabric jobs/cases/table_6_1_disc.json --share 0/64   # one rank's part of a 64-rank job"
     )]
     Fabric {
         /// case file with a woven_panel target; none: the built-in default case
@@ -76,6 +97,11 @@ enum Command {
         /// METIS algorithm for the partition over the job's ranks
         #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
         method: PartitionMethod,
+        /// build, in this one process, only what rank RANK of a RANKS-rank job would (its
+        /// own nodes and their contact lists) and report it in OUT/share.json: a panel too
+        /// large for this machine, one rank's share at a time
+        #[arg(long, value_name = "RANK/RANKS", value_parser = parse_share)]
+        share: Option<(u32, usize)>,
     },
     /// Run a V50 campaign: the shots its design asks for, on groups of --ranks-per-shot ranks
     /// firing concurrently; every shot's record is kept the moment it ends (OUT/shots/), so a
@@ -622,7 +648,35 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Fabric { case, out, method } => {
+        Command::Fabric {
+            case,
+            out,
+            method,
+            share: Some((rank, ranks)),
+        } => {
+            let case = match load(case.as_ref()) {
+                Ok(case) => case,
+                Err((code, message)) => return fail(code, message),
+            };
+            match dea_mpi::fabric::fabric_share(&case, method_of(method), Rank(rank), ranks, &out) {
+                Ok(r) => {
+                    let me = &r.partition.ranks[rank as usize];
+                    println!(
+                        "{}: {} nodes ({} fine, {} ties); rank {} of {} owns {} (predicted ghosts {}, halo {} bytes/step); partitioned in {:.1} s (imbalance {:.3}); built its nodes and {} contact entries in {:.1} s, {:.0} bytes per node, peak resident set {:.2} GB; results in {}",
+                        r.case, r.panel_nodes, r.fine_nodes, r.ties, r.rank, r.ranks, r.owned_nodes, me.ghost_nodes, me.halo_bytes_per_step, r.partition_s, r.partition.load_imbalance,
+                        r.contact_entries, r.build_s, r.bytes_per_node, 1e-9 * r.peak_resident_bytes, out.display()
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(setup_exit(&e), e),
+            }
+        }
+        Command::Fabric {
+            case,
+            out,
+            method,
+            share: None,
+        } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),

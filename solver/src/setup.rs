@@ -791,7 +791,7 @@ pub fn assemble<C: Comm>(
 
 /// This rank's nodes of `problem` as generated (`adjust` applied), in a domain without
 /// ghosts; rank 0 owns the projectile.
-fn own_domain(
+pub(crate) fn own_domain(
     problem: &Problem,
     partition: &Partition,
     me: Rank,

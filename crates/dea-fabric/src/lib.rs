@@ -7,6 +7,7 @@ pub mod cell;
 pub mod panel;
 pub mod relax;
 pub mod tiled;
+pub mod transition;
 pub mod weave;
 pub mod weave3d;
 
