@@ -510,6 +510,34 @@ mod tests {
     }
 
     #[test]
+    fn work_beyond_metis_index_range_still_balances() {
+        // the same panel with every segment's work and ghosts 1e9 times larger: summed, far
+        // beyond a 32-bit index (a 2e8-node panel's real work reached 3e10)
+        let (fabric, material, reach) = panel(4, 3, 7, 4e-3);
+        let mut graph = segment_graph(
+            &fabric,
+            &material,
+            reach,
+            None,
+            default_segment_positions(&fabric, 4),
+        );
+        let unscaled = quality(&graph, &partition(&graph, 4, Method::KWay).unwrap()).load_imbalance;
+        for segment in &mut graph.segments {
+            segment.work *= 1e9;
+        }
+        for edge in graph.adjacency.iter_mut().flatten() {
+            edge.ghosts_needed *= 1e9;
+        }
+        assert!(graph.segments.iter().map(|s| s.work).sum::<f64>() > 10.0 * i32::MAX as f64);
+        let report = quality(&graph, &partition(&graph, 4, Method::KWay).unwrap());
+        assert!(
+            report.load_imbalance < 1.05 && (report.load_imbalance - unscaled).abs() < 0.02,
+            "imbalance {} (unscaled {unscaled})",
+            report.load_imbalance
+        );
+    }
+
+    #[test]
     fn every_node_owned_once_and_a_four_layer_panel_balanced_on_four_ranks() {
         let (fabric, material, reach) = panel(4, 3, 7, 4e-3);
         let shot = ShotLine {
