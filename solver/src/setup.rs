@@ -365,6 +365,8 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         TargetSpec::ThreeDWovenPanel {
             side_m,
             layers,
+            layer_gap_m,
+            layer_shift_m,
             boundary,
             ..
         } => {
@@ -375,6 +377,8 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                 Arc::new(cell),
                 tiles,
                 *layers as u32,
+                *layer_gap_m,
+                *layer_shift_m,
                 boundary.boundary(),
                 deterministic,
             ))

@@ -410,6 +410,8 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
         std::sync::Arc::new(cell),
         [4, 3],
         2,
+        0.0,
+        [0.0, 0.0],
         Boundary::FixedEdges,
         3.8e9,
     );

@@ -20,8 +20,11 @@ pub struct TiledPanel {
     /// cells along x and y
     pub tiles: [u32; 2],
     pub layers: u32,
-    /// vertical distance between the node centres of neighbouring layers: the layers touch
-    /// ([`touching_pitch`] with no shift) [m]
+    /// in-plane shift of each layer relative to the one above (x, y) [m]
+    pub layer_shift: [f64; 2],
+    /// vertical distance between the node centres of neighbouring layers: the smallest at
+    /// which no node of one is closer than a contact diameter plus the gap to a node of the
+    /// next ([`touching_pitch`] with the shift) [m]
     pub layer_pitch: f64,
     pub boundary: Boundary,
     /// tensile strength given to every element before any Weibull sampling [Pa]
@@ -44,10 +47,14 @@ struct Place {
 }
 
 impl TiledPanel {
+    /// A panel of `layers` layers of `tiles` cells, neighbouring layers `gap` apart (0 =
+    /// touching), each shifted by `shift` from the one above.
     pub fn new(
         cell: Arc<PeriodicCell>,
         tiles: [u32; 2],
         layers: u32,
+        gap: f64,
+        shift: [f64; 2],
         boundary: Boundary,
         tensile_strength: f64,
     ) -> Self {
@@ -57,11 +64,12 @@ impl TiledPanel {
                 .collect::<Vec<_>>()
         };
         let cell_yarns = [along(YarnDirection::Warp), along(YarnDirection::Weft)];
-        let layer_pitch = touching_pitch(&cell, [0.0, 0.0], 0.0);
+        let layer_pitch = touching_pitch(&cell, shift, gap);
         let mut panel = Self {
             cell,
             tiles,
             layers,
+            layer_shift: shift,
             layer_pitch,
             boundary,
             tensile_strength,
@@ -159,10 +167,11 @@ impl TiledPanel {
         let mut p =
             self.cell.position(cell_fibre, k % n) + self.cell.closure(cell_fibre) * (k / n) as f64;
         p[1 - place.axis] += place.tile as f64 * self.cell.period[1 - place.axis];
+        let layer = place.layer as f64;
         p + Vec3::new(
-            -0.5 * size[0],
-            -0.5 * size[1],
-            -(place.layer as f64) * self.layer_pitch,
+            layer * self.layer_shift[0] - 0.5 * size[0],
+            layer * self.layer_shift[1] - 0.5 * size[1],
+            -layer * self.layer_pitch,
         )
     }
 
@@ -282,6 +291,8 @@ mod tests {
             Arc::new(cell.clone()),
             [3, 2],
             2,
+            0.0,
+            [0.0, 0.0],
             Boundary::FixedEdges,
             3.8e9,
         );
@@ -336,5 +347,44 @@ mod tests {
         // fixed edges hold the two ends of every fibre, and nothing else
         let held = built.nodes.clamped.iter().filter(|&&c| c).count();
         assert_eq!(held, 2 * *panel.first_fibres().last().unwrap() as usize);
+    }
+
+    #[test]
+    fn shifted_layers_with_a_gap_keep_it_and_move_by_the_shift() {
+        let (cell, material) = relaxed_orthogonal();
+        let (gap, shift) = (20e-6, [0.3e-3, -0.2e-3]);
+        let panel = TiledPanel::new(
+            Arc::new(cell),
+            [2, 2],
+            2,
+            gap,
+            shift,
+            Boundary::FixedEdges,
+            3.8e9,
+        );
+        let built = panel.build(&material, |_, _| true);
+        let nodes = &built.nodes;
+        let d = built.sections[0].contact_diameter;
+        let per_layer = *panel.first_fibres().get(panel.yarns_per_layer()).unwrap();
+        let layer_of = |i: usize| usize::from(nodes.fibre[i].0 >= per_layer);
+        let mut closest = f64::INFINITY;
+        for i in (0..nodes.len()).filter(|&i| layer_of(i) == 0) {
+            for j in (0..nodes.len()).filter(|&j| layer_of(j) == 1) {
+                closest = closest.min((nodes.position[i] - nodes.position[j]).norm());
+            }
+        }
+        // the pitch is periodic: across the finite panel's edges the layers may sit farther
+        assert!(
+            closest >= d + gap - 1e-12 && closest < d + gap + 0.05 * d,
+            "{closest} vs {}",
+            d + gap
+        );
+        let yarn = panel.yarns_per_layer();
+        let moved = panel.position(yarn, 0, 3) - panel.position(0, 0, 3);
+        assert!(
+            (moved.x - shift[0]).abs() < 1e-15
+                && (moved.y - shift[1]).abs() < 1e-15
+                && (moved.z + panel.layer_pitch).abs() < 1e-15
+        );
     }
 }

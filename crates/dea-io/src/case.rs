@@ -177,13 +177,33 @@ pub enum TargetSpec {
         relaxation: RelaxationSpec,
         /// side of the square panel, rounded to whole cells each way (at least one) [m]
         side_m: f64,
-        /// number of stacked panels, touching (1..=100)
+        /// number of stacked panels (1..=100)
         #[serde(default = "one_layer")]
         layers: usize,
+        /// gap between the contact surfaces of neighbouring panels; 0 = touching [m]
+        #[serde(default)]
+        layer_gap_m: f64,
+        /// in-plane shift of each panel relative to the one above (x, y) [m]
+        #[serde(default)]
+        layer_shift_m: [f64; 2],
         /// how the panel is held: {"kind": "fixed_edges"} or {"kind": "clamp", "opening_m": ...}
         #[serde(default = "default_boundary")]
         boundary: BoundarySpec,
     },
+}
+
+/// The stacking fields of a panel target: a gap of at least 0, a finite shift.
+fn stacking(layer_gap_m: f64, layer_shift_m: &[f64; 2]) -> Result<(), CaseError> {
+    non_negative("target.layer_gap_m", layer_gap_m)?;
+    for (axis, v) in ["x", "y"].iter().zip(layer_shift_m) {
+        if !v.is_finite() {
+            return Err(invalid(
+                &format!("target.layer_shift_m.{axis}"),
+                format!("must be finite, got {v}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn one_layer() -> usize {
@@ -1244,15 +1264,7 @@ impl Case {
                         format!("must be in 1..=100, got {layers}"),
                     ));
                 }
-                non_negative("target.layer_gap_m", *layer_gap_m)?;
-                for (axis, v) in ["x", "y"].iter().zip(layer_shift_m) {
-                    if !v.is_finite() {
-                        return Err(invalid(
-                            &format!("target.layer_shift_m.{axis}"),
-                            format!("must be finite, got {v}"),
-                        ));
-                    }
-                }
+                stacking(*layer_gap_m, layer_shift_m)?;
                 if let BoundarySpec::Clamp { opening_m } = boundary {
                     positive("target.boundary.opening_m", *opening_m)?;
                     if *opening_m >= *side_m {
@@ -1271,6 +1283,8 @@ impl Case {
                 relaxation,
                 side_m,
                 layers,
+                layer_gap_m,
+                layer_shift_m,
                 boundary,
             } => {
                 match (weave, cell_file) {
@@ -1293,6 +1307,7 @@ impl Case {
                 }
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
+                stacking(*layer_gap_m, layer_shift_m)?;
                 if *layers < 1 || *layers > 100 {
                     return Err(invalid(
                         "target.layers",
@@ -1710,6 +1725,8 @@ mod tests {
         assert_eq!(e.path, "target.side_m");
         let e = panel(&|v| v["target"]["layers"] = 0.into());
         assert_eq!(e.path, "target.layers");
+        let e = panel(&|v| v["target"]["layer_gap_m"] = (-1e-6).into());
+        assert_eq!(e.path, "target.layer_gap_m");
         let e = panel(&|v| {
             v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 7e-3 })
         });
