@@ -92,20 +92,13 @@ pub struct SegmentGraph {
 /// Positions per segment: 64, or fewer (down to 4) so that each rank has at least 32
 /// segments to balance with.
 pub fn default_segment_positions(fabric: &Fabric, ranks: usize) -> u32 {
-    let positions: u64 = (0..fabric.yarn_count())
-        .map(|y| fabric.nodes_per_fibre(y) as u64)
-        .sum();
+    let positions: u64 = (0..fabric.yarn_count()).map(|y| fabric.nodes_per_fibre(y) as u64).sum();
     (positions / (32 * ranks.max(1) as u64)).clamp(4, 64) as u32
 }
 
 /// Expected contact-list entries per node inside a yarn, as if it were straight: for every
 /// pair of fibres closer than `reach`, the nodes of the other fibre within reach of a node.
-fn in_yarn_entries_per_node(
-    fabric: &Fabric,
-    yarn: usize,
-    material: &FibreMaterial,
-    reach: f64,
-) -> f64 {
+fn in_yarn_entries_per_node(fabric: &Fabric, yarn: usize, material: &FibreMaterial, reach: f64) -> f64 {
     let section = &fabric.sections(material)[fabric.yarn_section(yarn)];
     let centres = fabric.section_packing(yarn, material);
     let fibres = centres.len();
@@ -114,8 +107,7 @@ fn in_yarn_entries_per_node(
         for (b, q) in centres.iter().enumerate() {
             let d = (p[0] - q[0]).hypot(p[1] - q[1]);
             if a != b && d < reach {
-                entries +=
-                    (2.0 * (reach * reach - d * d).sqrt() / section.element_length).floor() + 1.0;
+                entries += (2.0 * (reach * reach - d * d).sqrt() / section.element_length).floor() + 1.0;
             }
         }
     }
@@ -124,20 +116,12 @@ fn in_yarn_entries_per_node(
 
 /// Volume of the intersection of two boxes [m^3].
 fn overlap_volume(low_a: &Vec3, high_a: &Vec3, low_b: &Vec3, high_b: &Vec3) -> f64 {
-    (0..3)
-        .map(|k| (high_a[k].min(high_b[k]) - low_a[k].max(low_b[k])).max(0.0))
-        .product()
+    (0..3).map(|k| (high_a[k].min(high_b[k]) - low_a[k].max(low_b[k])).max(0.0)).product()
 }
 
 /// Builds the segment graph. `reach` is the contact search distance (largest contact
 /// diameter plus the Verlet skin) [m].
-pub fn segment_graph(
-    fabric: &Fabric,
-    material: &FibreMaterial,
-    reach: f64,
-    shot: Option<ShotLine>,
-    segment_positions: u32,
-) -> SegmentGraph {
+pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot: Option<ShotLine>, segment_positions: u32) -> SegmentGraph {
     let segment_positions = segment_positions.max(1);
     let sections = fabric.sections(material);
     let mut segments = Vec::new();
@@ -157,23 +141,11 @@ pub fn segment_graph(
             if let Some(shot) = shot {
                 // share of the segment's plan area inside the square around the shot line
                 let r = shot.radius;
-                let (shot_low, shot_high) = (
-                    Vec3::new(shot.x - r, shot.y - r, low.z),
-                    Vec3::new(shot.x + r, shot.y + r, high.z),
-                );
-                let share = overlap_volume(&low, &high, &shot_low, &shot_high)
-                    / overlap_volume(&low, &high, &low, &high);
+                let (shot_low, shot_high) = (Vec3::new(shot.x - r, shot.y - r, low.z), Vec3::new(shot.x + r, shot.y + r, high.z));
+                let share = overlap_volume(&low, &high, &shot_low, &shot_high) / overlap_volume(&low, &high, &low, &high);
                 work += share * nodes as f64 * PROJECTILE_CANDIDATE_WORK;
             }
-            segments.push(Segment {
-                yarn: y as u32,
-                first,
-                last,
-                nodes,
-                work,
-                low,
-                high,
-            });
+            segments.push(Segment { yarn: y as u32, first, last, nodes, work, low, high });
             first = last + 1;
         }
         first_segment.push(segments.len() as u32);
@@ -181,30 +153,16 @@ pub fn segment_graph(
     let mut adjacency: Vec<Vec<Adjacency>> = vec![Vec::new(); segments.len()];
     // consecutive segments of a yarn: the chain stencil and the in-yarn contacts across the cut
     for y in 0..fabric.yarn_count() {
-        let along_ghosts = CHAIN_STENCIL
-            .max((reach / sections[fabric.yarn_section(y)].element_length).ceil() as u32)
-            as f64;
+        let along_ghosts = CHAIN_STENCIL.max((reach / sections[fabric.yarn_section(y)].element_length).ceil() as u32) as f64;
         for s in first_segment[y]..first_segment[y + 1] - 1 {
             let ghosts = along_ghosts * fabric.yarn_fibres(y) as f64;
-            adjacency[s as usize].push(Adjacency {
-                segment: s + 1,
-                ghosts_needed: ghosts,
-            });
-            adjacency[s as usize + 1].push(Adjacency {
-                segment: s,
-                ghosts_needed: ghosts,
-            });
+            adjacency[s as usize].push(Adjacency { segment: s + 1, ghosts_needed: ghosts });
+            adjacency[s as usize + 1].push(Adjacency { segment: s, ghosts_needed: ghosts });
         }
     }
     // segments of different yarns within reach: sweep along x, nodes spread evenly in a box
     let mut order: Vec<usize> = (0..segments.len()).collect();
-    order.sort_by(|&a, &b| {
-        segments[a]
-            .low
-            .x
-            .total_cmp(&segments[b].low.x)
-            .then(a.cmp(&b))
-    });
+    order.sort_by(|&a, &b| segments[a].low.x.total_cmp(&segments[b].low.x).then(a.cmp(&b)));
     for (position, &a) in order.iter().enumerate() {
         let sa = &segments[a];
         let (grown_low, grown_high) = (sa.low.add_scalar(-reach), sa.high.add_scalar(reach));
@@ -213,51 +171,25 @@ pub fn segment_graph(
             if sb.low.x > grown_high.x {
                 break;
             }
-            if sa.yarn == sb.yarn
-                || overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) == 0.0
-            {
+            if sa.yarn == sb.yarn || overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) == 0.0 {
                 continue;
             }
-            let b_near_a = sb.nodes as f64
-                * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high)
-                / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
+            let b_near_a = sb.nodes as f64 * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
             let (b_low, b_high) = (sb.low.add_scalar(-reach), sb.high.add_scalar(reach));
-            let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high)
-                / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
-            adjacency[a].push(Adjacency {
-                segment: b as u32,
-                ghosts_needed: b_near_a,
-            });
-            adjacency[b].push(Adjacency {
-                segment: a as u32,
-                ghosts_needed: a_near_b,
-            });
+            let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high) / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
+            adjacency[a].push(Adjacency { segment: b as u32, ghosts_needed: b_near_a });
+            adjacency[b].push(Adjacency { segment: a as u32, ghosts_needed: a_near_b });
         }
     }
     // a contact across yarns costs about one list entry per nearby node on each side
-    let extra: Vec<f64> = adjacency
-        .iter()
-        .enumerate()
-        .map(|(s, list)| {
-            list.iter()
-                .filter(|e| segments[e.segment as usize].yarn != segments[s].yarn)
-                .map(|e| e.ghosts_needed)
-                .sum()
-        })
-        .collect();
+    let extra: Vec<f64> = adjacency.iter().enumerate().map(|(s, list)| list.iter().filter(|e| segments[e.segment as usize].yarn != segments[s].yarn).map(|e| e.ghosts_needed).sum()).collect();
     for (segment, extra) in segments.iter_mut().zip(extra) {
         segment.work += extra;
     }
     for list in &mut adjacency {
         list.sort_by_key(|e| e.segment);
     }
-    SegmentGraph {
-        segments,
-        adjacency,
-        segment_positions,
-        first_segment,
-        first_fibre: fabric.first_fibres(),
-    }
+    SegmentGraph { segments, adjacency, segment_positions, first_segment, first_fibre: fabric.first_fibres() }
 }
 
 /// A partition: the rank of every yarn segment, and through it of every node.
@@ -291,13 +223,7 @@ impl Partition {
 
     /// The partition as plain integers, for a broadcast.
     pub fn to_words(&self) -> Vec<u64> {
-        let mut words = vec![
-            self.ranks as u64,
-            self.edge_cut as u64,
-            self.segment_positions as u64,
-            self.first_segment.len() as u64,
-            self.first_fibre.len() as u64,
-        ];
+        let mut words = vec![self.ranks as u64, self.edge_cut as u64, self.segment_positions as u64, self.first_segment.len() as u64, self.first_fibre.len() as u64];
         words.extend(self.first_segment.iter().map(|&s| s as u64));
         words.extend(self.first_fibre.iter().map(|&f| f as u64));
         words.extend(self.rank_of_segment.iter().map(|r| r.0 as u64));
@@ -306,27 +232,13 @@ impl Partition {
 
     /// Inverse of [`Self::to_words`].
     pub fn from_words(words: &[u64]) -> Self {
-        let (ranks, edge_cut, segment_positions) =
-            (words[0] as usize, words[1] as i64, words[2] as u32);
+        let (ranks, edge_cut, segment_positions) = (words[0] as usize, words[1] as i64, words[2] as u32);
         let (n_first_segment, n_first_fibre) = (words[3] as usize, words[4] as usize);
         let rest = &words[5..];
         let first_segment = rest[..n_first_segment].iter().map(|&s| s as u32).collect();
-        let first_fibre = rest[n_first_segment..n_first_segment + n_first_fibre]
-            .iter()
-            .map(|&f| f as u32)
-            .collect();
-        let rank_of_segment = rest[n_first_segment + n_first_fibre..]
-            .iter()
-            .map(|&r| Rank(r as u32))
-            .collect();
-        Self {
-            rank_of_segment,
-            ranks,
-            edge_cut,
-            segment_positions,
-            first_segment,
-            first_fibre,
-        }
+        let first_fibre = rest[n_first_segment..n_first_segment + n_first_fibre].iter().map(|&f| f as u32).collect();
+        let rank_of_segment = rest[n_first_segment + n_first_fibre..].iter().map(|&r| Rank(r as u32)).collect();
+        Self { rank_of_segment, ranks, edge_cut, segment_positions, first_segment, first_fibre }
     }
 }
 
@@ -335,11 +247,7 @@ impl Partition {
 const WEIGHT_BUDGET: f64 = 5e8;
 
 /// Partitions the segment graph over `ranks` ranks.
-pub fn partition(
-    graph: &SegmentGraph,
-    ranks: usize,
-    method: Method,
-) -> Result<Partition, PartitionError> {
+pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<Partition, PartitionError> {
     let n = graph.segments.len();
     let make = |rank_of_segment: Vec<Rank>, edge_cut| Partition {
         rank_of_segment,
@@ -365,54 +273,34 @@ pub fn partition(
         }
     };
     let vertex_scale = fit(graph.segments.iter().map(|s| s.work).sum());
-    let edge_scale = fit(graph
-        .adjacency
-        .iter()
-        .flatten()
-        .map(|e| 2.0 * e.ghosts_needed)
-        .sum());
+    let edge_scale = fit(graph.adjacency.iter().flatten().map(|e| 2.0 * e.ghosts_needed).sum());
     let mut xadj: Vec<metis::Idx> = vec![0];
     let mut adjncy: Vec<metis::Idx> = Vec::new();
     let mut adjwgt: Vec<metis::Idx> = Vec::new();
     for (s, list) in graph.adjacency.iter().enumerate() {
         for edge in list {
             // METIS wants symmetric weights: the ghosts the cut creates on both sides
-            let back = graph.adjacency[edge.segment as usize]
-                .iter()
-                .find(|e| e.segment == s as u32)
-                .map_or(0.0, |e| e.ghosts_needed);
+            let back = graph.adjacency[edge.segment as usize].iter().find(|e| e.segment == s as u32).map_or(0.0, |e| e.ghosts_needed);
             adjncy.push(edge.segment as metis::Idx);
             adjwgt.push((((edge.ghosts_needed + back) * edge_scale).round() as metis::Idx).max(1));
         }
         xadj.push(adjncy.len() as metis::Idx);
     }
-    let vwgt: Vec<metis::Idx> = graph
-        .segments
-        .iter()
-        .map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1))
-        .collect();
+    let vwgt: Vec<metis::Idx> = graph.segments.iter().map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1)).collect();
     let mut part: Vec<metis::Idx> = vec![0; n];
-    let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy)
-        .map_err(|e| PartitionError::Metis(e.into()))?
-        .set_vwgt(&vwgt)
-        .set_adjwgt(&adjwgt);
+    let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy).map_err(|e| PartitionError::Metis(e.into()))?.set_vwgt(&vwgt).set_adjwgt(&adjwgt);
     // METIS draws from GKlib's one global random state, seeded per call: two partitions at
     // once in one process (threads of the test suite) would interleave their draws and give
     // different answers for the same graph
     let edge_cut = {
-        let _only_one = METIS_STATE
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let _only_one = METIS_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         match method {
             Method::KWay => graph.part_kway(&mut part),
             Method::RecursiveBisection => graph.part_recursive(&mut part),
         }
     }
     .map_err(PartitionError::Metis)?;
-    Ok(make(
-        part.iter().map(|&p| Rank(p as u32)).collect(),
-        edge_cut as i64,
-    ))
+    Ok(make(part.iter().map(|&p| Rank(p as u32)).collect(), edge_cut as i64))
 }
 
 /// Predicted cost of one rank's part.
@@ -443,15 +331,7 @@ pub struct QualityReport {
 
 /// What a partition will cost.
 pub fn quality(graph: &SegmentGraph, partition: &Partition) -> QualityReport {
-    let mut ranks: Vec<RankReport> = (0..partition.ranks as u32)
-        .map(|rank| RankReport {
-            rank,
-            owned_nodes: 0,
-            ghost_nodes: 0,
-            work: 0.0,
-            halo_bytes_per_step: 0,
-        })
-        .collect();
+    let mut ranks: Vec<RankReport> = (0..partition.ranks as u32).map(|rank| RankReport { rank, owned_nodes: 0, ghost_nodes: 0, work: 0.0, halo_bytes_per_step: 0 }).collect();
     let mut ghosts = vec![0.0; partition.ranks];
     for (s, segment) in graph.segments.iter().enumerate() {
         let r = partition.rank_of_segment[s].0 as usize;
@@ -486,25 +366,9 @@ mod tests {
     use super::*;
     use dea_core::material::InertiaModel;
 
-    fn panel(
-        layers: usize,
-        yarns: usize,
-        fibres: usize,
-        length: f64,
-    ) -> (Fabric, FibreMaterial, f64) {
+    fn panel(layers: usize, yarns: usize, fibres: usize, length: f64) -> (Fabric, FibreMaterial, f64) {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = dea_fabric::StraightFabric::cross_ply(
-            layers,
-            yarns,
-            fibres,
-            length,
-            4.63e-8 / fibres as f64,
-            0.5,
-            InertiaModel::Locked,
-            0.3,
-            3.8e9,
-            &material,
-        );
+        let fabric = dea_fabric::StraightFabric::cross_ply(layers, yarns, fibres, length, 4.63e-8 / fibres as f64, 0.5, InertiaModel::Locked, 0.3, 3.8e9, &material);
         let reach = 1.25 * fabric.section(&material).contact_diameter;
         (Fabric::Straight(fabric), material, reach)
     }
@@ -514,13 +378,7 @@ mod tests {
         // the same panel with every segment's work and ghosts 1e9 times larger: summed, far
         // beyond a 32-bit index (a 2e8-node panel's real work reached 3e10)
         let (fabric, material, reach) = panel(4, 3, 7, 4e-3);
-        let mut graph = segment_graph(
-            &fabric,
-            &material,
-            reach,
-            None,
-            default_segment_positions(&fabric, 4),
-        );
+        let mut graph = segment_graph(&fabric, &material, reach, None, default_segment_positions(&fabric, 4));
         let unscaled = quality(&graph, &partition(&graph, 4, Method::KWay).unwrap()).load_imbalance;
         for segment in &mut graph.segments {
             segment.work *= 1e9;
@@ -530,69 +388,31 @@ mod tests {
         }
         assert!(graph.segments.iter().map(|s| s.work).sum::<f64>() > 10.0 * i32::MAX as f64);
         let report = quality(&graph, &partition(&graph, 4, Method::KWay).unwrap());
-        assert!(
-            report.load_imbalance < 1.05 && (report.load_imbalance - unscaled).abs() < 0.02,
-            "imbalance {} (unscaled {unscaled})",
-            report.load_imbalance
-        );
+        assert!(report.load_imbalance < 1.05 && (report.load_imbalance - unscaled).abs() < 0.02, "imbalance {} (unscaled {unscaled})", report.load_imbalance);
     }
 
     #[test]
     fn every_node_owned_once_and_a_four_layer_panel_balanced_on_four_ranks() {
         let (fabric, material, reach) = panel(4, 3, 7, 4e-3);
-        let shot = ShotLine {
-            x: 0.0,
-            y: 0.0,
-            radius: 1e-3,
-        };
-        let graph = segment_graph(
-            &fabric,
-            &material,
-            reach,
-            Some(shot),
-            default_segment_positions(&fabric, 4),
-        );
+        let shot = ShotLine { x: 0.0, y: 0.0, radius: 1e-3 };
+        let graph = segment_graph(&fabric, &material, reach, Some(shot), default_segment_positions(&fabric, 4));
         let whole = fabric.build_all(&material);
         for ranks in [1, 2, 3, 4] {
             let partition = partition(&graph, ranks, Method::KWay).unwrap();
             let report = quality(&graph, &partition);
             let mut owned = vec![0u64; ranks];
             for i in 0..whole.nodes.len() {
-                owned[partition
-                    .rank_of(whole.nodes.fibre[i], whole.nodes.along[i])
-                    .0 as usize] += 1;
+                owned[partition.rank_of(whole.nodes.fibre[i], whole.nodes.along[i]).0 as usize] += 1;
             }
             // counting node by node agrees with the segment sums: one owner per node
-            assert_eq!(
-                owned,
-                report
-                    .ranks
-                    .iter()
-                    .map(|r| r.owned_nodes)
-                    .collect::<Vec<_>>()
-            );
+            assert_eq!(owned, report.ranks.iter().map(|r| r.owned_nodes).collect::<Vec<_>>());
             assert_eq!(owned.iter().sum::<u64>(), whole.nodes.len() as u64);
-            assert!(
-                owned.iter().all(|&n| n > 0),
-                "{ranks}: every rank owns nodes"
-            );
-            assert!(
-                report.load_imbalance < 1.05,
-                "{ranks} ranks: imbalance {}",
-                report.load_imbalance
-            );
+            assert!(owned.iter().all(|&n| n > 0), "{ranks}: every rank owns nodes");
+            assert!(report.load_imbalance < 1.05, "{ranks} ranks: imbalance {}", report.load_imbalance);
             if ranks > 1 {
-                assert!(
-                    report.ghost_fraction > 0.0
-                        && report.halo_bytes_per_step > 0
-                        && report.edge_cut > 0
-                );
+                assert!(report.ghost_fraction > 0.0 && report.halo_bytes_per_step > 0 && report.edge_cut > 0);
             }
-            assert_eq!(
-                partition,
-                super::partition(&graph, ranks, Method::KWay).unwrap(),
-                "same input, same partition"
-            );
+            assert_eq!(partition, super::partition(&graph, ranks, Method::KWay).unwrap(), "same input, same partition");
             assert_eq!(Partition::from_words(&partition.to_words()), partition);
         }
     }
@@ -601,43 +421,18 @@ mod tests {
     fn the_graph_joins_crossing_yarns_and_weights_the_shot_line() {
         let (fabric, material, reach) = panel(2, 2, 7, 3e-3);
         let plain = segment_graph(&fabric, &material, reach, None, 16);
-        let shot = segment_graph(
-            &fabric,
-            &material,
-            reach,
-            Some(ShotLine {
-                x: 0.0,
-                y: 0.0,
-                radius: 5e-4,
-            }),
-            16,
-        );
+        let shot = segment_graph(&fabric, &material, reach, Some(ShotLine { x: 0.0, y: 0.0, radius: 5e-4 }), 16);
         // a yarn of layer 0 crosses both yarns of layer 1 and touches its neighbour in layer 0
-        let yarn0: Vec<usize> =
-            (plain.first_segment[0] as usize..plain.first_segment[1] as usize).collect();
-        let partners: std::collections::BTreeSet<u32> = yarn0
-            .iter()
-            .flat_map(|&s| {
-                plain.adjacency[s]
-                    .iter()
-                    .map(|e| plain.segments[e.segment as usize].yarn)
-            })
-            .collect();
+        let yarn0: Vec<usize> = (plain.first_segment[0] as usize..plain.first_segment[1] as usize).collect();
+        let partners: std::collections::BTreeSet<u32> = yarn0.iter().flat_map(|&s| plain.adjacency[s].iter().map(|e| plain.segments[e.segment as usize].yarn)).collect();
         assert_eq!(partners, [0, 1, 2, 3].into_iter().collect());
         // segments under the shot line carry extra work, the others none
-        let heavier = plain
-            .segments
-            .iter()
-            .zip(&shot.segments)
-            .filter(|(p, s)| s.work > p.work)
-            .count();
+        let heavier = plain.segments.iter().zip(&shot.segments).filter(|(p, s)| s.work > p.work).count();
         assert!(heavier > 0 && heavier < plain.segments.len());
         // edges are symmetric
         for (s, list) in plain.adjacency.iter().enumerate() {
             for e in list {
-                assert!(plain.adjacency[e.segment as usize]
-                    .iter()
-                    .any(|b| b.segment == s as u32));
+                assert!(plain.adjacency[e.segment as usize].iter().any(|b| b.segment == s as u32));
             }
         }
     }
@@ -647,9 +442,6 @@ mod tests {
         let (fabric, material, reach) = panel(1, 1, 1, 1e-2);
         let graph = segment_graph(&fabric, &material, reach, None, 8);
         assert!(partition(&graph, 3, Method::RecursiveBisection).is_ok());
-        assert!(matches!(
-            partition(&graph, 64, Method::KWay),
-            Err(PartitionError::TooFewSegments { .. })
-        ));
+        assert!(matches!(partition(&graph, 64, Method::KWay), Err(PartitionError::TooFewSegments { .. })));
     }
 }

@@ -6,9 +6,7 @@ use std::time::Instant;
 use dea_core::projectile::{MeshShape, RigidShape};
 use dea_core::Rank;
 use dea_core::Vec3;
-use dea_io::case::{
-    default_case, Case, ProjectileSpec, TargetSpec, DEFAULT_FSP_DIVISIONS, KM2_600_DENIER_AREA,
-};
+use dea_io::case::{default_case, Case, ProjectileSpec, TargetSpec, DEFAULT_FSP_DIVISIONS, KM2_600_DENIER_AREA};
 use dea_partition::Method;
 use dea_projectile::generate::{FspDimensions, Solid};
 use serde::Serialize;
@@ -69,18 +67,9 @@ pub fn bench_case(min_nodes: usize) -> Case {
     let fibres = 19;
     let diameter = (4.0 * KM2_600_DENIER_AREA / fibres as f64 / std::f64::consts::PI).sqrt();
     case.name = "bench-19-fibre-yarn".into();
-    case.target = TargetSpec::StraightYarn {
-        yarn: "km2_600_denier".into(),
-        fibres_per_yarn: fibres,
-        length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter,
-        element_length_ratio: 0.5,
-    };
+    case.target = TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: fibres, length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter, element_length_ratio: 0.5 };
     case.failure.mode = "none".into();
-    case.projectile = ProjectileSpec {
-        preset: Some("table_4_2_sphere".into()),
-        velocity_m_s: 50.0,
-        ..Default::default()
-    };
+    case.projectile = ProjectileSpec { preset: Some("table_4_2_sphere".into()), velocity_m_s: 50.0, ..Default::default() };
     case
 }
 
@@ -89,39 +78,22 @@ pub fn bench_case(min_nodes: usize) -> Case {
 /// Query points lie within the contact reach of the surface (where candidates are).
 fn surface_query_costs(contact_diameter: f64, skin: f64) -> (f64, f64, usize) {
     use rand::{Rng, SeedableRng};
-    let (vertices, triangles) = Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN)
-        .mesh(DEFAULT_FSP_DIVISIONS)
-        .boundary();
+    let (vertices, triangles) = Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN).mesh(DEFAULT_FSP_DIVISIONS).boundary();
     let reach = 0.5 * contact_diameter + skin;
-    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, 1.3 * contact_diameter)
-        .expect("the FSP mesh is closed");
+    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, 1.3 * contact_diameter).expect("the FSP mesh is closed");
     let count = mesh.surface.triangles.len();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     let points: Vec<Vec3> = (0..200_000)
         .map(|_| {
             let v = mesh.surface.vertices[rng.random_range(0..mesh.surface.vertices.len())];
-            v + Vec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            ) * reach
+            v + Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * reach
         })
         .collect();
     let radius = 0.5 * FspDimensions::SEVENTEEN_GRAIN.diameter;
-    let shapes = [
-        RigidShape::Mesh(std::sync::Arc::new(mesh)),
-        RigidShape::Cylinder {
-            radius,
-            height: FspDimensions::SEVENTEEN_GRAIN.length,
-            edge_radius: 150e-6,
-        },
-    ];
+    let shapes = [RigidShape::Mesh(std::sync::Arc::new(mesh)), RigidShape::Cylinder { radius, height: FspDimensions::SEVENTEEN_GRAIN.length, edge_radius: 150e-6 }];
     let costs = shapes.map(|shape| {
         let clock = Instant::now();
-        let found: f64 = points
-            .iter()
-            .map(|p| shape.distance_and_normal(p).0.min(1.0))
-            .sum();
+        let found: f64 = points.iter().map(|p| shape.distance_and_normal(p).0.min(1.0)).sum();
         std::hint::black_box(found);
         clock.elapsed().as_secs_f64() * 1e9 / points.len() as f64
     });
@@ -129,11 +101,7 @@ fn surface_query_costs(contact_diameter: f64, skin: f64) -> (f64, f64, usize) {
 }
 
 /// Runs the benchmark on every rank; rank 0 returns the report.
-pub fn bench<C: Comm>(
-    comm: C,
-    min_nodes: usize,
-    steps: u64,
-) -> Result<Option<BenchReport>, SetupError> {
+pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<BenchReport>, SetupError> {
     let case = bench_case(min_nodes);
     // squeezed to 97% of the packing pitch: every neighbour pair is in contact
     let mut run = build_adjusted(&case, comm, Method::KWay, None, |nodes| {
@@ -144,9 +112,7 @@ pub fn bench<C: Comm>(
     })?;
     let sum = |run: &crate::distributed::Distributed<C>, values: &[f64]| -> Vec<f64> {
         let all = run.comm.gather_f64(values);
-        let summed: Vec<f64> = (0..values.len())
-            .map(|k| all.as_ref().map_or(0.0, |a| a.iter().map(|v| v[k]).sum()))
-            .collect();
+        let summed: Vec<f64> = (0..values.len()).map(|k| all.as_ref().map_or(0.0, |a| a.iter().map(|v| v[k]).sum())).collect();
         summed
     };
     let owned = run.domain.nodes.n_owned as f64;
@@ -166,8 +132,7 @@ pub fn bench<C: Comm>(
     let static_seconds = run.domain.times.fibre_contacts;
     run.domain.times = Default::default();
     run.times = Default::default();
-    let (halo_bytes_before, halo_steps_before, rebuilds_before) =
-        (run.halo_bytes, run.halo_steps, run.rebuilds);
+    let (halo_bytes_before, halo_steps_before, rebuilds_before) = (run.halo_bytes, run.halo_steps, run.rebuilds);
     let (mut touching, mut listed, mut sampled) = (0usize, 0usize, 0usize);
     let mut wall = [0.0];
     run.any(false); // line the ranks up before the clock starts
@@ -185,17 +150,12 @@ pub fn bench<C: Comm>(
     let wall = wall[0];
     let t = run.domain.times;
     let c = run.times;
-    let compute =
-        t.integrate + t.rebuild + t.rods + t.fibre_contacts + t.projectile_contacts + t.failure;
+    let compute = t.integrate + t.rebuild + t.rods + t.fibre_contacts + t.projectile_contacts + t.failure;
     let communication = c.halo + c.ghost_exchange + c.projectile + c.reductions;
     let mut slowest = [compute, c.halo, communication];
     run.comm.max_f64(&mut slowest);
     let halo_steps = (run.halo_steps - halo_steps_before).max(1) as f64;
-    let stages = crate::run::StageSeconds {
-        step: t,
-        comm: c,
-        output: 0.0,
-    };
+    let stages = crate::run::StageSeconds { step: t, comm: c, output: 0.0 };
     let stage_sums = sum(&run, &stages.to_array());
     let totals = sum(
         &run,
@@ -217,16 +177,13 @@ pub fn bench<C: Comm>(
     if run.comm.rank() != Rank(0) {
         return Ok(None);
     }
-    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] =
-        totals[..]
-    else {
+    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] = totals[..] else {
         unreachable!("eleven totals")
     };
     let ranks = run.comm.size();
     let node_steps = nodes * steps as f64;
     let section = &run.domain.sections[0];
-    let (mesh_query, analytic_query, mesh_triangles) =
-        surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
+    let (mesh_query, analytic_query, mesh_triangles) = surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
     Ok(Some(BenchReport {
         nodes: nodes as u64,
         steps,
@@ -247,12 +204,7 @@ pub fn bench<C: Comm>(
         halo_bytes_per_step: halo_bytes,
         ghost_fraction: ghosts / nodes,
         load_imbalance: slowest[0] / (compute_total / ranks as f64),
-        stage_seconds: crate::run::StageSeconds::from_array(
-            &stage_sums
-                .iter()
-                .map(|s| s / ranks as f64)
-                .collect::<Vec<_>>(),
-        ),
+        stage_seconds: crate::run::StageSeconds::from_array(&stage_sums.iter().map(|s| s / ranks as f64).collect::<Vec<_>>()),
         ns_per_mesh_surface_query: mesh_query,
         ns_per_analytic_surface_query: analytic_query,
         mesh_surface_triangles: mesh_triangles,

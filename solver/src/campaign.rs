@@ -64,15 +64,7 @@ pub struct ShotRecord {
 
 impl ShotRecord {
     fn shot(&self) -> Shot {
-        Shot {
-            velocity: self.velocity_m_s,
-            perforated: self.perforated,
-            residual_velocity: if self.perforated {
-                self.residual_velocity_m_s.max(0.0)
-            } else {
-                0.0
-            },
-        }
+        Shot { velocity: self.velocity_m_s, perforated: self.perforated, residual_velocity: if self.perforated { self.residual_velocity_m_s.max(0.0) } else { 0.0 } }
     }
 }
 
@@ -114,46 +106,22 @@ pub fn shot_case(case: &Case, campaign: &str, id: &str, velocity: f64, seed: u64
 
 /// Runs one shot on the group (from its checkpoint when an earlier attempt left one) and
 /// gives back the communicator and, on every rank of the group, the record.
-fn fire<C: Comm>(
-    comm: C,
-    case: &Case,
-    out: &Path,
-    id: &str,
-    (replicate, index): (usize, usize),
-    stop_signal: Option<Arc<AtomicBool>>,
-) -> Result<(C, ShotRecord), CampaignError> {
+fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index): (usize, usize), stop_signal: Option<Arc<AtomicBool>>) -> Result<(C, ShotRecord), CampaignError> {
     let directory = shots_directory(out).join(id);
     let checkpoint = directory.join("checkpoint");
-    let setup = |error| CampaignError::Setup {
-        id: id.to_string(),
-        error,
-    };
+    let setup = |error| CampaignError::Setup { id: id.to_string(), error };
     let (case, mut state, resume) = if manifest_path(&checkpoint).exists() {
         let restored = restore(&checkpoint, comm, Method::KWay).map_err(setup)?;
         let resume = Resume::from_checkpoint(&restored.global);
         (restored.case, restored.run, resume)
     } else {
-        (
-            case.clone(),
-            build(case, comm, Method::KWay, None).map_err(setup)?,
-            None,
-        )
+        (case.clone(), build(case, comm, Method::KWay, None).map_err(setup)?, None)
     };
     let json = serde_json::to_string(&case).expect("case serialises");
     let options = RunOptions::for_case(&case, &json, &directory, &state, stop_signal, resume);
-    let summary = run(&mut state, &options).map_err(|error| CampaignError::Run {
-        id: id.to_string(),
-        error,
-    })?;
+    let summary = run(&mut state, &options).map_err(|error| CampaignError::Run { id: id.to_string(), error })?;
     // the group's rank 0 has the summary; every rank needs the outcome for the next velocity
-    let outcome = state.from_rank0(summary.as_ref().map_or([0.0; 4], |s| {
-        [
-            s.perforated as u8 as f64,
-            s.residual_velocity_m_s,
-            s.steps as f64,
-            s.wall_s,
-        ]
-    }));
+    let outcome = state.from_rank0(summary.as_ref().map_or([0.0; 4], |s| [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s]));
     let record = ShotRecord {
         id: id.to_string(),
         replicate,
@@ -162,9 +130,7 @@ fn fire<C: Comm>(
         seed: case.failure.seed,
         perforated: outcome[0] == 1.0,
         residual_velocity_m_s: outcome[1],
-        stopped_by: summary
-            .as_ref()
-            .map_or_else(String::new, |s| s.stopped_by.clone()),
+        stopped_by: summary.as_ref().map_or_else(String::new, |s| s.stopped_by.clone()),
         steps: outcome[2] as u64,
         wall_s: outcome[3],
         ranks: state.comm.size(),
@@ -175,9 +141,7 @@ fn fire<C: Comm>(
         let path = record_path(out, id);
         let partial = path.with_extension("json.partial");
         let text = serde_json::to_string_pretty(&record).expect("record serialises");
-        std::fs::write(&partial, text)
-            .and_then(|()| std::fs::rename(&partial, &path))
-            .map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+        std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, &path)).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
     }
     Ok((state.comm, record))
 }
@@ -195,17 +159,8 @@ pub enum Progress {
 /// `group.index + group.count`, …; the sequences (replicates) of a sequential design
 /// likewise. A shot with a record is not fired again; at most `max_shots` are fired (a job's
 /// share of a campaign spread over several jobs).
-pub fn run_group<C: Comm>(
-    campaign: &Campaign,
-    case: &Case,
-    comm: C,
-    group: Group,
-    out: &Path,
-    max_shots: Option<usize>,
-    stop_signal: Option<Arc<AtomicBool>>,
-) -> Result<Progress, CampaignError> {
-    std::fs::create_dir_all(shots_directory(out))
-        .map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
+pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Group, out: &Path, max_shots: Option<usize>, stop_signal: Option<Arc<AtomicBool>>) -> Result<Progress, CampaignError> {
+    std::fs::create_dir_all(shots_directory(out)).map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
     let base_seed = case.failure.seed;
     let mut comm = comm;
     let mut budget = max_shots.unwrap_or(usize::MAX);
@@ -219,13 +174,7 @@ pub fn run_group<C: Comm>(
                     return Ok(Progress::Paused);
                 }
                 budget -= 1;
-                let shot = shot_case(
-                    case,
-                    &campaign.name,
-                    &id,
-                    velocity,
-                    base_seed.wrapping_add(index as u64),
-                );
+                let shot = shot_case(case, &campaign.name, &id, velocity, base_seed.wrapping_add(index as u64));
                 comm = fire(comm, &shot, out, &id, (0, index), stop_signal.clone())?.0;
             }
             index += group.count;
@@ -238,9 +187,7 @@ pub fn run_group<C: Comm>(
         while let Some(velocity) = design.next(&history, seed) {
             let index = history.len();
             let id = shot_id(replicate, index);
-            let record = match finished(out, &id)
-                .filter(|r| r.velocity_m_s.to_bits() == velocity.to_bits() && r.seed == seed)
-            {
+            let record = match finished(out, &id).filter(|r| r.velocity_m_s.to_bits() == velocity.to_bits() && r.seed == seed) {
                 Some(record) => record,
                 None => {
                     if budget == 0 {
@@ -248,14 +195,7 @@ pub fn run_group<C: Comm>(
                     }
                     budget -= 1;
                     let shot = shot_case(case, &campaign.name, &id, velocity, seed);
-                    let (back, record) = fire(
-                        comm,
-                        &shot,
-                        out,
-                        &id,
-                        (replicate, index),
-                        stop_signal.clone(),
-                    )?;
+                    let (back, record) = fire(comm, &shot, out, &id, (replicate, index), stop_signal.clone())?;
                     comm = back;
                     record
                 }
@@ -288,56 +228,31 @@ pub struct CampaignReport {
 pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, CampaignError> {
     let directory = shots_directory(out);
     let mut shots: Vec<ShotRecord> = Vec::new();
-    let entries = std::fs::read_dir(&directory)
-        .map_err(|e| CampaignError::Output(format!("{}: {e}", directory.display())))?;
+    let entries = std::fs::read_dir(&directory).map_err(|e| CampaignError::Output(format!("{}: {e}", directory.display())))?;
     for entry in entries.flatten() {
         let path = entry.path();
         if path.extension().is_some_and(|e| e == "json") {
-            let text = std::fs::read_to_string(&path)
-                .map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
-            shots.push(
-                serde_json::from_str(&text)
-                    .map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?,
-            );
+            let text = std::fs::read_to_string(&path).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+            shots.push(serde_json::from_str(&text).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?);
         }
     }
     shots.sort_by(|a, b| a.id.cmp(&b.id));
     let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
     let text = |e: dea_ballistic::EstimateError| e.to_string();
     let bisection_brackets = match campaign.design {
-        Design::Bisection {
-            low_m_s, high_m_s, ..
-        } => (0..campaign.replicates)
-            .map(|r| {
-                bracket(
-                    low_m_s,
-                    high_m_s,
-                    &shots
-                        .iter()
-                        .filter(|s| s.replicate == r)
-                        .map(ShotRecord::shot)
-                        .collect::<Vec<_>>(),
-                )
-            })
-            .collect(),
+        Design::Bisection { low_m_s, high_m_s, .. } => {
+            (0..campaign.replicates).map(|r| bracket(low_m_s, high_m_s, &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>())).collect()
+        }
         _ => Vec::new(),
     };
     Ok(CampaignReport {
         campaign: campaign.name.clone(),
         partials: outcomes.iter().filter(|s| !s.perforated).count(),
-        held_at_end: shots
-            .iter()
-            .filter(|s| s.stopped_by == "end_time_s")
-            .count(),
+        held_at_end: shots.iter().filter(|s| s.stopped_by == "end_time_s").count(),
         completes: outcomes.iter().filter(|s| s.perforated).count(),
         logistic: fit(&outcomes, Link::Logistic).map_err(text),
         probit: fit(&outcomes, Link::Probit).map_err(text),
-        mil_std_662f: mil_std_662f(
-            &outcomes,
-            campaign.mil_std_662f.count,
-            campaign.mil_std_662f.spread_m_s,
-        )
-        .map_err(text),
+        mil_std_662f: mil_std_662f(&outcomes, campaign.mil_std_662f.count, campaign.mil_std_662f.spread_m_s).map_err(text),
         lambert_jonas: lambert_jonas(&outcomes).map_err(text),
         bisection_brackets,
         shots,
@@ -349,19 +264,9 @@ pub const GIT_COMMIT: &str = env!("DEA_GIT_COMMIT");
 
 /// Writes `v50.json` and `provenance.json` (the campaign and case as loaded, the commit, and
 /// every shot's velocity, seed and outcome).
-pub fn write_report(
-    report: &CampaignReport,
-    campaign: &Campaign,
-    case: &Case,
-    campaign_text: &str,
-    out: &Path,
-) -> Result<(), CampaignError> {
+pub fn write_report(report: &CampaignReport, campaign: &Campaign, case: &Case, campaign_text: &str, out: &Path) -> Result<(), CampaignError> {
     let failed = |e: std::io::Error| CampaignError::Output(format!("{}: {e}", out.display()));
-    std::fs::write(
-        out.join("v50.json"),
-        serde_json::to_string_pretty(report).expect("report serialises"),
-    )
-    .map_err(failed)?;
+    std::fs::write(out.join("v50.json"), serde_json::to_string_pretty(report).expect("report serialises")).map_err(failed)?;
     let provenance = serde_json::json!({
         "git_commit": GIT_COMMIT,
         "campaign_file": campaign_text,
@@ -369,9 +274,5 @@ pub fn write_report(
         "case": case,
         "shots": report.shots.iter().map(|s| serde_json::json!({ "id": s.id, "velocity_m_s": s.velocity_m_s, "seed": s.seed, "perforated": s.perforated, "residual_velocity_m_s": s.residual_velocity_m_s, "run": format!("shots/{}", s.id) })).collect::<Vec<_>>(),
     });
-    std::fs::write(
-        out.join("provenance.json"),
-        serde_json::to_string_pretty(&provenance).expect("provenance serialises"),
-    )
-    .map_err(failed)
+    std::fs::write(out.join("provenance.json"), serde_json::to_string_pretty(&provenance).expect("provenance serialises")).map_err(failed)
 }

@@ -31,29 +31,11 @@ pub struct DeformableProjectile {
 
 impl DeformableProjectile {
     /// The mesh at rest (body frame) of `mass` [kg]: its density is the mass over the volume.
-    pub fn new(
-        mesh: HexMesh,
-        mass: f64,
-        youngs_modulus: f64,
-        poisson_ratio: f64,
-        model: ElasticModel,
-    ) -> Result<Self, ElasticError> {
+    pub fn new(mesh: HexMesh, mass: f64, youngs_modulus: f64, poisson_ratio: f64, model: ElasticModel) -> Result<Self, ElasticError> {
         let volume: f64 = mesh.volumes().iter().sum();
         let (_, node_of_vertex, triangles) = compact(&mesh.nodes, &mesh.surface().triangles);
-        let material = ElasticMaterial {
-            density: mass / volume,
-            youngs_modulus,
-            poisson_ratio,
-            model,
-        };
-        Ok(Self {
-            body: ElasticBody::new(mesh, material)?,
-            node_of_vertex,
-            triangles,
-            strain_energy: 0.0,
-            inverted: None,
-            substeps: 1,
-        })
+        let material = ElasticMaterial { density: mass / volume, youngs_modulus, poisson_ratio, model };
+        Ok(Self { body: ElasticBody::new(mesh, material)?, node_of_vertex, triangles, strain_energy: 0.0, inverted: None, substeps: 1 })
     }
 
     /// Stable time step of the body with fibres pressing on its surface [s]: each surface
@@ -80,21 +62,13 @@ impl DeformableProjectile {
             let third = (b - a).cross(&(c - a)).norm() / 6.0;
             t.iter().for_each(|&v| area[v as usize] += third);
         }
-        self.node_of_vertex
-            .iter()
-            .zip(&area)
-            .map(|(&n, a)| stiffness_per_area * a / self.body.mass[n as usize])
-            .fold(0.0, f64::max)
+        self.node_of_vertex.iter().zip(&area).map(|(&n, a)| stiffness_per_area * a / self.body.mass[n as usize]).fold(0.0, f64::max)
     }
 
     /// Surface vertices relative to `centre` into `surface` [m].
     pub fn surface_from(&self, centre: &Vec3, surface: &mut Vec<Vec3>) {
         surface.clear();
-        surface.extend(
-            self.node_of_vertex
-                .iter()
-                .map(|&n| self.body.position[n as usize] - centre),
-        );
+        surface.extend(self.node_of_vertex.iter().map(|&n| self.body.position[n as usize] - centre));
     }
 
     /// Places the body at rest shape, turned and moved like `proxy` about its centre of

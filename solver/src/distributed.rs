@@ -16,9 +16,7 @@ use dea_core::domain::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
 use dea_core::projectile::{RigidProjectile, RigidShape};
-use dea_core::{
-    Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL,
-};
+use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
 use dea_io::snapshot::SnapshotPart;
 use dea_partition::Partition;
@@ -46,16 +44,7 @@ const FLAG_CHAIN: u64 = 4;
 /// torque, orientation quaternion (i, j, k, w).
 pub fn projectile_words(p: &RigidProjectile) -> [f64; PROJECTILE_WORDS] {
     let mut words = [0.0; PROJECTILE_WORDS];
-    for (k, v) in [
-        p.position,
-        p.velocity,
-        p.angular_momentum,
-        p.force,
-        p.torque,
-    ]
-    .iter()
-    .enumerate()
-    {
+    for (k, v) in [p.position, p.velocity, p.angular_momentum, p.force, p.torque].iter().enumerate() {
         words[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
     }
     words[15..19].copy_from_slice(p.orientation.quaternion().coords.as_slice());
@@ -70,37 +59,18 @@ pub fn set_projectile_words(p: &mut RigidProjectile, words: &[f64]) {
     p.angular_momentum = vector(2);
     p.force = vector(3);
     p.torque = vector(4);
-    p.orientation =
-        UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
+    p.orientation = UnitQuaternion::new_unchecked(Quaternion::new(words[18], words[15], words[16], words[17]));
 }
 
 /// A reaction as the words of a message or checkpoint.
 fn reaction_words(r: &Reaction) -> [f64; REACTION_WORDS] {
     let [f, t, w] = [r.force, r.torque, Vec3::from(r.weights)];
-    [
-        word(r.gid.0),
-        f.x,
-        f.y,
-        f.z,
-        t.x,
-        t.y,
-        t.z,
-        word(r.triangle as u64),
-        w.x,
-        w.y,
-        w.z,
-    ]
+    [word(r.gid.0), f.x, f.y, f.z, t.x, t.y, t.z, word(r.triangle as u64), w.x, w.y, w.z]
 }
 
 /// Inverse of [`reaction_words`].
 fn reaction_from_words(w: &[f64]) -> Reaction {
-    Reaction {
-        gid: GlobalNodeId(integer(w[0])),
-        force: Vec3::new(w[1], w[2], w[3]),
-        torque: Vec3::new(w[4], w[5], w[6]),
-        triangle: integer(w[7]) as u32,
-        weights: [w[8], w[9], w[10]],
-    }
+    Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]), triangle: integer(w[7]) as u32, weights: [w[8], w[9], w[10]] }
 }
 
 fn word(value: u64) -> f64 {
@@ -196,14 +166,7 @@ pub struct SettleReport {
 impl<C: Comm> Distributed<C> {
     /// Takes a domain of owned nodes (ascending global id) and fetches the ghosts, on every
     /// rank together.
-    fn assemble(
-        comm: C,
-        domain: Domain,
-        partition: Partition,
-        nodes_per_fibre: &[u32],
-        reach: f64,
-        deformable: Option<DeformableProjectile>,
-    ) -> Result<Self, DomainError> {
+    fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
@@ -269,16 +232,8 @@ impl<C: Comm> Distributed<C> {
     }
 
     /// [`Self::assemble`], then the initial forces: a fresh run.
-    pub fn new(
-        comm: C,
-        domain: Domain,
-        partition: Partition,
-        nodes_per_fibre: &[u32],
-        reach: f64,
-        deformable: Option<DeformableProjectile>,
-    ) -> Result<Self, DomainError> {
-        let mut distributed =
-            Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
+    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
+        let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         let forces = distributed.domain.compute_forces();
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
@@ -297,20 +252,11 @@ impl<C: Comm> Distributed<C> {
             run.comm.max_f64(&mut values);
             values
         };
-        let [force_before, overlap_before] = agreed(
-            self,
-            [
-                self.domain.largest_free_force(),
-                self.domain.largest_overlap_ratio(),
-            ],
-        );
+        let [force_before, overlap_before] = agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
         let (_, top_before) = self.z_range();
         let projectile = self.domain.projectile.take();
         let body = self.deformable.take();
-        let (friction, failure) = (
-            self.domain.contact.friction_coefficient,
-            self.domain.failure.enabled,
-        );
+        let (friction, failure) = (self.domain.contact.friction_coefficient, self.domain.failure.enabled);
         self.domain.contact.friction_coefficient = 0.0;
         self.domain.failure.enabled = false;
         self.domain.damping = damping;
@@ -328,13 +274,7 @@ impl<C: Comm> Distributed<C> {
         self.domain.projectile = projectile;
         self.deformable = body;
         result?;
-        let [force_after, overlap_after] = agreed(
-            self,
-            [
-                self.domain.largest_free_force(),
-                self.domain.largest_overlap_ratio(),
-            ],
-        );
+        let [force_after, overlap_after] = agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
         let (_, top_after) = self.z_range();
         let rise = (top_after - top_before).max(0.0);
         if let Some(p) = &mut self.domain.projectile {
@@ -440,28 +380,11 @@ impl<C: Comm> Distributed<C> {
             }];
             self.comm.min_u64(&mut detail);
             match agreed >> 60 {
-                1 => Err(DomainError::NonFinite {
-                    step: self.domain.step,
-                    gid,
-                }),
-                2 => Err(DomainError::MissingGhost {
-                    gid,
-                    along: detail[0] as u32,
-                }),
-                4 => Err(DomainError::ProjectileInverted {
-                    step: self.domain.step,
-                    element: gid.0 as usize,
-                }),
-                5 => Err(DomainError::MissingTiePartner {
-                    gid,
-                    partner: GlobalNodeId(detail[0]),
-                }),
-                _ => Err(DomainError::TimeStep {
-                    step: self.domain.step,
-                    gid,
-                    time_step: self.domain.time_step,
-                    limit: f64::from_bits(detail[0]),
-                }),
+                1 => Err(DomainError::NonFinite { step: self.domain.step, gid }),
+                2 => Err(DomainError::MissingGhost { gid, along: detail[0] as u32 }),
+                4 => Err(DomainError::ProjectileInverted { step: self.domain.step, element: gid.0 as usize }),
+                5 => Err(DomainError::MissingTiePartner { gid, partner: GlobalNodeId(detail[0]) }),
+                _ => Err(DomainError::TimeStep { step: self.domain.step, gid, time_step: self.domain.time_step, limit: f64::from_bits(detail[0]) }),
             }
         };
         self.times.reductions += clock.elapsed().as_secs_f64();
@@ -476,10 +399,7 @@ impl<C: Comm> Distributed<C> {
         let Some(projectile) = self.domain.projectile.as_mut() else {
             return Ok(());
         };
-        let vertices = projectile
-            .shape
-            .deforming_mesh()
-            .map(|mesh| mesh.surface.vertices.len());
+        let vertices = projectile.shape.deforming_mesh().map(|mesh| mesh.surface.vertices.len());
         let surface = &mut self.surface;
         if let Some(body) = &self.deformable {
             body.fill_proxy(projectile, surface);
@@ -501,20 +421,12 @@ impl<C: Comm> Distributed<C> {
             set_projectile_words(projectile, words);
         }
         if vertices.is_some() {
-            let (coordinates, status) =
-                words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
+            let (coordinates, status) = words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
             if status[0] > 0.0 {
-                return Err(DomainError::ProjectileInverted {
-                    step: self.domain.step,
-                    element: status[0] as usize - 1,
-                });
+                return Err(DomainError::ProjectileInverted { step: self.domain.step, element: status[0] as usize - 1 });
             }
             surface.clear();
-            surface.extend(
-                coordinates
-                    .chunks_exact(3)
-                    .map(|w| Vec3::new(w[0], w[1], w[2])),
-            );
+            surface.extend(coordinates.chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])));
             if let RigidShape::Mesh(mesh) = &mut projectile.shape {
                 std::sync::Arc::make_mut(mesh).set_vertices(surface);
             }
@@ -527,12 +439,7 @@ impl<C: Comm> Distributed<C> {
     /// body's nodes and element rotations after them, then the fibres' last reactions (a
     /// subcycling body holds them over the next step).
     pub fn projectile_state(&self) -> Vec<f64> {
-        let mut words = self
-            .domain
-            .projectile
-            .as_ref()
-            .map(|p| projectile_words(p).to_vec())
-            .unwrap_or_default();
+        let mut words = self.domain.projectile.as_ref().map(|p| projectile_words(p).to_vec()).unwrap_or_default();
         if let Some(body) = &self.deformable {
             words.extend(body.body.state_words());
             words.extend(self.reactions.iter().flat_map(reaction_words));
@@ -547,18 +454,10 @@ impl<C: Comm> Distributed<C> {
         }
         let clock = Instant::now();
         self.reaction_words.clear();
-        self.reaction_words.extend(
-            self.domain
-                .projectile_reactions()
-                .flat_map(|r| reaction_words(&r)),
-        );
+        self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| reaction_words(&r)));
         if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
             self.reactions.clear();
-            self.reactions.extend(
-                all.iter()
-                    .flat_map(|words| words.chunks_exact(REACTION_WORDS))
-                    .map(reaction_from_words),
-            );
+            self.reactions.extend(all.iter().flat_map(|words| words.chunks_exact(REACTION_WORDS)).map(reaction_from_words));
             self.reactions.sort_unstable_by_key(|r| r.gid);
             let load = dea_core::domain::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
@@ -582,17 +481,12 @@ impl<C: Comm> Distributed<C> {
                 buffer.extend_from_slice(&[x.x, x.y, x.z, word(failure[i as usize] as u64)]);
             }
         }
-        self.comm.exchange(
-            &halo.partners,
-            &halo.send_buffers,
-            &mut halo.receive_buffers,
-        );
+        self.comm.exchange(&halo.partners, &halo.send_buffers, &mut halo.receive_buffers);
         let mut g = self.domain.nodes.n_owned;
         for buffer in &halo.receive_buffers {
             for w in buffer.chunks_exact(HALO_WORDS) {
                 self.domain.nodes.position[g] = Vec3::new(w[0], w[1], w[2]);
-                self.domain.elements.failure[g] = FailureMode::from_code(integer(w[3]) as u8)
-                    .expect("a failure code sent by a rank");
+                self.domain.elements.failure[g] = FailureMode::from_code(integer(w[3]) as u8).expect("a failure code sent by a rank");
                 g += 1;
             }
             self.halo_bytes += (buffer.len() * std::mem::size_of::<f64>()) as u64;
@@ -608,19 +502,9 @@ impl<C: Comm> Distributed<C> {
         let reach = self.reach;
         let nodes = &self.domain.nodes;
         let owned = &nodes.position[..nodes.n_owned];
-        let (low, high) = owned.iter().fold(
-            (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)),
-            |(l, h), x| (l.inf(x), h.sup(x)),
-        );
-        let boxes = self
-            .comm
-            .all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
-        let grown = |r: usize| {
-            (
-                Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach),
-                Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach),
-            )
-        };
+        let (low, high) = owned.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
+        let boxes = self.comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
+        let grown = |r: usize| (Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach), Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach));
         let inside = |x: &Vec3, (l, h): &(Vec3, Vec3)| (0..3).all(|k| x[k] >= l[k] && x[k] <= h[k]);
         // partners: chain neighbours, and ranks whose region comes within reach of ours
         let mut partners: Vec<Rank> = self.chain_send.iter().map(|(r, _)| *r).collect();
@@ -636,14 +520,9 @@ impl<C: Comm> Distributed<C> {
         let mut candidates: Vec<Vec<u32>> = Vec::with_capacity(partners.len());
         let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
         for &partner in &partners {
-            let chain = self
-                .chain_send
-                .binary_search_by_key(&partner, |(r, _)| *r)
-                .map_or(&[][..], |k| &self.chain_send[k].1[..]);
+            let chain = self.chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &self.chain_send[k].1[..]);
             let region = grown(partner.0 as usize);
-            let mut list: Vec<u32> = (0..nodes.n_owned as u32)
-                .filter(|&i| inside(&nodes.position[i as usize], &region))
-                .collect();
+            let mut list: Vec<u32> = (0..nodes.n_owned as u32).filter(|&i| inside(&nodes.position[i as usize], &region)).collect();
             list.extend_from_slice(chain);
             list.sort_unstable();
             list.dedup();
@@ -651,8 +530,7 @@ impl<C: Comm> Distributed<C> {
             for &i in &list {
                 let i = i as usize;
                 let x = nodes.position[i];
-                let mut flags = if nodes.clamped[i] { FLAG_CLAMPED } else { 0 }
-                    | if nodes.last[i] { FLAG_LAST } else { 0 };
+                let mut flags = if nodes.clamped[i] { FLAG_CLAMPED } else { 0 } | if nodes.last[i] { FLAG_LAST } else { 0 };
                 if chain.binary_search(&(i as u32)).is_ok() {
                     flags |= FLAG_CHAIN;
                 }
@@ -678,11 +556,7 @@ impl<C: Comm> Distributed<C> {
         let mut received: Vec<Vec<f64>> = vec![Vec::new(); partners.len()];
         self.comm.exchange_sized(&partners, &records, &mut received);
         // keep what our stencil needs and what comes within reach of an owned node
-        let positions: Vec<Vec3> = received
-            .iter()
-            .flat_map(|w| w.chunks_exact(RECORD_WORDS))
-            .map(|w| Vec3::new(w[1], w[2], w[3]))
-            .collect();
+        let positions: Vec<Vec3> = received.iter().flat_map(|w| w.chunks_exact(RECORD_WORDS)).map(|w| Vec3::new(w[1], w[2], w[3])).collect();
         let near = dea_core::neighbour::within_reach_of_any(owned, &positions, reach);
         let mut ghosts = Vec::with_capacity(positions.len());
         let mut masks: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
@@ -706,8 +580,7 @@ impl<C: Comm> Distributed<C> {
                         last: flags & FLAG_LAST != 0,
                         rest_length: w[8],
                         tensile_strength: w[9],
-                        failure: FailureMode::from_code(integer(w[10]) as u8)
-                            .expect("a failure code sent by a rank"),
+                        failure: FailureMode::from_code(integer(w[10]) as u8).expect("a failure code sent by a rank"),
                         rest_angle: w[11],
                     });
                 }
@@ -717,26 +590,10 @@ impl<C: Comm> Distributed<C> {
         }
         let mut kept: Vec<Vec<f64>> = candidates.iter().map(|c| vec![0.0; c.len()]).collect();
         self.comm.exchange(&partners, &masks, &mut kept);
-        let send_nodes: Vec<Vec<u32>> = candidates
-            .iter()
-            .zip(&kept)
-            .map(|(c, m)| {
-                c.iter()
-                    .zip(m)
-                    .filter(|(_, &m)| m == 1.0)
-                    .map(|(&i, _)| i)
-                    .collect()
-            })
-            .collect();
+        let send_nodes: Vec<Vec<u32>> = candidates.iter().zip(&kept).map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| i).collect()).collect();
         self.halo = HaloPlan {
-            send_buffers: send_nodes
-                .iter()
-                .map(|s| Vec::with_capacity(s.len() * HALO_WORDS))
-                .collect(),
-            receive_buffers: receive_counts
-                .iter()
-                .map(|&n| vec![0.0; n * HALO_WORDS])
-                .collect(),
+            send_buffers: send_nodes.iter().map(|s| Vec::with_capacity(s.len() * HALO_WORDS)).collect(),
+            receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
             partners,
             send_nodes,
         };
@@ -755,20 +612,7 @@ impl<C: Comm> Distributed<C> {
     /// The halo plan: (partner, owned global ids sent to it each step, ghosts received).
     pub fn halo_plan(&self) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
         let h = &self.halo;
-        h.partners
-            .iter()
-            .zip(&h.send_nodes)
-            .zip(&h.receive_buffers)
-            .map(|((&p, s), r)| {
-                (
-                    p,
-                    s.iter()
-                        .map(|&i| self.domain.nodes.gid[i as usize])
-                        .collect(),
-                    r.len() / HALO_WORDS,
-                )
-            })
-            .collect()
+        h.partners.iter().zip(&h.send_nodes).zip(&h.receive_buffers).map(|((&p, s), r)| (p, s.iter().map(|&i| self.domain.nodes.gid[i as usize]).collect(), r.len() / HALO_WORDS)).collect()
     }
 
     /// Global ids of the ghosts, in local order.
@@ -793,11 +637,7 @@ impl<C: Comm> Distributed<C> {
         let b = self.domain.broken;
         let mut counts = [b.tension as i64, b.shear as i64, b.combined as i64];
         self.comm.sum_i64(&mut counts);
-        BrokenCount {
-            tension: counts[0] as u64,
-            shear: counts[1] as u64,
-            combined: counts[2] as u64,
-        }
+        BrokenCount { tension: counts[0] as u64, shear: counts[1] as u64, combined: counts[2] as u64 }
     }
 
     /// Broken elements of each layer, whole problem.
@@ -817,24 +657,16 @@ impl<C: Comm> Distributed<C> {
     /// friction, plasticity, fracture), whole problem, exact sums [J].
     pub fn energy_by_layer(&self, layers: usize) -> Vec<f64> {
         let nodes = &self.domain.nodes;
-        let sums = self
-            .domain
-            .energy_sums_by(|i| self.layer_of(nodes.fibre[i]) as usize, layers);
+        let sums = self.domain.energy_sums_by(|i| self.layer_of(nodes.fibre[i]) as usize, layers);
         let mut words: Vec<i64> = sums.iter().flat_map(EnergySums::to_words).collect();
         self.comm.sum_i64(&mut words);
-        words
-            .chunks_exact(dea_core::energy::ENERGY_WORDS)
-            .map(|w| EnergySums::from_words(w).report().total())
-            .collect()
+        words.chunks_exact(dea_core::energy::ENERGY_WORDS).map(|w| EnergySums::from_words(w).report().total()).collect()
     }
 
     /// Lowest and highest owned node along z over every rank [m].
     pub fn z_range(&self) -> (f64, f64) {
         let owned = &self.domain.nodes.position[..self.domain.nodes.n_owned];
-        let mut extremes = [
-            owned.iter().map(|p| -p.z).fold(f64::NEG_INFINITY, f64::max),
-            owned.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max),
-        ];
+        let mut extremes = [owned.iter().map(|p| -p.z).fold(f64::NEG_INFINITY, f64::max), owned.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)];
         self.comm.max_f64(&mut extremes);
         (-extremes[0], extremes[1])
     }
@@ -868,10 +700,7 @@ impl<C: Comm> Distributed<C> {
 
     /// Layer of the yarn of a fibre.
     pub fn layer_of(&self, fibre: FibreId) -> u32 {
-        self.layer_of_yarn
-            .get(self.partition.yarn_of(fibre))
-            .copied()
-            .unwrap_or(0)
+        self.layer_of_yarn.get(self.partition.yarn_of(fibre)).copied().unwrap_or(0)
     }
 
     /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no
@@ -879,20 +708,8 @@ impl<C: Comm> Distributed<C> {
     fn refresh_ghost_velocities(&mut self) {
         let nodes = &self.domain.nodes;
         let halo = &self.halo;
-        let sends: Vec<Vec<f64>> = halo
-            .send_nodes
-            .iter()
-            .map(|send| {
-                send.iter()
-                    .flat_map(|&i| nodes.velocity[i as usize].as_slice().to_vec())
-                    .collect()
-            })
-            .collect();
-        let mut receives: Vec<Vec<f64>> = halo
-            .receive_buffers
-            .iter()
-            .map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)])
-            .collect();
+        let sends: Vec<Vec<f64>> = halo.send_nodes.iter().map(|send| send.iter().flat_map(|&i| nodes.velocity[i as usize].as_slice().to_vec()).collect()).collect();
+        let mut receives: Vec<Vec<f64>> = halo.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         self.comm.exchange(&halo.partners, &sends, &mut receives);
         let mut g = self.domain.nodes.n_owned;
         for buffer in &receives {
@@ -920,8 +737,7 @@ impl<C: Comm> Distributed<C> {
             part.velocity.push(nodes.velocity[i]);
             part.gid.push(nodes.gid[i].0);
             part.layer.push(self.layer_of(nodes.fibre[i]));
-            part.yarn
-                .push(self.partition.yarn_of(nodes.fibre[i]) as u32);
+            part.yarn.push(self.partition.yarn_of(nodes.fibre[i]) as u32);
             part.rank.push(rank);
         };
         for i in 0..n {
@@ -973,11 +789,7 @@ impl<C: Comm> Distributed<C> {
             projectile_touching: contacts.touching.iter().map(|&t| t as u8).collect(),
             projectile_max_overlap: contacts.max_overlap.clone(),
             projectile_anchor_triangle: contacts.anchor_triangle.clone(),
-            projectile_anchor_weights: contacts
-                .anchor_weights
-                .iter()
-                .map(|&w| Vec3::from(w))
-                .collect(),
+            projectile_anchor_weights: contacts.anchor_weights.iter().map(|&w| Vec3::from(w)).collect(),
             row_length: (0..n).map(|i| pairs.row(i).len() as u32).collect(),
             partner_gid: pairs.partner_gid.iter().map(|g| g.0).collect(),
             anchor: pairs.anchor.clone(),
@@ -1010,42 +822,28 @@ impl<C: Comm> Distributed<C> {
         if let Some(deformable) = &mut deformable {
             let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
             let (body, held) = words.split_at(deformable.body.state_words().len().min(words.len()));
-            deformable.body.set_state_words(body).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
+            deformable
+                .body
+                .set_state_words(body)
+                .ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
             if held.len() % REACTION_WORDS != 0 {
-                return Err(RestoreError::Mismatch(format!(
-                    "the checkpoint's {} words of projectile reactions are not whole records",
-                    held.len()
-                )));
+                return Err(RestoreError::Mismatch(format!("the checkpoint's {} words of projectile reactions are not whole records", held.len())));
             }
             reactions.extend(held.chunks_exact(REACTION_WORDS).map(reaction_from_words));
         }
         let n = domain.nodes.n_owned;
-        if state.gid.len() != n
-            || domain.nodes.gid[..n]
-                .iter()
-                .zip(&state.gid)
-                .any(|(a, &b)| a.0 != b)
-        {
-            return Err(RestoreError::Mismatch(
-                "the checkpoint's nodes are not those of the case".into(),
-            ));
+        if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
+            return Err(RestoreError::Mismatch("the checkpoint's nodes are not those of the case".into()));
         }
         for i in 0..n {
             domain.nodes.position[i] = state.reference_position[i];
-            domain.elements.failure[i] =
-                FailureMode::from_code(state.failure[i]).ok_or_else(|| {
-                    RestoreError::Mismatch(format!(
-                        "node {}: failure code {}",
-                        state.gid[i], state.failure[i]
-                    ))
-                })?;
+            domain.elements.failure[i] = FailureMode::from_code(state.failure[i]).ok_or_else(|| RestoreError::Mismatch(format!("node {}: failure code {}", state.gid[i], state.failure[i])))?;
             domain.elements.tensile_strength[i] = state.tensile_strength[i];
         }
         if let Some(p) = &mut domain.projectile {
             set_projectile_words(p, projectile);
         }
-        let mut restored =
-            Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
+        let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         restored.reactions = reactions;
         let d = &mut restored.domain;
         // the lists rebuilt from the same positions are the interrupted run's lists
@@ -1055,12 +853,7 @@ impl<C: Comm> Distributed<C> {
             let row = d.pairs.row(i);
             let length = state.row_length[i] as usize;
             let saved = &state.partner_gid[entry..entry + length];
-            if row.len() != length
-                || d.pairs.partner_gid[row.clone()]
-                    .iter()
-                    .zip(saved)
-                    .any(|(a, &b)| a.0 != b)
-            {
+            if row.len() != length || d.pairs.partner_gid[row.clone()].iter().zip(saved).any(|(a, &b)| a.0 != b) {
                 mismatch.get_or_insert(state.gid[i]);
             } else {
                 for (k, e) in row.zip(entry..entry + length) {
@@ -1085,9 +878,7 @@ impl<C: Comm> Distributed<C> {
             }))
             .collect();
         d.pairs.retired_gid = state.retired_gid.iter().map(|&g| GlobalNodeId(g)).collect();
-        d.pairs
-            .retired_max_overlap
-            .clone_from(&state.retired_max_overlap);
+        d.pairs.retired_max_overlap.clone_from(&state.retired_max_overlap);
         let contacts = &mut d.projectile_contacts;
         for i in 0..n {
             d.nodes.position[i] = state.position[i];

@@ -111,28 +111,14 @@ pub struct CellReport {
 
 /// `dea-mpi fabric` on a `three_d_weave_cell` target: rank 0 generates and relaxes the cell
 /// and writes `cell.h5`, `cell.xdmf` and `fabric.json` to `out`; the other ranks wait.
-pub fn fabric_cell<C: Comm>(
-    case: &Case,
-    comm: C,
-    out: &Path,
-) -> Result<Option<CellReport>, SetupError> {
-    let outcome = if comm.rank() == Rank(0) {
-        Some(write_relaxed_cell(case, out))
-    } else {
-        None
-    };
+pub fn fabric_cell<C: Comm>(case: &Case, comm: C, out: &Path) -> Result<Option<CellReport>, SetupError> {
+    let outcome = if comm.rank() == Rank(0) { Some(write_relaxed_cell(case, out)) } else { None };
     // every rank leaves with the same verdict
-    let mut failed = [if outcome.as_ref().is_some_and(Result::is_err) {
-        1.0
-    } else {
-        0.0
-    }];
+    let mut failed = [if outcome.as_ref().is_some_and(Result::is_err) { 1.0 } else { 0.0 }];
     comm.max_f64(&mut failed);
     match outcome {
         Some(result) => result.map(Some),
-        None if failed[0] > 0.0 => Err(SetupError::Case(
-            "rank 0 could not build the cell (it says why)".into(),
-        )),
+        None if failed[0] > 0.0 => Err(SetupError::Case("rank 0 could not build the cell (it says why)".into())),
         None => Ok(None),
     }
 }
@@ -143,21 +129,14 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     let (cell, relaxation) = setup::three_d_cell(case, &material)?.expect("a 3-D weave target");
     let relaxation = relaxation.ok_or_else(|| SetupError::Case("target.cell_file: the cell is already relaxed; `dea-mpi fabric` generates one from target.weave".into()))?;
     let relaxation_s = started.elapsed().as_secs_f64();
-    let roles = [
-        ("filler", dea_fabric::cell::YarnRole::Filler),
-        ("stuffer", dea_fabric::cell::YarnRole::Stuffer),
-        ("binder", dea_fabric::cell::YarnRole::Binder),
-    ];
+    let roles = [("filler", dea_fabric::cell::YarnRole::Filler), ("stuffer", dea_fabric::cell::YarnRole::Stuffer), ("binder", dea_fabric::cell::YarnRole::Binder)];
     let report = CellReport {
         case: case.name.clone(),
         thickness_change: relaxation.after.thickness_m / relaxation.before.thickness_m - 1.0,
         relaxation,
         relaxation_s,
         cell: cell.statistics(&material),
-        crimp_by_role: roles
-            .iter()
-            .filter_map(|(name, role)| Some((name.to_string(), cell.crimp_of(*role)?)))
-            .collect(),
+        crimp_by_role: roles.iter().filter_map(|(name, role)| Some((name.to_string(), cell.crimp_of(*role)?))).collect(),
         period_m: cell.period,
         yarns: cell.yarns.clone(),
         fibres: cell.fibres(),
@@ -167,14 +146,9 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
     let relaxation_json = serde_json::to_string(&report.relaxation).expect("report serialises");
     let cell_json = serde_json::to_string(&report.cell).expect("statistics serialise");
-    dea_io::cell::write_periodic_cell(&out.join("cell.h5"), &cell, &relaxation_json, &cell_json)
-        .map_err(|e| failed(&e))?;
+    dea_io::cell::write_periodic_cell(&out.join("cell.h5"), &cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
     dea_io::cell::write_cell_xdmf(out, "cell", &cell).map_err(|e| failed(&e))?;
-    std::fs::write(
-        out.join("fabric.json"),
-        serde_json::to_string_pretty(&report).expect("report serialises"),
-    )
-    .map_err(|e| failed(&e))?;
+    std::fs::write(out.join("fabric.json"), serde_json::to_string_pretty(&report).expect("report serialises")).map_err(|e| failed(&e))?;
     Ok(report)
 }
 
@@ -210,28 +184,17 @@ pub struct ShareReport {
 /// process: what a rank of a job too large for this machine would generate and hold (its
 /// own nodes and their contact lists; its ghosts are predicted by the partition's report).
 /// Writes `out/share.json`.
-pub fn fabric_share(
-    case: &Case,
-    method: Method,
-    rank: Rank,
-    ranks: usize,
-    out: &Path,
-) -> Result<ShareReport, SetupError> {
+pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: &Path) -> Result<ShareReport, SetupError> {
     if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
-        return Err(SetupError::Case(
-            "target.kind: `dea-mpi fabric --share` needs a woven_panel target".into(),
-        ));
+        return Err(SetupError::Case("target.kind: `dea-mpi fabric --share` needs a woven_panel target".into()));
     }
     let started = Instant::now();
     let problem = setup::problem(case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
-    let Fabric::Woven(panel) = &problem.fabric else {
-        unreachable!("a woven target builds a woven panel")
-    };
+    let Fabric::Woven(panel) = &problem.fabric else { unreachable!("a woven target builds a woven panel") };
     let started = Instant::now();
     let graph = setup::segment_graph(&problem, ranks, None);
-    let partition = dea_partition::partition(&graph, ranks, method)
-        .map_err(|e| SetupError::Partition(e.to_string()))?;
+    let partition = dea_partition::partition(&graph, ranks, method).map_err(|e| SetupError::Partition(e.to_string()))?;
     let quality = dea_partition::quality(&graph, &partition);
     let partition_s = started.elapsed().as_secs_f64();
     drop(graph);
@@ -262,11 +225,7 @@ pub fn fabric_share(
     };
     let failed = |e: &dyn std::fmt::Display| SetupError::Mesh(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
-    std::fs::write(
-        out.join("share.json"),
-        serde_json::to_string_pretty(&report).expect("report serialises"),
-    )
-    .map_err(|e| failed(&e))?;
+    std::fs::write(out.join("share.json"), serde_json::to_string_pretty(&report).expect("report serialises")).map_err(|e| failed(&e))?;
     Ok(report)
 }
 
@@ -282,39 +241,19 @@ fn resident_bytes() -> f64 {
 
 /// A field of /proc/self/status in kB (0 where /proc is not there).
 fn status_kilobytes(field: &str) -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find(|l| l.starts_with(field))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .unwrap_or(0.0)
+    std::fs::read_to_string("/proc/self/status").ok().and_then(|text| text.lines().find(|l| l.starts_with(field)).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())).unwrap_or(0.0)
 }
 
 /// Runs the command on the ranks of `comm`; rank 0 writes `out` and returns the report.
-pub fn fabric<C: Comm>(
-    case: &Case,
-    comm: C,
-    method: Method,
-    out: &Path,
-) -> Result<Option<FabricReport>, SetupError> {
+pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Result<Option<FabricReport>, SetupError> {
     if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
-        return Err(SetupError::Case(
-            "target.kind: `dea-mpi fabric` needs a woven_panel target".into(),
-        ));
+        return Err(SetupError::Case("target.kind: `dea-mpi fabric` needs a woven_panel target".into()));
     }
     let started = Instant::now();
     let problem = setup::shared_problem(&comm, case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
-    let Fabric::Woven(panel) = problem.fabric.clone() else {
-        unreachable!("a woven target builds a woven panel")
-    };
-    let (material, relaxation, coarse_relaxation) = (
-        problem.material.clone(),
-        problem.relaxation.clone(),
-        problem.coarse_relaxation.clone(),
-    );
+    let Fabric::Woven(panel) = problem.fabric.clone() else { unreachable!("a woven target builds a woven panel") };
+    let (material, relaxation, coarse_relaxation) = (problem.material.clone(), problem.relaxation.clone(), problem.coarse_relaxation.clone());
     let (resident, started) = (resident_bytes(), Instant::now());
     let run = setup::assemble(problem, comm, method, None, |_| {})?;
     let build_s = started.elapsed().as_secs_f64();
@@ -348,12 +287,7 @@ pub fn fabric<C: Comm>(
         side_m: panel.side(),
         layers: panel.layers,
         layer_pitch_m: panel.layer_pitch,
-        thickness_m: panel.top() - panel.bottom()
-            + panel
-                .sections()
-                .iter()
-                .map(|s| s.diameter)
-                .fold(0.0, f64::max),
+        thickness_m: panel.top() - panel.bottom() + panel.sections().iter().map(|s| s.diameter).fold(0.0, f64::max),
         yarns: panel.yarn_count(),
         fibres: *panel.first_fibres().last().expect("a total") as usize,
         nodes: panel.node_count(),
@@ -381,26 +315,11 @@ pub fn fabric<C: Comm>(
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
     let report_json = serde_json::to_string_pretty(&report).expect("report serialises");
     // the cell file holds nothing that depends on the ranks or the clock
-    let cells = [("cell", cell, &report.relaxation, Some(report.cell))]
-        .into_iter()
-        .chain(panel.coarse.as_ref().map(|c| {
-            (
-                "coarse_cell",
-                &c.cell,
-                &report.coarse_relaxation,
-                report.coarse_cell,
-            )
-        }));
+    let cells = [("cell", cell, &report.relaxation, Some(report.cell))].into_iter().chain(panel.coarse.as_ref().map(|c| ("coarse_cell", &c.cell, &report.coarse_relaxation, report.coarse_cell)));
     for (name, cell, relaxation, statistics) in cells {
         let relaxation_json = serde_json::to_string(relaxation).expect("report serialises");
         let cell_json = serde_json::to_string(&statistics).expect("statistics serialise");
-        dea_io::cell::write_cell(
-            &out.join(format!("{name}.h5")),
-            cell,
-            &relaxation_json,
-            &cell_json,
-        )
-        .map_err(|e| failed(&e))?;
+        dea_io::cell::write_cell(&out.join(format!("{name}.h5")), cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
         dea_io::cell::write_cell_xdmf(out, name, cell).map_err(|e| failed(&e))?;
     }
     std::fs::write(out.join("fabric.json"), &report_json).map_err(|e| failed(&e))?;

@@ -15,21 +15,11 @@ use dea_mpi::setup::{self, SetupError};
 
 /// `RANK/RANKS` of `--share`, RANK below RANKS.
 fn parse_share(text: &str) -> Result<(u32, usize), String> {
-    let (rank, ranks) = text
-        .split_once('/')
-        .ok_or_else(|| format!("expected RANK/RANKS, e.g. 0/64, got {text:?}"))?;
-    let rank: u32 = rank
-        .trim()
-        .parse()
-        .map_err(|e| format!("RANK {rank:?}: {e}"))?;
-    let ranks: usize = ranks
-        .trim()
-        .parse()
-        .map_err(|e| format!("RANKS {ranks:?}: {e}"))?;
+    let (rank, ranks) = text.split_once('/').ok_or_else(|| format!("expected RANK/RANKS, e.g. 0/64, got {text:?}"))?;
+    let rank: u32 = rank.trim().parse().map_err(|e| format!("RANK {rank:?}: {e}"))?;
+    let ranks: usize = ranks.trim().parse().map_err(|e| format!("RANKS {ranks:?}: {e}"))?;
     if ranks == 0 || rank as usize >= ranks {
-        return Err(format!(
-            "RANK must be below RANKS (at least 1), got {rank}/{ranks}"
-        ));
+        return Err(format!("RANK must be below RANKS (at least 1), got {rank}/{ranks}"));
     }
     Ok((rank, ranks))
 }
@@ -133,9 +123,7 @@ enum Command {
         case: PathBuf,
     },
     /// Partition a case over N ranks with METIS and report its quality, without running.
-    #[command(
-        after_help = "Examples:\n  dea-mpi partition cases/seed_6_1_single_fibre.json --ranks 4\n  dea-mpi partition case.json --ranks 64 --json --method recursive"
-    )]
+    #[command(after_help = "Examples:\n  dea-mpi partition cases/seed_6_1_single_fibre.json --ranks 4\n  dea-mpi partition case.json --ranks 64 --json --method recursive")]
     Partition {
         /// case file (JSON, SI units); none: the built-in default case
         case: Option<PathBuf>,
@@ -156,15 +144,11 @@ enum Command {
     /// Compare two results files dataset by dataset, bit for bit (the partition group
     /// excepted), and the field snapshots beside them node by node; exit 0 when identical,
     /// 1 when they differ.
-    #[command(
-        after_help = "Example:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5"
-    )]
+    #[command(after_help = "Example:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5")]
     Compare { first: PathBuf, second: PathBuf },
     /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the
     /// ranks of the job.
-    #[command(
-        after_help = "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000"
-    )]
+    #[command(after_help = "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000")]
     Bench {
         /// print one JSON object on stdout
         #[arg(long)]
@@ -204,20 +188,13 @@ fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
 
 /// Rank 0 runs `load` and every rank gets its value, or the same error: a file missing on one
 /// node's file system cannot split the job.
-fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(
-    comm: &impl Comm,
-    load: impl FnOnce() -> Result<T, (Exit, String)>,
-) -> Result<T, (Exit, String)> {
+fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(comm: &impl Comm, load: impl FnOnce() -> Result<T, (Exit, String)>) -> Result<T, (Exit, String)> {
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
         match load() {
             Ok(value) => {
                 message.push(0);
-                message.extend(
-                    serde_json::to_string(&value)
-                        .expect("what rank 0 read serialises")
-                        .bytes(),
-                );
+                message.extend(serde_json::to_string(&value).expect("what rank 0 read serialises").bytes());
             }
             Err((code, text)) => {
                 message.push(code as u8);
@@ -241,13 +218,9 @@ fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Exit, 
 }
 
 /// Rank 0 reads the campaign, its case and its text; every rank gets them.
-fn load_campaign_shared(
-    comm: &impl Comm,
-    path: &Path,
-) -> Result<(Campaign, Case, String), (Exit, String)> {
+fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, Case, String), (Exit, String)> {
     from_rank0(comm, || {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+        let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
         let (campaign, case) = load_campaign(path).map_err(|e| (Exit::BadCase, e.to_string()))?;
         Ok((campaign, case, text))
     })
@@ -306,10 +279,7 @@ fn main() -> ExitCode {
                     "case": case,
                     "resolved": { "material": material, "section": cell.section, "period_m": cell.period, "yarns": cell.yarns, "fibres": cell.fibres(), "nodes": cell.positions.len(), "initial": cell.statistics(&material) }
                 });
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&resolved).expect("case serialises")
-                );
+                println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
                 return ExitCode::SUCCESS;
             }
             let problem = match setup::problem(&case) {
@@ -342,26 +312,15 @@ fn main() -> ExitCode {
                     },
                 }
             });
-            println!(
-                "{}",
-                serde_json::to_string_pretty(&resolved).expect("case serialises")
-            );
+            println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }
-        Command::Run {
-            case,
-            out,
-            method,
-            restart,
-            log_dir,
-            panic_on_rank,
-        } => {
+        Command::Run { case, out, method, restart, log_dir, panic_on_rank } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
             };
-            let _logging = match dea_mpi::progress::init_logging(comm.rank().0, log_dir.as_deref())
-            {
+            let _logging = match dea_mpi::progress::init_logging(comm.rank().0, log_dir.as_deref()) {
                 Ok(span) => span,
                 Err(e) => return fail(Exit::File, format!("logging: {e}")),
             };
@@ -377,11 +336,7 @@ fn main() -> ExitCode {
                     Ok(restored) => {
                         let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                         if resume.is_none() {
-                            return fail_all(
-                                &session,
-                                Exit::File,
-                                format!("{}: run state of another version", directory.display()),
-                            );
+                            return fail_all(&session, Exit::File, format!("{}: run state of another version", directory.display()));
                         }
                         (restored.case, restored.run, resume)
                     }
@@ -400,10 +355,7 @@ fn main() -> ExitCode {
             };
             let json = serde_json::to_string(&case).expect("case serialises");
             if panic_on_rank == Some(run.comm.rank().0) {
-                panic!(
-                    "fault injection: rank {} panics on request",
-                    run.comm.rank().0
-                );
+                panic!("fault injection: rank {} panics on request", run.comm.rank().0);
             }
             tracing::info!(
                 "case {:?}: {} owned nodes and {} ghosts here, dt = {:.3e} s, end {:.3e} s, {} rank(s)",
@@ -446,13 +398,7 @@ fn main() -> ExitCode {
                 Err(e @ RunError::Interrupted(_)) => fail_all(&session, Exit::Interrupted, e),
             }
         }
-        Command::Partition {
-            case,
-            ranks,
-            segment_nodes,
-            method,
-            json,
-        } => {
+        Command::Partition { case, ranks, segment_nodes, method, json } => {
             if ranks == 0 {
                 return fail(Exit::Usage, "--ranks must be at least 1");
             }
@@ -471,35 +417,23 @@ fn main() -> ExitCode {
             };
             let report = dea_partition::quality(&graph, &partition);
             if json {
-                println!(
-                    "{}",
-                    serde_json::to_string(&report).expect("report serialises")
-                );
+                println!("{}", serde_json::to_string(&report).expect("report serialises"));
             } else {
                 let nodes: u64 = report.ranks.iter().map(|r| r.owned_nodes).sum();
                 println!(
                     "{}: {} nodes in {} yarn segments on {} ranks; edge cut {}, predicted load imbalance {:.3}, ghost fraction {:.3}, halo {} bytes/step",
                     case.name, nodes, report.segments, ranks, report.edge_cut, report.load_imbalance, report.ghost_fraction, report.halo_bytes_per_step
                 );
-                println!(
-                    "{:>6} {:>12} {:>12} {:>14} {:>16}",
-                    "rank", "owned", "ghosts", "work", "halo bytes/step"
-                );
+                println!("{:>6} {:>12} {:>12} {:>14} {:>16}", "rank", "owned", "ghosts", "work", "halo bytes/step");
                 for r in &report.ranks {
-                    println!(
-                        "{:>6} {:>12} {:>12} {:>14.0} {:>16}",
-                        r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step
-                    );
+                    println!("{:>6} {:>12} {:>12} {:>14.0} {:>16}", r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step);
                 }
             }
             ExitCode::SUCCESS
         }
         Command::Compare { first, second } => {
             match dea_io::results::compare_results(&first, &second).and_then(|mut differences| {
-                differences.extend(dea_io::snapshot::compare_snapshots(
-                    first.parent().unwrap_or(Path::new(".")),
-                    second.parent().unwrap_or(Path::new(".")),
-                )?);
+                differences.extend(dea_io::snapshot::compare_snapshots(first.parent().unwrap_or(Path::new(".")), second.parent().unwrap_or(Path::new(".")))?);
                 Ok(differences)
             }) {
                 Ok(differences) if differences.is_empty() => {
@@ -512,18 +446,10 @@ fn main() -> ExitCode {
                     }
                     ExitCode::from(1)
                 }
-                Err(e) => fail(
-                    Exit::File,
-                    format!("{} / {}: {e}", first.display(), second.display()),
-                ),
+                Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
             }
         }
-        Command::V50 {
-            campaign,
-            out,
-            ranks_per_shot,
-            shots_per_group,
-        } => {
+        Command::V50 { campaign, out, ranks_per_shot, shots_per_group } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
@@ -531,11 +457,7 @@ fn main() -> ExitCode {
             let ranks = comm.size();
             let per_shot = ranks_per_shot.unwrap_or(ranks);
             if per_shot == 0 || ranks % per_shot != 0 {
-                return fail_all(
-                    &session,
-                    Exit::Usage,
-                    format!("--ranks-per-shot {per_shot} does not divide the job's {ranks} ranks"),
-                );
+                return fail_all(&session, Exit::Usage, format!("--ranks-per-shot {per_shot} does not divide the job's {ranks} ranks"));
             }
             let (campaign_spec, case, text) = match load_campaign_shared(&comm, &campaign) {
                 Ok(loaded) => loaded,
@@ -544,47 +466,22 @@ fn main() -> ExitCode {
             let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
                 if let Err(e) = signal_hook::flag::register(signal, stop_signal.clone()) {
-                    return fail_all(
-                        &session,
-                        Exit::Usage,
-                        format!("cannot handle signal {signal}: {e}"),
-                    );
+                    return fail_all(&session, Exit::Usage, format!("cannot handle signal {signal}: {e}"));
                 }
             }
             let _logging = match dea_mpi::progress::init_logging(comm.rank().0, None) {
                 Ok(span) => span,
                 Err(e) => return fail(Exit::File, format!("logging: {e}")),
             };
-            let group = Group {
-                index: comm.rank().0 as usize / per_shot,
-                count: ranks / per_shot,
-            };
+            let group = Group { index: comm.rank().0 as usize / per_shot, count: ranks / per_shot };
             let group_comm = comm.split(group.index as u32);
-            let result = dea_mpi::campaign::run_group(
-                &campaign_spec,
-                &case,
-                group_comm,
-                group,
-                &out,
-                shots_per_group,
-                Some(stop_signal),
-            );
+            let result = dea_mpi::campaign::run_group(&campaign_spec, &case, group_comm, group, &out, shots_per_group, Some(stop_signal));
             let code = match &result {
                 Ok(_) => 0,
                 Err(CampaignError::Setup { error, .. }) => setup_exit(error) as u8,
-                Err(CampaignError::Run {
-                    error: RunError::Numerical(_),
-                    ..
-                }) => Exit::Numerical as u8,
-                Err(CampaignError::Run {
-                    error: RunError::Interrupted(_),
-                    ..
-                }) => Exit::Interrupted as u8,
-                Err(CampaignError::Run {
-                    error: RunError::Output(_),
-                    ..
-                })
-                | Err(CampaignError::Output(_)) => Exit::File as u8,
+                Err(CampaignError::Run { error: RunError::Numerical(_), .. }) => Exit::Numerical as u8,
+                Err(CampaignError::Run { error: RunError::Interrupted(_), .. }) => Exit::Interrupted as u8,
+                Err(CampaignError::Run { error: RunError::Output(_), .. }) | Err(CampaignError::Output(_)) => Exit::File as u8,
             };
             if let Err(e) = &result {
                 // the group's own error: its rank 0 says what it was
@@ -607,13 +504,20 @@ fn main() -> ExitCode {
             if paused[0] != 0.0 {
                 println!("{}: paused after --shots-per-group {} new shots per group; run again to continue", campaign_spec.name, shots_per_group.unwrap_or(0));
             }
-            let report = match dea_mpi::campaign::report(&campaign_spec, &out).and_then(|r| {
-                dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r)
-            }) {
+            let report = match dea_mpi::campaign::report(&campaign_spec, &out).and_then(|r| dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r)) {
                 Ok(report) => report,
                 Err(e) => return fail(Exit::File, e),
             };
-            println!("{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}", report.campaign, report.shots.len(), report.partials, report.completes, group.count, per_shot, out.display());
+            println!(
+                "{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}",
+                report.campaign,
+                report.shots.len(),
+                report.partials,
+                report.completes,
+                group.count,
+                per_shot,
+                out.display()
+            );
             if report.held_at_end > 0 {
                 println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
             }
@@ -627,33 +531,19 @@ fn main() -> ExitCode {
                 }
             }
             match &report.mil_std_662f {
-                Ok(m) => println!(
-                    "MIL-STD-662F: V50 {:.1} m/s from {} + {} shots within {:.1} m/s",
-                    m.v50, m.count, m.count, m.spread
-                ),
+                Ok(m) => println!("MIL-STD-662F: V50 {:.1} m/s from {} + {} shots within {:.1} m/s", m.v50, m.count, m.count, m.spread),
                 Err(e) => println!("MIL-STD-662F: {e}"),
             }
             match &report.lambert_jonas {
-                Ok(l) => println!(
-                    "Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)",
-                    l.v_bl, l.a, l.p, l.rms_m_s
-                ),
+                Ok(l) => println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s),
                 Err(e) => println!("Lambert-Jonas: {e}"),
             }
             for (r, (low, high)) in report.bisection_brackets.iter().enumerate() {
-                println!(
-                    "bisection {r}: between {low:.1} and {high:.1} m/s (V50 ~ {:.1})",
-                    0.5 * (low + high)
-                );
+                println!("bisection {r}: between {low:.1} and {high:.1} m/s (V50 ~ {:.1})", 0.5 * (low + high));
             }
             ExitCode::SUCCESS
         }
-        Command::Fabric {
-            case,
-            out,
-            method,
-            share: Some((rank, ranks)),
-        } => {
+        Command::Fabric { case, out, method, share: Some((rank, ranks)) } => {
             let case = match load(case.as_ref()) {
                 Ok(case) => case,
                 Err((code, message)) => return fail(code, message),
@@ -671,12 +561,7 @@ fn main() -> ExitCode {
                 Err(e) => fail(setup_exit(&e), e),
             }
         }
-        Command::Fabric {
-            case,
-            out,
-            method,
-            share: None,
-        } => {
+        Command::Fabric { case, out, method, share: None } => {
             let (session, comm) = match MpiComm::initialize() {
                 Ok(mpi) => mpi,
                 Err(e) => return fail(Exit::Usage, e),
@@ -685,27 +570,34 @@ fn main() -> ExitCode {
                 Ok(case) => case,
                 Err((code, message)) => return fail_all(&session, code, message),
             };
-            if matches!(
-                case.target,
-                dea_io::case::TargetSpec::ThreeDWeaveCell { .. }
-                    | dea_io::case::TargetSpec::ThreeDWovenPanel { .. }
-            ) {
+            if matches!(case.target, dea_io::case::TargetSpec::ThreeDWeaveCell { .. } | dea_io::case::TargetSpec::ThreeDWovenPanel { .. }) {
                 return match dea_mpi::fabric::fabric_cell(&case, comm, &out) {
                     Ok(Some(report)) => {
                         let (r, c) = (&report.relaxation, &report.cell);
                         println!(
                             "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
-                            r.iterations, report.relaxation_s, r.initial_residual_n, r.final_residual_n, r.contacts, 100.0 * r.largest_overlap_ratio
+                            r.iterations,
+                            report.relaxation_s,
+                            r.initial_residual_n,
+                            r.final_residual_n,
+                            r.contacts,
+                            100.0 * r.largest_overlap_ratio
                         );
-                        let crimps: Vec<String> = report
-                            .crimp_by_role
-                            .iter()
-                            .map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp))
-                            .collect();
+                        let crimps: Vec<String> = report.crimp_by_role.iter().map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp)).collect();
                         println!(
                             "cell: {:.2} x {:.2} mm, {} yarns, {} fibres, {} nodes; thickness {:.1} -> {:.1} um ({:+.1} %), crimp {}, fibre volume fraction {:.3}, {:.1} g/m^2; results in {}",
-                            1e3 * report.period_m[0], 1e3 * report.period_m[1], report.yarns.len(), report.fibres, report.nodes, 1e6 * r.before.thickness_m, 1e6 * c.thickness_m,
-                            100.0 * report.thickness_change, crimps.join(", "), c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, out.display()
+                            1e3 * report.period_m[0],
+                            1e3 * report.period_m[1],
+                            report.yarns.len(),
+                            report.fibres,
+                            report.nodes,
+                            1e6 * r.before.thickness_m,
+                            1e6 * c.thickness_m,
+                            100.0 * report.thickness_change,
+                            crimps.join(", "),
+                            c.fibre_volume_fraction,
+                            1e3 * c.areal_density_kg_m2,
+                            out.display()
                         );
                         ExitCode::SUCCESS
                     }
@@ -719,16 +611,36 @@ fn main() -> ExitCode {
                     if let Some(r) = &report.relaxation {
                         println!(
                             "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
-                            r.iterations, report.relaxation_s, r.initial_residual_n, r.final_residual_n, r.contacts, 100.0 * r.largest_overlap_ratio
+                            r.iterations,
+                            report.relaxation_s,
+                            r.initial_residual_n,
+                            r.final_residual_n,
+                            r.contacts,
+                            100.0 * r.largest_overlap_ratio
                         );
                     }
                     println!(
                         "cell: thickness {:.1} um, crimp {:.2} %, yarn {:.0} x {:.0} um, fibre volume fraction {:.3}, {:.1} g/m^2 ({:+.2} % from style 706's 180)",
-                        1e6 * c.thickness_m, 100.0 * c.crimp, 1e6 * c.yarn_width_m, 1e6 * c.yarn_thickness_m, c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, 100.0 * report.style_706_areal_density_deviation
+                        1e6 * c.thickness_m,
+                        100.0 * c.crimp,
+                        1e6 * c.yarn_width_m,
+                        1e6 * c.yarn_thickness_m,
+                        c.fibre_volume_fraction,
+                        1e3 * c.areal_density_kg_m2,
+                        100.0 * report.style_706_areal_density_deviation
                     );
                     println!(
                         "panel: {} x {} cells ({:.2} mm square), {} layers {:.1} um apart ({:.1} um thick), {} yarns, {} fibres, {} nodes; results in {}",
-                        p.cells_per_side, p.cells_per_side, 1e3 * p.side_m, p.layers, 1e6 * p.layer_pitch_m, 1e6 * p.thickness_m, p.yarns, p.fibres, p.nodes, out.display()
+                        p.cells_per_side,
+                        p.cells_per_side,
+                        1e3 * p.side_m,
+                        p.layers,
+                        1e6 * p.layer_pitch_m,
+                        1e6 * p.thickness_m,
+                        p.yarns,
+                        p.fibres,
+                        p.nodes,
+                        out.display()
                     );
                     if let Some(coarse) = &report.coarse_cell {
                         println!(
@@ -738,15 +650,14 @@ fn main() -> ExitCode {
                         if p.ties > 0 {
                             println!(
                                 "transitions: {} ties; tied fine area differs from a coarse fibre's by up to {:.1} %, and centres up to {:.1} % of a coarse contact diameter off its axis",
-                                p.ties, 100.0 * p.transitions.area_mismatch, 100.0 * p.transitions.eccentricity
+                                p.ties,
+                                100.0 * p.transitions.area_mismatch,
+                                100.0 * p.transitions.eccentricity
                             );
                         }
                     }
                     for r in &report.ranks {
-                        println!(
-                            "rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node",
-                            r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node
-                        );
+                        println!("rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node", r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node);
                     }
                     ExitCode::SUCCESS
                 }
@@ -761,11 +672,7 @@ fn main() -> ExitCode {
             };
             match dea_mpi::bench::bench(comm, nodes, steps) {
                 Ok(Some(report)) => {
-                    let text = if json {
-                        serde_json::to_string(&report)
-                    } else {
-                        serde_json::to_string_pretty(&report)
-                    };
+                    let text = if json { serde_json::to_string(&report) } else { serde_json::to_string_pretty(&report) };
                     println!("{}", text.expect("report serialises"));
                     ExitCode::SUCCESS
                 }

@@ -44,48 +44,21 @@ impl Progress {
     pub fn new(out: &std::path::Path, start_time: f64, end_time: f64) -> Self {
         let bar = std::io::stderr().is_terminal().then(|| {
             let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]",
-                )
-                .expect("a valid template"),
-            );
+            bar.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]").expect("a valid template"));
             bar
         });
-        Self {
-            start: Instant::now(),
-            start_time,
-            end_time,
-            last_report: None,
-            last_bar: None,
-            bar,
-            path: out.join("progress.json"),
-        }
+        Self { start: Instant::now(), start_time, end_time, last_report: None, last_bar: None, bar, path: out.join("progress.json") }
     }
 
     /// Reports the state after a step; cheap unless a report is due.
-    pub fn update(
-        &mut self,
-        step: u64,
-        time: f64,
-        projectile_speed: f64,
-        energy_balance_error: f64,
-    ) {
-        let fraction =
-            ((time - self.start_time) / (self.end_time - self.start_time)).clamp(0.0, 1.0);
-        if let Some(bar) = self
-            .bar
-            .as_ref()
-            .filter(|_| self.last_bar.is_none_or(|last| last.elapsed() >= BAR_EVERY))
-        {
+    pub fn update(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
+        let fraction = ((time - self.start_time) / (self.end_time - self.start_time)).clamp(0.0, 1.0);
+        if let Some(bar) = self.bar.as_ref().filter(|_| self.last_bar.is_none_or(|last| last.elapsed() >= BAR_EVERY)) {
             self.last_bar = Some(Instant::now());
             bar.set_position((1000.0 * (time / self.end_time).clamp(0.0, 1.0)) as u64);
             bar.set_message(format!("step {step}, t = {time:.3e} s, projectile {projectile_speed:.1} m/s, energy balance {:.2}%", 100.0 * energy_balance_error));
         }
-        if self
-            .last_report
-            .is_some_and(|last| last.elapsed() < REPORT_EVERY)
-        {
+        if self.last_report.is_some_and(|last| last.elapsed() < REPORT_EVERY) {
             return;
         }
         self.last_report = Some(Instant::now());
@@ -96,11 +69,7 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            eta_s: if fraction > 0.0 {
-                elapsed * (1.0 - fraction) / fraction
-            } else {
-                f64::NAN
-            },
+            eta_s: if fraction > 0.0 { elapsed * (1.0 - fraction) / fraction } else { f64::NAN },
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
         };
@@ -125,13 +94,7 @@ impl Progress {
     }
 
     /// Clears the bar and writes the final `progress.json`.
-    pub fn finish(
-        &mut self,
-        step: u64,
-        time: f64,
-        projectile_speed: f64,
-        energy_balance_error: f64,
-    ) {
+    pub fn finish(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
         self.last_report = None;
         self.last_bar = None;
         self.update(step, time, projectile_speed, energy_balance_error);
@@ -143,37 +106,17 @@ impl Progress {
 
 /// Sets up rank-tagged logging: rank 0 logs to stderr; with `log_directory`, every rank also
 /// writes its own `rank-NNNNN.log` there. Returns the span to hold for the job's duration.
-pub fn init_logging(
-    rank: u32,
-    log_directory: Option<&std::path::Path>,
-) -> Result<tracing::span::EnteredSpan, String> {
+pub fn init_logging(rank: u32, log_directory: Option<&std::path::Path>) -> Result<tracing::span::EnteredSpan, String> {
     use tracing_subscriber::prelude::*;
-    let stderr_level = if rank == 0 {
-        tracing::level_filters::LevelFilter::INFO
-    } else {
-        tracing::level_filters::LevelFilter::WARN
-    };
-    let stderr = tracing_subscriber::fmt::layer()
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .with_target(false)
-        .without_time()
-        .with_filter(stderr_level);
+    let stderr_level = if rank == 0 { tracing::level_filters::LevelFilter::INFO } else { tracing::level_filters::LevelFilter::WARN };
+    let stderr = tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_ansi(std::io::stderr().is_terminal()).with_target(false).without_time().with_filter(stderr_level);
     // a field formatter of its own type, so the file never reuses the terminal's colours
-    let plain_fields = tracing_subscriber::fmt::format::debug_fn(|writer, field, value| {
-        if field.name() == "message" {
-            write!(writer, "{value:?}")
-        } else {
-            write!(writer, "{field}={value:?}")
-        }
-    });
+    let plain_fields = tracing_subscriber::fmt::format::debug_fn(|writer, field, value| if field.name() == "message" { write!(writer, "{value:?}") } else { write!(writer, "{field}={value:?}") });
     let file = match log_directory {
         Some(directory) => {
-            std::fs::create_dir_all(directory)
-                .map_err(|e| format!("{}: {e}", directory.display()))?;
+            std::fs::create_dir_all(directory).map_err(|e| format!("{}: {e}", directory.display()))?;
             let path = directory.join(format!("rank-{rank:05}.log"));
-            let file =
-                std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let file = std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
             Some(
                 tracing_subscriber::fmt::layer()
                     .fmt_fields(plain_fields)
@@ -185,10 +128,6 @@ pub fn init_logging(
         }
         None => None,
     };
-    tracing_subscriber::registry()
-        .with(stderr)
-        .with(file)
-        .try_init()
-        .map_err(|e| e.to_string())?;
+    tracing_subscriber::registry().with(stderr).with(file).try_init().map_err(|e| e.to_string())?;
     Ok(tracing::info_span!("rank", r = rank).entered())
 }

@@ -72,37 +72,13 @@ impl StageSeconds {
 
     pub fn to_array(self) -> [f64; Self::COUNT] {
         let (s, c) = (self.step, self.comm);
-        [
-            s.integrate,
-            s.rebuild,
-            s.rods,
-            s.fibre_contacts,
-            s.projectile_contacts,
-            s.failure,
-            c.halo,
-            c.ghost_exchange,
-            c.projectile,
-            c.reductions,
-            self.output,
-        ]
+        [s.integrate, s.rebuild, s.rods, s.fibre_contacts, s.projectile_contacts, s.failure, c.halo, c.ghost_exchange, c.projectile, c.reductions, self.output]
     }
 
     pub fn from_array(a: &[f64]) -> Self {
         Self {
-            step: StageTimes {
-                integrate: a[0],
-                rebuild: a[1],
-                rods: a[2],
-                fibre_contacts: a[3],
-                projectile_contacts: a[4],
-                failure: a[5],
-            },
-            comm: CommTimes {
-                halo: a[6],
-                ghost_exchange: a[7],
-                projectile: a[8],
-                reductions: a[9],
-            },
+            step: StageTimes { integrate: a[0], rebuild: a[1], rods: a[2], fibre_contacts: a[3], projectile_contacts: a[4], failure: a[5] },
+            comm: CommTimes { halo: a[6], ghost_exchange: a[7], projectile: a[8], reductions: a[9] },
             output: a[10],
         }
     }
@@ -143,24 +119,10 @@ struct Judge {
 
 impl Judge {
     /// `back_face`: the lowest fibre node at time zero, when already known (a restart).
-    fn new<C: Comm>(
-        run: &Distributed<C>,
-        direction: Vec3,
-        fibres: usize,
-        back_face: Option<f64>,
-    ) -> Self {
+    fn new<C: Comm>(run: &Distributed<C>, direction: Vec3, fibres: usize, back_face: Option<f64>) -> Self {
         let domain = &run.domain;
         let back_face = back_face.unwrap_or_else(|| run.z_range().0);
-        Self {
-            direction,
-            back_face,
-            margin: domain
-                .sections
-                .iter()
-                .map(|s| s.contact_diameter)
-                .fold(0.0, f64::max),
-            fibres,
-        }
+        Self { direction, back_face, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
     }
 
     fn outcome<C: Comm>(&self, run: &Distributed<C>, max_force: f64) -> Outcome {
@@ -178,15 +140,9 @@ impl Judge {
             let projectile = domain.projectile.as_ref().expect("runs have a projectile");
             let forward = projectile.velocity.dot(&self.direction);
             let resisting = -projectile.force.dot(&self.direction);
-            if forward > 0.0
-                && projectile_top(projectile) < self.back_face - self.margin
-                && (!held || resisting <= HELD_FRACTION * max_force)
-            {
+            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && (!held || resisting <= HELD_FRACTION * max_force) {
                 decision = Outcome::Perforated;
-            } else if forward < 0.0
-                && projectile_bottom(projectile) > high + self.margin
-                && projectile.force.norm() == 0.0
-            {
+            } else if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
                 decision = Outcome::Rebounded;
             }
         }
@@ -220,12 +176,7 @@ impl Resume {
         let [max_force, initial_energy, back_face] = global.run_scalars[..] else {
             return None;
         };
-        Some(Self {
-            histories: global.histories.clone(),
-            max_force,
-            initial_energy,
-            back_face,
-        })
+        Some(Self { histories: global.histories.clone(), max_force, initial_energy, back_face })
     }
 }
 
@@ -278,18 +229,9 @@ impl<'a> RunOptions<'a> {
             stop_when_decided: case.run.stop_on_perforation,
             out,
             fibres: run.fibres,
-            layers: run
-                .layer_of_yarn
-                .iter()
-                .map(|&l| l as usize + 1)
-                .max()
-                .unwrap_or(1),
+            layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
             snapshot_interval: case.run.snapshot_interval_steps,
-            checkpoints: CheckpointPolicy {
-                every_steps: case.run.checkpoint_interval_steps,
-                every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
-                stop_signal,
-            },
+            checkpoints: CheckpointPolicy { every_steps: case.run.checkpoint_interval_steps, every_seconds: 60.0 * case.run.checkpoint_interval_minutes, stop_signal },
             resume,
         }
     }
@@ -306,9 +248,7 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
         histories.time.push(domain.time);
         histories.projectile_position.push(projectile.position);
         histories.projectile_velocity.push(projectile.velocity);
-        histories
-            .projectile_angular_velocity
-            .push(projectile.angular_velocity());
+        histories.projectile_angular_velocity.push(projectile.angular_velocity());
         histories.projectile_force.push(projectile.force);
         histories.broken_by_layer.push(by_layer);
         histories.energy.push(energy);
@@ -320,21 +260,13 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
 
 /// Runs to the end time (or until the outcome is decided) on every rank and writes the
 /// results on rank 0, which returns the summary.
-pub fn run<C: Comm>(
-    run: &mut Distributed<C>,
-    options: &RunOptions,
-) -> Result<Option<Summary>, RunError> {
+pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Option<Summary>, RunError> {
     let is_root = run.comm.rank() == Rank(0);
     let mut output_seconds = 0.0;
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
     let (mut histories, mut max_force, initial_energy, back_face) = match &options.resume {
-        Some(resume) => (
-            resume.histories.clone(),
-            resume.max_force,
-            resume.initial_energy,
-            Some(resume.back_face),
-        ),
+        Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
         None => {
             let mut histories = Histories::default();
             sample(run, &mut histories, options.layers);
@@ -349,41 +281,15 @@ pub fn run<C: Comm>(
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, direction, options.fibres, back_face);
-    let mut progress =
-        is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
-    let balance = |histories: &Histories| {
-        histories
-            .energy
-            .last()
-            .map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy)
-    };
-    let speed = |run: &Distributed<C>| {
-        run.domain
-            .projectile
-            .as_ref()
-            .map_or(0.0, |p| p.velocity.norm())
-    };
+    let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
+    let balance = |histories: &Histories| histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy);
+    let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
-        let signalled = options
-            .checkpoints
-            .stop_signal
-            .as_ref()
-            .is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
-        run.requests = [
-            signalled,
-            is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds,
-        ];
+        let signalled = options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
+        run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
         run.step().map_err(RunError::Numerical)?;
-        max_force = max_force.max(
-            run.domain
-                .projectile
-                .as_ref()
-                .map_or(0.0, |p| p.force.norm()),
-        );
-        if options
-            .snapshot_interval
-            .is_some_and(|n| run.domain.step.is_multiple_of(n))
-        {
+        max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
+        if options.snapshot_interval.is_some_and(|n| run.domain.step.is_multiple_of(n)) {
             let clock = Instant::now();
             write_snapshot(run, options).map_err(RunError::Output)?;
             output_seconds += clock.elapsed().as_secs_f64();
@@ -399,18 +305,10 @@ pub fn run<C: Comm>(
             }
         }
         let [stop, due_by_time] = run.agreed;
-        let due_by_steps = options
-            .checkpoints
-            .every_steps
-            .is_some_and(|n| run.domain.step.is_multiple_of(n));
+        let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if stop || due_by_time || due_by_steps {
             let clock = Instant::now();
-            let resume = Resume {
-                histories: histories.clone(),
-                max_force,
-                initial_energy,
-                back_face: judge.back_face,
-            };
+            let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };
             let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
             last_checkpoint = Instant::now();
             output_seconds += clock.elapsed().as_secs_f64();
@@ -419,12 +317,7 @@ pub fn run<C: Comm>(
             }
         }
         if let Some(progress) = &mut progress {
-            progress.update(
-                run.domain.step,
-                run.domain.time,
-                speed(run),
-                balance(&histories),
-            );
+            progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories));
         }
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {
@@ -432,19 +325,11 @@ pub fn run<C: Comm>(
         decided = judge.outcome(run, max_force);
     }
     // the final state is the last snapshot, written by each rank for its own nodes
-    if options
-        .snapshot_interval
-        .is_none_or(|n| !run.domain.step.is_multiple_of(n))
-    {
+    if options.snapshot_interval.is_none_or(|n| !run.domain.step.is_multiple_of(n)) {
         write_snapshot(run, options).map_err(RunError::Output)?;
     }
     if let Some(progress) = &mut progress {
-        progress.finish(
-            run.domain.step,
-            run.domain.time,
-            speed(run),
-            balance(&histories),
-        );
+        progress.finish(run.domain.step, run.domain.time, speed(run), balance(&histories));
     }
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);
@@ -457,22 +342,15 @@ pub fn run<C: Comm>(
         let csv = options.out.join("history.csv");
         let outcome = std::fs::create_dir_all(options.out)
             .map_err(|e| format!("{}: {e}", options.out.display()))
-            .and_then(|()| {
-                write_results(&path, options.case_json, &histories)
-                    .map_err(|e| format!("{}: {e}", path.display()))
-            })
-            .and_then(|()| {
-                write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display()))
-            });
+            .and_then(|()| write_results(&path, options.case_json, &histories).map_err(|e| format!("{}: {e}", path.display())))
+            .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())));
         if let Err(e) = outcome {
             written[0] = 0.0;
             write_error = Some(e);
         }
     }
     if run.from_rank0(written)[0] == 0.0 {
-        return Err(RunError::Output(
-            write_error.unwrap_or_else(|| "rank 0 could not write the results".into()),
-        ));
+        return Err(RunError::Output(write_error.unwrap_or_else(|| "rank 0 could not write the results".into())));
     }
     output_seconds += clock.elapsed().as_secs_f64();
     let mut n = [run.domain.nodes.n_owned as i64, run.ghosts() as i64];
@@ -481,33 +359,17 @@ pub fn run<C: Comm>(
     let mut halo = [run.halo_bytes as i64];
     run.comm.sum_i64(&mut halo);
     let broken = run.broken();
-    let stages = StageSeconds {
-        step: run.domain.times,
-        comm: run.times,
-        output: output_seconds,
-    };
+    let stages = StageSeconds { step: run.domain.times, comm: run.times, output: output_seconds };
     let all_stages = run.comm.gather_f64(&stages.to_array());
     let Some(all_stages) = all_stages else {
         return Ok(None);
     };
     let ranks = run.comm.size();
-    let mean: Vec<f64> = (0..StageSeconds::COUNT)
-        .map(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64)
-        .collect();
+    let mean: Vec<f64> = (0..StageSeconds::COUNT).map(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64).collect();
     let mean = StageSeconds::from_array(&mean);
-    let slowest = all_stages
-        .iter()
-        .map(|s| StageSeconds::from_array(s).compute())
-        .fold(0.0, f64::max);
-    let projectile = run
-        .domain
-        .projectile
-        .as_ref()
-        .expect("runs have a projectile");
-    let final_energy = histories
-        .energy
-        .last()
-        .map_or(initial_energy, |e| e.total());
+    let slowest = all_stages.iter().map(|s| StageSeconds::from_array(s).compute()).fold(0.0, f64::max);
+    let projectile = run.domain.projectile.as_ref().expect("runs have a projectile");
+    let final_energy = histories.energy.last().map_or(initial_energy, |e| e.total());
     let summary = Summary {
         case: options.case_name.to_string(),
         ranks,
@@ -527,11 +389,7 @@ pub fn run<C: Comm>(
         stage_seconds: mean,
         halo_bytes_per_step: halo[0] as f64 / run.halo_steps.max(1) as f64,
         ghost_fraction: ghosts as f64 / nodes as f64,
-        load_imbalance: if mean.compute() > 0.0 {
-            slowest / mean.compute()
-        } else {
-            1.0
-        },
+        load_imbalance: if mean.compute() > 0.0 { slowest / mean.compute() } else { 1.0 },
         neighbour_rebuilds: run.rebuilds,
         energy_absorbed_by_layer_j: energy_by_layer,
         broken_elements_by_layer: broken_by_layer,
@@ -539,12 +397,7 @@ pub fn run<C: Comm>(
         settle: run.settled,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");
-    std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| {
-        RunError::Output(format!(
-            "{}: {e}",
-            options.out.join("summary.json").display()
-        ))
-    })?;
+    std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
     Ok(Some(summary))
 }
 
@@ -552,44 +405,26 @@ pub fn run<C: Comm>(
 /// joins all snapshots so far (collective).
 fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<(), String> {
     let part = run.snapshot_part();
-    let (ranks, rank, step, time) = (
-        run.comm.size(),
-        run.comm.rank().0,
-        run.domain.step,
-        run.domain.time,
-    );
-    let written = dea_io::snapshot::write_part(options.out, ranks, rank, step, time, &part)
-        .map_err(|e| {
-            format!(
-                "{}: {e}",
-                dea_io::snapshot::fields_directory(options.out).display()
-            )
-        });
+    let (ranks, rank, step, time) = (run.comm.size(), run.comm.rank().0, run.domain.step, run.domain.time);
+    let written = dea_io::snapshot::write_part(options.out, ranks, rank, step, time, &part).map_err(|e| format!("{}: {e}", dea_io::snapshot::fields_directory(options.out).display()));
     if run.any(written.is_err()) {
-        return Err(written
-            .err()
-            .unwrap_or_else(|| "another rank could not write its snapshot part".into()));
+        return Err(written.err().unwrap_or_else(|| "another rank could not write its snapshot part".into()));
     }
     let mut joined = Ok(());
     if rank == 0 {
         joined = dea_io::snapshot::index(options.out, ranks, step)
             .map_err(|e| e.to_string())
-            .and_then(|snapshots| {
-                dea_io::snapshot::write_xdmf(options.out, &snapshots).map_err(|e| e.to_string())
-            })
+            .and_then(|snapshots| dea_io::snapshot::write_xdmf(options.out, &snapshots).map_err(|e| e.to_string()))
             .map_err(|e| format!("{}: {e}", options.out.join("fields.xdmf").display()));
         if let (Ok(()), Some(projectile)) = (&joined, &run.domain.projectile) {
             let (vertices, triangles) = projectile_surface(projectile);
-            joined =
-                dea_io::snapshot::write_projectile(options.out, step, time, &vertices, &triangles)
-                    .and_then(|()| dea_io::snapshot::write_projectile_xdmf(options.out, step))
-                    .map_err(|e| format!("{}: {e}", options.out.join("projectile.xdmf").display()));
+            joined = dea_io::snapshot::write_projectile(options.out, step, time, &vertices, &triangles)
+                .and_then(|()| dea_io::snapshot::write_projectile_xdmf(options.out, step))
+                .map_err(|e| format!("{}: {e}", options.out.join("projectile.xdmf").display()));
         }
     }
     if run.any(joined.is_err()) {
-        return Err(joined
-            .err()
-            .unwrap_or_else(|| "rank 0 could not write fields.xdmf".into()));
+        return Err(joined.err().unwrap_or_else(|| "rank 0 could not write fields.xdmf".into()));
     }
     Ok(())
 }
@@ -598,60 +433,31 @@ fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Re
 /// closed form tessellated (8 divisions).
 fn projectile_surface(projectile: &RigidProjectile) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let (vertices, triangles) = match &projectile.shape {
-        RigidShape::Mesh(mesh) => (
-            mesh.surface.vertices.clone(),
-            mesh.surface.triangles.clone(),
-        ),
+        RigidShape::Mesh(mesh) => (mesh.surface.vertices.clone(), mesh.surface.triangles.clone()),
         RigidShape::Sphere { radius } => Solid::Sphere { radius: *radius }.mesh(8).boundary(),
-        RigidShape::Cylinder {
-            radius,
-            height,
-            edge_radius,
-        } => Solid::Cylinder {
-            radius: *radius,
-            height: *height,
-            edge_radius: *edge_radius,
-        }
-        .mesh(8)
-        .boundary(),
+        RigidShape::Cylinder { radius, height, edge_radius } => Solid::Cylinder { radius: *radius, height: *height, edge_radius: *edge_radius }.mesh(8).boundary(),
     };
-    (
-        vertices
-            .iter()
-            .map(|v| projectile.position + projectile.orientation * v)
-            .collect(),
-        triangles,
-    )
+    (vertices.iter().map(|v| projectile.position + projectile.orientation * v).collect(), triangles)
 }
 
 /// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest
 /// go to `OUT/checkpoint.writing`, which replaces the previous checkpoint only once complete.
-pub fn write_checkpoint<C: Comm>(
-    run: &Distributed<C>,
-    options: &RunOptions,
-    resume: &Resume,
-) -> Result<std::path::PathBuf, String> {
+pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, resume: &Resume) -> Result<std::path::PathBuf, String> {
     let target = options.out.join("checkpoint");
     let writing = options.out.join("checkpoint.writing");
     let is_root = run.comm.rank() == Rank(0);
     let mut prepared = Ok(());
     if is_root {
         let _ = std::fs::remove_dir_all(&writing);
-        prepared =
-            std::fs::create_dir_all(&writing).map_err(|e| format!("{}: {e}", writing.display()));
+        prepared = std::fs::create_dir_all(&writing).map_err(|e| format!("{}: {e}", writing.display()));
     }
     if run.any(prepared.is_err()) {
-        return Err(prepared
-            .err()
-            .unwrap_or_else(|| format!("{}: rank 0 could not create it", writing.display())));
+        return Err(prepared.err().unwrap_or_else(|| format!("{}: rank 0 could not create it", writing.display())));
     }
     let path = dea_io::checkpoint::part_path(&writing, run.comm.rank().0);
-    let part = dea_io::checkpoint::write_part(&path, &run.checkpoint_part())
-        .map_err(|e| format!("{}: {e}", path.display()));
+    let part = dea_io::checkpoint::write_part(&path, &run.checkpoint_part()).map_err(|e| format!("{}: {e}", path.display()));
     if run.any(part.is_err()) {
-        return Err(part
-            .err()
-            .unwrap_or_else(|| "another rank could not write its checkpoint part".into()));
+        return Err(part.err().unwrap_or_else(|| "another rank could not write its checkpoint part".into()));
     }
     let mut counts = [run.domain.nodes.n_owned as i64];
     run.comm.sum_i64(&mut counts);
@@ -672,26 +478,20 @@ pub fn write_checkpoint<C: Comm>(
             histories: resume.histories.clone(),
         };
         let manifest = dea_io::checkpoint::manifest_path(&writing);
-        placed = dea_io::checkpoint::write_manifest(&manifest, &global)
-            .map_err(|e| format!("{}: {e}", manifest.display()))
-            .and_then(|()| {
-                // the old checkpoint goes only once the new one is complete
-                let old = options.out.join("checkpoint.old");
-                let _ = std::fs::remove_dir_all(&old);
-                if target.exists() {
-                    std::fs::rename(&target, &old)
-                        .map_err(|e| format!("{}: {e}", target.display()))?;
-                }
-                std::fs::rename(&writing, &target)
-                    .map_err(|e| format!("{}: {e}", target.display()))?;
-                let _ = std::fs::remove_dir_all(&old);
-                Ok(())
-            });
+        placed = dea_io::checkpoint::write_manifest(&manifest, &global).map_err(|e| format!("{}: {e}", manifest.display())).and_then(|()| {
+            // the old checkpoint goes only once the new one is complete
+            let old = options.out.join("checkpoint.old");
+            let _ = std::fs::remove_dir_all(&old);
+            if target.exists() {
+                std::fs::rename(&target, &old).map_err(|e| format!("{}: {e}", target.display()))?;
+            }
+            std::fs::rename(&writing, &target).map_err(|e| format!("{}: {e}", target.display()))?;
+            let _ = std::fs::remove_dir_all(&old);
+            Ok(())
+        });
     }
     if run.any(placed.is_err()) {
-        return Err(placed
-            .err()
-            .unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));
+        return Err(placed.err().unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));
     }
     Ok(target)
 }

@@ -22,14 +22,9 @@ use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{
-    parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec,
-    Weave3dSpec,
-};
+use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec};
 use dea_io::cell::read_cell;
-use dea_io::checkpoint::{
-    manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState,
-};
+use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
@@ -64,17 +59,12 @@ pub struct Problem {
 impl Problem {
     /// Layer of each yarn.
     pub fn layer_of_yarn(&self) -> Vec<u32> {
-        (0..self.fabric.yarn_count())
-            .map(|y| self.fabric.yarn_layer(y))
-            .collect()
+        (0..self.fabric.yarn_count()).map(|y| self.fabric.yarn_layer(y)).collect()
     }
 
     /// Layers of the target.
     pub fn layers(&self) -> usize {
-        (0..self.fabric.yarn_count())
-            .map(|y| self.fabric.yarn_layer(y) as usize + 1)
-            .max()
-            .unwrap_or(1)
+        (0..self.fabric.yarn_count()).map(|y| self.fabric.yarn_layer(y) as usize + 1).max().unwrap_or(1)
     }
 
     /// Fibres of the whole target.
@@ -107,134 +97,64 @@ pub enum SetupError {
 
 /// A relaxed cell: read from `file` (then without a report), or generated from `weave` and
 /// relaxed with the case's contact law. `field` names the case field a weave error is about.
-fn relaxed_cell(
-    case: &Case,
-    material: &FibreMaterial,
-    file: Option<&Path>,
-    weave: impl FnOnce() -> Result<PlainWeave, String>,
-    field: &str,
-) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
-    let TargetSpec::WovenPanel {
-        weave: spec,
-        relaxation,
-        ..
-    } = &case.target
-    else {
-        unreachable!("a woven target")
-    };
+fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weave: impl FnOnce() -> Result<PlainWeave, String>, field: &str) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
+    let TargetSpec::WovenPanel { weave: spec, relaxation, .. } = &case.target else { unreachable!("a woven target") };
     if let Some(path) = file {
-        return read_cell(path)
-            .map(|cell| (cell, None))
-            .map_err(SetupError::Mesh);
+        return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh);
     }
     let plain = weave().map_err(SetupError::Case)?;
-    let mut cell = plain
-        .unit_cell(material)
-        .map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
+    let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
     let law = case.normal_law(material).expect("validated case");
     let options = relaxation.options(spec.bending_at_rest);
-    let report = relax(&mut cell, material, &law, &options)
-        .map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
+    let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
     Ok((cell, Some(report)))
 }
 
 /// The 3-D cell `weave` describes, laid out and not yet relaxed.
-pub fn laid_out_cell(
-    case: &Case,
-    weave: &Weave3dSpec,
-    material: &FibreMaterial,
-) -> Result<PeriodicCell, SetupError> {
-    let spec = weave
-        .weave(case.bending, case.contact.friction_coefficient)
-        .map_err(|e| SetupError::Case(e.to_string()))?;
-    spec.unit_cell(material)
-        .map_err(|e| SetupError::Case(e.in_case()))
+pub fn laid_out_cell(case: &Case, weave: &Weave3dSpec, material: &FibreMaterial) -> Result<PeriodicCell, SetupError> {
+    let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
+    spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))
 }
 
 /// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
 /// law, or read from the panel's cell file (then without a report); `None` for other targets.
-pub fn three_d_cell(
-    case: &Case,
-    material: &FibreMaterial,
-) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
+pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
     let (weave, relaxation) = match &case.target {
         TargetSpec::ThreeDWeaveCell { weave, relaxation } => (weave, relaxation),
-        TargetSpec::ThreeDWovenPanel {
-            cell_file: Some(path),
-            ..
-        } => {
-            return dea_io::cell::read_periodic(path)
-                .map(|(_, cell)| Some((cell, None)))
-                .map_err(SetupError::Mesh);
+        TargetSpec::ThreeDWovenPanel { cell_file: Some(path), .. } => {
+            return dea_io::cell::read_periodic(path).map(|(_, cell)| Some((cell, None))).map_err(SetupError::Mesh);
         }
-        TargetSpec::ThreeDWovenPanel {
-            weave: Some(weave),
-            relaxation,
-            ..
-        } => (weave, relaxation),
+        TargetSpec::ThreeDWovenPanel { weave: Some(weave), relaxation, .. } => (weave, relaxation),
         _ => return Ok(None),
     };
     let mut cell = laid_out_cell(case, weave, material)?;
     let law = case.normal_law(material).expect("validated case");
-    let report = relax(
-        &mut cell,
-        material,
-        &law,
-        &relaxation.options(weave.bending_at_rest),
-    )
-    .map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, Some(report))))
 }
 
 /// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
 /// case's contact law (or read from its cell file, then without a report); `None` for other
 /// targets.
-pub fn woven_cell(
-    case: &Case,
-    material: &FibreMaterial,
-) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel {
-        weave, cell_file, ..
-    } = &case.target
-    else {
+pub fn woven_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { weave, cell_file, .. } = &case.target else {
         return Ok(None);
     };
-    let plain = || {
-        weave
-            .plain_weave(case.bending, case.contact.friction_coefficient)
-            .map_err(|e| e.to_string())
-    };
+    let plain = || weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string());
     relaxed_cell(case, material, cell_file.as_deref(), plain, "target.weave").map(Some)
 }
 
 /// The coarse yarns' cell of a hybrid woven target, relaxed like the fine one (or read from
 /// its file); `None` when the target is not hybrid. Its yarn spacing must be the fine cell's.
-pub fn coarse_cell(
-    case: &Case,
-    material: &FibreMaterial,
-    fine: &UnitCell,
-) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel {
-        weave,
-        hybrid: Some(hybrid),
-        ..
-    } = &case.target
-    else {
+pub fn coarse_cell(case: &Case, material: &FibreMaterial, fine: &UnitCell) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { weave, hybrid: Some(hybrid), .. } = &case.target else {
         return Ok(None);
     };
     let plain = || {
-        let fine = weave
-            .plain_weave(case.bending, case.contact.friction_coefficient)
-            .map_err(|e| e.to_string())?;
+        let fine = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string())?;
         hybrid.coarse_weave(&fine).map_err(|e| e.to_string())
     };
-    let (cell, report) = relaxed_cell(
-        case,
-        material,
-        hybrid.cell_file.as_deref(),
-        plain,
-        "target.hybrid",
-    )?;
+    let (cell, report) = relaxed_cell(case, material, hybrid.cell_file.as_deref(), plain, "target.hybrid")?;
     if cell.yarn_spacing != fine.yarn_spacing || cell.fibres_per_yarn >= fine.fibres_per_yarn {
         return Err(SetupError::Case(format!(
             "target.hybrid.cell_file: the coarse cell ({} fibres per yarn, spacing {:e} m) must have fewer fibres than the fine one ({}) and the same spacing ({:e} m)",
@@ -256,67 +176,18 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let mu = case.contact.friction_coefficient;
     let (mut relaxation, mut coarse_relaxation) = (None, None);
     let fabric = match &case.target {
-        TargetSpec::SingleFibre {
-            length_m,
-            diameter_m,
-            element_length_ratio,
-        } => Fabric::Straight(StraightFabric::single_yarn(
-            *length_m,
-            1,
-            std::f64::consts::PI * diameter_m * diameter_m / 4.0,
-            *element_length_ratio,
-            case.bending,
-            mu,
-            deterministic,
-        )),
-        TargetSpec::StraightYarn {
-            yarn,
-            fibres_per_yarn,
-            length_m,
-            element_length_ratio,
-        } => {
-            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
-            Fabric::Straight(StraightFabric::single_yarn(
-                *length_m,
-                *fibres_per_yarn,
-                area,
-                *element_length_ratio,
-                case.bending,
-                mu,
-                deterministic,
-            ))
+        TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
+            Fabric::Straight(StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic))
         }
-        TargetSpec::StraightYarnLayers {
-            yarn,
-            fibres_per_yarn,
-            layers,
-            yarns_per_layer,
-            length_m,
-            element_length_ratio,
-        } => {
+        TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
             let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
-            Fabric::Straight(StraightFabric::cross_ply(
-                *layers,
-                *yarns_per_layer,
-                *fibres_per_yarn,
-                *length_m,
-                area,
-                *element_length_ratio,
-                case.bending,
-                mu,
-                deterministic,
-                &material,
-            ))
+            Fabric::Straight(StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic))
         }
-        TargetSpec::WovenPanel {
-            side_m,
-            layers,
-            layer_gap_m,
-            layer_shift_m,
-            boundary,
-            hybrid,
-            ..
-        } => {
+        TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
+            Fabric::Straight(StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material))
+        }
+        TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, hybrid, .. } => {
             let (cell, report) = woven_cell(case, &material)?.expect("a woven target");
             relaxation = report;
             let coarse = match coarse_cell(case, &material, &cell)? {
@@ -340,94 +211,48 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                         }
                         (None, None) => unreachable!("a validated hybrid names its fine region"),
                     };
-                    Some(CoarseYarns {
-                        cell: Arc::new(coarse),
-                        fine,
-                    })
+                    Some(CoarseYarns { cell: Arc::new(coarse), fine })
                 }
                 None => None,
             };
             let cells = ((side_m / cell.period()).round() as u32).max(1);
-            Fabric::Woven(WovenPanel::new(
-                Arc::new(cell),
-                coarse,
-                cells,
-                *layers as u32,
-                *layer_gap_m,
-                *layer_shift_m,
-                boundary.boundary(),
-                deterministic,
-            ))
+            Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
         TargetSpec::ThreeDWeaveCell { .. } => {
             return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; to strike it, tile it with kind three_d_woven_panel".into()));
         }
-        TargetSpec::ThreeDWovenPanel {
-            side_m,
-            layers,
-            layer_gap_m,
-            layer_shift_m,
-            boundary,
-            ..
-        } => {
+        TargetSpec::ThreeDWovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
             let (cell, report) = three_d_cell(case, &material)?.expect("a 3-D woven target");
             relaxation = report;
             let tiles = cell.period.map(|p| ((side_m / p).round() as u32).max(1));
-            Fabric::Tiled(TiledPanel::new(
-                Arc::new(cell),
-                tiles,
-                *layers as u32,
-                *layer_gap_m,
-                *layer_shift_m,
-                boundary.boundary(),
-                deterministic,
-            ))
+            Fabric::Tiled(TiledPanel::new(Arc::new(cell), tiles, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
     };
     let sections = fabric.sections(&material);
     // the fine section: the one the projectile meets
     let section = &sections[0];
-    let largest_contact_diameter = sections
-        .iter()
-        .map(|s| s.contact_diameter)
-        .fold(0.0, f64::max);
+    let largest_contact_diameter = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
     let contact = ContactParameters {
         law,
         friction_coefficient: mu,
         projectile_friction_coefficient: case.contact.projectile_friction_coefficient,
-        skin: case
-            .contact
-            .skin_m
-            .unwrap_or(0.25 * section.contact_diameter),
+        skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };
-    let failure = FailureParameters {
-        shear_strength: case.shear_strength().expect("validated case"),
-        enabled: !matches!(strength, Strength::None),
-    };
+    let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
     let resolved = case.projectile().expect("validated case");
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
     // diameters (§4.2.2)
-    let (reach, cell) = (
-        0.5 * largest_contact_diameter + contact.skin,
-        1.3 * section.contact_diameter,
-    );
+    let (reach, cell) = (0.5 * largest_contact_diameter + contact.skin, 1.3 * section.contact_diameter);
     let top = fabric.top(&material) + 0.5 * largest_contact_diameter;
     let (projectile, aim, mut deformable) = match resolved.deformable {
         None => {
-            let (projectile, aim) =
-                launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
+            let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
             (projectile, aim, None)
         }
         Some(ref elastic) => {
             let model = elastic.model().expect("validated case");
-            let (body, shape) = deformable_body(
-                &resolved,
-                (elastic.youngs_modulus_pa, elastic.poisson_ratio, model),
-                reach,
-                cell,
-                contact.skin,
-            )?;
+            let (body, shape) = deformable_body(&resolved, (elastic.youngs_modulus_pa, elastic.poisson_ratio, model), reach, cell, contact.skin)?;
             let (projectile, aim, body) = launch_deformable(body, shape, &resolved, top);
             (projectile, aim, Some(body))
         }
@@ -439,21 +264,10 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Fabric::Tiled(panel) => 1.25 * dea_fabric::relax::largest_overlap_ratio(&panel.cell),
         Fabric::Straight(_) => 0.0,
     };
-    let mut time_step = stable_time_step(
-        &material,
-        &sections,
-        &contact.law,
-        contact
-            .friction_coefficient
-            .max(contact.projectile_friction_coefficient),
-        starting_strain,
-        case.run.time_step_safety,
-    );
+    let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);
     if let Some(body) = &mut deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
-        let per_area = (1.0 + contact.projectile_friction_coefficient)
-            * design_contact_stiffness(section, &contact.law)
-            / (section.contact_diameter * section.element_length);
+        let per_area = (1.0 + contact.projectile_friction_coefficient) * design_contact_stiffness(section, &contact.law) / (section.contact_diameter * section.element_length);
         let safety = case.run.time_step_safety;
         let whole = safety * body.stable_time_step(per_area);
         if whole < time_step {
@@ -470,20 +284,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         }
     }
     let reach = largest_contact_diameter + contact.skin;
-    Ok(Problem {
-        material,
-        fabric,
-        relaxation,
-        coarse_relaxation,
-        contact,
-        failure,
-        strength,
-        projectile,
-        aim,
-        deformable,
-        time_step,
-        reach,
-    })
+    Ok(Problem { material, fabric, relaxation, coarse_relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
 }
 
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
@@ -497,10 +298,7 @@ fn deformable_body(
     skin: f64,
 ) -> Result<(DeformableProjectile, RigidShape), SetupError> {
     let (mesh, source) = match &resolved.body {
-        ProjectileBody::Generated { solid, divisions } => (
-            solid.mesh(*divisions),
-            format!("the generated {solid:?} mesh"),
-        ),
+        ProjectileBody::Generated { solid, divisions } => (solid.mesh(*divisions), format!("the generated {solid:?} mesh")),
         ProjectileBody::File { path, scale } => {
             let mut mesh = read_mesh(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
             mesh.nodes.iter_mut().for_each(|x| *x *= *scale);
@@ -509,10 +307,8 @@ fn deformable_body(
         ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
     };
     let (vertices, triangles) = mesh.boundary();
-    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model)
-        .map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
-    let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell)
-        .map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (centre, _) = body.body.centre_of_mass();
     let mut surface = Vec::new();
     body.surface_from(&centre, &mut surface);
@@ -524,12 +320,7 @@ fn deformable_body(
 /// [`launch`] for a deformable body: the body's nodes take the launch pose and velocity,
 /// and the proxy keeps an unturned frame at the centre of mass (its surface carries the
 /// turn).
-fn launch_deformable(
-    mut body: DeformableProjectile,
-    shape: RigidShape,
-    resolved: &ResolvedProjectile,
-    top: f64,
-) -> (RigidProjectile, [f64; 2], DeformableProjectile) {
+fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2], DeformableProjectile) {
     let (mut projectile, aim) = launch(shape, resolved, top);
     body.launch(&projectile);
     projectile.orientation = UnitQuaternion::identity();
@@ -551,35 +342,21 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
             (vertices, triangles, format!("the generated {solid:?} mesh"))
         }
         ProjectileBody::File { path, scale } => {
-            let (vertices, triangles) =
-                read_surface(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
-            (
-                vertices.iter().map(|v| v * *scale).collect(),
-                triangles,
-                path.display().to_string(),
-            )
+            let (vertices, triangles) = read_surface(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
+            (vertices.iter().map(|v| v * *scale).collect(), triangles, path.display().to_string())
         }
     };
-    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell)
-        .map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     Ok(RigidShape::Mesh(Arc::new(mesh)))
 }
 
 /// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, for a
 /// meshed one the surface and the density its mass implies, and for a generated one the
 /// size of its hexahedral mesh.
-pub fn describe_projectile(
-    projectile: &RigidProjectile,
-    body: &ProjectileBody,
-    deformable: Option<&DeformableProjectile>,
-) -> serde_json::Value {
+pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, deformable: Option<&DeformableProjectile>) -> serde_json::Value {
     let shape = match &projectile.shape {
         RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
-        RigidShape::Cylinder {
-            radius,
-            height,
-            edge_radius,
-        } => {
+        RigidShape::Cylinder { radius, height, edge_radius } => {
             serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } })
         }
         RigidShape::Mesh(mesh) => serde_json::json!({ "mesh": {
@@ -616,60 +393,26 @@ pub fn describe_projectile(
 /// crosses the target's top: along the line of flight `(-sin o, 0, -cos o)` for obliquity
 /// `o`, its lowest point `INITIAL_GAP` above the top `top` [m]. The body is turned by the
 /// obliquity about y, then yawed about its own x axis.
-fn launch(
-    shape: RigidShape,
-    resolved: &ResolvedProjectile,
-    top: f64,
-) -> (RigidProjectile, [f64; 2]) {
+fn launch(shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2]) {
     let flight = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), resolved.obliquity);
     let orientation = flight * UnitQuaternion::from_axis_angle(&Vec3::x_axis(), resolved.yaw);
     let direction = flight * Vec3::new(0.0, 0.0, -1.0);
-    let below_centre =
-        shape.support(&orientation.inverse_transform_vector(&Vec3::new(0.0, 0.0, -1.0)));
+    let below_centre = shape.support(&orientation.inverse_transform_vector(&Vec3::new(0.0, 0.0, -1.0)));
     let travel = (below_centre + INITIAL_GAP) / resolved.obliquity.cos();
     let aim = Vec3::new(resolved.offset[0], resolved.offset[1], top);
     let start = aim - direction * travel;
-    (
-        RigidProjectile::new(
-            shape,
-            resolved.mass,
-            start,
-            direction * resolved.speed,
-            orientation,
-        ),
-        resolved.offset,
-    )
+    (RigidProjectile::new(shape, resolved.mass, start, direction * resolved.speed, orientation), resolved.offset)
 }
 
 /// The yarn-segment graph of a problem, weighted for a shot along its projectile's line.
-pub fn segment_graph(
-    problem: &Problem,
-    ranks: usize,
-    segment_positions: Option<u32>,
-) -> SegmentGraph {
-    let shot = ShotLine {
-        x: problem.aim[0],
-        y: problem.aim[1],
-        radius: problem.projectile.shape.bounding_radius() + problem.reach,
-    };
-    let positions = segment_positions
-        .unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
-    dea_partition::segment_graph(
-        &problem.fabric,
-        &problem.material,
-        problem.reach,
-        Some(shot),
-        positions,
-    )
+pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<u32>) -> SegmentGraph {
+    let shot = ShotLine { x: problem.aim[0], y: problem.aim[1], radius: problem.projectile.shape.bounding_radius() + problem.reach };
+    let positions = segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
+    dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
 }
 
 /// Rank 0 partitions, every rank receives the result (or the same error).
-fn shared_partition<C: Comm>(
-    comm: &C,
-    problem: &Problem,
-    method: Method,
-    segment_positions: Option<u32>,
-) -> Result<Partition, SetupError> {
+fn shared_partition<C: Comm>(comm: &C, problem: &Problem, method: Method, segment_positions: Option<u32>) -> Result<Partition, SetupError> {
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
         let graph = segment_graph(problem, comm.size(), segment_positions);
@@ -686,44 +429,20 @@ fn shared_partition<C: Comm>(
     }
     comm.broadcast_bytes(&mut message);
     match message.split_first() {
-        Some((0, words)) => Ok(Partition::from_words(
-            &words
-                .chunks_exact(8)
-                .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
-                .collect::<Vec<_>>(),
-        )),
-        Some((_, text)) => Err(SetupError::Partition(
-            String::from_utf8_lossy(text).into_owned(),
-        )),
-        None => Err(SetupError::Partition(
-            PartitionError::TooFewSegments {
-                segments: 0,
-                ranks: comm.size(),
-            }
-            .to_string(),
-        )),
+        Some((0, words)) => Ok(Partition::from_words(&words.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect::<Vec<_>>())),
+        Some((_, text)) => Err(SetupError::Partition(String::from_utf8_lossy(text).into_owned())),
+        None => Err(SetupError::Partition(PartitionError::TooFewSegments { segments: 0, ranks: comm.size() }.to_string())),
     }
 }
 
 /// Sets up this rank: partition, own nodes, Weibull strengths, ghosts, initial forces.
-pub fn build<C: Comm>(
-    case: &Case,
-    comm: C,
-    method: Method,
-    segment_positions: Option<u32>,
-) -> Result<Distributed<C>, SetupError> {
+pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>) -> Result<Distributed<C>, SetupError> {
     build_adjusted(case, comm, method, segment_positions, |_| {})
 }
 
 /// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
 /// (the benchmark squeezes its yarn this way).
-pub fn build_adjusted<C: Comm>(
-    case: &Case,
-    comm: C,
-    method: Method,
-    segment_positions: Option<u32>,
-    adjust: impl FnOnce(&mut Nodes),
-) -> Result<Distributed<C>, SetupError> {
+pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
     let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
     if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
@@ -761,13 +480,7 @@ pub fn build_adjusted<C: Comm>(
 
 /// The rank of a resolved problem: partition, own nodes (`adjust` applied), Weibull
 /// strengths, ghosts, initial forces.
-pub fn assemble<C: Comm>(
-    mut problem: Problem,
-    comm: C,
-    method: Method,
-    segment_positions: Option<u32>,
-    adjust: impl FnOnce(&mut Nodes),
-) -> Result<Distributed<C>, SetupError> {
+pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
     let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
     let body = take_body(&mut problem, comm.rank());
@@ -775,19 +488,11 @@ pub fn assemble<C: Comm>(
         let (nodes, elements) = (&domain.nodes, &mut domain.elements);
         for i in 0..nodes.n_owned {
             if !nodes.last[i] {
-                elements.tensile_strength[i] =
-                    element_strength(law, *seed, nodes.gid[i], elements.rest_length[i]);
+                elements.tensile_strength[i] = element_strength(law, *seed, nodes.gid[i], elements.rest_length[i]);
             }
         }
     }
-    let mut run = Distributed::new(
-        comm,
-        domain,
-        partition,
-        &problem.fabric.nodes_per_yarn_fibre(),
-        problem.reach,
-        body,
-    )?;
+    let mut run = Distributed::new(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, body)?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
     Ok(run)
@@ -795,26 +500,10 @@ pub fn assemble<C: Comm>(
 
 /// This rank's nodes of `problem` as generated (`adjust` applied), in a domain without
 /// ghosts; rank 0 owns the projectile.
-pub(crate) fn own_domain(
-    problem: &Problem,
-    partition: &Partition,
-    me: Rank,
-    adjust: impl FnOnce(&mut Nodes),
-) -> Domain {
-    let mut built = problem.fabric.build(&problem.material, |yarn, k| {
-        partition.rank_of_position(yarn, k) == me
-    });
+pub(crate) fn own_domain(problem: &Problem, partition: &Partition, me: Rank, adjust: impl FnOnce(&mut Nodes)) -> Domain {
+    let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
     adjust(&mut built.nodes);
-    let mut domain = Domain::assemble(
-        problem.material.clone(),
-        built.sections,
-        built.nodes,
-        built.elements,
-        problem.contact,
-        problem.failure,
-        Some(problem.projectile.clone()),
-        problem.time_step,
-    );
+    let mut domain = Domain::assemble(problem.material.clone(), built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile.clone()), problem.time_step);
     domain.set_ties(built.ties);
     // a deformable body is integrated beside the domain (rank 0), not as a rigid body
     domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
@@ -835,11 +524,7 @@ pub struct Restored<C: Comm> {
 
 /// Every rank learns whether any rank failed; all return an error (their own, or
 /// `elsewhere` where another rank failed).
-fn agree_on<C: Comm, T>(
-    comm: &C,
-    local: Result<T, SetupError>,
-    elsewhere: impl FnOnce() -> SetupError,
-) -> Result<T, SetupError> {
+fn agree_on<C: Comm, T>(comm: &C, local: Result<T, SetupError>, elsewhere: impl FnOnce() -> SetupError) -> Result<T, SetupError> {
     let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
     comm.max_f64(&mut failed);
     match local {
@@ -852,9 +537,7 @@ fn agree_on<C: Comm, T>(
 /// [`problem`] on every rank, failing together (a mesh file one node cannot read ends the
 /// whole job).
 pub fn shared_problem<C: Comm>(comm: &C, case: &Case) -> Result<Problem, SetupError> {
-    agree_on(comm, problem(case), || {
-        SetupError::Mesh("another rank could not read the projectile mesh".into())
-    })
+    agree_on(comm, problem(case), || SetupError::Mesh("another rank could not read the projectile mesh".into()))
 }
 
 fn unreadable_checkpoint() -> SetupError {
@@ -862,24 +545,15 @@ fn unreadable_checkpoint() -> SetupError {
 }
 
 /// Restores a run from a checkpoint directory on this job's ranks (any number of them).
-pub fn restore<C: Comm>(
-    directory: &Path,
-    comm: C,
-    method: Method,
-) -> Result<Restored<C>, SetupError> {
+pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Restored<C>, SetupError> {
     let global = read_manifest(directory).map_err(|e| SetupError::Checkpoint(e.to_string()));
     let global = agree_on(&comm, global, unreadable_checkpoint)?;
-    let case = parse_case(
-        &global.case_json,
-        &manifest_path(directory).display().to_string(),
-    )
-    .map_err(|e| SetupError::Checkpoint(e.to_string()))?;
+    let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string()).map_err(|e| SetupError::Checkpoint(e.to_string()))?;
     let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();
     let stride = problem.fabric.gid_stride() as u64;
-    let owned =
-        |gid: u64| partition.rank_of(FibreId((gid / stride) as u32), (gid % stride) as u32) == me;
+    let owned = |gid: u64| partition.rank_of(FibreId((gid / stride) as u32), (gid % stride) as u32) == me;
     let mut state = NodeState::default();
     let mut read = Ok(());
     for part in 0..global.parts {
@@ -898,38 +572,16 @@ pub fn restore<C: Comm>(
     let mut counts = [state.gid.len() as i64, domain.nodes.n_owned as i64];
     comm.sum_i64(&mut counts);
     if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
-        return Err(SetupError::Checkpoint(format!(
-            "{}: holds {} nodes, of which {} belong to the case's {} nodes",
-            directory.display(),
-            global.nodes,
-            counts[0],
-            counts[1]
-        )));
+        return Err(SetupError::Checkpoint(format!("{}: holds {} nodes, of which {} belong to the case's {} nodes", directory.display(), global.nodes, counts[0], counts[1])));
     }
     domain.step = global.step;
     domain.time = global.time;
     if me == Rank(0) {
-        domain.broken = BrokenCount {
-            tension: global.broken[0],
-            shear: global.broken[1],
-            combined: global.broken[2],
-        };
+        domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
     }
-    let mut run = Distributed::restore(
-        comm,
-        domain,
-        partition,
-        &problem.fabric.nodes_per_yarn_fibre(),
-        problem.reach,
-        &state,
-        &global.projectile,
-        body,
-    )
-    .map_err(|e| match e {
+    let mut run = Distributed::restore(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, &state, &global.projectile, body).map_err(|e| match e {
         RestoreError::Numerical(e) => SetupError::Numerical(e),
-        RestoreError::Mismatch(m) => {
-            SetupError::Checkpoint(format!("{}: {m}", directory.display()))
-        }
+        RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
@@ -940,18 +592,12 @@ pub fn restore<C: Comm>(
 
 /// Lowest point of the projectile along z [m].
 pub fn projectile_bottom(projectile: &RigidProjectile) -> f64 {
-    projectile.position.z
-        - projectile
-            .shape
-            .support(&projectile.orientation.inverse_transform_vector(&-Vec3::z()))
+    projectile.position.z - projectile.shape.support(&projectile.orientation.inverse_transform_vector(&-Vec3::z()))
 }
 
 /// Highest point of the projectile along z [m].
 pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
-    projectile.position.z
-        + projectile
-            .shape
-            .support(&projectile.orientation.inverse_transform_vector(&Vec3::z()))
+    projectile.position.z + projectile.shape.support(&projectile.orientation.inverse_transform_vector(&Vec3::z()))
 }
 
 #[cfg(test)]
@@ -960,30 +606,14 @@ mod tests {
 
     #[test]
     fn an_oblique_yawed_shot_starts_just_above_the_target_on_its_line_of_flight() {
-        let shape = RigidShape::Cylinder {
-            radius: 1.7e-3,
-            height: 3.7e-3,
-            edge_radius: 50e-6,
-        };
+        let shape = RigidShape::Cylinder { radius: 1.7e-3, height: 3.7e-3, edge_radius: 50e-6 };
         let (obliquity, yaw) = (30f64.to_radians(), 10f64.to_radians());
-        let resolved = ResolvedProjectile {
-            body: ProjectileBody::Analytic(shape.clone()),
-            mass: 1e-3,
-            speed: 400.0,
-            offset: [1e-3, -2e-3],
-            obliquity,
-            yaw,
-            deformable: None,
-        };
+        let resolved = ResolvedProjectile { body: ProjectileBody::Analytic(shape.clone()), mass: 1e-3, speed: 400.0, offset: [1e-3, -2e-3], obliquity, yaw, deformable: None };
         let top = 0.5e-3;
         let (projectile, aim) = launch(shape, &resolved, top);
         assert_eq!(aim, [1e-3, -2e-3]);
         // lowest point a gap above the top (to rounding)
-        assert!(
-            (projectile_bottom(&projectile) - (top + INITIAL_GAP)).abs() < 1e-15,
-            "{}",
-            projectile_bottom(&projectile)
-        );
+        assert!((projectile_bottom(&projectile) - (top + INITIAL_GAP)).abs() < 1e-15, "{}", projectile_bottom(&projectile));
         // flight tilted towards -x by the obliquity
         let direction = projectile.velocity / 400.0;
         assert!((direction - Vec3::new(-obliquity.sin(), 0.0, -obliquity.cos())).norm() < 1e-15);

@@ -4,11 +4,7 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn dea(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
+    Command::new(env!("CARGO_BIN_EXE_dea-mpi")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap()
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -21,26 +17,16 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn bad_case_names_the_field_and_exits_3() {
     let dir = scratch("bad");
-    let mut case: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap())
-            .unwrap();
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
     case["target"]["element_length_ratio"] = (-1.0).into();
     let path = dir.join("bad.json");
     std::fs::write(&path, case.to_string()).unwrap();
     let out = dea(&["check", path.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(3));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("target.element_length_ratio") && stderr.contains("bad.json"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("target.element_length_ratio") && stderr.contains("bad.json"), "{stderr}");
     std::fs::write(&path, "{\"name\": 3}").unwrap();
-    let out = dea(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(3));
     assert!(String::from_utf8_lossy(&out.stderr).contains("name"));
 }
@@ -59,17 +45,10 @@ fn missing_file_exits_4_and_usage_errors_exit_2() {
 #[test]
 fn check_prints_the_resolved_case() {
     let out = dea(&["check", "../cases/single_fibre_short.json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(printed["case"]["name"], "single-fibre-short");
-    assert_eq!(
-        printed["resolved"]["material"]["longitudinal_modulus"],
-        84.6e9
-    );
+    assert_eq!(printed["resolved"]["material"]["longitudinal_modulus"], 84.6e9);
     assert!(printed["resolved"]["nodes"].as_u64().unwrap() > 1000);
     assert!(printed["resolved"]["time_step_s"].as_f64().unwrap() > 0.0);
 }
@@ -77,180 +56,65 @@ fn check_prints_the_resolved_case() {
 #[test]
 fn run_writes_summary_and_hdf5_histories() {
     let dir = scratch("run");
-    let out = dea(&[
-        "run",
-        "../cases/single_fibre_short.json",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    for key in [
-        "steps",
-        "simulated_time_s",
-        "wall_s",
-        "perforated",
-        "residual_velocity_m_s",
-        "max_projectile_force_n",
-        "node_steps_per_s_per_core",
-    ] {
+    let out = dea(&["run", "../cases/single_fibre_short.json", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for key in ["steps", "simulated_time_s", "wall_s", "perforated", "residual_velocity_m_s", "max_projectile_force_n", "node_steps_per_s_per_core"] {
         assert!(summary.get(key).is_some(), "summary lacks {key}");
     }
     assert!(summary["steps"].as_u64().unwrap() > 100);
-    assert!(
-        summary["max_projectile_force_n"].as_f64().unwrap() > 0.0,
-        "the sphere reached the fibre"
-    );
+    assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the sphere reached the fibre");
     assert!(summary["energy_balance_error"].as_f64().unwrap() < 1e-3);
     let file = hdf5::File::open(dir.join("results.h5")).unwrap();
     let time: Vec<f64> = file.dataset("history/time").unwrap().read_raw().unwrap();
     assert!(time.len() > 2);
-    for name in [
-        "history/projectile_position",
-        "history/projectile_velocity",
-        "history/projectile_force",
-    ] {
-        assert_eq!(
-            file.dataset(name).unwrap().shape(),
-            vec![time.len(), 3],
-            "{name}"
-        );
+    for name in ["history/projectile_position", "history/projectile_velocity", "history/projectile_force"] {
+        assert_eq!(file.dataset(name).unwrap().shape(), vec![time.len(), 3], "{name}");
     }
-    for kind in [
-        "fibre_kinetic",
-        "projectile_kinetic",
-        "axial",
-        "bending",
-        "contact",
-        "friction_dissipated",
-        "plastic_dissipated",
-        "total",
-    ] {
-        let values: Vec<f64> = file
-            .dataset(&format!("history/energy/{kind}"))
-            .unwrap()
-            .read_raw()
-            .unwrap();
+    for kind in ["fibre_kinetic", "projectile_kinetic", "axial", "bending", "contact", "friction_dissipated", "plastic_dissipated", "total"] {
+        let values: Vec<f64> = file.dataset(&format!("history/energy/{kind}")).unwrap().read_raw().unwrap();
         assert_eq!(values.len(), time.len(), "{kind}");
     }
     // the final state is the last snapshot, one part per rank, listed in fields.xdmf
     let snapshots = dea_io::snapshot::index(&dir, 1, u64::MAX).unwrap();
     let last = snapshots.last().expect("a final snapshot");
     assert_eq!(last.step, summary["steps"].as_u64().unwrap());
-    assert_eq!(
-        last.parts[0].points as u64,
-        summary["nodes"].as_u64().unwrap()
-    );
-    assert!(std::fs::read_to_string(dir.join("fields.xdmf"))
-        .unwrap()
-        .contains(&format!("step {}", last.step)));
+    assert_eq!(last.parts[0].points as u64, summary["nodes"].as_u64().unwrap());
+    assert!(std::fs::read_to_string(dir.join("fields.xdmf")).unwrap().contains(&format!("step {}", last.step)));
     // the projectile's surface (the analytic sphere tessellated) at the same steps
     let projectile = std::fs::read_to_string(dir.join("projectile.xdmf")).unwrap();
     assert_eq!(projectile.matches("<Time ").count(), snapshots.len());
-    assert!(
-        projectile.contains(&format!("step {}", last.step))
-            && projectile.contains("TopologyType=\"Triangle\"")
-    );
+    assert!(projectile.contains(&format!("step {}", last.step)) && projectile.contains("TopologyType=\"Triangle\""));
     // history.csv has a row per sample
-    assert_eq!(
-        std::fs::read_to_string(dir.join("history.csv"))
-            .unwrap()
-            .lines()
-            .count(),
-        time.len() + 1
-    );
+    assert_eq!(std::fs::read_to_string(dir.join("history.csv")).unwrap().lines().count(), time.len() + 1);
 }
 
 #[test]
 fn bench_json_has_the_documented_keys() {
     let out = dea(&["bench", "--json", "--nodes", "4000", "--steps", "20"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for key in [
-        "nodes",
-        "steps",
-        "ranks",
-        "wall_s",
-        "ns_per_node_step",
-        "ns_per_contact_pair",
-        "ns_per_node_rods",
-        "ns_per_node_rebuild",
-        "contacts_per_node",
-    ] {
+    for key in ["nodes", "steps", "ranks", "wall_s", "ns_per_node_step", "ns_per_contact_pair", "ns_per_node_rods", "ns_per_node_rebuild", "contacts_per_node"] {
         assert!(report.get(key).is_some(), "bench lacks {key}");
     }
     assert!(report["nodes"].as_u64().unwrap() >= 4000);
-    assert!(
-        report["contacts_per_node"].as_f64().unwrap() > 1.0,
-        "the bench yarn is in contact"
-    );
+    assert!(report["contacts_per_node"].as_f64().unwrap() > 1.0, "the bench yarn is in contact");
 }
 
 #[test]
 fn partition_reports_owned_and_ghost_nodes_per_rank() {
-    let out = dea(&[
-        "partition",
-        "../cases/single_fibre_short.json",
-        "--ranks",
-        "3",
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "3", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ranks = report["ranks"].as_array().unwrap();
     assert_eq!(ranks.len(), 3);
-    let owned: u64 = ranks
-        .iter()
-        .map(|r| r["owned_nodes"].as_u64().unwrap())
-        .sum();
-    let check: serde_json::Value =
-        serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout)
-            .unwrap();
-    assert_eq!(
-        owned,
-        check["resolved"]["nodes"].as_u64().unwrap(),
-        "every node owned exactly once"
-    );
+    let owned: u64 = ranks.iter().map(|r| r["owned_nodes"].as_u64().unwrap()).sum();
+    let check: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
+    assert_eq!(owned, check["resolved"]["nodes"].as_u64().unwrap(), "every node owned exactly once");
     assert!(report["load_imbalance"].as_f64().unwrap() < 1.05);
-    assert!(
-        ranks.iter().all(|r| r["ghost_nodes"].as_u64().unwrap() > 0),
-        "a cut fibre needs ghosts on both sides"
-    );
-    assert_eq!(
-        dea(&[
-            "partition",
-            "../cases/single_fibre_short.json",
-            "--ranks",
-            "0"
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
-    assert_eq!(
-        dea(&[
-            "partition",
-            "../cases/single_fibre_short.json",
-            "--ranks",
-            "100000"
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
+    assert!(ranks.iter().all(|r| r["ghost_nodes"].as_u64().unwrap() > 0), "a cut fibre needs ghosts on both sides");
+    assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "0"]).status.code(), Some(2));
+    assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "100000"]).status.code(), Some(2));
 }
 
 /// A surface as ASCII STL.
@@ -271,75 +135,29 @@ fn stl(vertices: &[dea_core::Vec3], triangles: &[[u32; 3]]) -> String {
 fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     let dir = scratch("stl");
     let (radius, height, edge) = (1.7e-3, 3.7e-3, 0.2e-3);
-    let (vertices, triangles) = dea_projectile::generate::Solid::Cylinder {
-        radius,
-        height,
-        edge_radius: edge,
-    }
-    .mesh(4)
-    .boundary();
+    let (vertices, triangles) = dea_projectile::generate::Solid::Cylinder { radius, height, edge_radius: edge }.mesh(4).boundary();
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles)).unwrap();
-    let mut case: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap())
-            .unwrap();
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
     case["projectile"] = serde_json::json!({ "shape": "cylinder", "diameter_m": 2.0 * radius, "height_m": height, "edge_radius_m": edge, "mesh_divisions": 4, "mass_kg": 5e-6, "velocity_m_s": 100.0 });
     std::fs::write(dir.join("generated.json"), case.to_string()).unwrap();
     // the file's vertices are the generator's, written exactly, in the same order
     case["projectile"] = serde_json::json!({ "shape": "file", "mesh_file": "rcc.stl", "mass_kg": 5e-6, "velocity_m_s": 100.0 });
     std::fs::write(dir.join("file.json"), case.to_string()).unwrap();
     let checked = dea(&["check", dir.join("file.json").to_str().unwrap()]);
-    assert!(
-        checked.status.success(),
-        "{}",
-        String::from_utf8_lossy(&checked.stderr)
-    );
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
     let printed: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
-    assert_eq!(
-        printed["resolved"]["projectile"]["shape"]["mesh"]["triangles"],
-        triangles.len()
-    );
+    assert_eq!(printed["resolved"]["projectile"]["shape"]["mesh"]["triangles"], triangles.len());
     for name in ["generated", "file"] {
-        let out = dea(&[
-            "run",
-            dir.join(format!("{name}.json")).to_str().unwrap(),
-            "--out",
-            dir.join(name).to_str().unwrap(),
-        ]);
-        assert!(
-            out.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let out = dea(&["run", dir.join(format!("{name}.json")).to_str().unwrap(), "--out", dir.join(name).to_str().unwrap()]);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("file/summary.json")).unwrap())
-            .unwrap();
-    assert!(
-        summary["max_projectile_force_n"].as_f64().unwrap() > 0.0,
-        "the meshed cylinder reached the fibre"
-    );
-    let compared = dea(&[
-        "compare",
-        dir.join("generated/results.h5").to_str().unwrap(),
-        dir.join("file/results.h5").to_str().unwrap(),
-    ]);
-    assert!(
-        compared.status.success(),
-        "{}",
-        String::from_utf8_lossy(&compared.stdout)
-    );
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("file/summary.json")).unwrap()).unwrap();
+    assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the meshed cylinder reached the fibre");
+    let compared = dea(&["compare", dir.join("generated/results.h5").to_str().unwrap(), dir.join("file/results.h5").to_str().unwrap()]);
+    assert!(compared.status.success(), "{}", String::from_utf8_lossy(&compared.stdout));
     // a damaged file: exit 4, naming the file and the line
-    std::fs::write(
-        dir.join("rcc.stl"),
-        stl(&vertices, &triangles).replacen("vertex", "vertex nan-ish", 1),
-    )
-    .unwrap();
-    let out = dea(&[
-        "run",
-        dir.join("file.json").to_str().unwrap(),
-        "--out",
-        dir.join("bad").to_str().unwrap(),
-    ]);
+    std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles).replacen("vertex", "vertex nan-ish", 1)).unwrap();
+    let out = dea(&["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(4));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("rcc.stl:4:"), "{stderr}");
@@ -347,42 +165,24 @@ fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles[1..])).unwrap();
     let out = dea(&["check", dir.join("file.json").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(4));
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("not closed"),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not closed"), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
 #[test]
 fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
     let dir = scratch("inverted");
-    let mut case: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string("../cases/four_layer_deformable_sphere.json").unwrap(),
-    )
-    .unwrap();
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/four_layer_deformable_sphere.json").unwrap()).unwrap();
     // a body as soft as rubber at 50 m/s: far beyond linear elasticity
     case["projectile"]["deformable"]["youngs_modulus_pa"] = 2.09e7.into();
     case["projectile"]["velocity_m_s"] = 50.0.into();
     case["run"]["end_time_s"] = 1.2e-5.into();
     std::fs::write(dir.join("soft.json"), case.to_string()).unwrap();
-    let out = dea(&[
-        "run",
-        dir.join("soft.json").to_str().unwrap(),
-        "--out",
-        dir.join("out").to_str().unwrap(),
-    ]);
+    let out = dea(&["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(5));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("deformable projectile is inverted"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("deformable projectile is inverted"), "{stderr}");
     // a deformable body needs hexahedra: an analytic sphere is refused by field
-    case["projectile"]
-        .as_object_mut()
-        .unwrap()
-        .remove("mesh_divisions");
+    case["projectile"].as_object_mut().unwrap().remove("mesh_divisions");
     std::fs::write(dir.join("analytic.json"), case.to_string()).unwrap();
     let out = dea(&["check", dir.join("analytic.json").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(3));

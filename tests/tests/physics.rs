@@ -10,20 +10,10 @@ use dea_core::{Domain, FibreMaterial, Vec3};
 use dea_fabric::StraightFabric;
 use nalgebra::{Rotation3, UnitQuaternion};
 
-const NO_FAILURE: FailureParameters = FailureParameters {
-    shear_strength: 0.7672e9,
-    enabled: false,
-};
+const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false };
 
 fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
-    ContactParameters {
-        law: NormalLaw::Elastic {
-            transverse_modulus: material.transverse_modulus,
-        },
-        friction_coefficient: 0.0,
-        projectile_friction_coefficient: 0.0,
-        skin: 5e-6,
-    }
+    ContactParameters { law: NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }, friction_coefficient: 0.0, projectile_friction_coefficient: 0.0, skin: 5e-6 }
 }
 
 /// The seed §6.1 fibre: 0.1016 m KM2, 50 µm, ends fixed, optionally struck at its centre by
@@ -31,56 +21,21 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
 fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaModel) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let diameter: f64 = 50e-6;
-    let bundle = StraightFabric::single_yarn(
-        0.1016,
-        1,
-        std::f64::consts::PI * diameter * diameter / 4.0,
-        element_length_ratio,
-        inertia,
-        0.3,
-        3.8e9,
-    );
+    let bundle = StraightFabric::single_yarn(0.1016, 1, std::f64::consts::PI * diameter * diameter / 4.0, element_length_ratio, inertia, 0.3, 3.8e9);
     let built = bundle.build_all(&material);
     let contact = elastic_frictionless(&material);
-    let dt = stable_time_step(
-        &material,
-        &built.sections,
-        &contact.law,
-        0.0,
-        dea_core::stability::DESIGN_CONTACT_STRAIN,
-        0.5,
-    );
+    let dt = stable_time_step(&material, &built.sections, &contact.law, 0.0, dea_core::stability::DESIGN_CONTACT_STRAIN, 0.5);
     let projectile = with_sphere.then(|| {
         let radius = 5.56e-3 / 2.0;
         let start = radius + 0.5 * built.sections[0].contact_diameter + 1e-7;
-        RigidProjectile::new(
-            RigidShape::Sphere { radius },
-            5e-6,
-            Vec3::new(0.0, 0.0, start),
-            Vec3::new(0.0, 0.0, -100.0),
-            UnitQuaternion::identity(),
-        )
+        RigidProjectile::new(RigidShape::Sphere { radius }, 5e-6, Vec3::new(0.0, 0.0, start), Vec3::new(0.0, 0.0, -100.0), UnitQuaternion::identity())
     });
-    Domain::assemble(
-        material,
-        built.sections,
-        built.nodes,
-        built.elements,
-        contact,
-        NO_FAILURE,
-        projectile,
-        dt,
-    )
-    .initialize()
-    .unwrap()
+    Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt).initialize().unwrap()
 }
 
 /// Time at which `signal` first crosses `level`, linearly interpolated between steps.
 fn crossing_time(history: &[(f64, f64)], level: f64) -> f64 {
-    let k = history
-        .iter()
-        .position(|&(_, s)| s >= level)
-        .expect("the front arrives");
+    let k = history.iter().position(|&(_, s)| s >= level).expect("the front arrives");
     let ((t0, s0), (t1, s1)) = (history[k - 1], history[k]);
     t0 + (level - s0) / (s1 - s0) * (t1 - t0)
 }
@@ -106,28 +61,14 @@ fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
         history_a.push((domain.time, domain.elements.strain[a]));
         history_b.push((domain.time, domain.elements.strain[b]));
     }
-    let speed = (xb - xa)
-        / (crossing_time(&history_b, 0.5 * incident) - crossing_time(&history_a, 0.5 * incident));
-    eprintln!(
-        "wave speed {speed:.1} m/s against sqrt(E/rho) = {c:.1} m/s ({:+.3}%)",
-        100.0 * (speed / c - 1.0)
-    );
-    assert!(
-        (speed / c - 1.0).abs() < 0.01,
-        "wave speed {speed} vs sqrt(E/rho) = {c}"
-    );
+    let speed = (xb - xa) / (crossing_time(&history_b, 0.5 * incident) - crossing_time(&history_a, 0.5 * incident));
+    eprintln!("wave speed {speed:.1} m/s against sqrt(E/rho) = {c:.1} m/s ({:+.3}%)", 100.0 * (speed / c - 1.0));
+    assert!((speed / c - 1.0).abs() < 0.01, "wave speed {speed} vs sqrt(E/rho) = {c}");
     // after reflection at the clamped right end, the strain there is twice the incident one
     let tail = n - 1 - n / 10..n - 1;
-    let reflected: f64 =
-        tail.clone().map(|i| domain.elements.strain[i]).sum::<f64>() / tail.len() as f64;
-    eprintln!(
-        "strain at the fixed end after reflection: {:.4} x the incident strain",
-        reflected / incident
-    );
-    assert!(
-        (reflected / (2.0 * incident) - 1.0).abs() < 0.03,
-        "reflected {reflected} vs 2 x {incident}"
-    );
+    let reflected: f64 = tail.clone().map(|i| domain.elements.strain[i]).sum::<f64>() / tail.len() as f64;
+    eprintln!("strain at the fixed end after reflection: {:.4} x the incident strain", reflected / incident);
+    assert!((reflected / (2.0 * incident) - 1.0).abs() < 0.03, "reflected {reflected} vs 2 x {incident}");
 }
 
 #[test]
@@ -153,19 +94,10 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
     }
     let report = domain.energies();
     eprintln!("energy drift over 10^4 steps: {worst:.2e} of the total, {worst_of_exchanged:.2e} of the energy exchanged");
-    assert!(
-        peak_contact > 0.0 && report.axial > 1e-3 * initial,
-        "the sphere really loads the fibre: {report:?}"
-    );
-    assert!(
-        report.projectile_kinetic < 0.999 * initial,
-        "the sphere slows down"
-    );
+    assert!(peak_contact > 0.0 && report.axial > 1e-3 * initial, "the sphere really loads the fibre: {report:?}");
+    assert!(report.projectile_kinetic < 0.999 * initial, "the sphere slows down");
     assert!(worst < 0.005, "energy drift {worst} of the total");
-    assert!(
-        worst_of_exchanged < 0.005,
-        "energy drift {worst_of_exchanged} of the energy exchanged"
-    );
+    assert!(worst_of_exchanged < 0.005, "energy drift {worst_of_exchanged} of the energy exchanged");
 }
 
 /// Seed §6.1: stress profiles for l0/d = 0.5 and 0.125 agree. The seed records them at
@@ -175,8 +107,7 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
 fn section_6_1_stress_profiles_converge_in_element_length() {
     let mut coarse = single_fibre(0.5, true, InertiaModel::Effective { k1: 0.8, k2: 1.0 });
     let mut fine = single_fibre(0.125, true, InertiaModel::Effective { k1: 0.8, k2: 1.0 });
-    let ratio =
-        (coarse.sections[0].element_length / fine.sections[0].element_length).round() as usize;
+    let ratio = (coarse.sections[0].element_length / fine.sections[0].element_length).round() as usize;
     assert_eq!(ratio, 4);
     let transit = 0.5 * 0.1016 / coarse.material.wave_speed();
     for output_step in [10.0, 20.0, 30.0, 40.0] {
@@ -190,72 +121,32 @@ fn section_6_1_stress_profiles_converge_in_element_length() {
         let coarse_stress = coarse.element_stress();
         let fine_stress = fine.element_stress();
         let (mut difference, mut norm) = (0.0, 0.0);
-        for (e, &sigma) in coarse_stress
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.is_finite())
-        {
-            let averaged: f64 =
-                fine_stress[e * ratio..(e + 1) * ratio].iter().sum::<f64>() / ratio as f64;
+        for (e, &sigma) in coarse_stress.iter().enumerate().filter(|(_, s)| s.is_finite()) {
+            let averaged: f64 = fine_stress[e * ratio..(e + 1) * ratio].iter().sum::<f64>() / ratio as f64;
             difference += (sigma - averaged).powi(2);
             norm += averaged * averaged;
         }
         let relative = (difference / norm).sqrt();
         eprintln!("§6.1 output step {output_step}: l0/d 0.5 and 0.125 stress profiles differ by {:.2}% (relative L2)", 100.0 * relative);
         assert!(norm > 0.0);
-        assert!(
-            relative < 0.05,
-            "output step {output_step}: profiles differ by {:.1}%",
-            100.0 * relative
-        );
+        assert!(relative < 0.05, "output step {output_step}: profiles differ by {:.1}%", 100.0 * relative);
     }
 }
 
 /// A 7-fibre bundle, squeezed and sheared so that contacts, friction and bending all act.
 fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     let material = FibreMaterial::kevlar_km2();
-    let bundle = StraightFabric {
-        clamp_ends: false,
-        ..StraightFabric::single_yarn(
-            1.5e-3,
-            7,
-            4.63e-8 / 7.0,
-            0.5,
-            InertiaModel::Locked,
-            0.3,
-            3.8e9,
-        )
-    };
+    let bundle = StraightFabric { clamp_ends: false, ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked, 0.3, 3.8e9) };
     let mut built = bundle.build_all(&material);
     // squeeze the section by 3% and bend the fibres: overlaps everywhere
     for p in &mut built.nodes.position {
-        *p = Vec3::new(
-            p.x,
-            0.97 * p.y + 1e-3 * (p.x * 2000.0).sin() * 1e-2,
-            0.97 * p.z,
-        );
+        *p = Vec3::new(p.x, 0.97 * p.y + 1e-3 * (p.x * 2000.0).sin() * 1e-2, 0.97 * p.z);
     }
     for p in &mut built.nodes.position {
         *p = rotation * *p;
     }
-    let contact = ContactParameters {
-        law: NormalLaw::ElastoPlasticKm2,
-        friction_coefficient: 0.3,
-        projectile_friction_coefficient: 0.3,
-        skin: 5e-6,
-    };
-    let mut domain = Domain::assemble(
-        material,
-        built.sections,
-        built.nodes,
-        built.elements,
-        contact,
-        NO_FAILURE,
-        None,
-        1e-9,
-    )
-    .initialize()
-    .unwrap();
+    let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let mut domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9).initialize().unwrap();
     // a tangential shift of every other fibre activates friction against the first anchors
     for i in 0..domain.nodes.len() {
         if domain.nodes.fibre[i].0 % 2 == 1 {
@@ -273,19 +164,12 @@ fn internal_forces_sum_to_zero_and_rotate_with_the_body() {
     let total: Vec3 = reference.nodes.force.iter().sum();
     let scale: f64 = reference.nodes.force.iter().map(|f| f.norm()).sum();
     assert!(scale > 0.0 && reference.pairs.touching.iter().any(|&t| t));
-    assert!(
-        total.norm() < 1e-12 * scale,
-        "net internal force {total:?} of {scale}"
-    );
+    assert!(total.norm() < 1e-12 * scale, "net internal force {total:?} of {scale}");
     let rotation = Rotation3::from_euler_angles(0.3, -1.1, 2.0);
     let rotated = loaded_bundle(&rotation);
     for i in 0..reference.nodes.len() {
         let expected = rotation * reference.nodes.force[i];
-        assert!(
-            (rotated.nodes.force[i] - expected).norm()
-                < 1e-9 * scale / reference.nodes.len() as f64 + 1e-9 * expected.norm(),
-            "node {i}"
-        );
+        assert!((rotated.nodes.force[i] - expected).norm() < 1e-9 * scale / reference.nodes.len() as f64 + 1e-9 * expected.norm(), "node {i}");
     }
 }
 
@@ -301,66 +185,19 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let material = FibreMaterial::kevlar_km2();
     let law = NormalLaw::ElastoPlasticKm2;
     let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-    let report = relax(
-        &mut cell,
-        &material,
-        &law,
-        &RelaxOptions {
-            tolerance: 1e-7,
-            max_iterations: 100_000,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, ..Default::default() }).unwrap();
     let period = cell.period();
-    let panel = WovenPanel::new(
-        std::sync::Arc::new(cell),
-        None,
-        5,
-        2,
-        0.0,
-        [0.3 * period, 0.1 * period],
-        Boundary::FixedEdges,
-        3.8e9,
-    );
+    let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 5, 2, 0.0, [0.3 * period, 0.1 * period], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
-    let contact = ContactParameters {
-        law,
-        friction_coefficient: 0.3,
-        projectile_friction_coefficient: 0.3,
-        skin: 5e-6,
-    };
+    let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = Domain::assemble(
-        material,
-        built.sections,
-        built.nodes,
-        built.elements,
-        contact,
-        NO_FAILURE,
-        None,
-        dt,
-    )
-    .initialize()
-    .unwrap();
+    let domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
     let nodes = &domain.nodes;
     let (centre, half) = (panel.plan_centre(), 0.5 * panel.side() - period);
-    let interior: Vec<usize> = (0..nodes.n_owned)
-        .filter(|&i| {
-            (nodes.position[i].x - centre).abs() < half
-                && (nodes.position[i].y - centre).abs() < half
-        })
-        .collect();
+    let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| (nodes.position[i].x - centre).abs() < half && (nodes.position[i].y - centre).abs() < half).collect();
     assert!(interior.len() > nodes.n_owned / 5);
-    let largest = interior
-        .iter()
-        .map(|&i| nodes.force[i].norm())
-        .fold(0.0, f64::max);
-    assert!(
-        largest < 10.0 * report.final_residual_n,
-        "largest interior force {largest:.3e} N, relaxation left {:.3e} N",
-        report.final_residual_n
-    );
+    let largest = interior.iter().map(|&i| nodes.force[i].norm()).fold(0.0, f64::max);
+    assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
     // and the layers do touch: some node pair across them is in contact range
     assert!(report.final_residual_n < 1e-6 * report.initial_residual_n);
 }
@@ -376,83 +213,22 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     use dea_fabric::weave3d::{Pattern, ThreeDWeave, YarnKind};
     let material = FibreMaterial::kevlar_km2();
     let law = NormalLaw::ElastoPlasticKm2;
-    let yarn = YarnKind {
-        area_m2: 4.63e-8,
-        section_aspect: 3.0,
-    };
-    let weave = ThreeDWeave::of_pattern(
-        Pattern::Orthogonal,
-        2,
-        1.0e-3,
-        0.8e-3,
-        yarn,
-        4,
-        yarn,
-        YarnKind {
-            area_m2: 2.315e-8,
-            section_aspect: 2.0,
-        },
-    );
+    let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
+    let weave = ThreeDWeave::of_pattern(Pattern::Orthogonal, 2, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 });
     let mut cell = weave.unit_cell(&material).unwrap();
-    let report = relax(
-        &mut cell,
-        &material,
-        &law,
-        &RelaxOptions {
-            tolerance: 1e-7,
-            max_iterations: 400_000,
-            bending_at_rest: BendingAtRest::Straight,
-        },
-    )
-    .unwrap();
+    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight }).unwrap();
     let period = cell.period;
-    let panel = TiledPanel::new(
-        std::sync::Arc::new(cell),
-        [4, 3],
-        2,
-        0.0,
-        [0.0, 0.0],
-        Boundary::FixedEdges,
-        3.8e9,
-    );
+    let panel = TiledPanel::new(std::sync::Arc::new(cell), [4, 3], 2, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
-    let contact = ContactParameters {
-        law,
-        friction_coefficient: 0.3,
-        projectile_friction_coefficient: 0.3,
-        skin: 5e-6,
-    };
+    let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = Domain::assemble(
-        material,
-        built.sections,
-        built.nodes,
-        built.elements,
-        contact,
-        NO_FAILURE,
-        None,
-        dt,
-    )
-    .initialize()
-    .unwrap();
+    let domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
     let nodes = &domain.nodes;
     let half = panel.size().map(|s| 0.5 * s);
-    let interior: Vec<usize> = (0..nodes.n_owned)
-        .filter(|&i| {
-            nodes.position[i].x.abs() < half[0] - period[0]
-                && nodes.position[i].y.abs() < half[1] - period[1]
-        })
-        .collect();
+    let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| nodes.position[i].x.abs() < half[0] - period[0] && nodes.position[i].y.abs() < half[1] - period[1]).collect();
     assert!(interior.len() > nodes.n_owned / 10);
-    let largest = interior
-        .iter()
-        .map(|&i| nodes.force[i].norm())
-        .fold(0.0, f64::max);
-    assert!(
-        largest < 10.0 * report.final_residual_n,
-        "largest interior force {largest:.3e} N, relaxation left {:.3e} N",
-        report.final_residual_n
-    );
+    let largest = interior.iter().map(|&i| nodes.force[i].norm()).fold(0.0, f64::max);
+    assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
 }
 
 /// A woven fibre's bending springs rest in its relaxed crimp: the panel starts without
@@ -467,77 +243,22 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
     let law = NormalLaw::ElastoPlasticKm2;
     let largest_shear = |bending_at_rest| {
         let mut cell = PlainWeave::km2_style_706(1).unit_cell(&material).unwrap();
-        relax(
-            &mut cell,
-            &material,
-            &law,
-            &RelaxOptions {
-                tolerance: 1e-7,
-                max_iterations: 100_000,
-                bending_at_rest,
-            },
-        )
-        .unwrap();
-        let panel = WovenPanel::new(
-            std::sync::Arc::new(cell),
-            None,
-            3,
-            1,
-            0.0,
-            [0.0, 0.0],
-            Boundary::FixedEdges,
-            3.8e9,
-        );
+        relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, bending_at_rest }).unwrap();
+        let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         let built = panel.build_all(&material);
         let area = built.sections[0].area;
-        let contact = ContactParameters {
-            law,
-            friction_coefficient: 0.3,
-            projectile_friction_coefficient: 0.3,
-            skin: 5e-6,
-        };
+        let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
         let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-        let domain = Domain::assemble(
-            material.clone(),
-            built.sections,
-            built.nodes,
-            built.elements,
-            contact,
-            NO_FAILURE,
-            None,
-            dt,
-        )
-        .initialize()
-        .unwrap();
+        let domain = Domain::assemble(material.clone(), built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
         let nodes = &domain.nodes;
         (0..nodes.n_owned)
-            .filter(|&i| {
-                nodes.prev[i] != dea_core::NONE
-                    && nodes.next[i] != dea_core::NONE
-                    && nodes.next[nodes.next[i] as usize] != dea_core::NONE
-            })
-            .map(|i| {
-                dea_core::bending::max_shear_stress(
-                    dea_core::bending::element_shear_force(
-                        nodes,
-                        &domain.elements,
-                        &domain.bending,
-                        i,
-                    ),
-                    area,
-                )
-            })
+            .filter(|&i| nodes.prev[i] != dea_core::NONE && nodes.next[i] != dea_core::NONE && nodes.next[nodes.next[i] as usize] != dea_core::NONE)
+            .map(|i| dea_core::bending::max_shear_stress(dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending, i), area))
             .fold(0.0, f64::max)
     };
-    let (as_woven, straight) = (
-        largest_shear(BendingAtRest::AsWoven),
-        largest_shear(BendingAtRest::Straight),
-    );
+    let (as_woven, straight) = (largest_shear(BendingAtRest::AsWoven), largest_shear(BendingAtRest::Straight));
     assert!(as_woven < 1e-6 * 0.7672e9, "as woven: {as_woven:.3e} Pa");
-    assert!(
-        straight > 0.3 * 0.7672e9,
-        "straight at rest: {straight:.3e} Pa"
-    );
+    assert!(straight > 0.3 * 0.7672e9, "straight at rest: {straight:.3e} Pa");
 }
 
 /// A straight yarn of `fine` digital fibres (x < 0) continued by one of `coarse` fibres
@@ -549,97 +270,41 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Domain {
     let yarn_area = 4.63e-8;
     let inertia = InertiaModel::Effective { k1: 0.8, k2: 1.0 };
     let kind = |fibres: usize| {
-        let mut yarn = StraightFabric::single_yarn(
-            length,
-            fibres,
-            yarn_area / fibres as f64,
-            0.5,
-            inertia,
-            0.0,
-            3.8e9,
-        );
+        let mut yarn = StraightFabric::single_yarn(length, fibres, yarn_area / fibres as f64, 0.5, inertia, 0.0, 3.8e9);
         yarn.clamp_ends = false;
         yarn.build_all(&material)
     };
     let (fine_built, coarse_built) = (kind(fine), kind(coarse));
-    let reach =
-        0.5 * (fine_built.sections[0].contact_diameter + coarse_built.sections[0].contact_diameter);
+    let reach = 0.5 * (fine_built.sections[0].contact_diameter + coarse_built.sections[0].contact_diameter);
     let stride = fine_built.nodes.len().max(coarse_built.nodes.len()) as u64;
     let mut nodes = dea_core::Nodes::default();
     let mut elements = dea_core::Elements::default();
-    for (section, built, shift, first_fibre) in [
-        (0u16, &fine_built, -0.5 * length, 0u32),
-        (1, &coarse_built, 0.5 * length + 1.05 * reach, fine as u32),
-    ] {
+    for (section, built, shift, first_fibre) in [(0u16, &fine_built, -0.5 * length, 0u32), (1, &coarse_built, 0.5 * length + 1.05 * reach, fine as u32)] {
         let n = &built.nodes;
         for i in 0..n.len() {
             let fibre = dea_core::FibreId(first_fibre + n.fibre[i].0);
             let gid = dea_core::GlobalNodeId(fibre.0 as u64 * stride + n.along[i] as u64);
-            nodes.push(
-                gid,
-                n.position[i] + Vec3::new(shift, 0.0, 0.0),
-                Vec3::zeros(),
-                n.mass[i],
-                fibre,
-                n.along[i],
-                section,
-                false,
-                n.last[i],
-            );
+            nodes.push(gid, n.position[i] + Vec3::new(shift, 0.0, 0.0), Vec3::zeros(), n.mass[i], fibre, n.along[i], section, false, n.last[i]);
             let e = &built.elements;
             elements.push(e.rest_length[i], e.tensile_strength[i], e.failure[i]);
         }
     }
-    let sections = vec![
-        fine_built.sections[0].clone(),
-        coarse_built.sections[0].clone(),
-    ];
+    let sections = vec![fine_built.sections[0].clone(), coarse_built.sections[0].clone()];
     // the fine areas shared out as a hybrid panel shares them
-    let end = |i: usize| dea_core::tie::TieEnd {
-        gid: nodes.gid[i],
-        fibre: nodes.fibre[i],
-        along: nodes.along[i],
-    };
-    let fine_ends: Vec<usize> = (0..nodes.len())
-        .filter(|&i| nodes.section[i] == 0 && nodes.last[i])
-        .collect();
-    let coarse_starts: Vec<usize> = (0..nodes.len())
-        .filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0)
-        .collect();
-    let across = |x: &Vec3, c: usize| {
-        dea_core::tie::Tie::offset_across(
-            x,
-            &nodes.position[coarse_starts[c]],
-            &nodes.position[coarse_starts[c] + 1],
-        )
-    };
-    let weights = dea_fabric::transition::tie_weights(
-        fine,
-        coarse,
-        |f, c| across(&nodes.position[fine_ends[f]], c),
-        |k, c| across(&nodes.position[coarse_starts[k]], c),
-        2.0 * sections[0].contact_diameter,
-    );
+    let end = |i: usize| dea_core::tie::TieEnd { gid: nodes.gid[i], fibre: nodes.fibre[i], along: nodes.along[i] };
+    let fine_ends: Vec<usize> = (0..nodes.len()).filter(|&i| nodes.section[i] == 0 && nodes.last[i]).collect();
+    let coarse_starts: Vec<usize> = (0..nodes.len()).filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0).collect();
+    let across = |x: &Vec3, c: usize| dea_core::tie::Tie::offset_across(x, &nodes.position[coarse_starts[c]], &nodes.position[coarse_starts[c] + 1]);
+    let weights =
+        dea_fabric::transition::tie_weights(fine, coarse, |f, c| across(&nodes.position[fine_ends[f]], c), |k, c| across(&nodes.position[coarse_starts[k]], c), 2.0 * sections[0].contact_diameter);
     let mut ties = Vec::new();
     for (f, row) in weights.iter().enumerate() {
         for (c, &w) in row.iter().enumerate() {
             let (i, j) = (fine_ends[f], coarse_starts[c]);
-            let (axial_length, radial_offset) = dea_core::tie::Tie::rest_geometry(
-                &nodes.position[i],
-                &nodes.position[j],
-                &nodes.position[j + 1],
-            );
+            let (axial_length, radial_offset) = dea_core::tie::Tie::rest_geometry(&nodes.position[i], &nodes.position[j], &nodes.position[j + 1]);
             // the mass the fine fibre would have had up to the coarse fibre's start
             let fibre_length = 1.05 * reach;
-            ties.push(dea_core::tie::Tie {
-                fine: end(i),
-                coarse: end(j),
-                coarse_next: end(j + 1),
-                axial_length,
-                radial_offset,
-                area: w * sections[0].area,
-                fibre_length,
-            });
+            ties.push(dea_core::tie::Tie { fine: end(i), coarse: end(j), coarse_next: end(j + 1), axial_length, radial_offset, area: w * sections[0].area, fibre_length });
         }
     }
     for tie in &ties {
@@ -651,17 +316,8 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Domain {
     nodes.n_owned = nodes.len();
     nodes.link_chains();
     let contact = elastic_frictionless(&material);
-    let dt = stable_time_step(
-        &material,
-        &sections,
-        &contact.law,
-        0.0,
-        dea_core::stability::DESIGN_CONTACT_STRAIN,
-        0.5,
-    );
-    let mut domain = Domain::assemble(
-        material, sections, nodes, elements, contact, NO_FAILURE, None, dt,
-    );
+    let dt = stable_time_step(&material, &sections, &contact.law, 0.0, dea_core::stability::DESIGN_CONTACT_STRAIN, 0.5);
+    let mut domain = Domain::assemble(material, sections, nodes, elements, contact, NO_FAILURE, None, dt);
     domain.set_ties(ties);
     domain.initialize().unwrap()
 }
@@ -675,13 +331,7 @@ fn a_tensile_pulse_crosses_a_hybrid_transition_with_its_energy() {
     // whole. Four coarse fibres are centred off the seven fine ones' centre: the force line
     // jumps, its moment bends the coarse ends and a third of the pulse reflects
     // (docs/validation.md).
-    for (fine, coarse, crossing) in [
-        (7, 1, 0.97),
-        (19, 1, 0.97),
-        (7, 7, 0.97),
-        (19, 7, 0.97),
-        (7, 4, 0.5),
-    ] {
+    for (fine, coarse, crossing) in [(7, 1, 0.97), (19, 1, 0.97), (7, 7, 0.97), (19, 7, 0.97), (7, 4, 0.5)] {
         let length = 4e-3;
         let mut domain = tied_yarn(fine, coarse, length);
         let c = domain.material.wave_speed();
@@ -707,9 +357,6 @@ fn a_tensile_pulse_crosses_a_hybrid_transition_with_its_energy() {
         eprintln!("{fine} -> {coarse} fibres: {:.2} % of the incident pulse's energy crossed, energy drift {worst:.1e}", 100.0 * transmitted);
         // the drift is the central difference's own over a pulse a few elements wide
         assert!(worst < 0.01, "{fine} -> {coarse}: energy drift {worst}");
-        assert!(
-            transmitted >= crossing && transmitted < 1.01,
-            "{fine} -> {coarse}: {transmitted} of the pulse crossed"
-        );
+        assert!(transmitted >= crossing && transmitted < 1.01, "{fine} -> {coarse}: {transmitted} of the pulse crossed");
     }
 }

@@ -52,13 +52,7 @@ pub enum Design {
 
 /// The bracket a bisection has reached: (highest partial, lowest complete) [m/s].
 pub fn bracket(low: f64, high: f64, shots: &[Shot]) -> (f64, f64) {
-    shots.iter().fold((low, high), |(lo, hi), s| {
-        if s.perforated {
-            (lo, hi.min(s.velocity))
-        } else {
-            (lo.max(s.velocity), hi)
-        }
-    })
+    shots.iter().fold((low, high), |(lo, hi), s| if s.perforated { (lo, hi.min(s.velocity)) } else { (lo.max(s.velocity), hi) })
 }
 
 impl Design {
@@ -82,39 +76,17 @@ impl Design {
             if low > 0.0 && high > low && high.is_finite() {
                 Ok(())
             } else {
-                Err(format!(
-                    "design.low_m_s: must be > 0 and below high_m_s ({high}), got {low}"
-                ))
+                Err(format!("design.low_m_s: must be > 0 and below high_m_s ({high}), got {low}"))
             }
         };
         match *self {
-            Design::Bisection {
-                low_m_s,
-                high_m_s,
-                resolution_m_s,
-            } => bracket(low_m_s, high_m_s).and(positive("resolution_m_s", resolution_m_s)),
-            Design::Langlie {
-                low_m_s,
-                high_m_s,
-                shots: n,
-            } => bracket(low_m_s, high_m_s).and(shots(n)),
-            Design::UpAndDown {
-                start_m_s,
-                step_m_s,
-                shots: n,
-            } => positive("start_m_s", start_m_s)
-                .and(positive("step_m_s", step_m_s))
-                .and(shots(n)),
-            Design::MonteCarlo {
-                centre_m_s,
-                spread_m_s,
-                shots: n,
-            } => {
+            Design::Bisection { low_m_s, high_m_s, resolution_m_s } => bracket(low_m_s, high_m_s).and(positive("resolution_m_s", resolution_m_s)),
+            Design::Langlie { low_m_s, high_m_s, shots: n } => bracket(low_m_s, high_m_s).and(shots(n)),
+            Design::UpAndDown { start_m_s, step_m_s, shots: n } => positive("start_m_s", start_m_s).and(positive("step_m_s", step_m_s)).and(shots(n)),
+            Design::MonteCarlo { centre_m_s, spread_m_s, shots: n } => {
                 positive("centre_m_s", centre_m_s)?;
                 if !(spread_m_s >= 0.0 && spread_m_s < centre_m_s) {
-                    return Err(format!(
-                        "design.spread_m_s: must be in [0, centre_m_s), got {spread_m_s}"
-                    ));
+                    return Err(format!("design.spread_m_s: must be in [0, centre_m_s), got {spread_m_s}"));
                 }
                 shots(n)
             }
@@ -129,11 +101,7 @@ impl Design {
     /// Velocity of shot `index` of an independent design (`None` past its last shot).
     pub fn planned(&self, index: usize, seed: u64) -> Option<f64> {
         match *self {
-            Design::MonteCarlo {
-                centre_m_s,
-                spread_m_s,
-                shots,
-            } if index < shots => {
+            Design::MonteCarlo { centre_m_s, spread_m_s, shots } if index < shots => {
                 let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
                 rng.set_stream(index as u64);
                 Some(centre_m_s + spread_m_s * (2.0 * rng.random::<f64>() - 1.0))
@@ -146,19 +114,11 @@ impl Design {
     /// design is complete.
     pub fn next(&self, shots: &[Shot], seed: u64) -> Option<f64> {
         match *self {
-            Design::Bisection {
-                low_m_s,
-                high_m_s,
-                resolution_m_s,
-            } => {
+            Design::Bisection { low_m_s, high_m_s, resolution_m_s } => {
                 let (lo, hi) = bracket(low_m_s, high_m_s, shots);
                 (hi - lo > resolution_m_s).then_some(0.5 * (lo + hi))
             }
-            Design::UpAndDown {
-                start_m_s,
-                step_m_s,
-                shots: count,
-            } => {
+            Design::UpAndDown { start_m_s, step_m_s, shots: count } => {
                 if shots.len() >= count {
                     return None;
                 }
@@ -168,11 +128,7 @@ impl Design {
                     Some(last) => last.velocity + step_m_s,
                 })
             }
-            Design::Langlie {
-                low_m_s,
-                high_m_s,
-                shots: count,
-            } => {
+            Design::Langlie { low_m_s, high_m_s, shots: count } => {
                 if shots.len() >= count {
                     return None;
                 }
@@ -204,11 +160,7 @@ mod tests {
     fn fire(design: &Design, limit: f64) -> Vec<Shot> {
         let mut shots = Vec::new();
         while let Some(velocity) = design.next(&shots, 1) {
-            shots.push(Shot {
-                velocity,
-                perforated: velocity > limit,
-                residual_velocity: 0.0,
-            });
+            shots.push(Shot { velocity, perforated: velocity > limit, residual_velocity: 0.0 });
             assert!(shots.len() < 1000);
         }
         shots
@@ -216,11 +168,7 @@ mod tests {
 
     #[test]
     fn bisection_brackets_the_limit_to_its_resolution() {
-        let design = Design::Bisection {
-            low_m_s: 100.0,
-            high_m_s: 700.0,
-            resolution_m_s: 5.0,
-        };
+        let design = Design::Bisection { low_m_s: 100.0, high_m_s: 700.0, resolution_m_s: 5.0 };
         let shots = fire(&design, 333.3);
         let (lo, hi) = bracket(100.0, 700.0, &shots);
         assert!(lo < 333.3 && 333.3 < hi && hi - lo <= 5.0, "{lo} {hi}");
@@ -230,11 +178,7 @@ mod tests {
 
     #[test]
     fn up_and_down_steps_about_the_limit() {
-        let design = Design::UpAndDown {
-            start_m_s: 250.0,
-            step_m_s: 20.0,
-            shots: 12,
-        };
+        let design = Design::UpAndDown { start_m_s: 250.0, step_m_s: 20.0, shots: 12 };
         let shots = fire(&design, 300.0);
         assert_eq!(shots.len(), 12);
         let velocities: Vec<f64> = shots.iter().map(|s| s.velocity).collect();
@@ -244,11 +188,7 @@ mod tests {
 
     #[test]
     fn langlie_follows_its_rule() {
-        let design = Design::Langlie {
-            low_m_s: 200.0,
-            high_m_s: 400.0,
-            shots: 6,
-        };
+        let design = Design::Langlie { low_m_s: 200.0, high_m_s: 400.0, shots: 6 };
         let shots = fire(&design, 330.0);
         let v: Vec<f64> = shots.iter().map(|s| s.velocity).collect();
         // 300 partial -> (300 + high) / 2 = 350 complete -> shots 300,350 balance: (350 + 300) / 2
@@ -262,60 +202,20 @@ mod tests {
 
     #[test]
     fn monte_carlo_velocities_are_fixed_by_the_seed_alone() {
-        let design = Design::MonteCarlo {
-            centre_m_s: 300.0,
-            spread_m_s: 50.0,
-            shots: 20,
-        };
+        let design = Design::MonteCarlo { centre_m_s: 300.0, spread_m_s: 50.0, shots: 20 };
         let planned: Vec<f64> = (0..20).map(|k| design.planned(k, 9).unwrap()).collect();
         assert!(planned.iter().all(|v| (250.0..350.0).contains(v)));
         assert!(design.planned(20, 9).is_none());
         // the same whatever the outcomes
-        assert_eq!(
-            fire(&design, 300.0)
-                .iter()
-                .map(|s| s.velocity)
-                .collect::<Vec<_>>(),
-            (0..20)
-                .map(|k| design.planned(k, 1).unwrap())
-                .collect::<Vec<_>>()
-        );
+        assert_eq!(fire(&design, 300.0).iter().map(|s| s.velocity).collect::<Vec<_>>(), (0..20).map(|k| design.planned(k, 1).unwrap()).collect::<Vec<_>>());
         assert_ne!(planned[0], design.planned(0, 10).unwrap());
     }
 
     #[test]
     fn bad_designs_name_their_field() {
-        assert!(Design::Bisection {
-            low_m_s: 300.0,
-            high_m_s: 200.0,
-            resolution_m_s: 5.0
-        }
-        .validate()
-        .unwrap_err()
-        .contains("low_m_s"));
-        assert!(Design::UpAndDown {
-            start_m_s: 300.0,
-            step_m_s: 0.0,
-            shots: 5
-        }
-        .validate()
-        .unwrap_err()
-        .contains("design.step_m_s"));
-        assert!(Design::MonteCarlo {
-            centre_m_s: 300.0,
-            spread_m_s: 400.0,
-            shots: 5
-        }
-        .validate()
-        .unwrap_err()
-        .contains("design.spread_m_s"));
-        assert!(Design::Langlie {
-            low_m_s: 100.0,
-            high_m_s: 200.0,
-            shots: 0
-        }
-        .validate()
-        .unwrap_err()
-        .contains("design.shots"));
+        assert!(Design::Bisection { low_m_s: 300.0, high_m_s: 200.0, resolution_m_s: 5.0 }.validate().unwrap_err().contains("low_m_s"));
+        assert!(Design::UpAndDown { start_m_s: 300.0, step_m_s: 0.0, shots: 5 }.validate().unwrap_err().contains("design.step_m_s"));
+        assert!(Design::MonteCarlo { centre_m_s: 300.0, spread_m_s: 400.0, shots: 5 }.validate().unwrap_err().contains("design.spread_m_s"));
+        assert!(Design::Langlie { low_m_s: 100.0, high_m_s: 200.0, shots: 0 }.validate().unwrap_err().contains("design.shots"));
     }
 }

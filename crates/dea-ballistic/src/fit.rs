@@ -103,32 +103,14 @@ pub struct Fit {
 
 /// Checks that a maximum-likelihood estimate exists.
 pub fn check_mixed_zone(shots: &[Shot]) -> Result<(), EstimateError> {
-    let lowest_complete = shots
-        .iter()
-        .filter(|s| s.perforated)
-        .map(|s| s.velocity)
-        .fold(f64::INFINITY, f64::min);
-    let highest_partial = shots
-        .iter()
-        .filter(|s| !s.perforated)
-        .map(|s| s.velocity)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let (partials, completes) = (
-        shots.iter().filter(|s| !s.perforated).count(),
-        shots.iter().filter(|s| s.perforated).count(),
-    );
+    let lowest_complete = shots.iter().filter(|s| s.perforated).map(|s| s.velocity).fold(f64::INFINITY, f64::min);
+    let highest_partial = shots.iter().filter(|s| !s.perforated).map(|s| s.velocity).fold(f64::NEG_INFINITY, f64::max);
+    let (partials, completes) = (shots.iter().filter(|s| !s.perforated).count(), shots.iter().filter(|s| s.perforated).count());
     if partials == 0 || completes == 0 {
-        return Err(EstimateError::TooFewShots {
-            needed: 1,
-            partials,
-            completes,
-        });
+        return Err(EstimateError::TooFewShots { needed: 1, partials, completes });
     }
     if lowest_complete >= highest_partial {
-        return Err(EstimateError::NoMixedZone {
-            lowest_complete,
-            highest_partial,
-        });
+        return Err(EstimateError::NoMixedZone { lowest_complete, highest_partial });
     }
     Ok(())
 }
@@ -138,13 +120,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
     check_mixed_zone(shots)?;
     let n = shots.len() as f64;
     let mean = shots.iter().map(|s| s.velocity).sum::<f64>() / n;
-    let scale = (shots
-        .iter()
-        .map(|s| (s.velocity - mean).powi(2))
-        .sum::<f64>()
-        / n)
-        .sqrt()
-        .max(1e-9);
+    let scale = (shots.iter().map(|s| (s.velocity - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-9);
     let standard = |s: &Shot| (s.velocity - mean) / scale;
     let log_likelihood = |a: f64, b: f64| -> f64 {
         shots
@@ -183,10 +159,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         if det.is_nan() || det <= 0.0 || iterations > 200 {
             return Err(EstimateError::NotConverged);
         }
-        let step = [
-            (h[1][1] * g[0] - h[0][1] * g[1]) / det,
-            (h[0][0] * g[1] - h[1][0] * g[0]) / det,
-        ];
+        let step = [(h[1][1] * g[0] - h[0][1] * g[1]) / det, (h[0][0] * g[1] - h[1][0] * g[0]) / det];
         let mut t = 1.0;
         let mut accepted = false;
         for _ in 0..60 {
@@ -208,51 +181,19 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
     if det.is_nan() || det <= 0.0 {
         return Err(EstimateError::NotConverged);
     }
-    let covariance = [
-        [h[1][1] / det, -h[0][1] / det],
-        [-h[1][0] / det, h[0][0] / det],
-    ];
+    let covariance = [[h[1][1] / det, -h[0][1] / det], [-h[1][0] / det, h[0][0] / det]];
     let z = standard_normal().inverse_cdf(0.975);
     let limit = |p: f64| {
         let q = link.quantile(p);
         let velocity = mean + scale * (q - a) / b;
         // d V / d(a, b)
         let gradient = [-scale / b, -scale * (q - a) / (b * b)];
-        let variance = gradient[0] * gradient[0] * covariance[0][0]
-            + 2.0 * gradient[0] * gradient[1] * covariance[0][1]
-            + gradient[1] * gradient[1] * covariance[1][1];
+        let variance = gradient[0] * gradient[0] * covariance[0][0] + 2.0 * gradient[0] * gradient[1] * covariance[0][1] + gradient[1] * gradient[1] * covariance[1][1];
         let standard_error = variance.max(0.0).sqrt();
-        let (profile_low, profile_high) = profile_interval(
-            shots,
-            link,
-            mean,
-            scale,
-            q,
-            (velocity - mean) / scale,
-            b,
-            current,
-        );
-        Limit {
-            probability: p,
-            velocity,
-            standard_error,
-            low: velocity - z * standard_error,
-            high: velocity + z * standard_error,
-            profile_low,
-            profile_high,
-        }
+        let (profile_low, profile_high) = profile_interval(shots, link, mean, scale, q, (velocity - mean) / scale, b, current);
+        Limit { probability: p, velocity, standard_error, low: velocity - z * standard_error, high: velocity + z * standard_error, profile_low, profile_high }
     };
-    Ok(Fit {
-        link,
-        intercept: a - b * mean / scale,
-        slope: b / scale,
-        v10: limit(0.1),
-        v50: limit(0.5),
-        v90: limit(0.9),
-        log_likelihood: current,
-        shots: shots.len(),
-        iterations,
-    })
+    Ok(Fit { link, intercept: a - b * mean / scale, slope: b / scale, v10: limit(0.1), v50: limit(0.5), v90: limit(0.9), log_likelihood: current, shots: shots.len(), iterations })
 }
 
 /// chi^2 with one degree of freedom at 0.95.
@@ -311,16 +252,7 @@ fn profile(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m: f64, b0
 /// m/s: each bound found by stepping out until the deviance exceeds chi^2(1, 0.95), then
 /// bisecting.
 #[allow(clippy::too_many_arguments)]
-fn profile_interval(
-    shots: &[Shot],
-    link: Link,
-    mean: f64,
-    scale: f64,
-    q: f64,
-    m_hat: f64,
-    b_hat: f64,
-    best: f64,
-) -> (f64, f64) {
+fn profile_interval(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m_hat: f64, b_hat: f64, best: f64) -> (f64, f64) {
     let deviance = |m: f64| 2.0 * (best - profile(shots, link, mean, scale, q, m, b_hat));
     let bound = |direction: f64| -> f64 {
         let (mut inside, mut step) = (m_hat, 0.05);
@@ -361,11 +293,7 @@ mod tests {
             .map(|_| {
                 let velocity = rng.random_range(v50 - 3.0 * width..v50 + 3.0 * width);
                 let perforated = rng.random::<f64>() < link.cdf((velocity - v50) / width);
-                Shot {
-                    velocity,
-                    perforated,
-                    residual_velocity: 0.0,
-                }
+                Shot { velocity, perforated, residual_velocity: 0.0 }
             })
             .collect()
     }
@@ -380,37 +308,19 @@ mod tests {
             for seed in 0..200 {
                 let shots = simulated(link, v50, width, 60, seed);
                 let fit = fit(&shots, link).unwrap();
-                assert!(
-                    (fit.v50.velocity - v50).abs() < 5.0 * fit.v50.standard_error,
-                    "{link:?} seed {seed}: {:?}",
-                    fit.v50
-                );
+                assert!((fit.v50.velocity - v50).abs() < 5.0 * fit.v50.standard_error, "{link:?} seed {seed}: {:?}", fit.v50);
                 covered += (fit.v50.low <= v50 && v50 <= fit.v50.high) as usize;
-                profile_covered +=
-                    (fit.v50.profile_low <= v50 && v50 <= fit.v50.profile_high) as usize;
-                assert!(
-                    fit.v50.profile_low < fit.v50.velocity
-                        && fit.v50.velocity < fit.v50.profile_high
-                );
+                profile_covered += (fit.v50.profile_low <= v50 && v50 <= fit.v50.profile_high) as usize;
+                assert!(fit.v50.profile_low < fit.v50.velocity && fit.v50.velocity < fit.v50.profile_high);
                 assert!(fit.v10.velocity < fit.v50.velocity && fit.v50.velocity < fit.v90.velocity);
             }
-            assert!(
-                (180..=197).contains(&covered),
-                "{link:?}: {covered} of 200 intervals hold the true V50"
-            );
-            assert!(
-                (180..=197).contains(&profile_covered),
-                "{link:?}: {profile_covered} of 200 profile intervals hold the true V50"
-            );
+            assert!((180..=197).contains(&covered), "{link:?}: {covered} of 200 intervals hold the true V50");
+            assert!((180..=197).contains(&profile_covered), "{link:?}: {profile_covered} of 200 profile intervals hold the true V50");
             // a large campaign pins the curve down
             let fit = fit(&simulated(link, v50, width, 4000, 7), link).unwrap();
             assert!((fit.v50.velocity - v50).abs() < 2.0, "{:?}", fit.v50);
             let v90 = v50 + width * link.quantile(0.9);
-            assert!(
-                (fit.v90.velocity - v90).abs() < 3.0,
-                "{:?} vs {v90}",
-                fit.v90
-            );
+            assert!((fit.v90.velocity - v90).abs() < 3.0, "{:?} vs {v90}", fit.v90);
         }
     }
 
@@ -421,38 +331,14 @@ mod tests {
         let fit = fit(&shots, Link::Logistic).unwrap();
         let n = shots.len() as f64;
         let mean = shots.iter().map(|s| s.velocity).sum::<f64>() / n;
-        let scale = (shots
-            .iter()
-            .map(|s| (s.velocity - mean).powi(2))
-            .sum::<f64>()
-            / n)
-            .sqrt();
+        let scale = (shots.iter().map(|s| (s.velocity - mean).powi(2)).sum::<f64>() / n).sqrt();
         let b_hat = fit.slope * scale;
         for end in [fit.v50.profile_low, fit.v50.profile_high] {
-            let deviance = 2.0
-                * (fit.log_likelihood
-                    - profile(
-                        &shots,
-                        Link::Logistic,
-                        mean,
-                        scale,
-                        0.0,
-                        (end - mean) / scale,
-                        b_hat,
-                    ));
-            assert!(
-                (deviance - CHI2_95).abs() < 1e-6,
-                "deviance {deviance} at {end}"
-            );
+            let deviance = 2.0 * (fit.log_likelihood - profile(&shots, Link::Logistic, mean, scale, 0.0, (end - mean) / scale, b_hat));
+            assert!((deviance - CHI2_95).abs() < 1e-6, "deviance {deviance} at {end}");
         }
-        let (below, above) = (
-            fit.v50.velocity - fit.v50.profile_low,
-            fit.v50.profile_high - fit.v50.velocity,
-        );
-        assert!(
-            (below - above).abs() > 1e-3 * (below + above),
-            "asymmetric: {below} {above}"
-        );
+        let (below, above) = (fit.v50.velocity - fit.v50.profile_low, fit.v50.profile_high - fit.v50.velocity);
+        assert!((below - above).abs() > 1e-3 * (below + above), "asymmetric: {below} {above}");
     }
 
     #[test]
@@ -481,20 +367,8 @@ mod tests {
 
     #[test]
     fn separated_outcomes_have_no_estimate() {
-        let shots = [(200.0, false), (250.0, false), (260.0, true), (300.0, true)].map(
-            |(velocity, perforated)| Shot {
-                velocity,
-                perforated,
-                residual_velocity: 0.0,
-            },
-        );
-        assert!(matches!(
-            fit(&shots, Link::Logistic),
-            Err(EstimateError::NoMixedZone { .. })
-        ));
-        assert!(matches!(
-            fit(&shots[..2], Link::Logistic),
-            Err(EstimateError::TooFewShots { .. })
-        ));
+        let shots = [(200.0, false), (250.0, false), (260.0, true), (300.0, true)].map(|(velocity, perforated)| Shot { velocity, perforated, residual_velocity: 0.0 });
+        assert!(matches!(fit(&shots, Link::Logistic), Err(EstimateError::NoMixedZone { .. })));
+        assert!(matches!(fit(&shots[..2], Link::Logistic), Err(EstimateError::TooFewShots { .. })));
     }
 }

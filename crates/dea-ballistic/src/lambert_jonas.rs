@@ -40,10 +40,7 @@ fn best_a(shots: &[Shot], v_bl: f64, p: f64) -> (f64, f64) {
         gg += g * g;
     }
     let a = if gg > 0.0 { gy / gg } else { 0.0 };
-    let sse = shots
-        .iter()
-        .map(|s| (s.residual_velocity - a * shape(s.velocity, v_bl, p)).powi(2))
-        .sum();
+    let sse = shots.iter().map(|s| (s.residual_velocity - a * shape(s.velocity, v_bl, p)).powi(2)).sum();
     (a, sse)
 }
 
@@ -51,15 +48,9 @@ fn best_a(shots: &[Shot], v_bl: f64, p: f64) -> (f64, f64) {
 pub fn lambert_jonas(shots: &[Shot]) -> Result<LambertJonas, EstimateError> {
     let completes: Vec<&Shot> = shots.iter().filter(|s| s.perforated).collect();
     if completes.len() < 3 {
-        return Err(EstimateError::TooFewPerforations {
-            needed: 3,
-            completes: completes.len(),
-        });
+        return Err(EstimateError::TooFewPerforations { needed: 3, completes: completes.len() });
     }
-    let top = completes
-        .iter()
-        .map(|s| s.velocity)
-        .fold(f64::INFINITY, f64::min);
+    let top = completes.iter().map(|s| s.velocity).fold(f64::INFINITY, f64::min);
     let sse = |v_bl: f64, p: f64| best_a(shots, v_bl, p).1;
     // grid over (0, lowest perforation) x P_RANGE
     let (mut v_bl, mut p, mut best) = (0.0, 2.0, f64::INFINITY);
@@ -78,10 +69,7 @@ pub fn lambert_jonas(shots: &[Shot]) -> Result<LambertJonas, EstimateError> {
     for _ in 0..400 {
         let mut moved = false;
         for (dv, dp) in [(step_v, 0.0), (-step_v, 0.0), (0.0, step_p), (0.0, -step_p)] {
-            let (v, q) = (
-                (v_bl + dv).clamp(0.0, top * 0.999_999),
-                (p + dp).clamp(P_RANGE.0, P_RANGE.1),
-            );
+            let (v, q) = ((v_bl + dv).clamp(0.0, top * 0.999_999), (p + dp).clamp(P_RANGE.0, P_RANGE.1));
             let value = sse(v, q);
             if value < best {
                 (v_bl, p, best, moved) = (v, q, value, true);
@@ -96,12 +84,7 @@ pub fn lambert_jonas(shots: &[Shot]) -> Result<LambertJonas, EstimateError> {
         }
     }
     let (a, sse) = best_a(shots, v_bl, p);
-    Ok(LambertJonas {
-        v_bl,
-        a,
-        p,
-        rms_m_s: (sse / shots.len() as f64).sqrt(),
-    })
+    Ok(LambertJonas { v_bl, a, p, rms_m_s: (sse / shots.len() as f64).sqrt() })
 }
 
 #[cfg(test)]
@@ -115,38 +98,18 @@ mod tests {
             .map(|k| {
                 let velocity = 250.0 + 12.0 * k as f64;
                 let residual_velocity = a * shape(velocity, v_bl, p);
-                Shot {
-                    velocity,
-                    perforated: residual_velocity > 0.0,
-                    residual_velocity,
-                }
+                Shot { velocity, perforated: residual_velocity > 0.0, residual_velocity }
             })
             .collect();
         let fit = lambert_jonas(&shots).unwrap();
         assert!((fit.v_bl - v_bl).abs() < 0.05, "{fit:?}");
-        assert!(
-            (fit.p - p).abs() < 1e-3 && (fit.a - a).abs() < 1e-4,
-            "{fit:?}"
-        );
+        assert!((fit.p - p).abs() < 1e-3 && (fit.a - a).abs() < 1e-4, "{fit:?}");
         assert!(fit.rms_m_s < 1e-3);
         // with a little noise the limit moves little
-        let noisy: Vec<Shot> = shots
-            .iter()
-            .enumerate()
-            .map(|(k, s)| Shot {
-                residual_velocity: if s.perforated {
-                    s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 }
-                } else {
-                    0.0
-                },
-                ..*s
-            })
-            .collect();
+        let noisy: Vec<Shot> =
+            shots.iter().enumerate().map(|(k, s)| Shot { residual_velocity: if s.perforated { s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 } } else { 0.0 }, ..*s }).collect();
         let fit = lambert_jonas(&noisy).unwrap();
         assert!((fit.v_bl - v_bl).abs() < 10.0, "{fit:?}");
-        assert!(matches!(
-            lambert_jonas(&shots[..5]),
-            Err(EstimateError::TooFewPerforations { .. })
-        ));
+        assert!(matches!(lambert_jonas(&shots[..5]), Err(EstimateError::TooFewPerforations { .. })));
     }
 }

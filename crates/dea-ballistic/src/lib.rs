@@ -30,22 +30,11 @@ pub struct Shot {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EstimateError {
     #[error("no zone of mixed results: the lowest complete penetration ({lowest_complete:.1} m/s) is not below the highest partial ({highest_partial:.1} m/s), so the likelihood has no maximum")]
-    NoMixedZone {
-        lowest_complete: f64,
-        highest_partial: f64,
-    },
+    NoMixedZone { lowest_complete: f64, highest_partial: f64 },
     #[error("{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations")]
-    TooFewShots {
-        needed: usize,
-        partials: usize,
-        completes: usize,
-    },
+    TooFewShots { needed: usize, partials: usize, completes: usize },
     #[error("the {count} highest partials and {count} lowest completes span {spread:.1} m/s, more than the {allowed:.1} m/s allowed")]
-    SpreadTooWide {
-        count: usize,
-        spread: f64,
-        allowed: f64,
-    },
+    SpreadTooWide { count: usize, spread: f64, allowed: f64 },
     #[error("{needed} complete penetrations are needed, there are {completes}")]
     TooFewPerforations { needed: usize, completes: usize },
     #[error("the fit did not converge")]

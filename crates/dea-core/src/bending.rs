@@ -45,14 +45,7 @@ fn theta_over_sine(theta: f64, sine: f64) -> f64 {
 /// so the plane's normal needs no normalisation. A spring bent at rest has no defined
 /// direction when pulled exactly straight: it pushes nowhere there.
 #[inline]
-pub fn torsional_spring(
-    ua: Vec3,
-    inverse_la: f64,
-    ub: Vec3,
-    inverse_lb: f64,
-    k_t: f64,
-    rest: f64,
-) -> (Vec3, Vec3, f64, Vec3) {
+pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_t: f64, rest: f64) -> (Vec3, Vec3, f64, Vec3) {
     let cross = ua.cross(&ub);
     let sine = cross.norm();
     let cosine = ua.dot(&ub);
@@ -71,21 +64,11 @@ pub fn torsional_spring(
 
 /// Evaluates the torsional spring at every local node whose two elements are intact.
 /// Reads the element directions of [`crate::rod::compute_element_tension`] (run it first).
-pub fn compute_bending(
-    nodes: &Nodes,
-    elements: &Elements,
-    sections: &[FibreSection],
-    scratch: &mut BendingScratch,
-) {
+pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
     for i in 0..nodes.len() {
         let (p, n) = (nodes.prev[i], nodes.next[i]);
         let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
-        if p == NONE
-            || n == NONE
-            || k_t == 0.0
-            || !elements.is_intact(nodes, p as usize)
-            || !elements.is_intact(nodes, i)
-        {
+        if p == NONE || n == NONE || k_t == 0.0 || !elements.is_intact(nodes, p as usize) || !elements.is_intact(nodes, i) {
             scratch.on_prev[i].fill(0.0);
             scratch.on_next[i].fill(0.0);
             scratch.moment[i].fill(0.0);
@@ -94,14 +77,7 @@ pub fn compute_bending(
             continue;
         }
         let p = p as usize;
-        let (on_prev, on_next, theta, moment) = torsional_spring(
-            elements.direction[p],
-            elements.inverse_length[p],
-            elements.direction[i],
-            elements.inverse_length[i],
-            k_t,
-            nodes.rest_angle[i],
-        );
+        let (on_prev, on_next, theta, moment) = torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
         scratch.on_prev[i] = on_prev;
         scratch.on_next[i] = on_next;
         scratch.moment[i] = moment;
@@ -111,12 +87,7 @@ pub fn compute_bending(
 
 /// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N].
 #[inline]
-pub fn element_shear_force(
-    nodes: &Nodes,
-    elements: &Elements,
-    scratch: &BendingScratch,
-    i: usize,
-) -> f64 {
+pub fn element_shear_force(nodes: &Nodes, elements: &Elements, scratch: &BendingScratch, i: usize) -> f64 {
     let j = nodes.next[i] as usize;
     (scratch.moment[i] - scratch.moment[j]).norm() / elements.rest_length[i]
 }
@@ -132,14 +103,7 @@ mod tests {
     use super::*;
 
     fn spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
-        torsional_spring(
-            a.normalize(),
-            1.0 / a.norm(),
-            b.normalize(),
-            1.0 / b.norm(),
-            k_t,
-            0.0,
-        )
+        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, 0.0)
     }
 
     fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64, rest: f64) -> f64 {
@@ -150,22 +114,11 @@ mod tests {
 
     #[test]
     fn spring_forces_are_the_exact_gradient_of_the_bending_energy() {
-        let (xp, xi, xn) = (
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.1, -0.05),
-            Vec3::new(1.9, 0.5, 0.2),
-        );
+        let (xp, xi, xn) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2));
         let k_t = 2.5;
         for rest in [0.0, 0.2, 0.9] {
             let (a, b) = (xi - xp, xn - xi);
-            let (on_prev, on_next, _, _) = torsional_spring(
-                a.normalize(),
-                1.0 / a.norm(),
-                b.normalize(),
-                1.0 / b.norm(),
-                k_t,
-                rest,
-            );
+            let (on_prev, on_next, _, _) = torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest);
             let on_self = -(on_prev + on_next);
             let h = 1e-6;
             for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
@@ -174,14 +127,8 @@ mod tests {
                     let mut minus = [xp, xi, xn];
                     plus[node][axis] += h;
                     minus[node][axis] -= h;
-                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest)
-                        - energy(minus[0], minus[1], minus[2], k_t, rest))
-                        / (2.0 * h);
-                    assert!(
-                        (numeric - analytic[axis]).abs() < 1e-6,
-                        "rest {rest}, node {node} axis {axis}: {numeric} vs {}",
-                        analytic[axis]
-                    );
+                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest) - energy(minus[0], minus[1], minus[2], k_t, rest)) / (2.0 * h);
+                    assert!((numeric - analytic[axis]).abs() < 1e-6, "rest {rest}, node {node} axis {axis}: {numeric} vs {}", analytic[axis]);
                 }
             }
         }
@@ -191,8 +138,7 @@ mod tests {
     fn a_spring_at_its_rest_angle_pushes_nowhere_and_resists_both_ways() {
         let bend = |angle: f64| Vec3::new(angle.cos(), angle.sin(), 0.0);
         let rest = 0.3;
-        let (on_prev, on_next, theta, moment) =
-            torsional_spring(Vec3::x(), 1.0, bend(rest), 1.0, 2.0, rest);
+        let (on_prev, on_next, theta, moment) = torsional_spring(Vec3::x(), 1.0, bend(rest), 1.0, 2.0, rest);
         assert!((theta - rest).abs() < 1e-15);
         assert!(on_prev.norm() + on_next.norm() + moment.norm() < 1e-15);
         // straightened a little or bent further: the moment turns it back towards its rest

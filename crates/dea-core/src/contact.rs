@@ -41,12 +41,7 @@ pub struct ContactGeometry {
 
 impl ContactGeometry {
     pub fn new(radius: f64, element_length: f64, reference_length: f64) -> Self {
-        Self {
-            radius,
-            element_length,
-            reference_length,
-            area_factor: 2.0 * radius.sqrt() * element_length / reference_length,
-        }
+        Self { radius, element_length, reference_length, area_factor: 2.0 * radius.sqrt() * element_length / reference_length }
     }
 }
 
@@ -80,22 +75,13 @@ impl NormalLaw {
         let s = overlap.sqrt();
         let strain = overlap / geometry.reference_length;
         let integral = match *self {
-            NormalLaw::Elastic { transverse_modulus } => {
-                transverse_modulus * (2.0 / 3.0) * overlap * s
-            }
+            NormalLaw::Elastic { transverse_modulus } => transverse_modulus * (2.0 / 3.0) * overlap * s,
             NormalLaw::ElastoPlasticKm2 => {
                 let [_, c1, c2, c3] = KM2_LOADING_GPA;
-                1e9 * overlap
-                    * s
-                    * ((6.0 / 7.0) * c3 * strain * strain
-                        + (4.0 / 5.0) * c2 * strain
-                        + (2.0 / 3.0) * c1)
+                1e9 * overlap * s * ((6.0 / 7.0) * c3 * strain * strain + (4.0 / 5.0) * c2 * strain + (2.0 / 3.0) * c1)
             }
         };
-        NormalResponse {
-            force: geometry.area_factor * integral,
-            stiffness: geometry.area_factor * self.loading_tangent(strain) * s,
-        }
+        NormalResponse { force: geometry.area_factor * integral, stiffness: geometry.area_factor * self.loading_tangent(strain) * s }
     }
 
     /// Force on the loading curve [N] (see [`Self::evaluate`] for the full law).
@@ -111,10 +97,7 @@ impl NormalLaw {
             NormalLaw::Elastic { transverse_modulus } => transverse_modulus * (4.0 / 15.0) * d52,
             NormalLaw::ElastoPlasticKm2 => {
                 let [_, c1, c2, c3] = KM2_LOADING_GPA;
-                1e9 * d52
-                    * ((12.0 / 63.0) * c3 * overlap * overlap / (length * length)
-                        + (8.0 / 35.0) * c2 * overlap / length
-                        + (4.0 / 15.0) * c1)
+                1e9 * d52 * ((12.0 / 63.0) * c3 * overlap * overlap / (length * length) + (8.0 / 35.0) * c2 * overlap / length + (4.0 / 15.0) * c1)
             }
         };
         geometry.area_factor * integral
@@ -134,31 +117,14 @@ impl NormalLaw {
     /// Evaluates the law at `overlap` (> 0) given the largest overlap reached so far;
     /// returns the response and the updated largest overlap (the pair's history).
     #[inline]
-    pub fn evaluate(
-        &self,
-        geometry: &ContactGeometry,
-        overlap: f64,
-        max_overlap: f64,
-    ) -> (NormalResponse, f64) {
+    pub fn evaluate(&self, geometry: &ContactGeometry, overlap: f64, max_overlap: f64) -> (NormalResponse, f64) {
         match self {
-            NormalLaw::Elastic { .. } => {
-                (self.loading(geometry, overlap), max_overlap.max(overlap))
-            }
-            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => {
-                (self.loading(geometry, overlap), overlap)
-            }
+            NormalLaw::Elastic { .. } => (self.loading(geometry, overlap), max_overlap.max(overlap)),
+            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => (self.loading(geometry, overlap), overlap),
             NormalLaw::ElastoPlasticKm2 => {
                 let k_u = self.unloading_stiffness(geometry, max_overlap);
-                let force =
-                    self.loading_force(geometry, max_overlap) - k_u * (max_overlap - overlap);
-                let response = if force > 0.0 {
-                    NormalResponse {
-                        force,
-                        stiffness: k_u,
-                    }
-                } else {
-                    NormalResponse::default()
-                };
+                let force = self.loading_force(geometry, max_overlap) - k_u * (max_overlap - overlap);
+                let response = if force > 0.0 { NormalResponse { force, stiffness: k_u } } else { NormalResponse::default() };
                 (response, max_overlap)
             }
         }
@@ -189,8 +155,7 @@ impl NormalLaw {
                     return 0.0;
                 }
                 let peak = self.loading_force(geometry, max_overlap);
-                self.loading_work(geometry, max_overlap)
-                    - peak * peak / (2.0 * self.unloading_stiffness(geometry, max_overlap))
+                self.loading_work(geometry, max_overlap) - peak * peak / (2.0 * self.unloading_stiffness(geometry, max_overlap))
             }
         }
     }
@@ -208,19 +173,11 @@ mod tests {
     fn elastic_force_is_the_closed_form_4_8() {
         let g = geometry();
         let e_t = 1.34e9;
-        let law = NormalLaw::Elastic {
-            transverse_modulus: e_t,
-        };
+        let law = NormalLaw::Elastic { transverse_modulus: e_t };
         for overlap in [1e-8, 1e-7, 1e-6, 5e-6] {
             let (response, _) = law.evaluate(&g, overlap, 0.0);
-            let closed = 4.0 * e_t * g.radius.sqrt() * g.element_length * overlap.powf(1.5)
-                / (3.0 * g.reference_length);
-            assert!(
-                (response.force - closed).abs() <= 1e-12 * closed,
-                "{} vs {}",
-                response.force,
-                closed
-            );
+            let closed = 4.0 * e_t * g.radius.sqrt() * g.element_length * overlap.powf(1.5) / (3.0 * g.reference_length);
+            assert!((response.force - closed).abs() <= 1e-12 * closed, "{} vs {}", response.force, closed);
             // tangent stiffness is (4-7): 2 E_T sqrt(r delta) l0 / L
             let k = 2.0 * e_t * (g.radius * overlap).sqrt() * g.element_length / g.reference_length;
             assert!((response.stiffness - k).abs() <= 1e-12 * k);
@@ -230,23 +187,13 @@ mod tests {
     #[test]
     fn loading_work_is_the_integral_of_the_force() {
         let g = geometry();
-        for law in [
-            NormalLaw::Elastic {
-                transverse_modulus: 1.34e9,
-            },
-            NormalLaw::ElastoPlasticKm2,
-        ] {
+        for law in [NormalLaw::Elastic { transverse_modulus: 1.34e9 }, NormalLaw::ElastoPlasticKm2] {
             let overlap = 8e-6;
             let n = 20000;
             let h = overlap / n as f64;
-            let numeric: f64 = (0..n)
-                .map(|k| law.loading_force(&g, (k as f64 + 0.5) * h) * h)
-                .sum();
+            let numeric: f64 = (0..n).map(|k| law.loading_force(&g, (k as f64 + 0.5) * h) * h).sum();
             let closed = law.loading_work(&g, overlap);
-            assert!(
-                (numeric - closed).abs() < 1e-6 * closed,
-                "{law:?}: {numeric} vs {closed}"
-            );
+            assert!((numeric - closed).abs() < 1e-6 * closed, "{law:?}: {numeric} vs {closed}");
         }
     }
 
@@ -277,13 +224,8 @@ mod tests {
         let slope = (loaded.force - unloaded.force) / (peak_overlap - back);
         let e = 0.2;
         let k_410 = (18.666 * e * e + 7.0632 * e + 0.0646) * 1e9;
-        let expected = 2.0 * g.radius.sqrt() * g.element_length / g.reference_length
-            * k_410
-            * peak_overlap.sqrt();
-        assert!(
-            (slope - expected).abs() < 1e-9 * expected,
-            "{slope} vs {expected}"
-        );
+        let expected = 2.0 * g.radius.sqrt() * g.element_length / g.reference_length * k_410 * peak_overlap.sqrt();
+        assert!((slope - expected).abs() < 1e-9 * expected, "{slope} vs {expected}");
         // the force vanishes before the overlap does: residual strain
         let residual = peak_overlap - loaded.force / expected;
         assert!(residual > 0.0);
@@ -308,10 +250,7 @@ mod tests {
             for k in 1..100 {
                 let overlap = peak * k as f64 / 100.0;
                 let (unloading, _) = law.evaluate(&g, overlap, peak);
-                assert!(
-                    unloading.force <= law.loading_force(&g, overlap) * (1.0 + 1e-12),
-                    "strain {peak_strain} at {k}%"
-                );
+                assert!(unloading.force <= law.loading_force(&g, overlap) * (1.0 + 1e-12), "strain {peak_strain} at {k}%");
             }
             assert!(law.dissipated(&g, peak) >= 0.0);
         }

@@ -47,19 +47,11 @@ pub enum DomainError {
     #[error("node {} lacks the node at position {along} of its fibre within the chain stencil of {CHAIN_STENCIL}: a ghost is missing, so its forces cannot be computed", gid.0)]
     MissingGhost { gid: GlobalNodeId, along: u32 },
     #[error("time step violated at node {} in step {step}: its current stiffness is stable only below dt = {limit:.3e} s, the run uses {time_step:.3e} s (contacts far deeper than the time step was chosen for; lower run.time_step_safety)", gid.0)]
-    TimeStep {
-        step: u64,
-        gid: GlobalNodeId,
-        time_step: f64,
-        limit: f64,
-    },
+    TimeStep { step: u64, gid: GlobalNodeId, time_step: f64, limit: f64 },
     #[error("element {element} of the deformable projectile is inverted or no longer finite in step {step}: the strain is far beyond what linear elasticity describes (a softer body at this speed deforms more than the model holds; stiffen it, slow it, or refine its mesh)")]
     ProjectileInverted { step: u64, element: usize },
     #[error("node {} is tied to node {} of a hybrid yarn's transition, which is not present: a ghost is missing, so its forces cannot be computed", gid.0, partner.0)]
-    MissingTiePartner {
-        gid: GlobalNodeId,
-        partner: GlobalNodeId,
-    },
+    MissingTiePartner { gid: GlobalNodeId, partner: GlobalNodeId },
 }
 
 /// Everything a rank needs to know of a node another rank owns.
@@ -135,9 +127,7 @@ pub struct Reaction {
 /// Sum of reactions given in ascending global id: the order that makes the projectile's
 /// load independent of the partition (each rank's records are merged by gid first).
 pub fn sum_reactions(reactions: impl Iterator<Item = Reaction>) -> (Vec3, Vec3) {
-    reactions.fold((Vec3::zeros(), Vec3::zeros()), |(f, t), r| {
-        (f + r.force, t + r.torque)
-    })
+    reactions.fold((Vec3::zeros(), Vec3::zeros()), |(f, t), r| (f + r.force, t + r.torque))
 }
 
 /// Per-owned-node running totals of dissipated and released energy [J].
@@ -240,30 +230,16 @@ impl Domain {
             .flat_map(|a| sections.iter().map(move |b| (a, b)))
             .map(|(a, b)| {
                 let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
-                PairData {
-                    reach: 0.5 * (a.contact_diameter + b.contact_diameter),
-                    geometry: ContactGeometry::new(
-                        2.0 * ra * rb / (ra + rb),
-                        0.5 * (a.element_length + b.element_length),
-                        ra + rb,
-                    ),
-                }
+                PairData { reach: 0.5 * (a.contact_diameter + b.contact_diameter), geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb) }
             })
             .collect();
         let mut bending = BendingScratch::default();
         bending.resize(n);
-        let chain_stiffness = sections
-            .iter()
-            .map(|s| crate::stability::chain_stiffness(&material, s))
-            .collect();
+        let chain_stiffness = sections.iter().map(|s| crate::stability::chain_stiffness(&material, s)).collect();
         Self {
             material,
             sections,
-            ledger: NodeLedger {
-                friction_dissipated: vec![0.0; nodes.n_owned],
-                plastic_dissipated: vec![0.0; nodes.n_owned],
-                fracture_released: vec![0.0; nodes.n_owned],
-            },
+            ledger: NodeLedger { friction_dissipated: vec![0.0; nodes.n_owned], plastic_dissipated: vec![0.0; nodes.n_owned], fracture_released: vec![0.0; nodes.n_owned] },
             projectile_contacts: ProjectileContacts {
                 anchor: vec![Vec3::zeros(); n_owned],
                 spring_stiffness: vec![0.0; n_owned],
@@ -304,9 +280,7 @@ impl Domain {
     /// Call before the ghosts are set: their ends are found again at every change.
     pub fn set_ties(&mut self, ties: Vec<Tie>) {
         self.ties = Ties::new(ties, &self.nodes);
-        self.tie_stiffness = self
-            .ties
-            .stiffness_on_owned(self.nodes.n_owned, &self.material);
+        self.tie_stiffness = self.ties.stiffness_on_owned(self.nodes.n_owned, &self.material);
     }
 
     /// Lists, forces and projectile load of the initial state of a whole domain (no ghosts),
@@ -325,20 +299,9 @@ impl Domain {
         self.nodes.truncate_to_owned();
         self.elements.truncate(n_owned);
         for g in ghosts {
-            self.nodes.push(
-                g.gid,
-                g.position,
-                Vec3::zeros(),
-                0.0,
-                g.fibre,
-                g.along,
-                g.section,
-                g.clamped,
-                g.last,
-            );
+            self.nodes.push(g.gid, g.position, Vec3::zeros(), 0.0, g.fibre, g.along, g.section, g.clamped, g.last);
             *self.nodes.rest_angle.last_mut().expect("just pushed") = g.rest_angle;
-            self.elements
-                .push(g.rest_length, g.tensile_strength, g.failure);
+            self.elements.push(g.rest_length, g.tensile_strength, g.failure);
         }
         self.nodes.link_chains();
         self.ties.link(&self.nodes);
@@ -403,11 +366,7 @@ impl Domain {
         contacts.touching.fill(false);
         contacts.max_overlap.fill(0.0);
         contacts.node_reference.clear();
-        for ledger in [
-            &mut self.ledger.friction_dissipated,
-            &mut self.ledger.plastic_dissipated,
-            &mut self.ledger.fracture_released,
-        ] {
+        for ledger in [&mut self.ledger.friction_dissipated, &mut self.ledger.plastic_dissipated, &mut self.ledger.fracture_released] {
             ledger.fill(0.0);
         }
         self.broken = BrokenCount::default();
@@ -417,10 +376,7 @@ impl Domain {
 
     /// Largest force on an owned node that is free to move [N].
     pub fn largest_free_force(&self) -> f64 {
-        (0..self.nodes.n_owned)
-            .filter(|&i| !self.nodes.clamped[i])
-            .map(|i| self.nodes.force[i].norm())
-            .fold(0.0, f64::max)
+        (0..self.nodes.n_owned).filter(|&i| !self.nodes.clamped[i]).map(|i| self.nodes.force[i].norm()).fold(0.0, f64::max)
     }
 
     /// Largest overlap of a listed fibre pair, one of whose nodes is free to move, over its
@@ -435,11 +391,8 @@ impl Domain {
                 if nodes.clamped[i] && nodes.clamped[j] {
                     continue;
                 }
-                let reach = self.pair_data
-                    [nodes.section[i] as usize * n_sections + nodes.section[j] as usize]
-                    .reach;
-                largest =
-                    largest.max((reach - (nodes.position[j] - nodes.position[i]).norm()) / reach);
+                let reach = self.pair_data[nodes.section[i] as usize * n_sections + nodes.section[j] as usize].reach;
+                largest = largest.max((reach - (nodes.position[j] - nodes.position[i]).norm()) / reach);
             }
         }
         largest
@@ -489,27 +442,12 @@ impl Domain {
         if contacts.node_reference.len() != self.nodes.n_owned {
             return true;
         }
-        let mut surface = (projectile.position - contacts.reference_position).norm()
-            + projectile.shape.bounding_radius()
-                * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
+        let mut surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
         if let Some(mesh) = projectile.shape.deforming_mesh() {
             // a deformable body's surface also moves against its frame
-            surface += mesh
-                .surface
-                .vertices
-                .iter()
-                .zip(&contacts.reference_vertices)
-                .map(|(v, r)| (v - r).norm_squared())
-                .fold(0.0, f64::max)
-                .sqrt();
+            surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
         }
-        let node = contacts
-            .node_reference
-            .iter()
-            .zip(&self.nodes.position)
-            .map(|(r, x)| (x - r).norm_squared())
-            .fold(0.0, f64::max)
-            .sqrt();
+        let node = contacts.node_reference.iter().zip(&self.nodes.position).map(|(r, x)| (x - r).norm_squared()).fold(0.0, f64::max).sqrt();
         node + surface > self.pairs.skin
     }
 
@@ -522,23 +460,13 @@ impl Domain {
             return;
         };
         let contacts = &mut self.projectile_contacts;
-        let max_contact_radius = self
-            .sections
-            .iter()
-            .map(|s| 0.5 * s.contact_diameter)
-            .fold(0.0, f64::max);
+        let max_contact_radius = self.sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
         let reach = max_contact_radius + self.pairs.skin;
         let bounding = projectile.shape.bounding_radius() + reach;
         contacts.candidates.clear();
         for i in 0..self.nodes.n_owned {
             let x = self.nodes.position[i];
-            if (x - projectile.position).norm_squared() < bounding * bounding
-                && projectile
-                    .shape
-                    .distance_and_normal(&projectile.to_body(&x))
-                    .0
-                    < reach
-            {
+            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.distance_and_normal(&projectile.to_body(&x)).0 < reach {
                 contacts.candidates.push(i as u32);
             } else {
                 // a node leaving the candidate set is out of contact
@@ -548,34 +476,20 @@ impl Domain {
             }
         }
         contacts.node_reference.clear();
-        contacts
-            .node_reference
-            .extend_from_slice(&self.nodes.position[..self.nodes.n_owned]);
+        contacts.node_reference.extend_from_slice(&self.nodes.position[..self.nodes.n_owned]);
         contacts.reference_position = projectile.position;
         contacts.reference_orientation = projectile.orientation;
         contacts.reference_vertices.clear();
         if let Some(mesh) = projectile.shape.deforming_mesh() {
-            contacts
-                .reference_vertices
-                .extend_from_slice(&mesh.surface.vertices);
+            contacts.reference_vertices.extend_from_slice(&mesh.surface.vertices);
         }
     }
 
     /// Forces on owned nodes, element failure and the projectile's contact load.
     pub fn compute_forces(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
-        compute_element_tension(
-            &self.nodes,
-            &mut self.elements,
-            &self.sections,
-            &self.material,
-        );
-        compute_bending(
-            &self.nodes,
-            &self.elements,
-            &self.sections,
-            &mut self.bending,
-        );
+        compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
+        compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
         set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
         self.ties.add_forces(&mut self.nodes, &self.material);
         let rods_done = Instant::now();
@@ -625,9 +539,7 @@ impl Domain {
                 let (response, max_overlap) = law.evaluate(&data.geometry, overlap, previous_max);
                 if max_overlap > previous_max {
                     // each pair is evaluated by both of its nodes: half the dissipation each
-                    plastic += 0.5
-                        * (law.dissipated(&data.geometry, max_overlap)
-                            - law.dissipated(&data.geometry, previous_max));
+                    plastic += 0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max));
                     pairs.max_overlap[k] = max_overlap;
                 }
                 force -= normal * response.force;
@@ -637,15 +549,7 @@ impl Domain {
                     pairs.anchor[k] = relative;
                     pairs.spring_stiffness[k] = mu * response.stiffness;
                 } else if mu > 0.0 {
-                    let friction = stick_slip(
-                        relative,
-                        normal,
-                        &mut pairs.anchor[k],
-                        &mut pairs.spring_stiffness[k],
-                        response.force,
-                        response.stiffness,
-                        mu,
-                    );
+                    let friction = stick_slip(relative, normal, &mut pairs.anchor[k], &mut pairs.spring_stiffness[k], response.force, response.stiffness, mu);
                     force += friction.force;
                     friction_loss += 0.5 * friction.dissipated;
                 }
@@ -660,25 +564,12 @@ impl Domain {
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
     /// normal (body frame), body-frame position, and the contact geometry of the law.
     #[inline]
-    fn projectile_contact_geometry(
-        &self,
-        projectile: &RigidProjectile,
-        i: usize,
-    ) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
+    fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
         let section = &self.sections[self.nodes.section[i] as usize];
         let body = projectile.to_body(&self.nodes.position[i]);
         let point = projectile.shape.contact_point(&body);
-        let geometry = ContactGeometry::new(
-            0.5 * section.diameter,
-            section.element_length,
-            section.diameter,
-        );
-        (
-            0.5 * section.contact_diameter - point.distance,
-            point,
-            body,
-            geometry,
-        )
+        let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
+        (0.5 * section.contact_diameter - point.distance, point, body, geometry)
     }
 
     /// Fibre–projectile contact and friction on candidate nodes; stores each node's force and
@@ -703,8 +594,7 @@ impl Domain {
             let previous_max = contacts.max_overlap[i];
             let (response, max_overlap) = law.evaluate(&geometry, overlap, previous_max);
             if max_overlap > previous_max {
-                self.ledger.plastic_dissipated[i] += law.dissipated(&geometry, max_overlap)
-                    - law.dissipated(&geometry, previous_max);
+                self.ledger.plastic_dissipated[i] += law.dissipated(&geometry, max_overlap) - law.dissipated(&geometry, previous_max);
                 contacts.max_overlap[i] = max_overlap;
             }
             // the partner of the fibre pairs: the body origin of a rigid body (its frame turns
@@ -716,11 +606,7 @@ impl Domain {
                 contacts.anchor_weights[i] = point.weights;
             }
             let relative = match deforming {
-                Some(mesh) => {
-                    mesh.surface
-                        .point_at(contacts.anchor_triangle[i], contacts.anchor_weights[i])
-                        - body
-                }
+                Some(mesh) => mesh.surface.point_at(contacts.anchor_triangle[i], contacts.anchor_weights[i]) - body,
                 None => -body,
             };
             let mut force_body = normal * response.force;
@@ -729,15 +615,7 @@ impl Domain {
                 contacts.anchor[i] = relative;
                 contacts.spring_stiffness[i] = mu * response.stiffness;
             } else if mu > 0.0 {
-                let friction = stick_slip(
-                    relative,
-                    normal,
-                    &mut contacts.anchor[i],
-                    &mut contacts.spring_stiffness[i],
-                    response.force,
-                    response.stiffness,
-                    mu,
-                );
+                let friction = stick_slip(relative, normal, &mut contacts.anchor[i], &mut contacts.spring_stiffness[i], response.force, response.stiffness, mu);
                 force_body += friction.force;
                 self.ledger.friction_dissipated[i] += friction.dissipated;
                 if let (Some(mesh), true) = (deforming, friction.dissipated > 0.0) {
@@ -750,16 +628,12 @@ impl Domain {
                 }
             }
             let force = projectile.to_world_vector(&force_body);
-            let surface_point = self.nodes.position[i]
-                - projectile.to_world_vector(&normal)
-                    * (0.5 * self.sections[self.nodes.section[i] as usize].contact_diameter
-                        - overlap);
+            let surface_point = self.nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * self.sections[self.nodes.section[i] as usize].contact_diameter - overlap);
             contacts.force_on_node[i] = force;
             contacts.triangle[i] = point.triangle;
             contacts.weights[i] = point.weights;
             self.contact_stiffness[i] += response.stiffness;
-            contacts.torque_on_projectile[i] =
-                (surface_point - projectile.position).cross(&(-force));
+            contacts.torque_on_projectile[i] = (surface_point - projectile.position).cross(&(-force));
             self.nodes.force[i] += force;
         }
         self.projectile = Some(projectile);
@@ -770,17 +644,13 @@ impl Domain {
     /// projectile and its torque about the projectile's centre [N], [N m].
     pub fn projectile_reactions(&self) -> impl Iterator<Item = Reaction> + '_ {
         let contacts = &self.projectile_contacts;
-        contacts
-            .candidates
-            .iter()
-            .filter(|&&i| contacts.touching[i as usize])
-            .map(|&i| Reaction {
-                gid: self.nodes.gid[i as usize],
-                force: -contacts.force_on_node[i as usize],
-                torque: contacts.torque_on_projectile[i as usize],
-                triangle: contacts.triangle[i as usize],
-                weights: contacts.weights[i as usize],
-            })
+        contacts.candidates.iter().filter(|&&i| contacts.touching[i as usize]).map(|&i| Reaction {
+            gid: self.nodes.gid[i as usize],
+            force: -contacts.force_on_node[i as usize],
+            torque: contacts.torque_on_projectile[i as usize],
+            triangle: contacts.triangle[i as usize],
+            weights: contacts.weights[i as usize],
+        })
     }
 
     /// Contact force and torque on the projectile from this domain's owned nodes [N], [N m].
@@ -806,16 +676,8 @@ impl Domain {
         }
         let sigma = self.material.longitudinal_modulus * self.elements.strain[i]; // (4-16)
         let area = self.sections[self.nodes.section[i] as usize].area;
-        let tau = max_shear_stress(
-            element_shear_force(&self.nodes, &self.elements, &self.bending, i),
-            area,
-        );
-        combined_criterion(
-            sigma,
-            self.elements.tensile_strength[i],
-            tau,
-            self.failure.shear_strength,
-        )
+        let tau = max_shear_stress(element_shear_force(&self.nodes, &self.elements, &self.bending, i), area);
+        combined_criterion(sigma, self.elements.tensile_strength[i], tau, self.failure.shear_strength)
     }
 
     /// Applies the combined criterion (5-6) to owned elements and books the strain and bending
@@ -840,12 +702,7 @@ impl Domain {
             let next = self.nodes.next[i] as usize;
             // strain energy of the element itself (evaluated as if intact)
             let area = self.sections[self.nodes.section[i] as usize].area;
-            let mut released = axial_energy(
-                &self.material,
-                area,
-                self.elements.rest_length[i],
-                self.elements.strain[i],
-            );
+            let mut released = axial_energy(&self.material, area, self.elements.rest_length[i], self.elements.strain[i]);
             // the spring at the first node, and the one at the second unless the element
             // after it also breaks now (then that element books it). Failure states are
             // applied after this loop, so for an owned or a ghost next element alike the
@@ -871,19 +728,11 @@ impl Domain {
     /// Every owned node has finite force and position, and a stiffness the time step can
     /// integrate (central difference diverges once omega dt > 2).
     fn check_state(&self) -> Result<(), DomainError> {
-        let mu = self
-            .contact
-            .friction_coefficient
-            .max(self.contact.projectile_friction_coefficient);
+        let mu = self.contact.friction_coefficient.max(self.contact.projectile_friction_coefficient);
         let nodes = &self.nodes;
         for i in 0..nodes.n_owned {
-            if !(nodes.force[i].iter().all(|v| v.is_finite())
-                && nodes.position[i].iter().all(|v| v.is_finite()))
-            {
-                return Err(DomainError::NonFinite {
-                    step: self.step,
-                    gid: nodes.gid[i],
-                });
+            if !(nodes.force[i].iter().all(|v| v.is_finite()) && nodes.position[i].iter().all(|v| v.is_finite())) {
+                return Err(DomainError::NonFinite { step: self.step, gid: nodes.gid[i] });
             }
             if nodes.clamped[i] {
                 continue;
@@ -892,18 +741,8 @@ impl Domain {
             let chain = self.chain_stiffness[nodes.section[i] as usize] + self.tie_stiffness[i];
             let stiffness = chain + (1.0 + mu) * self.contact_stiffness[i];
             if stiffness * self.time_step * self.time_step > 4.0 * nodes.mass[i] {
-                let limit = crate::stability::node_stability_limit(
-                    chain,
-                    self.contact_stiffness[i],
-                    mu,
-                    nodes.mass[i],
-                );
-                return Err(DomainError::TimeStep {
-                    step: self.step,
-                    gid: nodes.gid[i],
-                    time_step: self.time_step,
-                    limit,
-                });
+                let limit = crate::stability::node_stability_limit(chain, self.contact_stiffness[i], mu, nodes.mass[i]);
+                return Err(DomainError::TimeStep { step: self.step, gid: nodes.gid[i], time_step: self.time_step, limit });
             }
         }
         Ok(())
@@ -931,54 +770,27 @@ impl Domain {
         let n_sections = self.sections.len();
         for i in 0..nodes.n_owned {
             let report = &mut sums[group(i)];
-            report
-                .fibre_kinetic
-                .add(0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared());
+            report.fibre_kinetic.add(0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared());
             if nodes.next[i] != NONE {
-                report.axial.add(element_strain_energy(
-                    nodes,
-                    &self.elements,
-                    &self.sections,
-                    &self.material,
-                    i,
-                ));
+                report.axial.add(element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i));
             }
             report.bending.add(self.spring_energy(i));
-            report
-                .friction_dissipated
-                .add(self.ledger.friction_dissipated[i]);
-            report
-                .plastic_dissipated
-                .add(self.ledger.plastic_dissipated[i]);
-            report
-                .fracture_released
-                .add(self.ledger.fracture_released[i]);
+            report.friction_dissipated.add(self.ledger.friction_dissipated[i]);
+            report.plastic_dissipated.add(self.ledger.plastic_dissipated[i]);
+            report.fracture_released.add(self.ledger.fracture_released[i]);
             for k in self.pairs.row(i) {
                 let j = self.pairs.partner[k] as usize;
-                let data = &self.pair_data
-                    [nodes.section[i] as usize * n_sections + nodes.section[j] as usize];
+                let data = &self.pair_data[nodes.section[i] as usize * n_sections + nodes.section[j] as usize];
                 let relative = nodes.position[j] - nodes.position[i];
                 let overlap = data.reach - relative.norm();
                 if overlap <= 0.0 {
                     continue;
                 }
-                let (response, _) =
-                    law.evaluate(&data.geometry, overlap, self.pairs.max_overlap[k]);
-                report.contact.add(
-                    0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]),
-                );
+                let (response, _) = law.evaluate(&data.geometry, overlap, self.pairs.max_overlap[k]);
+                report.contact.add(0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]));
                 if self.contact.friction_coefficient > 0.0 && self.pairs.touching[k] {
-                    let (mut anchor, mut spring) =
-                        (self.pairs.anchor[k], self.pairs.spring_stiffness[k]);
-                    let friction = stick_slip(
-                        relative,
-                        relative.normalize(),
-                        &mut anchor,
-                        &mut spring,
-                        response.force,
-                        response.stiffness,
-                        self.contact.friction_coefficient,
-                    );
+                    let (mut anchor, mut spring) = (self.pairs.anchor[k], self.pairs.spring_stiffness[k]);
+                    let friction = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, self.contact.friction_coefficient);
                     report.friction_stored.add(0.5 * friction.stored);
                 }
             }
@@ -990,32 +802,16 @@ impl Domain {
             for &i in &self.projectile_contacts.candidates {
                 let i = i as usize;
                 let report = &mut sums[group(i)];
-                let (overlap, point, body, geometry) =
-                    self.projectile_contact_geometry(projectile, i);
+                let (overlap, point, body, geometry) = self.projectile_contact_geometry(projectile, i);
                 if overlap <= 0.0 {
                     continue;
                 }
                 let max_overlap = self.projectile_contacts.max_overlap[i];
-                report
-                    .contact
-                    .add(law.stored_energy(&geometry, overlap, max_overlap));
-                if self.contact.projectile_friction_coefficient > 0.0
-                    && self.projectile_contacts.touching[i]
-                {
+                report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
+                if self.contact.projectile_friction_coefficient > 0.0 && self.projectile_contacts.touching[i] {
                     let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
-                    let (mut anchor, mut spring) = (
-                        self.projectile_contacts.anchor[i],
-                        self.projectile_contacts.spring_stiffness[i],
-                    );
-                    let friction = stick_slip(
-                        -body,
-                        point.normal,
-                        &mut anchor,
-                        &mut spring,
-                        response.force,
-                        response.stiffness,
-                        self.contact.projectile_friction_coefficient,
-                    );
+                    let (mut anchor, mut spring) = (self.projectile_contacts.anchor[i], self.projectile_contacts.spring_stiffness[i]);
+                    let friction = stick_slip(-body, point.normal, &mut anchor, &mut spring, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
                     report.friction_stored.add(friction.stored);
                 }
             }

@@ -85,18 +85,7 @@ impl EnergySums {
     pub fn report(&self) -> EnergyReport {
         let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             self.kinds().map(ExactSum::value);
-        EnergyReport {
-            fibre_kinetic,
-            projectile_kinetic,
-            projectile_strain,
-            axial,
-            bending,
-            contact,
-            friction_stored,
-            friction_dissipated,
-            plastic_dissipated,
-            fracture_released,
-        }
+        EnergyReport { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 
     /// Integer words whose element-wise sum over ranks is the words of the total.
@@ -106,20 +95,7 @@ impl EnergySums {
 
     pub fn from_words(words: &[i64]) -> Self {
         let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
-            std::array::from_fn(|k| {
-                ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)])
-            });
-        Self {
-            fibre_kinetic,
-            projectile_kinetic,
-            projectile_strain,
-            axial,
-            bending,
-            contact,
-            friction_stored,
-            friction_dissipated,
-            plastic_dissipated,
-            fracture_released,
-        }
+            std::array::from_fn(|k| ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)]));
+        Self { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 }

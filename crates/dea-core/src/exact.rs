@@ -28,12 +28,7 @@ pub struct ExactSum {
 
 impl Default for ExactSum {
     fn default() -> Self {
-        Self {
-            limbs: [0; LIMBS],
-            adds: 0,
-            special_bits: 0,
-            has_special: false,
-        }
+        Self { limbs: [0; LIMBS], adds: 0, special_bits: 0, has_special: false }
     }
 }
 
@@ -49,11 +44,7 @@ impl ExactSum {
             return;
         }
         if !x.is_finite() {
-            let special = if self.has_special {
-                f64::from_bits(self.special_bits) + x
-            } else {
-                x
-            };
+            let special = if self.has_special { f64::from_bits(self.special_bits) + x } else { x };
             self.special_bits = special.to_bits();
             self.has_special = true;
             return;
@@ -62,15 +53,8 @@ impl ExactSum {
         let biased = ((bits >> 52) & 0x7ff) as i64;
         let fraction = (bits & ((1 << 52) - 1)) as i128;
         // x = mantissa * 2^(position - 1074), position >= 0
-        let (mantissa, position) = if biased == 0 {
-            (fraction, 0)
-        } else {
-            (fraction | (1 << 52), biased - 1)
-        };
-        let (index, shift) = (
-            (position / LIMB_BITS as i64) as usize,
-            (position % LIMB_BITS as i64) as u32,
-        );
+        let (mantissa, position) = if biased == 0 { (fraction, 0) } else { (fraction | (1 << 52), biased - 1) };
+        let (index, shift) = ((position / LIMB_BITS as i64) as usize, (position % LIMB_BITS as i64) as u32);
         let mut value = mantissa << shift;
         if x < 0.0 {
             value = -value;
@@ -230,10 +214,7 @@ mod tests {
         assert_eq!(sum(&[1e300, 1e-300, -1e300]), 1e-300);
         // the doubles nearest 0.1, 0.2, 0.3 sum to exactly 2^-55; naive summation gives 2^-54
         assert_eq!(sum(&[0.1, 0.2, -0.3]), 2f64.powi(-55));
-        assert_eq!(
-            sum(&[f64::MIN_POSITIVE / 8.0, f64::MIN_POSITIVE / 8.0]),
-            f64::MIN_POSITIVE / 4.0
-        );
+        assert_eq!(sum(&[f64::MIN_POSITIVE / 8.0, f64::MIN_POSITIVE / 8.0]), f64::MIN_POSITIVE / 4.0);
         assert_eq!(sum(&[-2.5, 1.0]), -1.5);
         assert_eq!(sum(&[]), 0.0);
     }
@@ -251,9 +232,7 @@ mod tests {
     #[test]
     fn order_and_grouping_do_not_change_the_bits() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let mut values: Vec<f64> = (0..5000)
-            .map(|_| rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-20..20)))
-            .collect();
+        let mut values: Vec<f64> = (0..5000).map(|_| rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-20..20))).collect();
         let reference = sum(&values);
         // the naive sum in the same order generally differs in the last bits
         for _ in 0..5 {
@@ -269,10 +248,7 @@ mod tests {
             assert_eq!(merged.value().to_bits(), reference.to_bits());
             let (wa, wb) = (a.to_words(), b.to_words());
             let words: Vec<i64> = wa.iter().zip(wb.iter()).map(|(x, y)| x + y).collect();
-            assert_eq!(
-                ExactSum::from_words(&words).value().to_bits(),
-                reference.to_bits()
-            );
+            assert_eq!(ExactSum::from_words(&words).value().to_bits(), reference.to_bits());
         }
         // and the exact result is within one rounding of a compensated reference
         let mut sorted = values.clone();
@@ -288,12 +264,7 @@ mod tests {
         a.add(f64::INFINITY);
         let mut b = ExactSum::new();
         b.add(f64::NEG_INFINITY);
-        let words: Vec<i64> = a
-            .to_words()
-            .iter()
-            .zip(b.to_words().iter())
-            .map(|(x, y)| x + y)
-            .collect();
+        let words: Vec<i64> = a.to_words().iter().zip(b.to_words().iter()).map(|(x, y)| x + y).collect();
         assert!(ExactSum::from_words(&words).value().is_nan());
         assert_eq!(ExactSum::from_words(&a.to_words()).value(), f64::INFINITY);
     }

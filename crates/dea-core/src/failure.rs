@@ -39,41 +39,14 @@ mod tests {
     fn criterion_on_its_boundary() {
         let (su, tu) = (3.8e9, 0.7672e9);
         // exactly on the ellipse: survives; just outside: fails
-        for angle in [
-            0.0f64,
-            0.3,
-            std::f64::consts::FRAC_PI_4,
-            1.2,
-            std::f64::consts::FRAC_PI_2,
-        ] {
+        for angle in [0.0f64, 0.3, std::f64::consts::FRAC_PI_4, 1.2, std::f64::consts::FRAC_PI_2] {
             let (sigma, tau) = (su * angle.cos(), tu * angle.sin());
-            assert_eq!(
-                combined_criterion(sigma * (1.0 - 1e-9), su, tau * (1.0 - 1e-9), tu),
-                None,
-                "inside at {angle}"
-            );
-            assert!(
-                combined_criterion(sigma * (1.0 + 1e-9) + 1.0, su, tau * (1.0 + 1e-9), tu)
-                    .is_some(),
-                "outside at {angle}"
-            );
+            assert_eq!(combined_criterion(sigma * (1.0 - 1e-9), su, tau * (1.0 - 1e-9), tu), None, "inside at {angle}");
+            assert!(combined_criterion(sigma * (1.0 + 1e-9) + 1.0, su, tau * (1.0 + 1e-9), tu).is_some(), "outside at {angle}");
         }
-        assert_eq!(
-            combined_criterion(su * 1.01, su, 0.0, tu),
-            Some(FailureMode::Tension)
-        );
-        assert_eq!(
-            combined_criterion(0.0, su, tu * 1.01, tu),
-            Some(FailureMode::Shear)
-        );
-        assert_eq!(
-            combined_criterion(su * 0.8, su, tu * 0.8, tu),
-            Some(FailureMode::Combined)
-        );
-        assert_eq!(
-            combined_criterion(-10.0 * su, su, 0.0, tu),
-            None,
-            "compression does not break"
-        );
+        assert_eq!(combined_criterion(su * 1.01, su, 0.0, tu), Some(FailureMode::Tension));
+        assert_eq!(combined_criterion(0.0, su, tu * 1.01, tu), Some(FailureMode::Shear));
+        assert_eq!(combined_criterion(su * 0.8, su, tu * 0.8, tu), Some(FailureMode::Combined));
+        assert_eq!(combined_criterion(-10.0 * su, su, 0.0, tu), None, "compression does not break");
     }
 }

@@ -33,25 +33,13 @@ pub struct FrictionResponse {
 /// `normal_stiffness` k_n the contact's tangent stiffness; `spring_stiffness` holds the
 /// `k_s` of the previous evaluation (set it to `mu k_n` at first touch) and is updated.
 #[inline]
-pub fn stick_slip(
-    relative: Vec3,
-    normal: Vec3,
-    anchor: &mut Vec3,
-    spring_stiffness: &mut f64,
-    normal_force: f64,
-    normal_stiffness: f64,
-    coefficient: f64,
-) -> FrictionResponse {
+pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, spring_stiffness: &mut f64, normal_force: f64, normal_stiffness: f64, coefficient: f64) -> FrictionResponse {
     let displacement = relative - *anchor; // (4-13)
     let mut tangential = displacement - normal * displacement.dot(&normal); // (4-14), (4-15)
     let stiffness = coefficient * normal_stiffness; // (4-12)
     if *spring_stiffness != stiffness {
         // keep k_s U_s^2 / 2 through the change of k_s (zero stiffness: the spring restarts)
-        let scale = if stiffness > 0.0 {
-            (*spring_stiffness / stiffness).sqrt()
-        } else {
-            0.0
-        };
+        let scale = if stiffness > 0.0 { (*spring_stiffness / stiffness).sqrt() } else { 0.0 };
         *anchor += tangential * (1.0 - scale);
         tangential *= scale;
         *spring_stiffness = stiffness;
@@ -60,31 +48,15 @@ pub fn stick_slip(
     let trial = tangential * stiffness; // (4-11)
     let trial_squared = trial.norm_squared();
     if trial_squared <= limit * limit {
-        let stored = if stiffness > 0.0 {
-            trial_squared / (2.0 * stiffness)
-        } else {
-            0.0
-        };
-        return FrictionResponse {
-            force: trial,
-            dissipated: 0.0,
-            stored,
-        };
+        let stored = if stiffness > 0.0 { trial_squared / (2.0 * stiffness) } else { 0.0 };
+        return FrictionResponse { force: trial, dissipated: 0.0, stored };
     }
     let tangential_norm = tangential.norm();
     let direction = tangential / tangential_norm;
-    let elastic_slip = if stiffness > 0.0 {
-        limit / stiffness
-    } else {
-        0.0
-    };
+    let elastic_slip = if stiffness > 0.0 { limit / stiffness } else { 0.0 };
     // Cundall–Strack: keep only the elastic part of the tangential displacement
     *anchor = relative - direction * elastic_slip;
-    FrictionResponse {
-        force: direction * limit,
-        dissipated: limit * (tangential_norm - elastic_slip),
-        stored: limit * elastic_slip / 2.0,
-    }
+    FrictionResponse { force: direction * limit, dissipated: limit * (tangential_norm - elastic_slip), stored: limit * elastic_slip / 2.0 }
 }
 
 #[cfg(test)]
@@ -110,10 +82,7 @@ mod tests {
         let tangential = relative - Vec3::z() - normal * (relative - Vec3::z()).dot(&normal);
         assert!((response.force - tangential * MU * KN).norm() < 1e-15);
         assert!(response.force.norm() < MU * FN);
-        assert!(
-            response.force.x > 0.0,
-            "the node is dragged along with its partner"
-        );
+        assert!(response.force.x > 0.0, "the node is dragged along with its partner");
         assert_eq!(response.dissipated, 0.0);
         assert_eq!(anchor, Vec3::z(), "sticking leaves the anchor in place");
     }
@@ -128,10 +97,7 @@ mod tests {
         // after the truncation the spring holds exactly the limit force
         let again = stick_slip(relative, normal, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!((again.force.norm() - MU * FN).abs() < 1e-12);
-        assert!(
-            again.dissipated.abs() < 1e-15,
-            "no further slip without further motion"
-        );
+        assert!(again.dissipated.abs() < 1e-15, "no further slip without further motion");
     }
 
     #[test]
@@ -143,22 +109,11 @@ mod tests {
         // moving back by a little unloads the spring (stick), not slide
         let (back, n_back) = shifted(0.05 - 1e-4);
         let reversed = stick_slip(back, n_back, &mut anchor, &mut (MU * KN), FN, KN, MU);
-        assert!(
-            reversed.force.norm() < MU * FN,
-            "sticks again after the reversal"
-        );
+        assert!(reversed.force.norm() < MU * FN, "sticks again after the reversal");
         assert_eq!(reversed.dissipated, 0.0);
         // moving back far enough slips the other way
         let (opposite, n_opposite) = shifted(-0.05);
-        let slid = stick_slip(
-            opposite,
-            n_opposite,
-            &mut anchor,
-            &mut (MU * KN),
-            FN,
-            KN,
-            MU,
-        );
+        let slid = stick_slip(opposite, n_opposite, &mut anchor, &mut (MU * KN), FN, KN, MU);
         assert!(slid.force.x < 0.0 && (slid.force.norm() - MU * FN).abs() < 1e-12);
     }
 
@@ -173,69 +128,25 @@ mod tests {
         let steps = 20000;
         let (mut work_in, mut work_out) = (0.0, 0.0);
         let mut shift = 0.0;
-        let mut force = stick_slip(
-            shifted(0.0).0,
-            shifted(0.0).1,
-            &mut anchor,
-            &mut spring,
-            big,
-            k1,
-            MU,
-        )
-        .force;
+        let mut force = stick_slip(shifted(0.0).0, shifted(0.0).1, &mut anchor, &mut spring, big, k1, MU).force;
         for _ in 0..steps {
             let next = shift + 1e-3 / steps as f64;
             let (relative, normal) = shifted(next);
-            let new_force =
-                stick_slip(relative, normal, &mut anchor, &mut spring, big, k1, MU).force;
+            let new_force = stick_slip(relative, normal, &mut anchor, &mut spring, big, k1, MU).force;
             work_in += 0.5 * (force.x + new_force.x) * (next - shift);
             (shift, force) = (next, new_force);
         }
-        let stored_before = stick_slip(
-            shifted(shift).0,
-            shifted(shift).1,
-            &mut anchor.clone(),
-            &mut spring.clone(),
-            big,
-            k1,
-            MU,
-        )
-        .stored;
-        force = stick_slip(
-            shifted(shift).0,
-            shifted(shift).1,
-            &mut anchor,
-            &mut spring,
-            big,
-            k2,
-            MU,
-        )
-        .force;
-        let stored_after = stick_slip(
-            shifted(shift).0,
-            shifted(shift).1,
-            &mut anchor.clone(),
-            &mut spring.clone(),
-            big,
-            k2,
-            MU,
-        )
-        .stored;
-        assert!(
-            (stored_after - stored_before).abs() < 1e-12 * stored_before,
-            "the change of stiffness keeps the energy"
-        );
+        let stored_before = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor.clone(), &mut spring.clone(), big, k1, MU).stored;
+        force = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor, &mut spring, big, k2, MU).force;
+        let stored_after = stick_slip(shifted(shift).0, shifted(shift).1, &mut anchor.clone(), &mut spring.clone(), big, k2, MU).stored;
+        assert!((stored_after - stored_before).abs() < 1e-12 * stored_before, "the change of stiffness keeps the energy");
         while force.x > 0.0 {
             let next = shift - 1e-3 / steps as f64;
             let (relative, normal) = shifted(next);
-            let new_force =
-                stick_slip(relative, normal, &mut anchor, &mut spring, big, k2, MU).force;
+            let new_force = stick_slip(relative, normal, &mut anchor, &mut spring, big, k2, MU).force;
             work_out += 0.5 * (force.x + new_force.x) * (shift - next);
             (shift, force) = (next, new_force);
         }
-        assert!(
-            (work_out - work_in).abs() < 1e-3 * work_in,
-            "in {work_in}, out {work_out}"
-        );
+        assert!((work_out - work_in).abs() < 1e-3 * work_in, "in {work_in}, out {work_out}");
     }
 }

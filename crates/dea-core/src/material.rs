@@ -23,13 +23,7 @@ impl FibreMaterial {
     /// Kevlar KM2, seed Table 4-1 (E_L = 84.6 GPa, E_T = 1.34 GPa, rho = 1440 kg/m^3) with
     /// 12 µm filaments (seed §2.2.3; PHYSICS.md §6); linear elastic in axial compression.
     pub fn kevlar_km2() -> Self {
-        Self {
-            longitudinal_modulus: 84.6e9,
-            transverse_modulus: 1.34e9,
-            density: 1440.0,
-            compressive_stiffness_ratio: 1.0,
-            filament_diameter: 12.0e-6,
-        }
+        Self { longitudinal_modulus: 84.6e9, transverse_modulus: 1.34e9, density: 1440.0, compressive_stiffness_ratio: 1.0, filament_diameter: 12.0e-6 }
     }
 
     /// Longitudinal bar wave speed sqrt(E_L / rho) [m/s].
@@ -74,23 +68,11 @@ pub struct FibreSection {
 impl FibreSection {
     /// Builds a section from the digital fibre area, element length and bending model.
     /// `friction_coefficient` is the inter-fibre mu that (5-10) uses.
-    pub fn new(
-        material: &FibreMaterial,
-        area: f64,
-        element_length: f64,
-        inertia: InertiaModel,
-        friction_coefficient: f64,
-    ) -> Self {
+    pub fn new(material: &FibreMaterial, area: f64, element_length: f64, inertia: InertiaModel, friction_coefficient: f64) -> Self {
         let diameter = (4.0 * area / std::f64::consts::PI).sqrt();
         let filament_area = std::f64::consts::PI * material.filament_diameter.powi(2) / 4.0;
         let filaments_per_fibre = (area / filament_area).max(1.0);
-        let moment_of_inertia = effective_moment_of_inertia(
-            diameter,
-            material.filament_diameter,
-            filaments_per_fibre,
-            inertia,
-            friction_coefficient,
-        );
+        let moment_of_inertia = effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia, friction_coefficient);
         Self {
             diameter,
             area,
@@ -122,13 +104,7 @@ pub fn modified_contact_diameter(diameter: f64, element_length: f64) -> f64 {
 /// `I_0 = n pi d_a^4/64` (free filaments), `I_inf = pi d_d^4/64` (locked bundle),
 /// `I_e = (mu/k2)^k1 I_inf + (1 - (mu/k2)^k1) I_0`, with mu/k2 capped at 1 (above k2 the
 /// bundle is locked, seed §5.2.3).
-pub fn effective_moment_of_inertia(
-    fibre_diameter: f64,
-    filament_diameter: f64,
-    filaments_per_fibre: f64,
-    model: InertiaModel,
-    friction_coefficient: f64,
-) -> f64 {
+pub fn effective_moment_of_inertia(fibre_diameter: f64, filament_diameter: f64, filaments_per_fibre: f64, model: InertiaModel, friction_coefficient: f64) -> f64 {
     let pi = std::f64::consts::PI;
     let free = filaments_per_fibre * pi * filament_diameter.powi(4) / 64.0; // (5-7)
     let locked = pi * fibre_diameter.powi(4) / 64.0; // (5-8)
@@ -161,15 +137,10 @@ mod tests {
         let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked, 0.3);
         // (5-9): I_inf / I_0 = A_d / A_a = n when the digital fibre carries n filaments' area
         assert!((locked / free - n).abs() / n < 1e-12);
-        let at = |mu| {
-            effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, mu)
-        };
+        let at = |mu| effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, mu);
         assert_eq!(at(0.0), free);
         assert!((at(1.0) - locked).abs() < 1e-12 * locked);
-        assert!(
-            (at(2.0) - locked).abs() < 1e-12 * locked,
-            "mu beyond k2 stays locked"
-        );
+        assert!((at(2.0) - locked).abs() < 1e-12 * locked, "mu beyond k2 stays locked");
         let expected = 0.3f64.powf(0.8) * locked + (1.0 - 0.3f64.powf(0.8)) * free;
         assert!((at(0.3) - expected).abs() < 1e-12 * expected);
     }

@@ -74,8 +74,7 @@ fn compressed_row(starts: &[u32], i: usize) -> std::ops::Range<usize> {
 /// Contact cutoff between two nodes: half the sum of the modified diameters (3-3) [m].
 #[inline]
 pub fn contact_distance(sections: &[FibreSection], nodes: &Nodes, i: usize, j: usize) -> f64 {
-    0.5 * (sections[nodes.section[i] as usize].contact_diameter
-        + sections[nodes.section[j] as usize].contact_diameter)
+    0.5 * (sections[nodes.section[i] as usize].contact_diameter + sections[nodes.section[j] as usize].contact_diameter)
 }
 
 /// Nodes of one fibre closer along the chain than this many positions never form contacts:
@@ -87,10 +86,7 @@ pub fn chain_exclusion(section: &FibreSection) -> u32 {
 
 impl NeighbourList {
     pub fn new(skin: f64) -> Self {
-        Self {
-            skin,
-            ..Default::default()
-        }
+        Self { skin, ..Default::default() }
     }
 
     /// Largest squared displacement of an owned node since the last build [m^2].
@@ -98,9 +94,7 @@ impl NeighbourList {
         if self.reference_position.len() != nodes.n_owned {
             return f64::INFINITY;
         }
-        (0..nodes.n_owned)
-            .map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared())
-            .fold(0.0, f64::max)
+        (0..nodes.n_owned).map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared()).fold(0.0, f64::max)
     }
 
     /// Pair range of owned node `i`.
@@ -140,10 +134,7 @@ impl NeighbourList {
     /// of pairs that persist (matched by partner global id).
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
-        let max_cutoff = sections
-            .iter()
-            .map(|s| s.contact_diameter)
-            .fold(0.0, f64::max);
+        let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
         let cell_size = max_cutoff + self.skin;
         let (low, high) = bounding_box(&nodes.position);
         // memory follows the node count, not the extent, so a fragment flung far away can
@@ -151,12 +142,7 @@ impl NeighbourList {
         let grid = HashedGrid::new(n, low, high, cell_size);
         let scratch = &mut self.scratch;
         scratch.cell_of.clear();
-        scratch.cell_of.extend(
-            nodes
-                .position
-                .iter()
-                .map(|x| grid.slot(grid.coordinates(x)) as u32),
-        );
+        scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
         scratch.cell_start.clear();
         scratch.cell_start.resize(grid.slots() + 1, 0);
         for &c in &scratch.cell_of {
@@ -206,9 +192,7 @@ impl NeighbourList {
                     let wrap = (first + 3).saturating_sub(grid.slots());
                     let ranges = [first..first + 3 - wrap, 0..wrap];
                     for slots in ranges {
-                        for k in scratch.cell_start[slots.start] as usize
-                            ..scratch.cell_start[slots.end] as usize
-                        {
+                        for k in scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize {
                             let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
                             // written so that a NaN position (caught after the forces) pairs
                             // with nothing, whatever grid cell it falls into
@@ -234,14 +218,7 @@ impl NeighbourList {
             // sorted merge with the previous row of the same owned node, and with its retired
             // pairs (a gid is in one or the other): a listed pair carries its history, a
             // retired one that is back its largest overlap
-            let (old, retired) = if has_history {
-                (
-                    compressed_row(&self.start, i),
-                    compressed_row(&self.retired_start, i),
-                )
-            } else {
-                (0..0, 0..0)
-            };
+            let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
             let (mut cursor, mut back) = (old.start, retired.start);
             for &(gid, j) in &scratch.row {
                 while cursor < old.end && self.partner_gid[cursor] < gid {
@@ -254,16 +231,8 @@ impl NeighbourList {
                 let returned = back < retired.end && self.retired_gid[back] == gid;
                 scratch.partner.push(j);
                 scratch.partner_gid.push(gid);
-                scratch.anchor.push(if carried {
-                    self.anchor[cursor]
-                } else {
-                    Vec3::zeros()
-                });
-                scratch.spring_stiffness.push(if carried {
-                    self.spring_stiffness[cursor]
-                } else {
-                    0.0
-                });
+                scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
+                scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
                 scratch.touching.push(carried && self.touching[cursor]);
                 scratch.max_overlap.push(if carried {
                     self.max_overlap[cursor]
@@ -280,8 +249,7 @@ impl NeighbourList {
             let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
             let (mut a, mut b) = (old.start, retired.start);
             loop {
-                let from_list =
-                    a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
+                let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
                 let (gid, max_overlap) = if from_list {
                     a += 1;
                     (self.partner_gid[a - 1], self.max_overlap[a - 1])
@@ -307,13 +275,9 @@ impl NeighbourList {
         std::mem::swap(&mut self.max_overlap, &mut scratch.max_overlap);
         std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
         std::mem::swap(&mut self.retired_gid, &mut scratch.retired_gid);
-        std::mem::swap(
-            &mut self.retired_max_overlap,
-            &mut scratch.retired_max_overlap,
-        );
+        std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.reference_position.clear();
-        self.reference_position
-            .extend_from_slice(&nodes.position[..nodes.n_owned]);
+        self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
         self.builds += 1;
     }
 }
@@ -352,13 +316,7 @@ impl HashedGrid {
         let (cells_y, cells_z) = (extent(1), extent(2));
         let dense = extent(0).saturating_mul(cells_y).saturating_mul(cells_z) as usize;
         let slots = dense.clamp(2 * nodes, 8 * nodes.max(8)).next_power_of_two();
-        Self {
-            low,
-            inverse_cell: 1.0 / cell,
-            stride_x: cells_y * cells_z,
-            stride_y: cells_z,
-            mask: slots - 1,
-        }
+        Self { low, inverse_cell: 1.0 / cell, stride_x: cells_y * cells_z, stride_y: cells_z, mask: slots - 1 }
     }
 
     fn slots(&self) -> usize {
@@ -373,10 +331,7 @@ impl HashedGrid {
 
     #[inline]
     fn slot(&self, [x, y, z]: [i64; 3]) -> usize {
-        let linear = (x as u64)
-            .wrapping_mul(self.stride_x)
-            .wrapping_add((y as u64).wrapping_mul(self.stride_y))
-            .wrapping_add(z as u64);
+        let linear = (x as u64).wrapping_mul(self.stride_x).wrapping_add((y as u64).wrapping_mul(self.stride_y)).wrapping_add(z as u64);
         linear as usize & self.mask
     }
 }
@@ -390,10 +345,7 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
     let (low, high) = bounding_box(targets);
     let grid = HashedGrid::new(targets.len(), low, high, reach);
     let mut start = vec![0u32; grid.slots() + 1];
-    let slot_of: Vec<usize> = targets
-        .iter()
-        .map(|x| grid.slot(grid.coordinates(x)))
-        .collect();
+    let slot_of: Vec<usize> = targets.iter().map(|x| grid.slot(grid.coordinates(x))).collect();
     for &c in &slot_of {
         start[c + 1] += 1;
     }
@@ -414,9 +366,7 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
                 (-1..=1).any(|dy| {
                     (-1..=1).any(|dz| {
                         let c = grid.slot([cx + dx, cy + dy, cz + dz]);
-                        sorted[start[c] as usize..start[c + 1] as usize]
-                            .iter()
-                            .any(|t| (t - x).norm_squared() < reach * reach)
+                        sorted[start[c] as usize..start[c + 1] as usize].iter().any(|t| (t - x).norm_squared() < reach * reach)
                     })
                 })
             })
@@ -432,12 +382,7 @@ fn same_fibre_within(nodes: &Nodes, i: usize, j: usize, exclusion: u32) -> bool 
 
 /// True when `j` is a chain neighbour of `i` that the contact search must skip.
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
-    same_fibre_within(
-        nodes,
-        i,
-        j,
-        chain_exclusion(&sections[nodes.section[i] as usize]),
-    )
+    same_fibre_within(nodes, i, j, chain_exclusion(&sections[nodes.section[i] as usize]))
 }
 
 #[cfg(test)]
@@ -452,24 +397,12 @@ mod tests {
         let mut nodes = Nodes::default();
         let mut state = seed;
         let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         for k in 0..n {
             let x = Vec3::new(next(), next(), next()) * 4e-4;
-            nodes.push(
-                GlobalNodeId(k as u64 * 3),
-                x,
-                Vec3::zeros(),
-                1.0,
-                FibreId((k / 10) as u32),
-                (k % 10) as u32,
-                0,
-                false,
-                k % 10 == 9,
-            );
+            nodes.push(GlobalNodeId(k as u64 * 3), x, Vec3::zeros(), 1.0, FibreId((k / 10) as u32), (k % 10) as u32, 0, false, k % 10 == 9);
         }
         nodes.n_owned = n;
         nodes.link_chains();
@@ -484,10 +417,7 @@ mod tests {
         for i in 0..nodes.n_owned {
             let mut expected: Vec<GlobalNodeId> = (0..nodes.len())
                 .filter(|&j| j != i && !is_excluded(&nodes, &sections, i, j))
-                .filter(|&j| {
-                    (nodes.position[j] - nodes.position[i]).norm()
-                        < contact_distance(&sections, &nodes, i, j) + list.skin
-                })
+                .filter(|&j| (nodes.position[j] - nodes.position[i]).norm() < contact_distance(&sections, &nodes, i, j) + list.skin)
                 .map(|j| nodes.gid[j])
                 .collect();
             expected.sort();
@@ -501,15 +431,7 @@ mod tests {
         let (mut nodes, sections) = random_cloud(600, 5);
         let mut list = NeighbourList::new(5e-6);
         list.rebuild(&nodes, &sections);
-        let before: Vec<Vec<GlobalNodeId>> = (1..nodes.n_owned)
-            .map(|i| {
-                list.partner_gid[list.row(i)]
-                    .iter()
-                    .copied()
-                    .filter(|&g| g != nodes.gid[0])
-                    .collect()
-            })
-            .collect();
+        let before: Vec<Vec<GlobalNodeId>> = (1..nodes.n_owned).map(|i| list.partner_gid[list.row(i)].iter().copied().filter(|&g| g != nodes.gid[0]).collect()).collect();
         nodes.position[0] = Vec3::new(1e3, -2e3, 5e2);
         list.rebuild(&nodes, &sections);
         assert_eq!(list.row(0).len(), 0);
@@ -529,10 +451,7 @@ mod tests {
         }
         assert!(found.iter().any(|&h| h) && found.iter().any(|&h| !h));
         // a candidate far outside the targets' box (folded onto the same slots) is not hit
-        assert_eq!(
-            within_reach_of_any(targets, &[Vec3::new(1.0, 1.0, 1.0)], reach),
-            vec![false]
-        );
+        assert_eq!(within_reach_of_any(targets, &[Vec3::new(1.0, 1.0, 1.0)], reach), vec![false]);
     }
 
     #[test]
@@ -549,20 +468,14 @@ mod tests {
         list.rebuild(&nodes, &sections);
         assert_eq!(list.row(0).len(), 0);
         for k in 0..list.len() {
-            assert_eq!(
-                list.max_overlap[k], list.partner_gid[k].0 as f64,
-                "history follows the partner"
-            );
+            assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64, "history follows the partner");
             assert!(list.touching[k]);
         }
         // the dropped pairs are retired on both sides; when the node comes back they take
         // up their largest overlap again (not their friction: they stopped touching)
         let returning: Vec<GlobalNodeId> = list.retired_gid[list.retired_row(0)].to_vec();
         assert!(!returning.is_empty() && returning.windows(2).all(|g| g[0] < g[1]));
-        assert!(list.retired_max_overlap[list.retired_row(0)]
-            .iter()
-            .zip(&returning)
-            .all(|(&m, g)| m == g.0 as f64));
+        assert!(list.retired_max_overlap[list.retired_row(0)].iter().zip(&returning).all(|(&m, g)| m == g.0 as f64));
         nodes.position[0] -= Vec3::new(1.0, 0.0, 0.0);
         list.rebuild(&nodes, &sections);
         assert_eq!(list.partner_gid[list.row(0)], returning[..]);
@@ -570,16 +483,10 @@ mod tests {
             assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64);
             assert!(!list.touching[k] && list.anchor[k] == Vec3::zeros());
         }
-        assert!(
-            list.retired_gid.is_empty(),
-            "nothing is retired once every pair is back"
-        );
+        assert!(list.retired_gid.is_empty(), "nothing is retired once every pair is back");
         for i in 1..nodes.n_owned {
             for k in list.row(i) {
-                assert_eq!(
-                    list.max_overlap[k], list.partner_gid[k].0 as f64,
-                    "the partners kept theirs too"
-                );
+                assert_eq!(list.max_overlap[k], list.partner_gid[k].0 as f64, "the partners kept theirs too");
             }
         }
         list.forget_history();

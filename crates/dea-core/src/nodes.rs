@@ -77,9 +77,7 @@ pub struct Elements {
 impl FailureMode {
     /// The mode of a stored code (results files and halo messages).
     pub fn from_code(code: u8) -> Option<Self> {
-        [Self::Intact, Self::Tension, Self::Shear, Self::Combined]
-            .get(code as usize)
-            .copied()
+        [Self::Intact, Self::Tension, Self::Shear, Self::Combined].get(code as usize).copied()
     }
 }
 
@@ -95,18 +93,7 @@ impl Nodes {
 
     /// Appends one node; chain links are set by [`Nodes::link_chains`].
     #[allow(clippy::too_many_arguments)]
-    pub fn push(
-        &mut self,
-        gid: GlobalNodeId,
-        position: Vec3,
-        velocity: Vec3,
-        mass: f64,
-        fibre: FibreId,
-        along: u32,
-        section: u16,
-        clamped: bool,
-        last: bool,
-    ) {
+    pub fn push(&mut self, gid: GlobalNodeId, position: Vec3, velocity: Vec3, mass: f64, fibre: FibreId, along: u32, section: u16, clamped: bool, last: bool) {
         self.gid.push(gid);
         self.position.push(position);
         self.velocity.push(velocity);
@@ -244,17 +231,7 @@ mod tests {
     fn chain(order: &[(u32, u32)], n_owned: usize) -> Nodes {
         let mut nodes = Nodes::default();
         for &(f, a) in order {
-            nodes.push(
-                GlobalNodeId((f * 6 + a) as u64),
-                Vec3::zeros(),
-                Vec3::zeros(),
-                1.0,
-                FibreId(f),
-                a,
-                0,
-                false,
-                a == 5,
-            );
+            nodes.push(GlobalNodeId((f * 6 + a) as u64), Vec3::zeros(), Vec3::zeros(), 1.0, FibreId(f), a, 0, false, a == 5);
         }
         nodes.n_owned = n_owned;
         nodes.link_chains();
@@ -263,9 +240,7 @@ mod tests {
 
     fn links(nodes: &Nodes) -> Vec<(u64, Option<u64>, Option<u64>)> {
         let gid = |j: u32| (j != NONE).then(|| nodes.gid[j as usize].0);
-        let mut l: Vec<_> = (0..nodes.len())
-            .map(|i| (nodes.gid[i].0, gid(nodes.prev[i]), gid(nodes.next[i])))
-            .collect();
+        let mut l: Vec<_> = (0..nodes.len()).map(|i| (nodes.gid[i].0, gid(nodes.prev[i]), gid(nodes.next[i]))).collect();
         l.sort();
         l
     }
@@ -275,28 +250,12 @@ mod tests {
         // owned in order, ghosts scattered; owned out of order; all in order
         let sorted: Vec<(u32, u32)> = (0..2).flat_map(|f| (0..6).map(move |a| (f, a))).collect();
         let reference = links(&chain(&sorted, sorted.len()));
-        let ghosts_scattered = [
-            (0, 2),
-            (0, 3),
-            (1, 1),
-            (1, 4),
-            (0, 5),
-            (1, 0),
-            (0, 0),
-            (1, 5),
-            (0, 4),
-            (1, 2),
-            (0, 1),
-            (1, 3),
-        ];
+        let ghosts_scattered = [(0, 2), (0, 3), (1, 1), (1, 4), (0, 5), (1, 0), (0, 0), (1, 5), (0, 4), (1, 2), (0, 1), (1, 3)];
         assert_eq!(links(&chain(&ghosts_scattered, 4)), reference);
         assert_eq!(links(&chain(&ghosts_scattered, 0)), reference);
         // owned nodes 0..4 of fibre 0 with only one ghost: the stencil of 3 is incomplete
         let partial = chain(&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4)], 4);
-        assert_eq!(
-            partial.missing_chain_neighbour(3),
-            Some((GlobalNodeId(2), 5))
-        );
+        assert_eq!(partial.missing_chain_neighbour(3), Some((GlobalNodeId(2), 5)));
         assert_eq!(partial.missing_chain_neighbour(1), None);
         // the stencil stops at the fibre's last node
         let whole = chain(&sorted[..6], 6);

@@ -19,11 +19,7 @@ pub enum RigidShape {
     /// sphere of radius [m]
     Sphere { radius: f64 },
     /// right circular cylinder: radius, height and edge radius [m]
-    Cylinder {
-        radius: f64,
-        height: f64,
-        edge_radius: f64,
-    },
+    Cylinder { radius: f64, height: f64, edge_radius: f64 },
     /// closed triangle surface
     Mesh(Arc<MeshShape>),
 }
@@ -51,26 +47,13 @@ impl MeshShape {
     /// The surface of `vertices` and `triangles` (any frame), shifted so that the centroid of
     /// the enclosed solid is the origin; returns it and that centroid in the original frame.
     /// Contact queries find the surface within `reach` [m] through cubes of edge `cell` [m].
-    pub fn new(
-        vertices: &[Vec3],
-        triangles: Vec<[u32; 3]>,
-        reach: f64,
-        cell: f64,
-    ) -> Result<(Self, Vec3), SurfaceError> {
+    pub fn new(vertices: &[Vec3], triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<(Self, Vec3), SurfaceError> {
         let properties = MassProperties::of_surface(vertices, &triangles);
         let centroid = properties.centroid;
         let centred: Vec<Vec3> = vertices.iter().map(|v| v - centroid).collect();
         let bounding_radius = centred.iter().map(Vec3::norm).fold(0.0, f64::max);
         let surface = TriangleSurface::new(centred, triangles, reach, cell)?;
-        Ok((
-            Self {
-                surface,
-                inertia_per_mass: properties.inertia / properties.volume,
-                volume: properties.volume,
-                bounding_radius,
-            },
-            centroid,
-        ))
+        Ok((Self { surface, inertia_per_mass: properties.inertia / properties.volume, volume: properties.volume, bounding_radius }, centroid))
     }
 }
 
@@ -80,15 +63,7 @@ impl RigidShape {
     fn core(&self) -> (f64, f64, f64) {
         match *self {
             RigidShape::Sphere { radius } => (0.0, 0.0, radius),
-            RigidShape::Cylinder {
-                radius,
-                height,
-                edge_radius,
-            } => (
-                radius - edge_radius,
-                0.5 * height - edge_radius,
-                edge_radius,
-            ),
+            RigidShape::Cylinder { radius, height, edge_radius } => (radius - edge_radius, 0.5 * height - edge_radius, edge_radius),
             RigidShape::Mesh(_) => unreachable!("a mesh has no analytic core"),
         }
     }
@@ -97,9 +72,7 @@ impl RigidShape {
     pub fn bounding_radius(&self) -> f64 {
         match *self {
             RigidShape::Sphere { radius } => radius,
-            RigidShape::Cylinder { radius, height, .. } => {
-                (radius * radius + 0.25 * height * height).sqrt()
-            }
+            RigidShape::Cylinder { radius, height, .. } => (radius * radius + 0.25 * height * height).sqrt(),
             RigidShape::Mesh(ref mesh) => mesh.bounding_radius,
         }
     }
@@ -108,16 +81,10 @@ impl RigidShape {
     /// analytic cylinder's edge rounding ignored).
     pub fn inertia(&self, mass: f64) -> Matrix3<f64> {
         match *self {
-            RigidShape::Sphere { radius } => {
-                Matrix3::from_diagonal_element(0.4 * mass * radius * radius)
-            }
+            RigidShape::Sphere { radius } => Matrix3::from_diagonal_element(0.4 * mass * radius * radius),
             RigidShape::Cylinder { radius, height, .. } => {
                 let transverse = mass * (3.0 * radius * radius + height * height) / 12.0;
-                Matrix3::from_diagonal(&Vec3::new(
-                    transverse,
-                    transverse,
-                    0.5 * mass * radius * radius,
-                ))
+                Matrix3::from_diagonal(&Vec3::new(transverse, transverse, 0.5 * mass * radius * radius))
             }
             RigidShape::Mesh(ref mesh) => mesh.inertia_per_mass * mass,
         }
@@ -135,12 +102,7 @@ impl RigidShape {
     /// in the body frame [m] (how far the shape reaches that way from its centre).
     pub fn support(&self, direction: &Vec3) -> f64 {
         match self {
-            RigidShape::Mesh(mesh) => mesh
-                .surface
-                .vertices
-                .iter()
-                .map(|v| v.dot(direction))
-                .fold(f64::NEG_INFINITY, f64::max),
+            RigidShape::Mesh(mesh) => mesh.surface.vertices.iter().map(|v| v.dot(direction)).fold(f64::NEG_INFINITY, f64::max),
             _ => {
                 let (core_radius, half_height, rounding) = self.core();
                 core_radius * direction.xy().norm() + half_height * direction.z.abs() + rounding
@@ -162,22 +124,10 @@ impl RigidShape {
     #[inline]
     pub fn contact_point(&self, p: &Vec3) -> SurfacePoint {
         if let RigidShape::Mesh(mesh) = self {
-            return mesh.surface.closest(p).unwrap_or(SurfacePoint {
-                distance: f64::INFINITY,
-                normal: Vec3::z(),
-                point: *p,
-                triangle: crate::NONE,
-                weights: [0.0; 3],
-            });
+            return mesh.surface.closest(p).unwrap_or(SurfacePoint { distance: f64::INFINITY, normal: Vec3::z(), point: *p, triangle: crate::NONE, weights: [0.0; 3] });
         }
         let (distance, normal) = self.analytic_distance_and_normal(p);
-        SurfacePoint {
-            distance,
-            normal,
-            point: p - normal * distance,
-            triangle: crate::NONE,
-            weights: [0.0; 3],
-        }
+        SurfacePoint { distance, normal, point: p - normal * distance, triangle: crate::NONE, weights: [0.0; 3] }
     }
 
     /// Closed-form distance and normal of the sphere and the rounded cylinder.
@@ -190,11 +140,7 @@ impl RigidShape {
         let q_radial = radial.min(core_radius);
         let q_axial = axial.clamp(-half_height, half_height);
         let (dr, dz) = (radial - q_radial, axial - q_axial);
-        let radial_unit = if radial > 0.0 {
-            Vec3::new(p.x / radial, p.y / radial, 0.0)
-        } else {
-            Vec3::x()
-        };
+        let radial_unit = if radial > 0.0 { Vec3::new(p.x / radial, p.y / radial, 0.0) } else { Vec3::x() };
         let outside = (dr * dr + dz * dz).sqrt();
         if outside > 0.0 {
             let normal = radial_unit * (dr / outside) + Vec3::z() * (dz / outside);
@@ -236,18 +182,10 @@ pub struct RigidProjectile {
 }
 
 impl RigidProjectile {
-    pub fn new(
-        shape: RigidShape,
-        mass: f64,
-        position: Vec3,
-        velocity: Vec3,
-        orientation: UnitQuaternion<f64>,
-    ) -> Self {
+    pub fn new(shape: RigidShape, mass: f64, position: Vec3, velocity: Vec3, orientation: UnitQuaternion<f64>) -> Self {
         let inertia = shape.inertia(mass);
         Self {
-            inverse_inertia: inertia
-                .try_inverse()
-                .expect("a solid of positive mass has an invertible inertia"),
+            inverse_inertia: inertia.try_inverse().expect("a solid of positive mass has an invertible inertia"),
             inertia,
             shape,
             mass,
@@ -287,15 +225,13 @@ impl RigidProjectile {
 
     /// Kinetic energy, translation plus rotation [J].
     pub fn kinetic_energy(&self) -> f64 {
-        0.5 * self.mass * self.velocity.norm_squared()
-            + 0.5 * self.angular_momentum.dot(&self.angular_velocity())
+        0.5 * self.mass * self.velocity.norm_squared() + 0.5 * self.angular_momentum.dot(&self.angular_velocity())
     }
 
     /// World position of a node expressed in the body frame.
     #[inline]
     pub fn to_body(&self, world: &Vec3) -> Vec3 {
-        self.orientation
-            .inverse_transform_vector(&(world - self.position))
+        self.orientation.inverse_transform_vector(&(world - self.position))
     }
 
     /// Body-frame vector expressed in the world frame.
@@ -319,11 +255,7 @@ mod tests {
 
     #[test]
     fn cylinder_distance_matches_brute_force_on_the_rounded_surface() {
-        let shape = RigidShape::Cylinder {
-            radius: 1.0,
-            height: 1.5,
-            edge_radius: 0.2,
-        };
+        let shape = RigidShape::Cylinder { radius: 1.0, height: 1.5, edge_radius: 0.2 };
         // sample the surface densely: it is the 0.2 offset of the core cylinder r=0.8, h/2=0.55
         let mut surface = Vec::new();
         for a in 0..48 {
@@ -335,29 +267,14 @@ mod tests {
                 surface.push(Vec3::new(c * 0.8 * t, s * 0.8 * t, 0.75)); // top cap
                 surface.push(Vec3::new(c * 0.8 * t, s * 0.8 * t, -0.75)); // bottom cap
                 let e = t * std::f64::consts::FRAC_PI_2;
-                surface.push(Vec3::new(
-                    c * (0.8 + 0.2 * e.cos()),
-                    s * (0.8 + 0.2 * e.cos()),
-                    0.55 + 0.2 * e.sin(),
-                )); // top edge
-                surface.push(Vec3::new(
-                    c * (0.8 + 0.2 * e.cos()),
-                    s * (0.8 + 0.2 * e.cos()),
-                    -0.55 - 0.2 * e.sin(),
-                )); // bottom edge
+                surface.push(Vec3::new(c * (0.8 + 0.2 * e.cos()), s * (0.8 + 0.2 * e.cos()), 0.55 + 0.2 * e.sin())); // top edge
+                surface.push(Vec3::new(c * (0.8 + 0.2 * e.cos()), s * (0.8 + 0.2 * e.cos()), -0.55 - 0.2 * e.sin()));
+                // bottom edge
             }
         }
-        for p in [
-            Vec3::new(1.5, 0.2, 0.1),
-            Vec3::new(0.3, 0.1, 1.4),
-            Vec3::new(1.1, 0.0, 0.9),
-            Vec3::new(-0.7, 0.6, -1.0),
-        ] {
+        for p in [Vec3::new(1.5, 0.2, 0.1), Vec3::new(0.3, 0.1, 1.4), Vec3::new(1.1, 0.0, 0.9), Vec3::new(-0.7, 0.6, -1.0)] {
             let (d, n) = shape.distance_and_normal(&p);
-            let brute = surface
-                .iter()
-                .map(|s| (s - p).norm())
-                .fold(f64::INFINITY, f64::min);
+            let brute = surface.iter().map(|s| (s - p).norm()).fold(f64::INFINITY, f64::min);
             assert!((d - brute).abs() < 0.01, "{p:?}: {d} vs {brute}");
             // the closest surface point along the normal lies on the surface
             let (on_surface, _) = shape.distance_and_normal(&(p - n * d));
@@ -378,27 +295,16 @@ mod tests {
         let (mesh, centroid) = MeshShape::new(&moved, triangles, 1e-4, 1e-4).unwrap();
         assert!((centroid - offset).norm() < 1e-15);
         let mass = 2.0e-3;
-        let body_tensor =
-            Matrix3::from_diagonal(&Vec3::new(b * b + c * c, a * a + c * c, a * a + b * b))
-                * (mass / 3.0);
+        let body_tensor = Matrix3::from_diagonal(&Vec3::new(b * b + c * c, a * a + c * c, a * a + b * b)) * (mass / 3.0);
         let expected = turn.matrix() * body_tensor * turn.matrix().transpose();
         let shape = RigidShape::Mesh(Arc::new(mesh));
         assert!((shape.inertia(mass) - expected).norm() < 1e-12 * expected.norm());
         // support: the farthest corner along the direction
         let direction = Vec3::new(0.0, 0.0, -1.0);
-        let farthest = vertices
-            .iter()
-            .map(|v| (turn * v).dot(&direction))
-            .fold(f64::MIN, f64::max);
+        let farthest = vertices.iter().map(|v| (turn * v).dot(&direction)).fold(f64::MIN, f64::max);
         assert!((shape.support(&direction) - farthest).abs() < 1e-15);
         // torque-free: angular momentum exactly, energy to the integrator's accuracy
-        let mut body = RigidProjectile::new(
-            shape,
-            mass,
-            Vec3::zeros(),
-            Vec3::new(3.0, 0.0, -50.0),
-            UnitQuaternion::from_scaled_axis(Vec3::new(0.2, 0.0, 0.1)),
-        );
+        let mut body = RigidProjectile::new(shape, mass, Vec3::zeros(), Vec3::new(3.0, 0.0, -50.0), UnitQuaternion::from_scaled_axis(Vec3::new(0.2, 0.0, 0.1)));
         // about 10^4 rad/s: some two radians over the run
         body.angular_momentum = Vec3::new(6e-6, -3e-6, 9e-6);
         let (momentum, energy) = (body.angular_momentum, body.kinetic_energy());
@@ -409,27 +315,13 @@ mod tests {
         }
         assert_eq!(body.angular_momentum, momentum);
         assert_eq!(body.velocity, Vec3::new(3.0, 0.0, -50.0));
-        assert!(
-            (body.kinetic_energy() - energy).abs() < 1e-6 * energy,
-            "{} vs {energy}",
-            body.kinetic_energy()
-        );
+        assert!((body.kinetic_energy() - energy).abs() < 1e-6 * energy, "{} vs {energy}", body.kinetic_energy());
     }
 
     #[test]
     fn free_spin_conserves_angular_momentum_and_energy() {
-        let shape = RigidShape::Cylinder {
-            radius: 1.7e-3,
-            height: 3.7e-3,
-            edge_radius: 5e-5,
-        };
-        let mut body = RigidProjectile::new(
-            shape,
-            2.592e-4,
-            Vec3::zeros(),
-            Vec3::new(0.0, 0.0, -50.0),
-            UnitQuaternion::identity(),
-        );
+        let shape = RigidShape::Cylinder { radius: 1.7e-3, height: 3.7e-3, edge_radius: 5e-5 };
+        let mut body = RigidProjectile::new(shape, 2.592e-4, Vec3::zeros(), Vec3::new(0.0, 0.0, -50.0), UnitQuaternion::identity());
         body.angular_momentum = Vec3::new(1e-7, 3e-8, 2e-7);
         let momentum = body.angular_momentum;
         let energy = body.kinetic_energy();
@@ -440,10 +332,6 @@ mod tests {
         }
         assert_eq!(body.angular_momentum, momentum);
         assert!((body.velocity.z + 50.0).abs() == 0.0);
-        assert!(
-            (body.kinetic_energy() - energy).abs() < 1e-6 * energy,
-            "{} vs {energy}",
-            body.kinetic_energy()
-        );
+        assert!((body.kinetic_energy() - energy).abs() < 1e-6 * energy, "{} vs {energy}", body.kinetic_energy());
     }
 }

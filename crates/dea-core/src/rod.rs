@@ -9,12 +9,7 @@ use crate::{FibreMaterial, FibreSection};
 /// (seed 4-2: `f = E_L A (l - l0) / l0`; in compression the stiffness is scaled by
 /// `compressive_stiffness_ratio`). Stores the force on the first node in `elements.tension`,
 /// and the element's direction and inverse length for the bending pass.
-pub fn compute_element_tension(
-    nodes: &Nodes,
-    elements: &mut Elements,
-    sections: &[FibreSection],
-    material: &FibreMaterial,
-) {
+pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
     for i in 0..nodes.len() {
         let j = nodes.next[i];
         if j == NONE {
@@ -34,8 +29,7 @@ pub fn compute_element_tension(
             continue;
         }
         // force on the first node points along the element when stretched (4-2)
-        elements.tension[i] =
-            direction * axial_force(material, sections[nodes.section[i] as usize].area, strain);
+        elements.tension[i] = direction * axial_force(material, sections[nodes.section[i] as usize].area, strain);
     }
 }
 
@@ -66,40 +60,21 @@ pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &Bendin
 #[inline]
 pub fn axial_force(material: &FibreMaterial, area: f64, strain: f64) -> f64 {
     let stiffness = material.longitudinal_modulus * area;
-    let scale = if strain >= 0.0 {
-        1.0
-    } else {
-        material.compressive_stiffness_ratio
-    };
+    let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
     scale * stiffness * strain
 }
 
 /// Axial strain energy of element `i`: `E A l0 eps^2 / 2` (scaled in compression) [J].
-pub fn element_strain_energy(
-    nodes: &Nodes,
-    elements: &Elements,
-    sections: &[FibreSection],
-    material: &FibreMaterial,
-    i: usize,
-) -> f64 {
+pub fn element_strain_energy(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], material: &FibreMaterial, i: usize) -> f64 {
     if !elements.is_intact(nodes, i) {
         return 0.0;
     }
-    axial_energy(
-        material,
-        sections[nodes.section[i] as usize].area,
-        elements.rest_length[i],
-        elements.strain[i],
-    )
+    axial_energy(material, sections[nodes.section[i] as usize].area, elements.rest_length[i], elements.strain[i])
 }
 
 /// `E A l0 eps^2 / 2`, with the compressive stiffness ratio below zero strain [J].
 #[inline]
 pub fn axial_energy(material: &FibreMaterial, area: f64, rest_length: f64, strain: f64) -> f64 {
-    let scale = if strain >= 0.0 {
-        1.0
-    } else {
-        material.compressive_stiffness_ratio
-    };
+    let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
     0.5 * scale * material.longitudinal_modulus * area * rest_length * strain * strain
 }

@@ -26,12 +26,7 @@ pub enum Feature {
 /// weights that share a contact force over the triangle's nodes, seed 4-1) and its feature.
 /// Follows the Voronoi-region tests of Ericson, *Real-Time Collision Detection* §5.1.5.
 #[inline(always)]
-pub fn closest_point_on_triangle(
-    p: &Vec3,
-    a: &Vec3,
-    b: &Vec3,
-    c: &Vec3,
-) -> (Vec3, [f64; 3], Feature) {
+pub fn closest_point_on_triangle(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> (Vec3, [f64; 3], Feature) {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
     if d1 <= 0.0 && d2 <= 0.0 {
@@ -126,19 +121,11 @@ struct CellGrid {
 
 impl CellGrid {
     fn key(&self, p: &Vec3) -> [i32; 3] {
-        [
-            (p.x / self.cell).floor() as i32,
-            (p.y / self.cell).floor() as i32,
-            (p.z / self.cell).floor() as i32,
-        ]
+        [(p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32, (p.z / self.cell).floor() as i32]
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
-        let mut grid = Self {
-            cell,
-            cells: FxHashMap::default(),
-            entries: Vec::new(),
-        };
+        let mut grid = Self { cell, cells: FxHashMap::default(), entries: Vec::new() };
         // (cube, distance of the triangle from the cube's centre, triangle): each cube's list
         // runs nearest first, so a query soon has a close triangle to prune the others with
         let mut listed: Vec<([i32; 3], u64, u32)> = Vec::new();
@@ -147,26 +134,14 @@ impl CellGrid {
         let half_diagonal = 0.5 * cell * 3f64.sqrt();
         for (t, triangle) in triangles.iter().enumerate() {
             let corners = triangle.map(|v| vertices[v as usize]);
-            let low = corners[0]
-                .inf(&corners[1])
-                .inf(&corners[2])
-                .add_scalar(-reach);
-            let high = corners[0]
-                .sup(&corners[1])
-                .sup(&corners[2])
-                .add_scalar(reach);
+            let low = corners[0].inf(&corners[1]).inf(&corners[2]).add_scalar(-reach);
+            let high = corners[0].sup(&corners[1]).sup(&corners[2]).add_scalar(reach);
             let (low, high) = (grid.key(&low), grid.key(&high));
             for i in low[0]..=high[0] {
                 for j in low[1]..=high[1] {
                     for k in low[2]..=high[2] {
-                        let centre =
-                            Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
-                        let (q, ..) = closest_point_on_triangle(
-                            &centre,
-                            &corners[0],
-                            &corners[1],
-                            &corners[2],
-                        );
+                        let centre = Vec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
+                        let (q, ..) = closest_point_on_triangle(&centre, &corners[0], &corners[1], &corners[2]);
                         let distance = (q - centre).norm();
                         if distance <= half_diagonal + reach {
                             listed.push(([i, j, k], distance.to_bits(), t as u32));
@@ -179,29 +154,16 @@ impl CellGrid {
         let mut start = 0;
         while start < listed.len() {
             let key = listed[start].0;
-            let end = start
-                + listed[start..]
-                    .iter()
-                    .take_while(|(k, ..)| *k == key)
-                    .count();
-            grid.cells.insert(
-                key,
-                (
-                    grid.entries.len() as u32,
-                    (grid.entries.len() + end - start) as u32,
-                ),
-            );
-            grid.entries
-                .extend(listed[start..end].iter().map(|&(.., t)| t));
+            let end = start + listed[start..].iter().take_while(|(k, ..)| *k == key).count();
+            grid.cells.insert(key, (grid.entries.len() as u32, (grid.entries.len() + end - start) as u32));
+            grid.entries.extend(listed[start..end].iter().map(|&(.., t)| t));
             start = end;
         }
         grid
     }
 
     fn near(&self, p: &Vec3) -> &[u32] {
-        self.cells
-            .get(&self.key(p))
-            .map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
+        self.cells.get(&self.key(p)).map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
     }
 }
 
@@ -257,17 +219,11 @@ impl MassProperties {
             volume += v;
             first += sum * (v / 4.0);
             // the tetrahedron (0, a, b, c): integral of x x^T = V/20 (sum of v v^T + s s^T)
-            second +=
-                (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose())
-                    * (v / 20.0);
+            second += (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose()) * (v / 20.0);
         }
         let centroid = first / volume;
         let central = second - centroid * centroid.transpose() * volume;
-        Self {
-            volume,
-            centroid,
-            inertia: Matrix3::identity() * central.trace() - central,
-        }
+        Self { volume, centroid, inertia: Matrix3::identity() * central.trace() - central }
     }
 }
 
@@ -282,12 +238,7 @@ impl TriangleSurface {
 
     /// A surface whose queries find triangles within `reach` [m], with cubes of edge `cell`
     /// [m]. Refuses open, inside-out and degenerate surfaces.
-    pub fn new(
-        vertices: Vec<Vec3>,
-        triangles: Vec<[u32; 3]>,
-        reach: f64,
-        cell: f64,
-    ) -> Result<Self, SurfaceError> {
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, reach: f64, cell: f64) -> Result<Self, SurfaceError> {
         check_closed(&triangles).map_err(|(a, b)| SurfaceError::Open(a, b))?;
         for (k, t) in triangles.iter().enumerate() {
             let [a, b, c] = t.map(|v| vertices[v as usize]);
@@ -307,10 +258,7 @@ impl TriangleSurface {
                 owner.insert((t[e], t[(e + 1) % 3]), k as u32);
             }
         }
-        let across = triangles
-            .iter()
-            .map(|t| [0, 1, 2].map(|e| owner[&(t[(e + 1) % 3], t[e])]))
-            .collect();
+        let across = triangles.iter().map(|t| [0, 1, 2].map(|e| owner[&(t[(e + 1) % 3], t[e])])).collect();
         let n = triangles.len();
         let mut surface = Self {
             grid: CellGrid::new(&vertices, &triangles, reach, cell),
@@ -347,22 +295,13 @@ impl TriangleSurface {
             let n = self.face_normals[k];
             for e in 0..3 {
                 let (v, next, previous) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
-                let (p, q) = (
-                    vertices[next as usize] - vertices[v as usize],
-                    vertices[previous as usize] - vertices[v as usize],
-                );
+                let (p, q) = (vertices[next as usize] - vertices[v as usize], vertices[previous as usize] - vertices[v as usize]);
                 self.vertex_normals[v as usize] += n * p.angle(&q);
                 self.edge_normals[k][e] = n + self.face_normals[self.across[k][e] as usize];
             }
             let corners = t.map(|v| vertices[v as usize]);
             let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
-            self.bounds[k] = (
-                centre,
-                corners
-                    .iter()
-                    .map(|c| (c - centre).norm())
-                    .fold(0.0, f64::max),
-            );
+            self.bounds[k] = (centre, corners.iter().map(|c| (c - centre).norm()).fold(0.0, f64::max));
         }
     }
 
@@ -370,12 +309,7 @@ impl TriangleSurface {
     /// body): the cubes then list triangles within the reach plus the margin.
     pub fn set_margin(&mut self, margin: f64) {
         self.margin = margin;
-        self.grid = CellGrid::new(
-            &self.vertices,
-            &self.triangles,
-            self.reach + margin,
-            self.grid.cell,
-        );
+        self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + margin, self.grid.cell);
         self.grid_vertices.clone_from(&self.vertices);
     }
 
@@ -389,19 +323,9 @@ impl TriangleSurface {
     pub fn set_vertices(&mut self, vertices: &[Vec3]) {
         self.vertices.copy_from_slice(vertices);
         self.update_geometry();
-        let moved = self
-            .vertices
-            .iter()
-            .zip(&self.grid_vertices)
-            .map(|(v, g)| (v - g).norm_squared())
-            .fold(0.0, f64::max);
+        let moved = self.vertices.iter().zip(&self.grid_vertices).map(|(v, g)| (v - g).norm_squared()).fold(0.0, f64::max);
         if moved > self.margin * self.margin {
-            self.grid = CellGrid::new(
-                &self.vertices,
-                &self.triangles,
-                self.reach + self.margin,
-                self.grid.cell,
-            );
+            self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + self.margin, self.grid.cell);
             self.grid_vertices.clone_from(&self.vertices);
         }
     }
@@ -421,9 +345,7 @@ impl TriangleSurface {
             let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
             let squared = (p - q).norm_squared();
-            if squared <= self.reach * self.reach
-                && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u))
-            {
+            if squared <= self.reach * self.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
                 best = Some((squared, t, q, weights, feature));
                 limit = squared.sqrt();
             }
@@ -432,25 +354,13 @@ impl TriangleSurface {
         let pseudonormal = match feature {
             Feature::Face => self.face_normals[t as usize],
             Feature::Edge(k) => self.edge_normals[t as usize][k as usize],
-            Feature::Vertex(k) => {
-                self.vertex_normals[self.triangles[t as usize][k as usize] as usize]
-            }
+            Feature::Vertex(k) => self.vertex_normals[self.triangles[t as usize][k as usize] as usize],
         };
         let offset = p - point;
         let distance = squared.sqrt();
         let outside = offset.dot(&pseudonormal) >= 0.0;
-        let normal = if distance > 0.0 {
-            offset * (if outside { 1.0 } else { -1.0 } / distance)
-        } else {
-            pseudonormal.normalize()
-        };
-        Some(SurfacePoint {
-            distance: if outside { distance } else { -distance },
-            normal,
-            point,
-            triangle: t,
-            weights,
-        })
+        let normal = if distance > 0.0 { offset * (if outside { 1.0 } else { -1.0 } / distance) } else { pseudonormal.normalize() };
+        Some(SurfacePoint { distance: if outside { distance } else { -distance }, normal, point, triangle: t, weights })
     }
 }
 
@@ -460,11 +370,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     fn random_vector(rng: &mut impl Rng, scale: f64) -> Vec3 {
-        Vec3::new(
-            rng.random_range(-scale..scale),
-            rng.random_range(-scale..scale),
-            rng.random_range(-scale..scale),
-        )
+        Vec3::new(rng.random_range(-scale..scale), rng.random_range(-scale..scale), rng.random_range(-scale..scale))
     }
 
     /// The closest of a dense sample of the triangle's points.
@@ -485,27 +391,17 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
         let mut features = std::collections::BTreeSet::new();
         for _ in 0..300 {
-            let (a, b, c) = (
-                random_vector(&mut rng, 1.0),
-                random_vector(&mut rng, 1.0),
-                random_vector(&mut rng, 1.0),
-            );
+            let (a, b, c) = (random_vector(&mut rng, 1.0), random_vector(&mut rng, 1.0), random_vector(&mut rng, 1.0));
             let p = random_vector(&mut rng, 2.0);
             let (q, weights, feature) = closest_point_on_triangle(&p, &a, &b, &c);
             features.insert(format!("{feature:?}").chars().next().unwrap());
             // the point is the weighted vertices, the weights a partition of unity in [0, 1]
             assert!((a * weights[0] + b * weights[1] + c * weights[2] - q).norm() < 1e-12);
-            assert!(
-                (weights.iter().sum::<f64>() - 1.0).abs() < 1e-12
-                    && weights.iter().all(|&w| (-1e-12..=1.0 + 1e-12).contains(&w))
-            );
+            assert!((weights.iter().sum::<f64>() - 1.0).abs() < 1e-12 && weights.iter().all(|&w| (-1e-12..=1.0 + 1e-12).contains(&w)));
             // no sampled point is closer (the sample spacing bounds the error)
             let (exact, sampled) = ((q - p).norm(), brute_force(&p, &a, &b, &c));
             let spacing = ((b - a).norm() + (c - a).norm()) / 200.0;
-            assert!(
-                exact <= sampled + 1e-12 && sampled - exact <= spacing,
-                "{exact} vs {sampled}"
-            );
+            assert!(exact <= sampled + 1e-12 && sampled - exact <= spacing, "{exact} vs {sampled}");
             // the feature agrees with the weights
             match feature {
                 Feature::Face => assert!(weights.iter().all(|&w| w > 0.0)),
@@ -513,56 +409,27 @@ mod tests {
                 Feature::Vertex(k) => assert_eq!(weights[k as usize], 1.0),
             }
         }
-        assert_eq!(
-            features.len(),
-            3,
-            "faces, edges and vertices all occur: {features:?}"
-        );
+        assert_eq!(features.len(), 3, "faces, edges and vertices all occur: {features:?}");
     }
 
     #[test]
     fn points_above_the_face_project_straight_down() {
         let (a, b, c) = (Vec3::zeros(), Vec3::x(), Vec3::y());
-        let (q, weights, feature) =
-            closest_point_on_triangle(&Vec3::new(0.25, 0.25, 3.0), &a, &b, &c);
+        let (q, weights, feature) = closest_point_on_triangle(&Vec3::new(0.25, 0.25, 3.0), &a, &b, &c);
         assert_eq!(feature, Feature::Face);
         assert!((q - Vec3::new(0.25, 0.25, 0.0)).norm() < 1e-15);
         assert!((weights[0] - 0.5).abs() < 1e-15);
-        assert_eq!(
-            closest_point_on_triangle(&Vec3::new(2.0, -1.0, 0.0), &a, &b, &c).2,
-            Feature::Vertex(1)
-        );
-        assert_eq!(
-            closest_point_on_triangle(&Vec3::new(0.8, 0.8, 0.3), &a, &b, &c).2,
-            Feature::Edge(1)
-        );
+        assert_eq!(closest_point_on_triangle(&Vec3::new(2.0, -1.0, 0.0), &a, &b, &c).2, Feature::Vertex(1));
+        assert_eq!(closest_point_on_triangle(&Vec3::new(0.8, 0.8, 0.3), &a, &b, &c).2, Feature::Edge(1));
     }
 }
 
 /// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
 #[cfg(test)]
 pub(crate) fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let vertices = (0..8)
-        .map(|k| {
-            Vec3::new(
-                if k & 1 == 0 { -a } else { a },
-                if k & 2 == 0 { -b } else { b },
-                if k & 4 == 0 { -c } else { c },
-            )
-        })
-        .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
+    let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
+    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
     (vertices, triangles)
 }
 
@@ -576,44 +443,20 @@ mod surface_tests {
         let (a, b, c) = (1.0, 0.6, 0.3);
         let (vertices, triangles) = boxed(a, b, c);
         let reach = 0.25;
-        let surface =
-            TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
+        let surface = TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let (mut inside, mut outside, mut missed) = (0, 0, 0);
         for _ in 0..20000 {
-            let p = Vec3::new(
-                rng.random_range(-1.3..1.3),
-                rng.random_range(-0.9..0.9),
-                rng.random_range(-0.6..0.6),
-            );
+            let p = Vec3::new(rng.random_range(-1.3..1.3), rng.random_range(-0.9..0.9), rng.random_range(-0.6..0.6));
             // the box's own signed distance
             let q = p.abs() - Vec3::new(a, b, c);
-            let exact = if q.max() > 0.0 {
-                q.sup(&Vec3::zeros()).norm()
-            } else {
-                q.max()
-            };
-            let brute = triangles
-                .iter()
-                .map(|t| {
-                    (p - closest_point_on_triangle(
-                        &p,
-                        &vertices[t[0] as usize],
-                        &vertices[t[1] as usize],
-                        &vertices[t[2] as usize],
-                    )
-                    .0)
-                        .norm()
-                })
-                .fold(f64::INFINITY, f64::min);
+            let exact = if q.max() > 0.0 { q.sup(&Vec3::zeros()).norm() } else { q.max() };
+            let brute =
+                triangles.iter().map(|t| (p - closest_point_on_triangle(&p, &vertices[t[0] as usize], &vertices[t[1] as usize], &vertices[t[2] as usize]).0).norm()).fold(f64::INFINITY, f64::min);
             assert!((exact.abs() - brute).abs() < 1e-12);
             match surface.closest(&p) {
                 Some(found) => {
-                    assert!(
-                        (found.distance - exact).abs() < 1e-12,
-                        "{p:?}: {} vs {exact}",
-                        found.distance
-                    );
+                    assert!((found.distance - exact).abs() < 1e-12, "{p:?}: {} vs {exact}", found.distance);
                     assert!((found.normal.norm() - 1.0).abs() < 1e-12);
                     // the normal leads from the surface point to an outside point
                     assert!((found.point + found.normal * found.distance - p).norm() < 1e-12);
@@ -624,42 +467,28 @@ mod surface_tests {
                     }
                 }
                 None => {
-                    assert!(
-                        brute > reach,
-                        "{p:?} is within reach ({brute}) but was not found"
-                    );
+                    assert!(brute > reach, "{p:?} is within reach ({brute}) but was not found");
                     missed += 1;
                 }
             }
         }
-        assert!(
-            inside > 100 && outside > 100 && missed > 100,
-            "{inside} {outside} {missed}"
-        );
+        assert!(inside > 100 && outside > 100 && missed > 100, "{inside} {outside} {missed}");
     }
 
     #[test]
     fn a_deforming_surface_answers_like_one_built_afresh() {
         let (vertices, triangles) = boxed(1.0, 0.6, 0.3);
         let (reach, margin) = (0.2, 0.05);
-        let mut moving =
-            TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
+        let mut moving = TriangleSurface::new(vertices.clone(), triangles.clone(), reach, 0.07).unwrap();
         moving.set_margin(margin);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for step in 1..=30 {
             // a growing shear and a drift: the cubes are rebuilt now and then
-            let moved: Vec<Vec3> = vertices
-                .iter()
-                .map(|v| v + Vec3::new(0.01 * step as f64 * v.z, 0.004 * step as f64, 0.0))
-                .collect();
+            let moved: Vec<Vec3> = vertices.iter().map(|v| v + Vec3::new(0.01 * step as f64 * v.z, 0.004 * step as f64, 0.0)).collect();
             moving.set_vertices(&moved);
             let fresh = TriangleSurface::new(moved, triangles.clone(), reach, 0.07).unwrap();
             for _ in 0..300 {
-                let p = Vec3::new(
-                    rng.random_range(-1.5..1.5),
-                    rng.random_range(-0.9..1.0),
-                    rng.random_range(-0.6..0.6),
-                );
+                let p = Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-0.9..1.0), rng.random_range(-0.6..0.6));
                 assert_eq!(moving.closest(&p), fresh.closest(&p), "step {step}, {p:?}");
             }
         }
@@ -677,34 +506,20 @@ mod surface_tests {
         assert!((properties.volume - volume).abs() < 1e-14);
         assert!((properties.centroid - shift).norm() < 1e-12);
         let (x, y, z) = (2.0 * a, 2.0 * b, 2.0 * c);
-        let principal =
-            Matrix3::from_diagonal(&Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y))
-                * (volume / 12.0);
+        let principal = Matrix3::from_diagonal(&Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y)) * (volume / 12.0);
         let expected = rotation.matrix() * principal * rotation.matrix().transpose();
-        assert!(
-            (properties.inertia - expected).norm() < 1e-12 * expected.norm(),
-            "{:?} vs {expected:?}",
-            properties.inertia
-        );
+        assert!((properties.inertia - expected).norm() < 1e-12 * expected.norm(), "{:?} vs {expected:?}", properties.inertia);
     }
 
     #[test]
     fn open_inside_out_and_degenerate_surfaces_are_refused() {
         let (vertices, mut triangles) = boxed(1.0, 1.0, 1.0);
         let flipped: Vec<[u32; 3]> = triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
-        assert!(
-            matches!(TriangleSurface::new(vertices.clone(), flipped, 0.1, 0.1), Err(SurfaceError::InsideOut(v)) if v < 0.0)
-        );
+        assert!(matches!(TriangleSurface::new(vertices.clone(), flipped, 0.1, 0.1), Err(SurfaceError::InsideOut(v)) if v < 0.0));
         let mut flat = vertices.clone();
         flat.iter_mut().for_each(|v| v.z = 0.0);
-        assert!(matches!(
-            TriangleSurface::new(flat, triangles.clone(), 0.1, 0.1),
-            Err(SurfaceError::Degenerate(_))
-        ));
+        assert!(matches!(TriangleSurface::new(flat, triangles.clone(), 0.1, 0.1), Err(SurfaceError::Degenerate(_))));
         triangles.pop();
-        assert!(matches!(
-            TriangleSurface::new(vertices, triangles, 0.1, 0.1),
-            Err(SurfaceError::Open(..))
-        ));
+        assert!(matches!(TriangleSurface::new(vertices, triangles, 0.1, 0.1), Err(SurfaceError::Open(..))));
     }
 }

@@ -66,13 +66,7 @@ impl Frame {
         let axis = element * inverse_length;
         let relative = fine - coarse;
         let axial = relative.dot(&axis);
-        Self {
-            axis,
-            inverse_length,
-            relative,
-            axial,
-            across: relative - axis * axial,
-        }
+        Self { axis, inverse_length, relative, axial, across: relative - axis * axial }
     }
 }
 
@@ -114,19 +108,9 @@ impl Tie {
     /// Forces on (fine end, coarse end node, its neighbour) [N]: minus the gradient of
     /// `U = E A l_a eps^2 / 2 + k (r - r0)^2 / 2` with `eps = (a - l_a) / l_a`, `a` and `r`
     /// the fine end's axial and radial place in the end element's frame.
-    fn forces(
-        &self,
-        material: &FibreMaterial,
-        fine: &Vec3,
-        coarse: &Vec3,
-        coarse_next: &Vec3,
-    ) -> [Vec3; 3] {
+    fn forces(&self, material: &FibreMaterial, fine: &Vec3, coarse: &Vec3, coarse_next: &Vec3) -> [Vec3; 3] {
         let f = Frame::new(fine, coarse, coarse_next);
-        let axial = axial_force(
-            material,
-            self.area,
-            (f.axial - self.axial_length) / self.axial_length,
-        );
+        let axial = axial_force(material, self.area, (f.axial - self.axial_length) / self.axial_length);
         let radial = f.across * self.radial_force_per_radius(material, f.across.norm());
         // dU/d(relative), and dU/d(axis) projected across the axis over the element length
         let on_relative = f.axis * axial + radial;
@@ -136,21 +120,10 @@ impl Tie {
     }
 
     /// Strain energy of the two springs [J].
-    fn energy(
-        &self,
-        material: &FibreMaterial,
-        fine: &Vec3,
-        coarse: &Vec3,
-        coarse_next: &Vec3,
-    ) -> f64 {
+    fn energy(&self, material: &FibreMaterial, fine: &Vec3, coarse: &Vec3, coarse_next: &Vec3) -> f64 {
         let f = Frame::new(fine, coarse, coarse_next);
         let radial = f.across.norm() - self.radial_offset;
-        axial_energy(
-            material,
-            self.area,
-            self.axial_length,
-            (f.axial - self.axial_length) / self.axial_length,
-        ) + 0.5 * self.stiffness(material) * radial * radial
+        axial_energy(material, self.area, self.axial_length, (f.axial - self.axial_length) / self.axial_length) + 0.5 * self.stiffness(material) * radial * radial
     }
 }
 
@@ -169,16 +142,9 @@ impl Ties {
     /// The ties of `list` with an end among the owned nodes of `nodes` (ascending gid).
     pub fn new(mut list: Vec<Tie>, nodes: &Nodes) -> Self {
         let owned = &nodes.gid[..nodes.n_owned];
-        list.retain(|t| {
-            [t.fine, t.coarse, t.coarse_next]
-                .iter()
-                .any(|e| owned.binary_search(&e.gid).is_ok())
-        });
+        list.retain(|t| [t.fine, t.coarse, t.coarse_next].iter().any(|e| owned.binary_search(&e.gid).is_ok()));
         list.sort_by_key(|t| (t.coarse.gid, t.fine.gid));
-        let mut ties = Self {
-            local: vec![[NONE; 3]; list.len()],
-            list,
-        };
+        let mut ties = Self { local: vec![[NONE; 3]; list.len()], list };
         ties.link(nodes);
         ties
     }
@@ -198,15 +164,11 @@ impl Ties {
             return;
         }
         let owned = &nodes.gid[..nodes.n_owned];
-        let mut ghosts: Vec<(GlobalNodeId, u32)> = (nodes.n_owned..nodes.len())
-            .map(|i| (nodes.gid[i], i as u32))
-            .collect();
+        let mut ghosts: Vec<(GlobalNodeId, u32)> = (nodes.n_owned..nodes.len()).map(|i| (nodes.gid[i], i as u32)).collect();
         ghosts.sort_unstable();
         let find = |end: &TieEnd| match owned.binary_search(&end.gid) {
             Ok(i) => i as u32,
-            Err(_) => ghosts
-                .binary_search_by_key(&end.gid, |g| g.0)
-                .map_or(NONE, |k| ghosts[k].1),
+            Err(_) => ghosts.binary_search_by_key(&end.gid, |g| g.0).map_or(NONE, |k| ghosts[k].1),
         };
         for (tie, local) in self.list.iter().zip(&mut self.local) {
             *local = [find(&tie.fine), find(&tie.coarse), find(&tie.coarse_next)];
@@ -219,10 +181,7 @@ impl Ties {
         self.list.iter().zip(&self.local).find_map(|(t, l)| {
             let ends = [t.fine.gid, t.coarse.gid, t.coarse_next.gid];
             let missing = l.iter().position(|&i| i == NONE)?;
-            let owned = l
-                .iter()
-                .position(|&i| (i as usize) < n_owned)
-                .expect("a tie with an owned end");
+            let owned = l.iter().position(|&i| (i as usize) < n_owned).expect("a tie with an owned end");
             Some((ends[owned], ends[missing]))
         })
     }
@@ -232,12 +191,7 @@ impl Ties {
     pub fn add_forces(&self, nodes: &mut Nodes, material: &FibreMaterial) {
         for (tie, local) in self.list.iter().zip(&self.local) {
             let [fine, coarse, next] = local.map(|i| i as usize);
-            let forces = tie.forces(
-                material,
-                &nodes.position[fine],
-                &nodes.position[coarse],
-                &nodes.position[next],
-            );
+            let forces = tie.forces(material, &nodes.position[fine], &nodes.position[coarse], &nodes.position[next]);
             for (i, force) in [fine, coarse, next].into_iter().zip(forces) {
                 if i < nodes.n_owned {
                     nodes.force[i] += force;
@@ -248,27 +202,11 @@ impl Ties {
 
     /// Strain energy of every tie whose fine end is owned, with that end's local index (each
     /// tie counted once over all ranks) [J].
-    pub fn energies<'a>(
-        &'a self,
-        nodes: &'a Nodes,
-        material: &'a FibreMaterial,
-    ) -> impl Iterator<Item = (usize, f64)> + 'a {
-        self.list
-            .iter()
-            .zip(&self.local)
-            .filter(|(_, l)| (l[0] as usize) < nodes.n_owned)
-            .map(|(tie, local)| {
-                let [fine, coarse, next] = local.map(|i| i as usize);
-                (
-                    fine,
-                    tie.energy(
-                        material,
-                        &nodes.position[fine],
-                        &nodes.position[coarse],
-                        &nodes.position[next],
-                    ),
-                )
-            })
+    pub fn energies<'a>(&'a self, nodes: &'a Nodes, material: &'a FibreMaterial) -> impl Iterator<Item = (usize, f64)> + 'a {
+        self.list.iter().zip(&self.local).filter(|(_, l)| (l[0] as usize) < nodes.n_owned).map(|(tie, local)| {
+            let [fine, coarse, next] = local.map(|i| i as usize);
+            (fine, tie.energy(material, &nodes.position[fine], &nodes.position[coarse], &nodes.position[next]))
+        })
     }
 
     /// Stiffness the ties add to each of the `n_owned` owned nodes, both springs counted at
@@ -294,26 +232,14 @@ mod tests {
     const A: f64 = 1e-9;
 
     fn end(gid: u64) -> TieEnd {
-        TieEnd {
-            gid: GlobalNodeId(gid),
-            fibre: FibreId(gid as u32),
-            along: 0,
-        }
+        TieEnd { gid: GlobalNodeId(gid), fibre: FibreId(gid as u32), along: 0 }
     }
 
     /// A tie from a fine end at `fine` to the coarse end element (`coarse_next`, `coarse`),
     /// at rest as placed.
     fn tie(fine: Vec3, coarse: Vec3, coarse_next: Vec3) -> Tie {
         let (axial_length, radial_offset) = Tie::rest_geometry(&fine, &coarse, &coarse_next);
-        Tie {
-            fine: end(0),
-            coarse: end(10),
-            coarse_next: end(11),
-            axial_length,
-            radial_offset,
-            area: A,
-            fibre_length: axial_length,
-        }
+        Tie { fine: end(0), coarse: end(10), coarse_next: end(11), axial_length, radial_offset, area: A, fibre_length: axial_length }
     }
 
     #[test]
@@ -323,43 +249,26 @@ mod tests {
         // a fine end beside the axis, stretched 1 % along it: pulled straight back
         let t = tie(Vec3::new(2e-4, 5e-5, 0.0), coarse, next);
         assert_eq!((t.axial_length, t.radial_offset), (2e-4, 5e-5));
-        let [on_fine, on_coarse, on_next] =
-            t.forces(&material, &Vec3::new(2.02e-4, 5e-5, 0.0), &coarse, &next);
+        let [on_fine, on_coarse, on_next] = t.forces(&material, &Vec3::new(2.02e-4, 5e-5, 0.0), &coarse, &next);
         let expected = material.longitudinal_modulus * A * 0.01;
-        assert!(
-            (on_fine.x + expected).abs() < 1e-12 * expected && on_fine.y == 0.0 && on_fine.z == 0.0,
-            "{on_fine:?}"
-        );
+        assert!((on_fine.x + expected).abs() < 1e-12 * expected && on_fine.y == 0.0 && on_fine.z == 0.0, "{on_fine:?}");
         // the coarse element takes the force and the moment of its offset
         assert!((on_coarse + on_next + on_fine).norm() < 1e-12 * expected);
         let moment = |x: Vec3, f: Vec3| x.cross(&f);
-        let total = moment(Vec3::new(2.02e-4, 5e-5, 0.0), on_fine)
-            + moment(coarse, on_coarse)
-            + moment(next, on_next);
+        let total = moment(Vec3::new(2.02e-4, 5e-5, 0.0), on_fine) + moment(coarse, on_coarse) + moment(next, on_next);
         assert!(total.norm() < 1e-12 * expected * 1e-4, "{total:?}");
         // moved out from the axis: pushed back across it by k (r - r0)
         let [on_fine, ..] = t.forces(&material, &Vec3::new(2e-4, 6e-5, 0.0), &coarse, &next);
         let radial = t.stiffness(&material) * 1e-5;
-        assert!(
-            (on_fine.y + radial).abs() < 1e-9 * radial && on_fine.x.abs() < 1e-9 * radial,
-            "{on_fine:?}"
-        );
+        assert!((on_fine.y + radial).abs() < 1e-9 * radial && on_fine.x.abs() < 1e-9 * radial, "{on_fine:?}");
     }
 
     #[test]
     fn tie_forces_are_the_energy_gradient_sum_to_zero_and_turn_with_the_body() {
         let material = FibreMaterial::kevlar_km2();
-        let rest = [
-            Vec3::new(1.9e-4, 3e-5, -4e-5),
-            Vec3::zeros(),
-            Vec3::new(-1.2e-4, 1e-5, 0.0),
-        ];
+        let rest = [Vec3::new(1.9e-4, 3e-5, -4e-5), Vec3::zeros(), Vec3::new(-1.2e-4, 1e-5, 0.0)];
         let t = tie(rest[0], rest[1], rest[2]);
-        let moved = [
-            Vec3::new(2.1e-4, 5e-5, -2e-5),
-            Vec3::new(1e-6, -2e-6, 3e-6),
-            Vec3::new(-1.19e-4, 1.3e-5, 4e-6),
-        ];
+        let moved = [Vec3::new(2.1e-4, 5e-5, -2e-5), Vec3::new(1e-6, -2e-6, 3e-6), Vec3::new(-1.19e-4, 1.3e-5, 4e-6)];
         let forces = t.forces(&material, &moved[0], &moved[1], &moved[2]);
         let scale = forces.iter().map(|f| f.norm()).fold(0.0, f64::max);
         assert!(scale > 0.0);
@@ -373,21 +282,11 @@ mod tests {
                     t.energy(&material, &x[0], &x[1], &x[2])
                 };
                 let gradient = (energy_at(h) - energy_at(-h)) / (2.0 * h);
-                assert!(
-                    (forces[node][k] + gradient).abs() < 1e-6 * scale,
-                    "node {node} axis {k}: {} vs {}",
-                    forces[node][k],
-                    -gradient
-                );
+                assert!((forces[node][k] + gradient).abs() < 1e-6 * scale, "node {node} axis {k}: {} vs {}", forces[node][k], -gradient);
             }
         }
         let turn = Rotation3::from_euler_angles(0.3, -1.1, 0.7);
-        let turned = t.forces(
-            &material,
-            &(turn * moved[0]),
-            &(turn * moved[1]),
-            &(turn * moved[2]),
-        );
+        let turned = t.forces(&material, &(turn * moved[0]), &(turn * moved[1]), &(turn * moved[2]));
         for (a, b) in forces.iter().zip(&turned) {
             assert!((turn * a - b).norm() < 1e-12 * scale);
         }
@@ -403,17 +302,7 @@ mod tests {
                 11 => Vec3::new(2e-4, 0.0, 0.0),
                 _ => Vec3::new(0.0, (g as f64 - 1.0) * 2e-5, 0.0),
             };
-            nodes.push(
-                GlobalNodeId(g),
-                x,
-                Vec3::zeros(),
-                1e-9,
-                FibreId(g as u32),
-                0,
-                0,
-                false,
-                true,
-            );
+            nodes.push(GlobalNodeId(g), x, Vec3::zeros(), 1e-9, FibreId(g as u32), 0, 0, false, true);
         }
         nodes.n_owned = n_owned;
         nodes
@@ -421,16 +310,7 @@ mod tests {
 
     fn fan_ties() -> Vec<Tie> {
         let whole = fan(5, &[0, 1, 2, 10, 11]);
-        (0..3)
-            .map(|g| Tie {
-                fine: end(g),
-                ..tie(
-                    whole.position[g as usize],
-                    whole.position[3],
-                    whole.position[4],
-                )
-            })
-            .collect()
+        (0..3).map(|g| Tie { fine: end(g), ..tie(whole.position[g as usize], whole.position[3], whole.position[4]) }).collect()
     }
 
     #[test]
@@ -459,10 +339,7 @@ mod tests {
         // a fine end owned alone without its ghosts
         let lonely = fan(1, &[1]);
         let one = Ties::new(list, &lonely);
-        assert_eq!(
-            one.missing_end(1),
-            Some((GlobalNodeId(1), GlobalNodeId(10)))
-        );
+        assert_eq!(one.missing_end(1), Some((GlobalNodeId(1), GlobalNodeId(10))));
         assert_eq!(some.missing_end(1), None);
         let energy: f64 = all.energies(&whole, &material).map(|(_, e)| e).sum();
         assert!(energy > 0.0);

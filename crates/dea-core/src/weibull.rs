@@ -49,23 +49,11 @@ impl WeibullStrength {
     /// between the bounds the two single-mode solutions give converges unconditionally.
     pub fn quantile(&self, probability: f64, length: f64) -> f64 {
         let target = -(1.0 - probability).ln();
-        let single = |mode: &WeibullMode, share: f64| {
-            mode.scale * (share * target * self.gauge_length / length).powf(1.0 / mode.shape)
-        };
-        let modes: Vec<&WeibullMode> = std::iter::once(&self.first)
-            .chain(self.second.as_ref())
-            .collect();
+        let single = |mode: &WeibullMode, share: f64| mode.scale * (share * target * self.gauge_length / length).powf(1.0 / mode.shape);
+        let modes: Vec<&WeibullMode> = std::iter::once(&self.first).chain(self.second.as_ref()).collect();
         // each term alone reaching the target bounds the root from above; half of it from below
-        let mut high = modes
-            .iter()
-            .map(|m| single(m, 1.0))
-            .fold(f64::INFINITY, f64::min)
-            .ln();
-        let mut low = modes
-            .iter()
-            .map(|m| single(m, 1.0 / modes.len() as f64))
-            .fold(f64::INFINITY, f64::min)
-            .ln();
+        let mut high = modes.iter().map(|m| single(m, 1.0)).fold(f64::INFINITY, f64::min).ln();
+        let mut low = modes.iter().map(|m| single(m, 1.0 / modes.len() as f64)).fold(f64::INFINITY, f64::min).ln();
         for _ in 0..100 {
             let mid = 0.5 * (low + high);
             if self.hazard(mid.exp(), length) < target {
@@ -92,12 +80,7 @@ pub fn element_uniform(seed: u64, element: GlobalNodeId) -> f64 {
 }
 
 /// Strength of one element from its global id and length.
-pub fn element_strength(
-    law: &WeibullStrength,
-    seed: u64,
-    element: GlobalNodeId,
-    length: f64,
-) -> f64 {
+pub fn element_strength(law: &WeibullStrength, seed: u64, element: GlobalNodeId, length: f64) -> f64 {
     law.quantile(element_uniform(seed, element), length)
 }
 
@@ -106,17 +89,7 @@ mod tests {
     use super::*;
 
     fn bimodal() -> WeibullStrength {
-        WeibullStrength {
-            gauge_length: 0.0254,
-            first: WeibullMode {
-                shape: 12.0,
-                scale: 4.0e9,
-            },
-            second: Some(WeibullMode {
-                shape: 3.0,
-                scale: 1.2e9,
-            }),
-        }
+        WeibullStrength { gauge_length: 0.0254, first: WeibullMode { shape: 12.0, scale: 4.0e9 }, second: Some(WeibullMode { shape: 3.0, scale: 1.2e9 }) }
     }
 
     #[test]
@@ -125,10 +98,7 @@ mod tests {
         for p in [1e-6, 0.01, 0.5, 0.99, 1.0 - 1e-9] {
             for length in [25e-6, 0.0254, 1.0] {
                 let sigma = law.quantile(p, length);
-                assert!(
-                    (law.cdf(sigma, length) - p).abs() < 1e-9 * p.max(1e-3),
-                    "p {p} L {length}"
-                );
+                assert!((law.cdf(sigma, length) - p).abs() < 1e-9 * p.max(1e-3), "p {p} L {length}");
             }
         }
     }
@@ -139,9 +109,7 @@ mod tests {
         let law = bimodal();
         let length = 30e-6;
         let n = 4000;
-        let mut samples: Vec<f64> = (0..n)
-            .map(|k| element_strength(&law, 7, GlobalNodeId(k * 13 + 5), length))
-            .collect();
+        let mut samples: Vec<f64> = (0..n).map(|k| element_strength(&law, 7, GlobalNodeId(k * 13 + 5), length)).collect();
         samples.sort_by(f64::total_cmp);
         let statistic = samples
             .iter()
@@ -154,15 +122,8 @@ mod tests {
         let critical = 1.628 / (n as f64).sqrt(); // alpha = 0.01
         assert!(statistic < critical, "D = {statistic} >= {critical}");
         // and a wrong law is rejected by the same test (the test can fail)
-        let wrong = WeibullStrength {
-            second: None,
-            ..bimodal()
-        };
-        let wrong_statistic = samples
-            .iter()
-            .enumerate()
-            .map(|(k, &s)| (wrong.cdf(s, length) - k as f64 / n as f64).abs())
-            .fold(0.0, f64::max);
+        let wrong = WeibullStrength { second: None, ..bimodal() };
+        let wrong_statistic = samples.iter().enumerate().map(|(k, &s)| (wrong.cdf(s, length) - k as f64 / n as f64).abs()).fold(0.0, f64::max);
         assert!(wrong_statistic > critical);
     }
 
@@ -170,29 +131,15 @@ mod tests {
     fn strengths_do_not_depend_on_element_order() {
         let law = bimodal();
         let ids: Vec<GlobalNodeId> = (0..200).map(|k| GlobalNodeId(1000 + 7 * k)).collect();
-        let forward: Vec<f64> = ids
-            .iter()
-            .map(|&id| element_strength(&law, 42, id, 30e-6))
-            .collect();
+        let forward: Vec<f64> = ids.iter().map(|&id| element_strength(&law, 42, id, 30e-6)).collect();
         let mut reversed_ids = ids.clone();
         reversed_ids.reverse();
-        let mut renumbered: Vec<(GlobalNodeId, f64)> = reversed_ids
-            .iter()
-            .map(|&id| (id, element_strength(&law, 42, id, 30e-6)))
-            .collect();
+        let mut renumbered: Vec<(GlobalNodeId, f64)> = reversed_ids.iter().map(|&id| (id, element_strength(&law, 42, id, 30e-6))).collect();
         renumbered.sort_by_key(|&(id, _)| id);
         for (a, (_, b)) in forward.iter().zip(&renumbered) {
             assert_eq!(a.to_bits(), b.to_bits());
         }
-        assert_ne!(
-            element_uniform(42, ids[0]),
-            element_uniform(43, ids[0]),
-            "the seed matters"
-        );
-        assert_ne!(
-            element_uniform(42, ids[0]),
-            element_uniform(42, ids[1]),
-            "the id matters"
-        );
+        assert_ne!(element_uniform(42, ids[0]), element_uniform(43, ids[0]), "the seed matters");
+        assert_ne!(element_uniform(42, ids[0]), element_uniform(42, ids[1]), "the id matters");
     }
 }

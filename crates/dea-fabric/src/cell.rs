@@ -40,9 +40,7 @@ impl YarnRole {
 
     /// The role of a cell-file code.
     pub fn from_code(code: u32) -> Option<Self> {
-        [Self::Plain, Self::Stuffer, Self::Filler, Self::Binder]
-            .get(code as usize)
-            .copied()
+        [Self::Plain, Self::Stuffer, Self::Filler, Self::Binder].get(code as usize).copied()
     }
 }
 
@@ -109,37 +107,22 @@ pub struct CellStatistics {
 
 impl PeriodicCell {
     /// Assembles a cell, checking that the arrays fit the yarns.
-    pub fn new(
-        period: [f64; 2],
-        yarns: Vec<CellYarn>,
-        section: FibreSection,
-        positions: Vec<Vec3>,
-        rest_lengths: Vec<f64>,
-        rest_angles: Vec<f64>,
-        fibre_tension: f64,
-    ) -> Result<Self, CellError> {
+    pub fn new(period: [f64; 2], yarns: Vec<CellYarn>, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64) -> Result<Self, CellError> {
         let mut fibre_yarn = Vec::new();
         let mut fibre_start = vec![0];
         let mut yarn_start = vec![0];
         for (y, yarn) in yarns.iter().enumerate() {
             yarn_start.push(yarn_start[y] + yarn.fibres);
             if yarn.fibres == 0 || yarn.nodes_per_period < 3 {
-                return Err(CellError::Sizes(format!(
-                    "yarn {y} has {} fibres of {} nodes (at least 1 of 3)",
-                    yarn.fibres, yarn.nodes_per_period
-                )));
+                return Err(CellError::Sizes(format!("yarn {y} has {} fibres of {} nodes (at least 1 of 3)", yarn.fibres, yarn.nodes_per_period)));
             }
             for _ in 0..yarn.fibres {
                 fibre_yarn.push(y as u32);
-                fibre_start
-                    .push(fibre_start.last().expect("a start") + yarn.nodes_per_period as usize);
+                fibre_start.push(fibre_start.last().expect("a start") + yarn.nodes_per_period as usize);
             }
         }
         let nodes = *fibre_start.last().expect("a start");
-        if positions.len() != nodes
-            || rest_angles.len() != nodes
-            || rest_lengths.len() != fibre_yarn.len()
-        {
+        if positions.len() != nodes || rest_angles.len() != nodes || rest_lengths.len() != fibre_yarn.len() {
             return Err(CellError::Sizes(format!(
                 "{} positions and {} rest angles for {nodes} nodes, {} rest lengths for {} fibres",
                 positions.len(),
@@ -148,18 +131,7 @@ impl PeriodicCell {
                 fibre_yarn.len()
             )));
         }
-        Ok(Self {
-            period,
-            yarns,
-            section,
-            positions,
-            rest_lengths,
-            rest_angles,
-            fibre_tension,
-            fibre_yarn,
-            fibre_start,
-            yarn_start,
-        })
+        Ok(Self { period, yarns, section, positions, rest_lengths, rest_angles, fibre_tension, fibre_yarn, fibre_start, yarn_start })
     }
 
     /// Fibres of the cell.
@@ -222,11 +194,7 @@ impl PeriodicCell {
 
     /// Lowest and highest node centre [m].
     pub fn z_range(&self) -> (f64, f64) {
-        self.positions
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
-                (l.min(p.z), h.max(p.z))
-            })
+        self.positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.z), h.max(p.z)))
     }
 
     /// Thickness of the fabric: node-centre range plus one fibre diameter (the surfaces of the
@@ -238,25 +206,14 @@ impl PeriodicCell {
 
     /// Mean crimp of the fibres: path length over one period / period - 1 [-].
     pub fn crimp(&self) -> f64 {
-        let total: f64 = (0..self.fibres())
-            .map(|f| self.fibre_length(f) / self.period_along(self.direction(f)))
-            .sum();
+        let total: f64 = (0..self.fibres()).map(|f| self.fibre_length(f) / self.period_along(self.direction(f))).sum();
         total / self.fibres() as f64 - 1.0
     }
 
     /// Mean crimp of the fibres of the yarns of one role (`None` when the cell has none) [-].
     pub fn crimp_of(&self, role: YarnRole) -> Option<f64> {
-        let fibres: Vec<usize> = (0..self.fibres())
-            .filter(|&f| self.yarns[self.fibre_yarn(f)].role == role)
-            .collect();
-        (!fibres.is_empty()).then(|| {
-            fibres
-                .iter()
-                .map(|&f| self.fibre_length(f) / self.period_along(self.direction(f)))
-                .sum::<f64>()
-                / fibres.len() as f64
-                - 1.0
-        })
+        let fibres: Vec<usize> = (0..self.fibres()).filter(|&f| self.yarns[self.fibre_yarn(f)].role == role).collect();
+        (!fibres.is_empty()).then(|| fibres.iter().map(|&f| self.fibre_length(f) / self.period_along(self.direction(f))).sum::<f64>() / fibres.len() as f64 - 1.0)
     }
 
     /// Mean width of the yarns: the largest across-spread of a yarn's fibre centres at a node
@@ -278,11 +235,8 @@ impl PeriodicCell {
         for (y, yarn) in self.yarns.iter().enumerate() {
             let first = self.yarn_start[y];
             for k in 0..yarn.nodes_per_period {
-                let values = (first..first + yarn.fibres)
-                    .map(|f| coordinate(yarn.direction, &self.position(f, k)));
-                let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                    (l.min(v), h.max(v))
-                });
+                let values = (first..first + yarn.fibres).map(|f| coordinate(yarn.direction, &self.position(f, k)));
+                let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
                 total += high - low;
             }
             stations += yarn.nodes_per_period as usize;
@@ -292,37 +246,23 @@ impl PeriodicCell {
 
     /// Rest length of the fibres of the cell, all elements [m].
     fn material_length(&self) -> f64 {
-        (0..self.fibres())
-            .map(|f| self.rest_lengths[f] * self.fibre_nodes(f).len() as f64)
-            .sum()
+        (0..self.fibres()).map(|f| self.rest_lengths[f] * self.fibre_nodes(f).len() as f64).sum()
     }
 
     /// Fibre volume fraction of the layer: fibre volume over cell area times thickness [-].
     pub fn fibre_volume_fraction(&self) -> f64 {
-        self.section.area * self.material_length()
-            / (self.period[0] * self.period[1] * self.thickness())
+        self.section.area * self.material_length() / (self.period[0] * self.period[1] * self.thickness())
     }
 
     /// Mass of one cell over its area [kg/m^2].
     pub fn areal_density(&self, material: &FibreMaterial) -> f64 {
-        material.density * self.section.area * self.material_length()
-            / (self.period[0] * self.period[1])
+        material.density * self.section.area * self.material_length() / (self.period[0] * self.period[1])
     }
 
     /// Length of cell fibre `fibre` over one period, node to node [m].
     pub fn fibre_length(&self, fibre: usize) -> f64 {
         let nodes = self.fibre_nodes(fibre);
         let image = self.positions[nodes.start] + self.closure(fibre);
-        nodes
-            .clone()
-            .map(|i| {
-                (if i + 1 == nodes.end {
-                    image
-                } else {
-                    self.positions[i + 1]
-                } - self.positions[i])
-                    .norm()
-            })
-            .sum()
+        nodes.clone().map(|i| (if i + 1 == nodes.end { image } else { self.positions[i + 1] } - self.positions[i]).norm()).sum()
     }
 }

@@ -70,10 +70,7 @@ pub struct Built {
 /// Centres of `count` circles of diameter `pitch` in a hexagonal close packing, filled ring by
 /// ring from the centre (1, 7, 19, 37 … fill complete rings) [m, m].
 pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
-    let rings = (0..)
-        .find(|&r: &i64| (3 * r * (r + 1) + 1) as usize >= count)
-        .unwrap_or(0)
-        + 1;
+    let rings = (0..).find(|&r: &i64| (3 * r * (r + 1) + 1) as usize >= count).unwrap_or(0) + 1;
     let mut points = Vec::new();
     for a in -rings..=rings {
         for b in -rings..=rings {
@@ -84,12 +81,7 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
     // ring order, then angle, then lattice indices: a total, platform-independent order
     points.sort_by(|p, q| {
         let (rp, rq) = (p.2.hypot(p.3), q.2.hypot(q.3));
-        (rp / pitch)
-            .round()
-            .total_cmp(&(rq / pitch).round())
-            .then(rp.total_cmp(&rq))
-            .then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2)))
-            .then((p.0, p.1).cmp(&(q.0, q.1)))
+        (rp / pitch).round().total_cmp(&(rq / pitch).round()).then(rp.total_cmp(&rq)).then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2))).then((p.0, p.1).cmp(&(q.0, q.1)))
     });
     points.truncate(count);
     points.into_iter().map(|p| [p.2, p.3]).collect()
@@ -97,22 +89,9 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
 
 impl StraightFabric {
     /// One yarn of `fibres` digital fibres along x, centred on the origin.
-    pub fn single_yarn(
-        length: f64,
-        fibres: usize,
-        fibre_area: f64,
-        element_length_ratio: f64,
-        inertia: InertiaModel,
-        friction_coefficient: f64,
-        tensile_strength: f64,
-    ) -> Self {
+    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64) -> Self {
         Self {
-            yarns: vec![YarnLine {
-                centre: Vec3::zeros(),
-                axis: Axis::X,
-                fibres,
-                layer: 0,
-            }],
+            yarns: vec![YarnLine { centre: Vec3::zeros(), axis: Axis::X, fibres, layer: 0 }],
             length,
             fibre_area,
             element_length_ratio,
@@ -140,32 +119,15 @@ impl StraightFabric {
         tensile_strength: f64,
         material: &FibreMaterial,
     ) -> Self {
-        let mut fabric = Self::single_yarn(
-            length,
-            fibres,
-            fibre_area,
-            element_length_ratio,
-            inertia,
-            friction_coefficient,
-            tensile_strength,
-        );
+        let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, friction_coefficient, tensile_strength);
         let pitch = fabric.yarn_envelope_diameter(material);
         fabric.yarns = (0..layers)
             .flat_map(|l| {
                 (0..yarns_per_layer).map(move |j| {
                     let across = (j as f64 - 0.5 * (yarns_per_layer as f64 - 1.0)) * pitch;
                     let z = -(l as f64) * pitch;
-                    let (centre, axis) = if l % 2 == 0 {
-                        (Vec3::new(0.0, across, z), Axis::X)
-                    } else {
-                        (Vec3::new(across, 0.0, z), Axis::Y)
-                    };
-                    YarnLine {
-                        centre,
-                        axis,
-                        fibres,
-                        layer: l as u32,
-                    }
+                    let (centre, axis) = if l % 2 == 0 { (Vec3::new(0.0, across, z), Axis::X) } else { (Vec3::new(across, 0.0, z), Axis::Y) };
+                    YarnLine { centre, axis, fibres, layer: l as u32 }
                 })
             })
             .collect();
@@ -185,23 +147,14 @@ impl StraightFabric {
 
     /// The one section every fibre has.
     pub fn section(&self, material: &FibreMaterial) -> FibreSection {
-        FibreSection::new(
-            material,
-            self.fibre_area,
-            self.length / self.elements_per_fibre() as f64,
-            self.inertia,
-            self.friction_coefficient,
-        )
+        FibreSection::new(material, self.fibre_area, self.length / self.elements_per_fibre() as f64, self.inertia, self.friction_coefficient)
     }
 
     /// Diameter of the circle enclosing a yarn's fibres (contact diameter included) [m].
     pub fn yarn_envelope_diameter(&self, material: &FibreMaterial) -> f64 {
         let contact = self.section(material).contact_diameter;
         let fibres = self.yarns.first().map_or(1, |y| y.fibres);
-        let radius = hexagonal_packing(fibres, contact)
-            .iter()
-            .map(|p| p[0].hypot(p[1]))
-            .fold(0.0, f64::max);
+        let radius = hexagonal_packing(fibres, contact).iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
         2.0 * radius + contact
     }
 
@@ -231,43 +184,17 @@ impl StraightFabric {
 
     /// Highest node centre of the fabric [m].
     pub fn top(&self, material: &FibreMaterial) -> f64 {
-        self.yarns
-            .iter()
-            .map(|y| {
-                y.centre.z
-                    + self
-                        .packing(y, material)
-                        .iter()
-                        .map(|p| p[1])
-                        .fold(f64::NEG_INFINITY, f64::max)
-            })
-            .fold(f64::NEG_INFINITY, f64::max)
+        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)).fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// Lowest node centre of the fabric [m].
     pub fn bottom(&self, material: &FibreMaterial) -> f64 {
-        self.yarns
-            .iter()
-            .map(|y| {
-                y.centre.z
-                    + self
-                        .packing(y, material)
-                        .iter()
-                        .map(|p| p[1])
-                        .fold(f64::INFINITY, f64::min)
-            })
-            .fold(f64::INFINITY, f64::min)
+        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)).fold(f64::INFINITY, f64::min)
     }
 
     /// Axis-aligned box of the node centres of yarn `yarn` between positions `first` and
     /// `last` (inclusive) along its fibres [m].
-    pub fn segment_box(
-        &self,
-        yarn: usize,
-        first: u32,
-        last: u32,
-        material: &FibreMaterial,
-    ) -> (Vec3, Vec3) {
+    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
         let y = &self.yarns[yarn];
         let element_length = self.length / self.elements_per_fibre() as f64;
         let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
@@ -306,37 +233,20 @@ impl StraightFabric {
                         GlobalNodeId(fibre as u64 * nodes_per_fibre as u64 + k as u64),
                         self.position(yarn, offset, k, section.element_length),
                         Vec3::zeros(),
-                        if end {
-                            0.5 * interior_mass
-                        } else {
-                            interior_mass
-                        },
+                        if end { 0.5 * interior_mass } else { interior_mass },
                         FibreId(fibre),
                         k,
                         0,
                         end && self.clamp_ends,
                         k == last,
                     );
-                    elements.push(
-                        if k == last {
-                            0.0
-                        } else {
-                            section.element_length
-                        },
-                        self.tensile_strength,
-                        FailureMode::Intact,
-                    );
+                    elements.push(if k == last { 0.0 } else { section.element_length }, self.tensile_strength, FailureMode::Intact);
                 }
             }
         }
         nodes.n_owned = nodes.len();
         nodes.link_chains();
-        Built {
-            sections: vec![section],
-            nodes,
-            elements,
-            ties: Vec::new(),
-        }
+        Built { sections: vec![section], nodes, elements, ties: Vec::new() }
     }
 
     /// Builds every node (a whole domain, for single-domain use and tests).
@@ -403,9 +313,7 @@ impl Fabric {
 
     /// Nodes of every fibre, yarn by yarn.
     pub fn nodes_per_yarn_fibre(&self) -> Vec<u32> {
-        (0..self.yarn_count())
-            .map(|y| self.nodes_per_fibre(y))
-            .collect()
+        (0..self.yarn_count()).map(|y| self.nodes_per_fibre(y)).collect()
     }
 
     /// Node `k` of fibre `f` has global id `f * gid_stride + k`.
@@ -419,9 +327,7 @@ impl Fabric {
 
     /// Nodes of the whole target.
     pub fn node_count(&self) -> u64 {
-        (0..self.yarn_count())
-            .map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64)
-            .sum()
+        (0..self.yarn_count()).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
     }
 
     /// The sections of the target's fibres; the first is the finest (a hybrid panel's fine
@@ -453,13 +359,7 @@ impl Fabric {
     }
 
     /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
-    pub fn segment_box(
-        &self,
-        yarn: usize,
-        first: u32,
-        last: u32,
-        material: &FibreMaterial,
-    ) -> (Vec3, Vec3) {
+    pub fn segment_box(&self, yarn: usize, first: u32, last: u32, material: &FibreMaterial) -> (Vec3, Vec3) {
         match self {
             Fabric::Straight(f) => f.segment_box(yarn, first, last, material),
             Fabric::Woven(p) => p.segment_box(yarn, first, last),
@@ -512,16 +412,10 @@ mod tests {
             assert_eq!(points.len(), count);
             let max_radius = points.iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
             let rings = [1, 7, 19, 37].iter().position(|&c| c == count).unwrap();
-            assert!(
-                (max_radius - rings as f64).abs() < 1e-12,
-                "{count}: {max_radius}"
-            );
+            assert!((max_radius - rings as f64).abs() < 1e-12, "{count}: {max_radius}");
             for (a, p) in points.iter().enumerate() {
                 for q in &points[a + 1..] {
-                    assert!(
-                        (p[0] - q[0]).hypot(p[1] - q[1]) >= pitch * (1.0 - 1e-12),
-                        "no overlap"
-                    );
+                    assert!((p[0] - q[0]).hypot(p[1] - q[1]) >= pitch * (1.0 - 1e-12), "no overlap");
                 }
             }
         }
@@ -530,31 +424,12 @@ mod tests {
     #[test]
     fn bundle_mass_and_length_are_exact() {
         let material = FibreMaterial::kevlar_km2();
-        let bundle = StraightFabric::single_yarn(
-            0.01,
-            7,
-            4.63e-8 / 7.0,
-            0.5,
-            InertiaModel::Effective { k1: 0.8, k2: 1.0 },
-            0.3,
-            3.8e9,
-        );
+        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3, 3.8e9);
         let built = bundle.build_all(&material);
         let total_mass: f64 = built.nodes.mass.iter().sum();
         let expected = material.density * 4.63e-8 * 0.01;
         assert!((total_mass - expected).abs() < 1e-12 * expected);
-        let span = built
-            .nodes
-            .position
-            .iter()
-            .map(|p| p.x)
-            .fold(f64::NEG_INFINITY, f64::max)
-            - built
-                .nodes
-                .position
-                .iter()
-                .map(|p| p.x)
-                .fold(f64::INFINITY, f64::min);
+        let span = built.nodes.position.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) - built.nodes.position.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
         assert!((span - 0.01).abs() < 1e-15);
         assert_eq!(built.nodes.clamped.iter().filter(|&&c| c).count(), 14);
         let section = &built.sections[0];
@@ -564,18 +439,7 @@ mod tests {
     #[test]
     fn a_rank_builds_exactly_its_piece_of_the_whole() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(
-            2,
-            2,
-            7,
-            2e-3,
-            4.63e-8 / 7.0,
-            0.5,
-            InertiaModel::None,
-            0.3,
-            3.8e9,
-            &material,
-        );
+        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
         let whole = fabric.build_all(&material);
         let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
         let piece = fabric.build(&material, keep);
@@ -597,18 +461,7 @@ mod tests {
     #[test]
     fn cross_ply_yarns_touch_without_overlapping() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(
-            3,
-            2,
-            7,
-            1e-3,
-            4.63e-8 / 7.0,
-            0.5,
-            InertiaModel::None,
-            0.3,
-            3.8e9,
-            &material,
-        );
+        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
         let built = fabric.build_all(&material);
         let contact = built.sections[0].contact_diameter;
         let nodes = &built.nodes;
@@ -620,19 +473,13 @@ mod tests {
                 }
             }
         }
-        assert!(
-            (closest - contact).abs() < 1e-9 * contact,
-            "{closest} vs {contact}"
-        );
+        assert!((closest - contact).abs() < 1e-9 * contact, "{closest} vs {contact}");
         let thickness = fabric.top(&material) - fabric.bottom(&material);
         // three layers at a pitch of three contact diameters (7 fibres: envelope 3 d), plus
         // the packing's own height sqrt(3) d
         let pitch = fabric.yarn_envelope_diameter(&material);
         assert!((pitch - 3.0 * contact).abs() < 1e-12 * contact);
-        assert!(
-            (thickness - (2.0 * pitch + 3f64.sqrt() * contact)).abs() < 1e-12 * contact,
-            "{thickness}"
-        );
+        assert!((thickness - (2.0 * pitch + 3f64.sqrt() * contact)).abs() < 1e-12 * contact, "{thickness}");
         assert_eq!(fabric.first_fibres(), vec![0, 7, 14, 21, 28, 35, 42]);
     }
 }

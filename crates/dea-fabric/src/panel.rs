@@ -38,9 +38,7 @@ impl Boundary {
     pub fn holds(&self, plan: [f64; 2], k: u32, nodes: u32) -> bool {
         match *self {
             Boundary::FixedEdges => k == 0 || k + 1 == nodes,
-            Boundary::Clamp { opening_m } => {
-                plan[0].abs() > 0.5 * opening_m || plan[1].abs() > 0.5 * opening_m
-            }
+            Boundary::Clamp { opening_m } => plan[0].abs() > 0.5 * opening_m || plan[1].abs() > 0.5 * opening_m,
         }
     }
 }
@@ -138,20 +136,11 @@ type Sphere = (Vec3, f64);
 /// in x and y, the lower one (`lower`) shifted in plane by `shift`, at which no node of the
 /// upper one (`upper`) is closer to a lower node than their contact radii plus `gap`. Only
 /// nodes within reach of the patterns' facing sides can decide it [m].
-fn pitch_between(
-    upper: &[Sphere],
-    lower: &[Sphere],
-    period: [f64; 2],
-    shift: [f64; 2],
-    gap: f64,
-) -> f64 {
+fn pitch_between(upper: &[Sphere], lower: &[Sphere], period: [f64; 2], shift: [f64; 2], gap: f64) -> f64 {
     let largest = upper.iter().chain(lower).map(|s| s.1).fold(0.0, f64::max);
     let reach = 2.0 * largest + gap;
     let low = upper.iter().map(|s| s.0.z).fold(f64::INFINITY, f64::min);
-    let high = lower
-        .iter()
-        .map(|s| s.0.z)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let high = lower.iter().map(|s| s.0.z).fold(f64::NEG_INFINITY, f64::max);
     let bottom: Vec<&Sphere> = upper.iter().filter(|s| s.0.z < low + reach).collect();
     let top: Vec<&Sphere> = lower.iter().filter(|s| s.0.z > high - reach).collect();
     let mut pitch = f64::NEG_INFINITY;
@@ -159,10 +148,7 @@ fn pitch_between(
         for (l, rl) in &top {
             let clearance = ru + rl + gap;
             let wrap = |d: f64, p: f64| d - p * (d / p).round();
-            let (dx, dy) = (
-                wrap(l.x + shift[0] - u.x, period[0]),
-                wrap(l.y + shift[1] - u.y, period[1]),
-            );
+            let (dx, dy) = (wrap(l.x + shift[0] - u.x, period[0]), wrap(l.y + shift[1] - u.y, period[1]));
             let planar = dx * dx + dy * dy;
             if planar < clearance * clearance {
                 pitch = pitch.max(l.z - u.z + (clearance * clearance - planar).sqrt());
@@ -174,10 +160,7 @@ fn pitch_between(
 
 /// The nodes of one cell with the contact radius of its section.
 fn spheres(cell: &PeriodicCell) -> Vec<Sphere> {
-    cell.positions
-        .iter()
-        .map(|p| (*p, 0.5 * cell.section.contact_diameter))
-        .collect()
+    cell.positions.iter().map(|p| (*p, 0.5 * cell.section.contact_diameter)).collect()
 }
 
 /// Smallest vertical distance between two copies of `cell`, the lower shifted in plane by
@@ -215,22 +198,12 @@ pub fn transition_nodes(fine: &UnitCell, coarse: &UnitCell) -> Option<u32> {
     let clear = |t: i64| {
         (0..4).all(|yarn| {
             [1, 3].iter().all(|&quarter| {
-                let coarse_nodes: Vec<Vec3> = (0..coarse.fibres_per_yarn)
-                    .map(|c| {
-                        unwrapped(
-                            coarse,
-                            yarn * coarse.fibres_per_yarn + c,
-                            quarter * n_coarse / 4,
-                        )
-                    })
-                    .collect();
+                let coarse_nodes: Vec<Vec3> = (0..coarse.fibres_per_yarn).map(|c| unwrapped(coarse, yarn * coarse.fibres_per_yarn + c, quarter * n_coarse / 4)).collect();
                 (0..fine.fibres_per_yarn).all(|f| {
-                    [quarter * n_fine / 4 - t, quarter * n_fine / 4 + t]
-                        .iter()
-                        .all(|&k| {
-                            let p = unwrapped(fine, yarn * fine.fibres_per_yarn + f, k);
-                            coarse_nodes.iter().all(|q| (p - q).norm() >= reach)
-                        })
+                    [quarter * n_fine / 4 - t, quarter * n_fine / 4 + t].iter().all(|&k| {
+                        let p = unwrapped(fine, yarn * fine.fibres_per_yarn + f, k);
+                        coarse_nodes.iter().all(|q| (p - q).norm() >= reach)
+                    })
                 })
             })
         })
@@ -244,43 +217,20 @@ impl WovenPanel {
     /// (0 = touching), each shifted by `shift` from the one above; hybrid when `coarse` is
     /// given. The coarse cell must have the fine cell's yarn spacing.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        cell: Arc<UnitCell>,
-        coarse: Option<CoarseYarns>,
-        cells: u32,
-        layers: u32,
-        gap: f64,
-        shift: [f64; 2],
-        boundary: Boundary,
-        tensile_strength: f64,
-    ) -> Self {
+    pub fn new(cell: Arc<UnitCell>, coarse: Option<CoarseYarns>, cells: u32, layers: u32, gap: f64, shift: [f64; 2], boundary: Boundary, tensile_strength: f64) -> Self {
         let layer_pitch = match &coarse {
             None => touching_pitch(&cell, shift, gap),
             Some(coarse) => {
                 // the four kinds of tile (fine or coarse warp, fine or coarse weft); without a
                 // shift each lies on its own kind, with one near the hybrid's borders it may
                 // lie on any other
-                let kinds: Vec<Vec<Sphere>> = [
-                    (&cell, &cell),
-                    (&cell, &coarse.cell),
-                    (&coarse.cell, &cell),
-                    (&coarse.cell, &coarse.cell),
-                ]
-                .iter()
-                .map(|(w, f)| tile(w, f))
-                .collect();
+                let kinds: Vec<Vec<Sphere>> = [(&cell, &cell), (&cell, &coarse.cell), (&coarse.cell, &cell), (&coarse.cell, &coarse.cell)].iter().map(|(w, f)| tile(w, f)).collect();
                 let shifted = shift != [0.0, 0.0];
                 let mut pitch = f64::NEG_INFINITY;
                 for (a, upper) in kinds.iter().enumerate() {
                     for (b, lower) in kinds.iter().enumerate() {
                         if a == b || shifted {
-                            pitch = pitch.max(pitch_between(
-                                upper,
-                                lower,
-                                [cell.period(); 2],
-                                shift,
-                                gap,
-                            ));
+                            pitch = pitch.max(pitch_between(upper, lower, [cell.period(); 2], shift, gap));
                         }
                     }
                 }
@@ -288,30 +238,12 @@ impl WovenPanel {
             }
         };
         let transition_nodes = match &coarse {
-            Some(CoarseYarns {
-                cell: coarse,
-                fine: FineRegion::Disc { .. },
-            }) => transition_nodes(&cell, coarse)
-                .expect("the caller checks that the transition fits (transition_nodes)"),
+            Some(CoarseYarns { cell: coarse, fine: FineRegion::Disc { .. } }) => transition_nodes(&cell, coarse).expect("the caller checks that the transition fits (transition_nodes)"),
             _ => 0,
         };
-        let mut panel = Self {
-            cell,
-            coarse,
-            cells,
-            layers,
-            layer_gap: gap,
-            layer_shift: shift,
-            layer_pitch,
-            boundary,
-            tensile_strength,
-            transition_nodes,
-            pieces: Vec::new(),
-            first_fibre: Vec::new(),
-        };
-        panel.pieces = (0..panel.panel_yarns())
-            .flat_map(|yarn| panel.pieces_of(yarn))
-            .collect();
+        let mut panel =
+            Self { cell, coarse, cells, layers, layer_gap: gap, layer_shift: shift, layer_pitch, boundary, tensile_strength, transition_nodes, pieces: Vec::new(), first_fibre: Vec::new() };
+        panel.pieces = (0..panel.panel_yarns()).flat_map(|yarn| panel.pieces_of(yarn)).collect();
         panel.first_fibre = first_fibres(panel.yarn_count(), |yarn| panel.yarn_fibres(yarn));
         panel
     }
@@ -340,12 +272,7 @@ impl WovenPanel {
 
     /// The pieces of panel yarn `yarn`, along it.
     fn pieces_of(&self, yarn: usize) -> Vec<Piece> {
-        let whole = |coarse: bool| Piece {
-            yarn: yarn as u32,
-            coarse,
-            start: 0,
-            nodes: self.whole_fibre_nodes(coarse),
-        };
+        let whole = |coarse: bool| Piece { yarn: yarn as u32, coarse, start: 0, nodes: self.whole_fibre_nodes(coarse) };
         let Some(coarse) = &self.coarse else {
             return vec![whole(false)];
         };
@@ -359,49 +286,23 @@ impl WovenPanel {
             FineRegion::Band { half_width } => vec![whole(across.abs() > half_width)],
             FineRegion::Disc { radius } => {
                 let crossings = 2 * self.cells;
-                let fine: Vec<u32> = (0..crossings)
-                    .filter(|&i| from_centre(i as f64).hypot(across) <= radius)
-                    .collect();
+                let fine: Vec<u32> = (0..crossings).filter(|&i| from_centre(i as f64).hypot(across) <= radius).collect();
                 let (Some(&first), Some(&last)) = (fine.first(), fine.last()) else {
                     return vec![whole(true)];
                 };
                 // halfway points between crossings: node i n / 2 of a whole fibre
-                let halfway =
-                    |coarse: bool, i: u32| i * self.kind_cell(coarse).nodes_per_period / 2;
+                let halfway = |coarse: bool, i: u32| i * self.kind_cell(coarse).nodes_per_period / 2;
                 let t = self.transition_nodes;
-                let fine_start = if first > 0 {
-                    halfway(false, first) + t
-                } else {
-                    0
-                };
-                let fine_end = if last + 1 < crossings {
-                    halfway(false, last + 1) - t
-                } else {
-                    self.whole_fibre_nodes(false) - 1
-                };
+                let fine_start = if first > 0 { halfway(false, first) + t } else { 0 };
+                let fine_end = if last + 1 < crossings { halfway(false, last + 1) - t } else { self.whole_fibre_nodes(false) - 1 };
                 let mut pieces = Vec::new();
                 if first > 0 {
-                    pieces.push(Piece {
-                        yarn: yarn as u32,
-                        coarse: true,
-                        start: 0,
-                        nodes: halfway(true, first) + 1,
-                    });
+                    pieces.push(Piece { yarn: yarn as u32, coarse: true, start: 0, nodes: halfway(true, first) + 1 });
                 }
-                pieces.push(Piece {
-                    yarn: yarn as u32,
-                    coarse: false,
-                    start: fine_start,
-                    nodes: fine_end - fine_start + 1,
-                });
+                pieces.push(Piece { yarn: yarn as u32, coarse: false, start: fine_start, nodes: fine_end - fine_start + 1 });
                 if last + 1 < crossings {
                     let start = halfway(true, last + 1);
-                    pieces.push(Piece {
-                        yarn: yarn as u32,
-                        coarse: true,
-                        start,
-                        nodes: self.whole_fibre_nodes(true) - start,
-                    });
+                    pieces.push(Piece { yarn: yarn as u32, coarse: true, start, nodes: self.whole_fibre_nodes(true) - start });
                 }
                 pieces
             }
@@ -428,16 +329,8 @@ impl WovenPanel {
         let per_layer = self.panel_yarns_per_layer();
         let (layer, within) = (yarn / per_layer, yarn % per_layer);
         let half = 2 * self.cells as usize;
-        let (direction, index) = if within < half {
-            (YarnDirection::Warp, within)
-        } else {
-            (YarnDirection::Weft, within - half)
-        };
-        YarnPlace {
-            layer: layer as u32,
-            direction,
-            index: index as u32,
-        }
+        let (direction, index) = if within < half { (YarnDirection::Warp, within) } else { (YarnDirection::Weft, within - half) };
+        YarnPlace { layer: layer as u32, direction, index: index as u32 }
     }
 
     /// Layer, direction and index of the panel yarn piece `yarn` belongs to.
@@ -483,8 +376,7 @@ impl WovenPanel {
 
     /// Global ids of fibre `f` are `f * stride + k`: the most nodes any fibre has.
     pub fn gid_stride(&self) -> u32 {
-        self.whole_fibre_nodes(false)
-            .max(self.whole_fibre_nodes(self.coarse.is_some()))
+        self.whole_fibre_nodes(false).max(self.whole_fibre_nodes(self.coarse.is_some()))
     }
 
     /// Side of one layer, `2 s cells` [m].
@@ -527,11 +419,7 @@ impl WovenPanel {
         let across = (place.index / 2) as f64 * period + origin;
         let p = cell.position(self.cell_fibre(yarn, fibre), shifted % n);
         let layer = place.layer as f64;
-        let stack = Vec3::new(
-            layer * self.layer_shift[0],
-            layer * self.layer_shift[1],
-            -layer * self.layer_pitch,
-        );
+        let stack = Vec3::new(layer * self.layer_shift[0], layer * self.layer_shift[1], -layer * self.layer_pitch);
         stack
             + p
             + match place.direction {
@@ -552,11 +440,7 @@ impl WovenPanel {
     pub fn clamped(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
         let centre = self.plan_centre();
         let piece = &self.pieces[yarn];
-        self.boundary.holds(
-            [position.x - centre, position.y - centre],
-            piece.start + k,
-            self.whole_fibre_nodes(piece.coarse),
-        )
+        self.boundary.holds([position.x - centre, position.y - centre], piece.start + k, self.whole_fibre_nodes(piece.coarse))
     }
 
     /// The cells the panel repeats: the fine (or only) one, then the coarse one.
@@ -566,17 +450,12 @@ impl WovenPanel {
 
     /// Highest node centre [m].
     pub fn top(&self) -> f64 {
-        self.cells_used()
-            .map(|c| c.z_range().1)
-            .fold(f64::NEG_INFINITY, f64::max)
+        self.cells_used().map(|c| c.z_range().1).fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// Lowest node centre [m].
     pub fn bottom(&self) -> f64 {
-        self.cells_used()
-            .map(|c| c.z_range().0)
-            .fold(f64::INFINITY, f64::min)
-            - (self.layers as f64 - 1.0) * self.layer_pitch
+        self.cells_used().map(|c| c.z_range().0).fold(f64::INFINITY, f64::min) - (self.layers as f64 - 1.0) * self.layer_pitch
     }
 
     /// Mass of one layer over its plan area [kg/m^2].
@@ -600,14 +479,9 @@ impl WovenPanel {
             let period = self.cell.period();
             // in a fine disc both yarns of a crossing are of one kind
             let mixed_crossings = matches!(coarse.fine, FineRegion::Band { .. });
-            for (warp, weft) in [(&*self.cell, &*coarse.cell), (&*coarse.cell, &*self.cell)]
-                .into_iter()
-                .filter(|_| mixed_crossings)
-            {
-                let warp_nodes =
-                    &warp.positions[..2 * warp.fibres_per_yarn * warp.nodes_per_period as usize];
-                let weft_nodes = &weft.positions[weft.positions.len()
-                    - 2 * weft.fibres_per_yarn * weft.nodes_per_period as usize..];
+            for (warp, weft) in [(&*self.cell, &*coarse.cell), (&*coarse.cell, &*self.cell)].into_iter().filter(|_| mixed_crossings) {
+                let warp_nodes = &warp.positions[..2 * warp.fibres_per_yarn * warp.nodes_per_period as usize];
+                let weft_nodes = &weft.positions[weft.positions.len() - 2 * weft.fibres_per_yarn * weft.nodes_per_period as usize..];
                 let reach = 0.5 * (warp.section.contact_diameter + weft.section.contact_diameter);
                 for p in warp_nodes {
                     for q in weft_nodes {
@@ -638,56 +512,23 @@ impl WovenPanel {
                 continue;
             }
             // the coarse end element: its end node at the transition and the node inside
-            let ((fine, fine_k), (coarse, coarse_k, next_k)) = if before.coarse {
-                ((p, 0), (p - 1, before.nodes - 1, before.nodes - 2))
-            } else {
-                ((p - 1, before.nodes - 1), (p, 0, 1))
-            };
+            let ((fine, fine_k), (coarse, coarse_k, next_k)) = if before.coarse { ((p, 0), (p - 1, before.nodes - 1, before.nodes - 2)) } else { ((p - 1, before.nodes - 1), (p, 0, 1)) };
             let end = |piece: usize, fibre: usize, along: u32| {
                 let f = self.first_fibre[piece] + fibre as u32;
-                TieEnd {
-                    gid: GlobalNodeId(f as u64 * stride + along as u64),
-                    fibre: FibreId(f),
-                    along,
-                }
+                TieEnd { gid: GlobalNodeId(f as u64 * stride + along as u64), fibre: FibreId(f), along }
             };
             let (n_fine, n_coarse) = (self.yarn_fibres(fine), self.yarn_fibres(coarse));
-            let fine_at: Vec<Vec3> = (0..n_fine)
-                .map(|f| self.position(fine, f, fine_k))
-                .collect();
-            let coarse_at: Vec<(Vec3, Vec3)> = (0..n_coarse)
-                .map(|c| {
-                    (
-                        self.position(coarse, c, coarse_k),
-                        self.position(coarse, c, next_k),
-                    )
-                })
-                .collect();
-            let across =
-                |x: &Vec3, c: usize| Tie::offset_across(x, &coarse_at[c].0, &coarse_at[c].1);
-            let weights = transition::tie_weights(
-                n_fine,
-                n_coarse,
-                |f, c| across(&fine_at[f], c),
-                |k, c| across(&coarse_at[k].0, c),
-                2.0 * self.cell.section.contact_diameter,
-            );
+            let fine_at: Vec<Vec3> = (0..n_fine).map(|f| self.position(fine, f, fine_k)).collect();
+            let coarse_at: Vec<(Vec3, Vec3)> = (0..n_coarse).map(|c| (self.position(coarse, c, coarse_k), self.position(coarse, c, next_k))).collect();
+            let across = |x: &Vec3, c: usize| Tie::offset_across(x, &coarse_at[c].0, &coarse_at[c].1);
+            let weights = transition::tie_weights(n_fine, n_coarse, |f, c| across(&fine_at[f], c), |k, c| across(&coarse_at[k].0, c), 2.0 * self.cell.section.contact_diameter);
             for (f, row) in weights.iter().enumerate() {
                 let kept: f64 = row.iter().filter(|&&w| w >= 1e-6).sum();
                 let fibre_length = self.transition_nodes as f64 * self.fibre_rest_length(fine, f);
                 for (c, &w) in row.iter().enumerate().filter(|(_, &w)| w >= 1e-6) {
-                    let (axial_length, radial_offset) =
-                        Tie::rest_geometry(&fine_at[f], &coarse_at[c].0, &coarse_at[c].1);
+                    let (axial_length, radial_offset) = Tie::rest_geometry(&fine_at[f], &coarse_at[c].0, &coarse_at[c].1);
                     let share = w / kept;
-                    ties.push(Tie {
-                        fine: end(fine, f, fine_k),
-                        coarse: end(coarse, c, coarse_k),
-                        coarse_next: end(coarse, c, next_k),
-                        axial_length,
-                        radial_offset,
-                        area: share * area,
-                        fibre_length,
-                    });
+                    ties.push(Tie { fine: end(fine, f, fine_k), coarse: end(coarse, c, coarse_k), coarse_next: end(coarse, c, next_k), axial_length, radial_offset, area: share * area, fibre_length });
                 }
             }
         }
@@ -697,11 +538,7 @@ impl WovenPanel {
     /// Position of a node named by its fibre's global id and its place along it [m].
     fn node_at(&self, end: &TieEnd) -> Vec3 {
         let piece = self.first_fibre.partition_point(|&f| f <= end.fibre.0) - 1;
-        self.position(
-            piece,
-            (end.fibre.0 - self.first_fibre[piece]) as usize,
-            end.along,
-        )
+        self.position(piece, (end.fibre.0 - self.first_fibre[piece]) as usize, end.along)
     }
 
     /// How far the transitions of a fine disc are from passing the yarn's force straight on
@@ -716,46 +553,28 @@ impl WovenPanel {
         };
         let mut groups: std::collections::BTreeMap<GlobalNodeId, (f64, Vec3)> = Default::default();
         for tie in self.ties() {
-            let offset = Tie::offset_across(
-                &self.node_at(&tie.fine),
-                &self.node_at(&tie.coarse),
-                &self.node_at(&tie.coarse_next),
-            );
+            let offset = Tie::offset_across(&self.node_at(&tie.fine), &self.node_at(&tie.coarse), &self.node_at(&tie.coarse_next));
             let group = groups.entry(tie.coarse.gid).or_insert((0.0, Vec3::zeros()));
             group.0 += tie.area;
             group.1 += offset * tie.area;
         }
         let section = &coarse.cell.section;
-        groups
-            .values()
-            .fold(TransitionQuality::default(), |q, (area, moment)| {
-                TransitionQuality {
-                    area_mismatch: q.area_mismatch.max((area / section.area - 1.0).abs()),
-                    eccentricity: q
-                        .eccentricity
-                        .max((moment / *area).norm() / section.contact_diameter),
-                }
-            })
+        groups.values().fold(TransitionQuality::default(), |q, (area, moment)| TransitionQuality {
+            area_mismatch: q.area_mismatch.max((area / section.area - 1.0).abs()),
+            eccentricity: q.eccentricity.max((moment / *area).norm() / section.contact_diameter),
+        })
     }
 
     /// Warp yarns of one layer that are fine somewhere (all of them unless hybrid).
     pub fn fine_yarns_per_layer(&self) -> usize {
         let warp = 2 * self.cells;
-        let fine: std::collections::BTreeSet<u32> = self
-            .pieces
-            .iter()
-            .filter(|p| !p.coarse && p.yarn < warp)
-            .map(|p| p.yarn)
-            .collect();
+        let fine: std::collections::BTreeSet<u32> = self.pieces.iter().filter(|p| !p.coarse && p.yarn < warp).map(|p| p.yarn).collect();
         fine.len()
     }
 
     /// Nodes of the fine yarns of the whole panel (all of them when not hybrid).
     pub fn fine_node_count(&self) -> u64 {
-        (0..self.yarn_count())
-            .filter(|&y| !self.is_coarse(y))
-            .map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64)
-            .sum()
+        (0..self.yarn_count()).filter(|&y| !self.is_coarse(y)).map(|y| self.yarn_fibres(y) as u64 * self.nodes_per_fibre(y) as u64).sum()
     }
 }
 
@@ -819,24 +638,15 @@ pub trait Tiling {
                         GlobalNodeId(id as u64 * stride + k as u64),
                         position,
                         Vec3::zeros(),
-                        if end {
-                            0.5 * interior_mass
-                        } else {
-                            interior_mass
-                        },
+                        if end { 0.5 * interior_mass } else { interior_mass },
                         FibreId(id),
                         k,
                         section as u16,
                         self.held(yarn, &position, k),
                         k == last,
                     );
-                    *nodes.rest_angle.last_mut().expect("just pushed") =
-                        self.node_rest_angle(yarn, fibre, k);
-                    elements.push(
-                        if k == last { 0.0 } else { rest },
-                        self.strength(),
-                        FailureMode::Intact,
-                    );
+                    *nodes.rest_angle.last_mut().expect("just pushed") = self.node_rest_angle(yarn, fibre, k);
+                    elements.push(if k == last { 0.0 } else { rest }, self.strength(), FailureMode::Intact);
                 }
             }
         }
@@ -853,12 +663,7 @@ pub trait Tiling {
         });
         nodes.n_owned = nodes.len();
         nodes.link_chains();
-        Built {
-            sections,
-            nodes,
-            elements,
-            ties,
-        }
+        Built { sections, nodes, elements, ties }
     }
 
     /// Builds every node (a whole domain, for single-domain use and tests).
@@ -871,22 +676,15 @@ pub trait Tiling {
         let sections = self.all_sections();
         (0..self.yarns_in_layer())
             .map(|yarn| {
-                let (area, elements) = (
-                    sections[self.section_of(yarn)].area,
-                    (self.nodes_of(yarn) - 1) as f64,
-                );
-                (0..self.fibres_of(yarn))
-                    .map(|f| material.density * area * self.fibre_rest_length(yarn, f) * elements)
-                    .sum::<f64>()
+                let (area, elements) = (sections[self.section_of(yarn)].area, (self.nodes_of(yarn) - 1) as f64);
+                (0..self.fibres_of(yarn)).map(|f| material.density * area * self.fibre_rest_length(yarn, f) * elements).sum::<f64>()
             })
             .sum()
     }
 
     /// Nodes of the whole panel.
     fn node_count(&self) -> u64 {
-        (0..self.yarns())
-            .map(|y| self.fibres_of(y) as u64 * self.nodes_of(y) as u64)
-            .sum()
+        (0..self.yarns()).map(|y| self.fibres_of(y) as u64 * self.nodes_of(y) as u64).sum()
     }
 
     /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
@@ -955,19 +753,8 @@ mod tests {
 
     fn panel(cells: u32, layers: u32, fibres: usize) -> (WovenPanel, FibreMaterial) {
         let material = FibreMaterial::kevlar_km2();
-        let cell = PlainWeave::km2_style_706(fibres)
-            .unit_cell(&material)
-            .unwrap();
-        let panel = WovenPanel::new(
-            Arc::new(cell),
-            None,
-            cells,
-            layers,
-            0.0,
-            [0.0, 0.0],
-            Boundary::FixedEdges,
-            3.8e9,
-        );
+        let cell = PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap();
+        let panel = WovenPanel::new(Arc::new(cell), None, cells, layers, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         (panel, material)
     }
 
@@ -979,14 +766,8 @@ mod tests {
         for i in 0..nodes.len() {
             let j = nodes.next[i];
             if j != dea_core::NONE {
-                let (length, l0) = (
-                    (nodes.position[j as usize] - nodes.position[i]).norm(),
-                    built.elements.rest_length[i],
-                );
-                assert!(
-                    (length / l0 - 1.0).abs() < 1e-3,
-                    "element {i}: {length} vs {l0}"
-                );
+                let (length, l0) = ((nodes.position[j as usize] - nodes.position[i]).norm(), built.elements.rest_length[i]);
+                assert!((length / l0 - 1.0).abs() < 1e-3, "element {i}: {length} vs {l0}");
             }
         }
     }
@@ -1002,21 +783,12 @@ mod tests {
         }
         assert!(across.iter().any(|y| y.abs() < 1e-15));
         // fibres span the side, half a spacing beyond the outer yarns
-        let (start, end) = (
-            panel.position(0, 0, 0).x,
-            panel.position(0, 0, panel.nodes_per_fibre(0) - 1).x,
-        );
+        let (start, end) = (panel.position(0, 0, 0).x, panel.position(0, 0, panel.nodes_per_fibre(0) - 1).x);
         assert!((end - start - panel.side()).abs() < 1e-12);
         assert!((start - (across[0] - 0.5 * s)).abs() < 1e-12);
         let mass: f64 = panel.build_all(&material).nodes.mass.iter().sum();
-        assert!(
-            (mass / (panel.side() * panel.side()) / panel.areal_density(&material) - 1.0).abs()
-                < 1e-12
-        );
-        assert!(
-            (panel.areal_density(&material) / panel.cell.areal_density(&material) - 1.0).abs()
-                < 1e-12
-        );
+        assert!((mass / (panel.side() * panel.side()) / panel.areal_density(&material) - 1.0).abs() < 1e-12);
+        assert!((panel.areal_density(&material) / panel.cell.areal_density(&material) - 1.0).abs() < 1e-12);
     }
 
     #[test]
@@ -1029,31 +801,18 @@ mod tests {
         for i in 0..built.nodes.len() {
             for j in 0..built.nodes.len() {
                 if layer_of(j) == layer_of(i) + 1 {
-                    closest =
-                        closest.min((built.nodes.position[i] - built.nodes.position[j]).norm());
+                    closest = closest.min((built.nodes.position[i] - built.nodes.position[j]).norm());
                 }
             }
         }
         assert!((closest - d).abs() < 1e-12 * d, "{closest} vs {d}");
-        assert!(
-            (panel.top()
-                - panel.bottom()
-                - (2.0 * panel.layer_pitch + panel.cell.z_range().1 - panel.cell.z_range().0))
-                .abs()
-                < 1e-15
-        );
-        assert_eq!(
-            built.nodes.clamped.iter().filter(|&&c| c).count(),
-            2 * panel.yarn_count() * 4
-        );
-        panel.boundary = Boundary::Clamp {
-            opening_m: 0.5 * panel.side(),
-        };
+        assert!((panel.top() - panel.bottom() - (2.0 * panel.layer_pitch + panel.cell.z_range().1 - panel.cell.z_range().0)).abs() < 1e-15);
+        assert_eq!(built.nodes.clamped.iter().filter(|&&c| c).count(), 2 * panel.yarn_count() * 4);
+        panel.boundary = Boundary::Clamp { opening_m: 0.5 * panel.side() };
         let clamped = panel.build_all(&material);
         let centre = panel.plan_centre();
         for (p, &c) in clamped.nodes.position.iter().zip(&clamped.nodes.clamped) {
-            let inside = (p.x - centre).abs() <= 0.25 * panel.side()
-                && (p.y - centre).abs() <= 0.25 * panel.side();
+            let inside = (p.x - centre).abs() <= 0.25 * panel.side() && (p.y - centre).abs() <= 0.25 * panel.side();
             assert_eq!(c, !inside);
         }
     }
@@ -1074,89 +833,26 @@ mod tests {
             assert!(keep((gid / n) as usize / 4, (gid % n) as u32));
             assert_eq!(piece.nodes.position[i], whole.nodes.position[w]);
         }
-        let expected = whole
-            .nodes
-            .gid
-            .iter()
-            .filter(|g| keep((g.0 / n) as usize / 4, (g.0 % n) as u32))
-            .count();
+        let expected = whole.nodes.gid.iter().filter(|g| keep((g.0 / n) as usize / 4, (g.0 % n) as u32)).count();
         assert_eq!(piece.nodes.len(), expected);
     }
 
-    fn hybrid(
-        cells: u32,
-        layers: u32,
-        fine: usize,
-        coarse: usize,
-        shift: [f64; 2],
-    ) -> (WovenPanel, FibreMaterial) {
+    fn hybrid(cells: u32, layers: u32, fine: usize, coarse: usize, shift: [f64; 2]) -> (WovenPanel, FibreMaterial) {
         let material = FibreMaterial::kevlar_km2();
-        let cell = |fibres| {
-            Arc::new(
-                PlainWeave::km2_style_706(fibres)
-                    .unit_cell(&material)
-                    .unwrap(),
-            )
-        };
+        let cell = |fibres| Arc::new(PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap());
         let fine_cell = cell(fine);
         let s = fine_cell.yarn_spacing;
-        let coarse = CoarseYarns {
-            cell: cell(coarse),
-            fine: FineRegion::Band {
-                half_width: 1.6 * s,
-            },
-        };
-        (
-            WovenPanel::new(
-                fine_cell,
-                Some(coarse),
-                cells,
-                layers,
-                0.0,
-                shift,
-                Boundary::FixedEdges,
-                3.8e9,
-            ),
-            material,
-        )
+        let coarse = CoarseYarns { cell: cell(coarse), fine: FineRegion::Band { half_width: 1.6 * s } };
+        (WovenPanel::new(fine_cell, Some(coarse), cells, layers, 0.0, shift, Boundary::FixedEdges, 3.8e9), material)
     }
 
-    fn disc(
-        cells: u32,
-        layers: u32,
-        fine: usize,
-        coarse: usize,
-        radius_in_spacings: f64,
-    ) -> (WovenPanel, FibreMaterial) {
+    fn disc(cells: u32, layers: u32, fine: usize, coarse: usize, radius_in_spacings: f64) -> (WovenPanel, FibreMaterial) {
         let material = FibreMaterial::kevlar_km2();
-        let cell = |fibres| {
-            Arc::new(
-                PlainWeave::km2_style_706(fibres)
-                    .unit_cell(&material)
-                    .unwrap(),
-            )
-        };
+        let cell = |fibres| Arc::new(PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap());
         let fine_cell = cell(fine);
         let s = fine_cell.yarn_spacing;
-        let coarse = CoarseYarns {
-            cell: cell(coarse),
-            fine: FineRegion::Disc {
-                radius: radius_in_spacings * s,
-            },
-        };
-        (
-            WovenPanel::new(
-                fine_cell,
-                Some(coarse),
-                cells,
-                layers,
-                0.0,
-                [0.0, 0.0],
-                Boundary::FixedEdges,
-                3.8e9,
-            ),
-            material,
-        )
+        let coarse = CoarseYarns { cell: cell(coarse), fine: FineRegion::Disc { radius: radius_in_spacings * s } };
+        (WovenPanel::new(fine_cell, Some(coarse), cells, layers, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9), material)
     }
 
     #[test]
@@ -1170,13 +866,8 @@ mod tests {
             // crossings each side of it, the outer ones across none
             let pieces = panel.pieces();
             let per_yarn = |y: u32| pieces.iter().filter(|p| p.yarn == y).count();
-            assert_eq!(
-                (0..6).map(per_yarn).collect::<Vec<_>>(),
-                [1, 3, 3, 3, 3, 1],
-                "{fine}/{coarse}"
-            );
-            let fine_pieces: Vec<usize> =
-                (0..pieces.len()).filter(|&p| !pieces[p].coarse).collect();
+            assert_eq!((0..6).map(per_yarn).collect::<Vec<_>>(), [1, 3, 3, 3, 3, 1], "{fine}/{coarse}");
+            let fine_pieces: Vec<usize> = (0..pieces.len()).filter(|&p| !pieces[p].coarse).collect();
             let ties = panel.ties();
             assert_eq!(ties, built.ties);
             // every fine end of a transition tied with its whole area, to coarse ends of its
@@ -1192,37 +883,17 @@ mod tests {
                 *by_fine.entry(tie.fine.gid).or_default() += tie.area;
                 *by_coarse.entry(tie.coarse.gid).or_default() += tie.area;
                 let at = |e: &TieEnd| nodes.position[nodes.gid.binary_search(&e.gid).unwrap()];
-                assert_eq!(
-                    Tie::rest_geometry(&at(&tie.fine), &at(&tie.coarse), &at(&tie.coarse_next)),
-                    (tie.axial_length, tie.radial_offset)
-                );
-                assert!(
-                    tie.axial_length > 0.0
-                        && tie.coarse_next.fibre == tie.coarse.fibre
-                        && tie.coarse_next.along.abs_diff(tie.coarse.along) == 1
-                );
+                assert_eq!(Tie::rest_geometry(&at(&tie.fine), &at(&tie.coarse), &at(&tie.coarse_next)), (tie.axial_length, tie.radial_offset));
+                assert!(tie.axial_length > 0.0 && tie.coarse_next.fibre == tie.coarse.fibre && tie.coarse_next.along.abs_diff(tie.coarse.along) == 1);
             }
-            assert_eq!(
-                by_fine.len(),
-                fine_pieces.len() * 2 * fine,
-                "{fine}/{coarse}"
-            );
-            assert_eq!(
-                by_coarse.len(),
-                fine_pieces.len() * 2 * coarse,
-                "{fine}/{coarse}"
-            );
-            assert!(by_fine
-                .values()
-                .all(|a| (a / (yarn_area / fine as f64) - 1.0).abs() < 1e-12));
+            assert_eq!(by_fine.len(), fine_pieces.len() * 2 * fine, "{fine}/{coarse}");
+            assert_eq!(by_coarse.len(), fine_pieces.len() * 2 * coarse, "{fine}/{coarse}");
+            assert!(by_fine.values().all(|a| (a / (yarn_area / fine as f64) - 1.0).abs() < 1e-12));
             // a single coarse fibre sits near the fine fibres' centre; four have their own
             // centre, and the difference bends their ends (docs/theory.md F12)
             let quality = panel.transition_quality();
             assert!(quality.area_mismatch < 1e-5, "{fine}/{coarse}: {quality:?}");
-            assert!(
-                coarse > 1 || quality.eccentricity < 0.15,
-                "{fine}/{coarse}: {quality:?}"
-            );
+            assert!(coarse > 1 || quality.eccentricity < 0.15, "{fine}/{coarse}: {quality:?}");
             // mass per unit of material length rho A_yarn along every panel yarn, ties
             // included: the nodes carry their elements' mass and half of each tie's
             let mut mass = vec![0.0; panel.panel_yarns()];
@@ -1230,37 +901,20 @@ mod tests {
             for i in 0..nodes.len() {
                 let yarn = pieces[piece_of(nodes.fibre[i])].yarn as usize;
                 mass[yarn] += nodes.mass[i];
-                length[yarn] += built.elements.rest_length[i]
-                    * built.sections[nodes.section[i] as usize].area
-                    / yarn_area;
+                length[yarn] += built.elements.rest_length[i] * built.sections[nodes.section[i] as usize].area / yarn_area;
             }
             for tie in &ties {
-                length[pieces[piece_of(tie.fine.fibre)].yarn as usize] +=
-                    tie.fibre_length * tie.area / yarn_area;
+                length[pieces[piece_of(tie.fine.fibre)].yarn as usize] += tie.fibre_length * tie.area / yarn_area;
             }
             // per unit of plan length: each kind's between the halfway stations where it ends
             // (every half period of either kind holds exactly half its cell's elements)
             let per_plan = |cell: &UnitCell| {
-                material.density
-                    * yarn_area
-                    * cell.rest_lengths[..cell.fibres_per_yarn]
-                        .iter()
-                        .sum::<f64>()
-                    / cell.fibres_per_yarn as f64
-                    * cell.nodes_per_period as f64
-                    / cell.period()
+                material.density * yarn_area * cell.rest_lengths[..cell.fibres_per_yarn].iter().sum::<f64>() / cell.fibres_per_yarn as f64 * cell.nodes_per_period as f64 / cell.period()
             };
-            let (fine_mass, coarse_mass) = (
-                per_plan(&panel.cell),
-                per_plan(&panel.coarse.as_ref().unwrap().cell),
-            );
+            let (fine_mass, coarse_mass) = (per_plan(&panel.cell), per_plan(&panel.coarse.as_ref().unwrap().cell));
             let s = panel.cell.yarn_spacing;
             for yarn in 0..panel.panel_yarns() {
-                assert!(
-                    (mass[yarn] / length[yarn] / (material.density * yarn_area) - 1.0).abs()
-                        < 1e-12,
-                    "yarn {yarn}"
-                );
+                assert!((mass[yarn] / length[yarn] / (material.density * yarn_area) - 1.0).abs() < 1e-12, "yarn {yarn}");
                 let span = |coarse: bool| {
                     let stations = |p: &Piece| (p.start, p.start + p.nodes - 1);
                     pieces
@@ -1273,46 +927,22 @@ mod tests {
                             let (first, last) = if coarse {
                                 (first, last)
                             } else {
-                                (
-                                    first.saturating_sub(if first > 0 {
-                                        panel.transition_nodes
-                                    } else {
-                                        0
-                                    }),
-                                    if last + 1 < panel.whole_fibre_nodes(false) {
-                                        last + panel.transition_nodes
-                                    } else {
-                                        last
-                                    },
-                                )
+                                (first.saturating_sub(if first > 0 { panel.transition_nodes } else { 0 }), if last + 1 < panel.whole_fibre_nodes(false) { last + panel.transition_nodes } else { last })
                             };
                             (last - first) as f64 / (n / 2) as f64 * s
                         })
                         .sum::<f64>()
                 };
                 let expected = fine_mass * span(false) + coarse_mass * span(true);
-                assert!(
-                    (mass[yarn] / expected - 1.0).abs() < 1e-12,
-                    "{fine}/{coarse} yarn {yarn}: {} vs {expected}",
-                    mass[yarn]
-                );
+                assert!((mass[yarn] / expected - 1.0).abs() < 1e-12, "{fine}/{coarse} yarn {yarn}: {} vs {expected}", mass[yarn]);
             }
             // no fine node touches a coarse one of its own yarn at a transition
-            let reach =
-                0.5 * (built.sections[0].contact_diameter + built.sections[1].contact_diameter);
+            let reach = 0.5 * (built.sections[0].contact_diameter + built.sections[1].contact_diameter);
             for i in 0..nodes.len() {
                 for j in 0..nodes.len() {
-                    let (a, b) = (
-                        pieces[piece_of(nodes.fibre[i])],
-                        pieces[piece_of(nodes.fibre[j])],
-                    );
+                    let (a, b) = (pieces[piece_of(nodes.fibre[i])], pieces[piece_of(nodes.fibre[j])]);
                     if a.yarn == b.yarn && !a.coarse && b.coarse {
-                        assert!(
-                            (nodes.position[i] - nodes.position[j]).norm() >= reach,
-                            "{fine}/{coarse}: nodes {:?} and {:?}",
-                            nodes.gid[i],
-                            nodes.gid[j]
-                        );
+                        assert!((nodes.position[i] - nodes.position[j]).norm() >= reach, "{fine}/{coarse}: nodes {:?} and {:?}", nodes.gid[i], nodes.gid[j]);
                     }
                 }
             }
@@ -1324,13 +954,7 @@ mod tests {
                 assert_eq!(part.nodes.mass[i], nodes.mass[w]);
             }
             let kept = |e: &TieEnd| keep(piece_of(e.fibre), e.along);
-            assert_eq!(
-                part.ties,
-                ties.iter()
-                    .filter(|t| kept(&t.fine) || kept(&t.coarse))
-                    .copied()
-                    .collect::<Vec<_>>()
-            );
+            assert_eq!(part.ties, ties.iter().filter(|t| kept(&t.fine) || kept(&t.coarse)).copied().collect::<Vec<_>>());
         }
     }
 
@@ -1341,26 +965,14 @@ mod tests {
         let nodes = &built.nodes;
         let s = panel.cell.yarn_spacing;
         // fine: the yarns 0.5 s and 1.5 s from the centre, each way, in every layer
-        let fine: Vec<usize> = (0..panel.yarn_count())
-            .filter(|&y| !panel.is_coarse(y))
-            .collect();
+        let fine: Vec<usize> = (0..panel.yarn_count()).filter(|&y| !panel.is_coarse(y)).collect();
         assert_eq!(fine.len(), 2 * 2 * 4);
         for &y in &fine {
             let centre = panel.position(y, 0, 0);
-            let across = if panel.place(y).direction == YarnDirection::Warp {
-                centre.y
-            } else {
-                centre.x
-            };
-            assert!(
-                (across - panel.plan_centre()).abs()
-                    < 1.6 * s + panel.cell.section.contact_diameter
-            );
+            let across = if panel.place(y).direction == YarnDirection::Warp { centre.y } else { centre.x };
+            assert!((across - panel.plan_centre()).abs() < 1.6 * s + panel.cell.section.contact_diameter);
         }
-        assert_eq!(
-            panel.first_fibres().last().copied(),
-            Some((fine.len() * 7 + (panel.yarn_count() - fine.len())) as u32)
-        );
+        assert_eq!(panel.first_fibres().last().copied(), Some((fine.len() * 7 + (panel.yarn_count() - fine.len())) as u32));
         // every yarn, fine or coarse: mass per unit of material length rho A_yarn, and the
         // summed axial stiffness E A_yarn, however its area is split into fibres
         let yarn_area = 4.63e-8;
@@ -1378,49 +990,24 @@ mod tests {
             }
         }
         for (yarn, (mass, length, stiffness)) in per_yarn.iter().enumerate() {
-            assert!(
-                (mass / length / (material.density * yarn_area) - 1.0).abs() < 1e-12,
-                "yarn {yarn}"
-            );
-            assert!(
-                (stiffness / (material.longitudinal_modulus * yarn_area) - 1.0).abs() < 1e-12,
-                "yarn {yarn}"
-            );
+            assert!((mass / length / (material.density * yarn_area) - 1.0).abs() < 1e-12, "yarn {yarn}");
+            assert!((stiffness / (material.longitudinal_modulus * yarn_area) - 1.0).abs() < 1e-12, "yarn {yarn}");
         }
         // the panel's mass is its areal density's, and within the crimps' difference of a
         // uniform fine layer's
         let mass: f64 = nodes.mass.iter().sum();
-        assert!(
-            (mass / (2.0 * panel.side() * panel.side() * panel.areal_density(&material)) - 1.0)
-                .abs()
-                < 1e-12
-        );
-        assert!(
-            (panel.areal_density(&material) / panel.cell.areal_density(&material) - 1.0).abs()
-                < 0.05
-        );
+        assert!((mass / (2.0 * panel.side() * panel.side() * panel.areal_density(&material)) - 1.0).abs() < 1e-12);
+        assert!((panel.areal_density(&material) / panel.cell.areal_density(&material) - 1.0).abs() < 0.05);
         // global ids: unique, ascending, fibre f node k at f * stride + k
         assert!(nodes.gid.windows(2).all(|g| g[0] < g[1]));
         let stride = panel.gid_stride() as u64;
-        assert!(nodes
-            .gid
-            .iter()
-            .zip(&nodes.fibre)
-            .zip(&nodes.along)
-            .all(|((g, f), k)| g.0 == f.0 as u64 * stride + *k as u64));
+        assert!(nodes.gid.iter().zip(&nodes.fibre).zip(&nodes.along).all(|((g, f), k)| g.0 == f.0 as u64 * stride + *k as u64));
         assert_eq!(panel.node_count(), nodes.len() as u64);
         assert!(panel.fine_node_count() > 0 && panel.fine_node_count() < panel.node_count());
         // coarse fibres span the panel like the fine ones, with fewer, longer elements
-        let last = |y: usize| {
-            panel.position(y, 0, panel.nodes_per_fibre(y) - 1).x - panel.position(y, 0, 0).x
-        };
-        let coarse = (0..panel.yarn_count())
-            .find(|&y| panel.is_coarse(y))
-            .unwrap();
-        assert!(
-            (last(coarse) - panel.side()).abs() < 1e-12
-                && (last(fine[0]) - panel.side()).abs() < 1e-12
-        );
+        let last = |y: usize| panel.position(y, 0, panel.nodes_per_fibre(y) - 1).x - panel.position(y, 0, 0).x;
+        let coarse = (0..panel.yarn_count()).find(|&y| panel.is_coarse(y)).unwrap();
+        assert!((last(coarse) - panel.side()).abs() < 1e-12 && (last(fine[0]) - panel.side()).abs() < 1e-12);
         assert!(panel.nodes_per_fibre(coarse) < panel.nodes_per_fibre(fine[0]));
     }
 
@@ -1430,57 +1017,30 @@ mod tests {
             let (panel, material) = hybrid(3, 2, 4, 1, shift);
             let built = panel.build_all(&material);
             let nodes = &built.nodes;
-            let layer_of = |i: usize| {
-                panel
-                    .place(
-                        panel
-                            .first_fibres()
-                            .partition_point(|&f| f <= nodes.fibre[i].0)
-                            - 1,
-                    )
-                    .layer
-            };
-            let distance = |i: usize, j: usize| {
-                0.5 * (built.sections[nodes.section[i] as usize].contact_diameter
-                    + built.sections[nodes.section[j] as usize].contact_diameter)
-            };
+            let layer_of = |i: usize| panel.place(panel.first_fibres().partition_point(|&f| f <= nodes.fibre[i].0) - 1).layer;
+            let distance = |i: usize, j: usize| 0.5 * (built.sections[nodes.section[i] as usize].contact_diameter + built.sections[nodes.section[j] as usize].contact_diameter);
             let mut closest = f64::INFINITY;
             for i in 0..nodes.len() {
                 for j in 0..nodes.len() {
                     if layer_of(j) == layer_of(i) + 1 {
-                        closest = closest
-                            .min((nodes.position[i] - nodes.position[j]).norm() / distance(i, j));
+                        closest = closest.min((nodes.position[i] - nodes.position[j]).norm() / distance(i, j));
                     }
                 }
             }
-            assert!(
-                closest >= 1.0 - 1e-12,
-                "{shift:?}: layers {closest} contact distances apart"
-            );
+            assert!(closest >= 1.0 - 1e-12, "{shift:?}: layers {closest} contact distances apart");
             // where fine crosses coarse the two relaxed shapes may overlap: the panel says how much
-            assert!(
-                panel.largest_overlap_ratio() >= crate::relax::largest_overlap_ratio(&panel.cell)
-            );
+            assert!(panel.largest_overlap_ratio() >= crate::relax::largest_overlap_ratio(&panel.cell));
             let keep = |y: usize, k: u32| (y + k as usize / 5).is_multiple_of(3);
             let piece = panel.build(&material, keep);
             let mut whole = built.nodes.gid.iter().enumerate();
             for i in 0..piece.nodes.len() {
-                let (w, _) = whole
-                    .find(|(_, g)| **g == piece.nodes.gid[i])
-                    .expect("in the whole");
+                let (w, _) = whole.find(|(_, g)| **g == piece.nodes.gid[i]).expect("in the whole");
                 assert_eq!(piece.nodes.position[i], nodes.position[w]);
                 assert_eq!(piece.nodes.mass[i], nodes.mass[w]);
                 assert_eq!(piece.nodes.section[i], nodes.section[w]);
             }
             let first = panel.first_fibres();
-            let expected = (0..nodes.len())
-                .filter(|&i| {
-                    keep(
-                        first.partition_point(|&f| f <= nodes.fibre[i].0) - 1,
-                        nodes.along[i],
-                    )
-                })
-                .count();
+            let expected = (0..nodes.len()).filter(|&i| keep(first.partition_point(|&f| f <= nodes.fibre[i].0) - 1, nodes.along[i])).count();
             assert_eq!(piece.nodes.len(), expected);
         }
     }

@@ -42,11 +42,7 @@ pub enum BendingAtRest {
 
 impl Default for RelaxOptions {
     fn default() -> Self {
-        Self {
-            tolerance: 1e-7,
-            max_iterations: 2_000_000,
-            bending_at_rest: BendingAtRest::AsWoven,
-        }
+        Self { tolerance: 1e-7, max_iterations: 2_000_000, bending_at_rest: BendingAtRest::AsWoven }
     }
 }
 
@@ -73,12 +69,10 @@ pub struct RelaxReport {
 /// Why a cell could not be relaxed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RelaxError {
-    #[error("relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)")]
-    NotConverged {
-        iterations: u64,
-        reduction: f64,
-        tolerance: f64,
-    },
+    #[error(
+        "relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)"
+    )]
+    NotConverged { iterations: u64, reduction: f64, tolerance: f64 },
     #[error("relaxation diverged at iteration {iteration}: a nodal force is not finite")]
     NonFinite { iteration: u64 },
 }
@@ -115,16 +109,8 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
     let (low, high) = cell.z_range();
     let layers = (((high - low) / reach).floor() as i64 + 1).max(1);
     let bin_of = |p: &Vec3| {
-        let wrap = |v: f64, axis: usize| {
-            ((v - period[axis] * (v / period[axis]).floor()) / period[axis] * bins[axis] as f64)
-                .floor()
-                .clamp(0.0, (bins[axis] - 1) as f64) as i64
-        };
-        (
-            wrap(p.x, 0),
-            wrap(p.y, 1),
-            (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1),
-        )
+        let wrap = |v: f64, axis: usize| ((v - period[axis] * (v / period[axis]).floor()) / period[axis] * bins[axis] as f64).floor().clamp(0.0, (bins[axis] - 1) as f64) as i64;
+        (wrap(p.x, 0), wrap(p.y, 1), (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1))
     };
     let index = |x: i64, y: i64, z: i64| ((z * bins[1] + y) * bins[0] + x) as usize;
     let mut heads = vec![Vec::new(); (bins[0] * bins[1] * layers) as usize];
@@ -144,11 +130,7 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
             }
             for dy in -1..=1 {
                 for dx in -1..=1 {
-                    near.push(index(
-                        (x + dx).rem_euclid(bins[0]),
-                        (y + dy).rem_euclid(bins[1]),
-                        zz,
-                    ));
+                    near.push(index((x + dx).rem_euclid(bins[0]), (y + dy).rem_euclid(bins[1]), zz));
                 }
             }
         }
@@ -163,11 +145,7 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
                 }
                 let d = cell.positions[j] - p;
                 let image = [(d.x / period[0]).round(), (d.y / period[1]).round()];
-                let pair = PeriodicPair {
-                    i: i as u32,
-                    j: j as u32,
-                    image,
-                };
+                let pair = PeriodicPair { i: i as u32, j: j as u32, image };
                 if pair.separation(&cell.positions, period).norm() < reach {
                     pairs.push(pair);
                 }
@@ -180,9 +158,7 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
 
 /// The fibre of every node of the cell.
 fn node_fibres(cell: &PeriodicCell) -> Vec<u32> {
-    (0..cell.fibres())
-        .flat_map(|f| std::iter::repeat_n(f as u32, cell.fibre_nodes(f).len()))
-        .collect()
+    (0..cell.fibres()).flat_map(|f| std::iter::repeat_n(f as u32, cell.fibre_nodes(f).len())).collect()
 }
 
 /// Distance between the closest nodes of two fibres `counted(fibre_a, fibre_b)` picks
@@ -191,12 +167,7 @@ pub(crate) fn closest_approach(cell: &PeriodicCell, counted: impl Fn(usize, usiz
     let fibre_of = node_fibres(cell);
     periodic_pairs(cell, cell.section.contact_diameter)
         .into_iter()
-        .filter(|p| {
-            counted(
-                fibre_of[p.i as usize] as usize,
-                fibre_of[p.j as usize] as usize,
-            )
-        })
+        .filter(|p| counted(fibre_of[p.i as usize] as usize, fibre_of[p.j as usize] as usize))
         .map(|p| p.separation(&cell.positions, cell.period).norm())
         .fold(f64::INFINITY, f64::min)
 }
@@ -225,10 +196,7 @@ fn turning_angles(cell: &PeriodicCell) -> Vec<f64> {
 /// over the contact diameter [-]: where the fabric's contacts start.
 pub fn largest_overlap_ratio(cell: &PeriodicCell) -> f64 {
     let d = cell.section.contact_diameter;
-    periodic_pairs(cell, d)
-        .into_iter()
-        .map(|p| (d - p.separation(&cell.positions, cell.period).norm()) / d)
-        .fold(0.0, f64::max)
+    periodic_pairs(cell, d).into_iter().map(|p| (d - p.separation(&cell.positions, cell.period).norm()) / d).fold(0.0, f64::max)
 }
 
 /// The shortest periodic image of a separation in x and y [m].
@@ -252,15 +220,8 @@ enum Rods {
 
 /// Rest length of the `elements` elements of a fibre of current length `length` that carries
 /// the cell's fibre tension on average [m].
-fn tensioned_rest_length(
-    cell: &PeriodicCell,
-    material: &FibreMaterial,
-    length: f64,
-    elements: usize,
-) -> f64 {
-    length
-        / elements as f64
-        / (1.0 + cell.fibre_tension / (material.longitudinal_modulus * cell.section.area))
+fn tensioned_rest_length(cell: &PeriodicCell, material: &FibreMaterial, length: f64, elements: usize) -> f64 {
+    length / elements as f64 / (1.0 + cell.fibre_tension / (material.longitudinal_modulus * cell.section.area))
 }
 
 /// Forces on every node of the cell [N]: rods (4-2), bending springs (5-1), elastic contact
@@ -272,15 +233,7 @@ struct ChainScratch {
     length: Vec<f64>,
 }
 
-fn cell_forces(
-    cell: &PeriodicCell,
-    material: &FibreMaterial,
-    law: &NormalLaw,
-    rods: Rods,
-    pairs: &[PeriodicPair],
-    chain: &mut ChainScratch,
-    force: &mut [Vec3],
-) -> (usize, f64) {
+fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[PeriodicPair], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
     let section = &cell.section;
     force.fill(Vec3::zeros());
     for fibre in 0..cell.fibres() {
@@ -292,11 +245,7 @@ fn cell_forces(
         let (direction, length) = (&mut chain.direction[..n], &mut chain.length[..n]);
         let closure = cell.closure(fibre);
         for k in 0..n {
-            let next = if k + 1 == n {
-                cell.positions[base] + closure
-            } else {
-                cell.positions[base + k + 1]
-            };
+            let next = if k + 1 == n { cell.positions[base] + closure } else { cell.positions[base + k + 1] };
             let axis = next - cell.positions[base + k];
             length[k] = axis.norm();
             direction[k] = axis / length[k];
@@ -314,25 +263,14 @@ fn cell_forces(
         if rods != (Rods::Tension { bending: false }) && section.torsional_stiffness > 0.0 {
             for k in 0..n {
                 let previous = (k + n - 1) % n;
-                let (on_prev, on_next, _, _) = torsional_spring(
-                    direction[previous],
-                    1.0 / length[previous],
-                    direction[k],
-                    1.0 / length[k],
-                    section.torsional_stiffness,
-                    cell.rest_angles[base + k],
-                );
+                let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness, cell.rest_angles[base + k]);
                 force[base + previous] += on_prev;
                 force[base + (k + 1) % n] += on_next;
                 force[base + k] -= on_prev + on_next;
             }
         }
     }
-    let geometry = ContactGeometry::new(
-        0.5 * section.diameter,
-        section.element_length,
-        section.diameter,
-    );
+    let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
     let (mut contacts, mut largest) = (0, 0.0f64);
     for pair in pairs {
         let (i, j) = (pair.i as usize, pair.j as usize);
@@ -360,26 +298,14 @@ fn largest_force(force: &[Vec3]) -> f64 {
 /// loading curve), then gives every fibre the rest length at which its rods carry that
 /// tension in the relaxed shape, so the relaxed cell is in equilibrium as the solver will see
 /// it. The section (nominal element length, contact diameter, spring rigidity) stays.
-pub fn relax(
-    cell: &mut PeriodicCell,
-    material: &FibreMaterial,
-    law: &NormalLaw,
-    options: &RelaxOptions,
-) -> Result<RelaxReport, RelaxError> {
+pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
     let law = *law;
     let bending = options.bending_at_rest == BendingAtRest::Straight;
     cell.rest_angles.fill(0.0);
     let before = cell.statistics(material);
     let section = cell.section.clone();
     let mass = section.node_mass(material);
-    let critical = stable_time_step(
-        material,
-        std::slice::from_ref(&section),
-        &law,
-        0.0,
-        0.5,
-        0.9,
-    );
+    let critical = stable_time_step(material, std::slice::from_ref(&section), &law, 0.0, 0.5, 0.9);
     // FIRE's constants (Bitzek et al. 2006)
     let (n_min, f_inc, f_dec, alpha_start, f_alpha) = (5u64, 1.1, 0.5, 0.1, 0.99);
     let (mut dt, mut alpha, mut since_negative) = (0.25 * critical, alpha_start, 0u64);
@@ -391,36 +317,20 @@ pub fn relax(
     let mut force = vec![Vec3::zeros(); count];
     let mut chain = ChainScratch::default();
     let mut velocity = vec![Vec3::zeros(); count];
-    cell_forces(
-        cell,
-        material,
-        &law,
-        Rods::Tension { bending },
-        &pairs,
-        &mut chain,
-        &mut force,
-    );
+    cell_forces(cell, material, &law, Rods::Tension { bending }, &pairs, &mut chain, &mut force);
     let initial = largest_force(&force);
     let mut residual = initial;
     let mut history = vec![(0, initial)];
     let mut iteration = 0;
     while residual > options.tolerance * initial {
         if iteration == options.max_iterations {
-            return Err(RelaxError::NotConverged {
-                iterations: iteration,
-                reduction: residual / initial,
-                tolerance: options.tolerance,
-            });
+            return Err(RelaxError::NotConverged { iterations: iteration, reduction: residual / initial, tolerance: options.tolerance });
         }
         iteration += 1;
         // FIRE: steer the velocity towards the force while the motion goes downhill
         let power: f64 = force.iter().zip(&velocity).map(|(f, v)| f.dot(v)).sum();
         if power > 0.0 {
-            let speed = velocity
-                .iter()
-                .map(|v| v.norm_squared())
-                .sum::<f64>()
-                .sqrt();
+            let speed = velocity.iter().map(|v| v.norm_squared()).sum::<f64>().sqrt();
             let push = force.iter().map(|f| f.norm_squared()).sum::<f64>().sqrt();
             for (v, f) in velocity.iter_mut().zip(&force) {
                 *v = *v * (1.0 - alpha) + f * (alpha * speed / push);
@@ -440,26 +350,12 @@ pub fn relax(
             *v += f * (dt / mass);
             *x += *v * dt;
         }
-        let moved = cell
-            .positions
-            .iter()
-            .zip(&anchor)
-            .map(|(x, a)| (x - a).norm_squared())
-            .fold(0.0, f64::max)
-            .sqrt();
+        let moved = cell.positions.iter().zip(&anchor).map(|(x, a)| (x - a).norm_squared()).fold(0.0, f64::max).sqrt();
         if 2.0 * moved > skin {
             pairs = periodic_pairs(cell, reach);
             anchor.clone_from(&cell.positions);
         }
-        cell_forces(
-            cell,
-            material,
-            &law,
-            Rods::Tension { bending },
-            &pairs,
-            &mut chain,
-            &mut force,
-        );
+        cell_forces(cell, material, &law, Rods::Tension { bending }, &pairs, &mut chain, &mut force);
         residual = largest_force(&force);
         if !residual.is_finite() {
             return Err(RelaxError::NonFinite { iteration });
@@ -469,27 +365,14 @@ pub fn relax(
         }
     }
     for fibre in 0..cell.fibres() {
-        cell.rest_lengths[fibre] = tensioned_rest_length(
-            cell,
-            material,
-            cell.fibre_length(fibre),
-            cell.fibre_nodes(fibre).len(),
-        );
+        cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre), cell.fibre_nodes(fibre).len());
     }
     if !bending {
         cell.rest_angles = turning_angles(cell);
     }
     // the forces the solver will see: the same as the last iteration's, as the rest lengths
     // are those the tension gave and the springs rest at their angles (or acted throughout)
-    let (contacts, largest_overlap) = cell_forces(
-        cell,
-        material,
-        &law,
-        Rods::Rest,
-        &pairs,
-        &mut chain,
-        &mut force,
-    );
+    let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut chain, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
     Ok(RelaxReport {
@@ -518,23 +401,13 @@ mod tests {
         let mut expected = Vec::new();
         for i in 0..cell.positions.len() {
             for j in i + 1..cell.positions.len() {
-                if i / n != j / n
-                    && minimum_image(cell.positions[j] - cell.positions[i], cell.periodic.period)
-                        .norm()
-                        < reach
-                {
+                if i / n != j / n && minimum_image(cell.positions[j] - cell.positions[i], cell.periodic.period).norm() < reach {
                     expected.push((i as u32, j as u32));
                 }
             }
         }
         assert!(!expected.is_empty());
-        assert_eq!(
-            periodic_pairs(&cell, reach)
-                .iter()
-                .map(|p| (p.i, p.j))
-                .collect::<Vec<_>>(),
-            expected
-        );
+        assert_eq!(periodic_pairs(&cell, reach).iter().map(|p| (p.i, p.j)).collect::<Vec<_>>(), expected);
     }
 
     #[test]
@@ -543,76 +416,28 @@ mod tests {
         let law = NormalLaw::ElastoPlasticKm2;
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         let (crimp, thickness) = (cell.crimp(), cell.thickness());
-        let report = relax(
-            &mut cell,
-            &material,
-            &law,
-            &RelaxOptions {
-                tolerance: 1e-6,
-                max_iterations: 100_000,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        assert!(
-            report.final_residual_n <= 1e-6 * report.initial_residual_n,
-            "{report:?}"
-        );
+        let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
+        assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
         // the solver's forces on the relaxed cell are the converged ones
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
-        cell_forces(
-            &cell,
-            &material,
-            &law,
-            Rods::Rest,
-            &pairs,
-            &mut ChainScratch::default(),
-            &mut force,
-        );
-        assert!(
-            (largest_force(&force) - report.final_residual_n).abs()
-                <= 1e-9 * report.initial_residual_n
-        );
+        cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
+        assert!((largest_force(&force) - report.final_residual_n).abs() <= 1e-9 * report.initial_residual_n);
         // tension pulls the yarns straighter and flatter; no contact is compressed beyond the
         // strain the stable time step is designed for
         assert!(cell.crimp() < crimp && cell.thickness() < thickness);
-        assert!(
-            report.contacts > 0
-                && report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN,
-            "{}",
-            report.largest_overlap_ratio
-        );
+        assert!(report.contacts > 0 && report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN, "{}", report.largest_overlap_ratio);
         // style 706: 180 g/m^2 (DuPont), within 2 %
-        assert!(
-            (cell.areal_density(&material) / 0.180 - 1.0).abs() < 0.02,
-            "{}",
-            cell.areal_density(&material)
-        );
+        assert!((cell.areal_density(&material) / 0.180 - 1.0).abs() < 0.02, "{}", cell.areal_density(&material));
         // every element carries the fibre tension on average
         let n = cell.nodes_per_period as usize;
         for fibre in 0..cell.fibres() {
             let strain = cell.fibre_length(fibre) / (n as f64 * cell.rest_lengths[fibre]) - 1.0;
-            assert!(
-                (strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension
-                    - 1.0)
-                    .abs()
-                    < 1e-9
-            );
+            assert!((strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension - 1.0).abs() < 1e-9);
         }
         // the same bits every time
         let mut again = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        relax(
-            &mut again,
-            &material,
-            &law,
-            &RelaxOptions {
-                tolerance: 1e-6,
-                max_iterations: 100_000,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
         assert_eq!(again, cell);
     }
 
@@ -620,21 +445,8 @@ mod tests {
     fn a_relaxation_that_cannot_finish_says_so() {
         let material = FibreMaterial::kevlar_km2();
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        let error = relax(
-            &mut cell,
-            &material,
-            &NormalLaw::ElastoPlasticKm2,
-            &RelaxOptions {
-                tolerance: 1e-6,
-                max_iterations: 10,
-                ..Default::default()
-            },
-        )
-        .unwrap_err();
-        assert!(matches!(
-            error,
-            RelaxError::NotConverged { iterations: 10, .. }
-        ));
+        let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10, ..Default::default() }).unwrap_err();
+        assert!(matches!(error, RelaxError::NotConverged { iterations: 10, .. }));
     }
 
     #[test]
@@ -647,18 +459,8 @@ mod tests {
         }
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
-        let law = NormalLaw::Elastic {
-            transverse_modulus: material.transverse_modulus,
-        };
-        let (contacts, _) = cell_forces(
-            &cell,
-            &material,
-            &law,
-            Rods::Rest,
-            &pairs,
-            &mut ChainScratch::default(),
-            &mut force,
-        );
+        let law = NormalLaw::Elastic { transverse_modulus: material.transverse_modulus };
+        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
         assert!(contacts > 0);
         let total: Vec3 = force.iter().sum();
         let scale = largest_force(&force);

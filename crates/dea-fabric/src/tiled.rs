@@ -49,41 +49,18 @@ struct Place {
 impl TiledPanel {
     /// A panel of `layers` layers of `tiles` cells, neighbouring layers `gap` apart (0 =
     /// touching), each shifted by `shift` from the one above.
-    pub fn new(
-        cell: Arc<PeriodicCell>,
-        tiles: [u32; 2],
-        layers: u32,
-        gap: f64,
-        shift: [f64; 2],
-        boundary: Boundary,
-        tensile_strength: f64,
-    ) -> Self {
-        let along = |direction: YarnDirection| {
-            (0..cell.yarns.len())
-                .filter(|&y| cell.yarns[y].direction == direction)
-                .collect::<Vec<_>>()
-        };
+    pub fn new(cell: Arc<PeriodicCell>, tiles: [u32; 2], layers: u32, gap: f64, shift: [f64; 2], boundary: Boundary, tensile_strength: f64) -> Self {
+        let along = |direction: YarnDirection| (0..cell.yarns.len()).filter(|&y| cell.yarns[y].direction == direction).collect::<Vec<_>>();
         let cell_yarns = [along(YarnDirection::Warp), along(YarnDirection::Weft)];
         let layer_pitch = touching_pitch(&cell, shift, gap);
-        let mut panel = Self {
-            cell,
-            tiles,
-            layers,
-            layer_shift: shift,
-            layer_pitch,
-            boundary,
-            tensile_strength,
-            cell_yarns,
-            first_fibre: Vec::new(),
-        };
+        let mut panel = Self { cell, tiles, layers, layer_shift: shift, layer_pitch, boundary, tensile_strength, cell_yarns, first_fibre: Vec::new() };
         panel.first_fibre = first_fibres(panel.yarn_count(), |yarn| panel.yarn_fibres(yarn));
         panel
     }
 
     /// Yarns of one layer: the x yarns of every tile row, then the y yarns of every column.
     pub fn yarns_per_layer(&self) -> usize {
-        self.cell_yarns[0].len() * self.tiles[1] as usize
-            + self.cell_yarns[1].len() * self.tiles[0] as usize
+        self.cell_yarns[0].len() * self.tiles[1] as usize + self.cell_yarns[1].len() * self.tiles[0] as usize
     }
 
     pub fn yarn_count(&self) -> usize {
@@ -99,12 +76,7 @@ impl TiledPanel {
             within -= x_yarns;
         }
         let per_tile = self.cell_yarns[axis].len();
-        Place {
-            layer: layer as u32,
-            axis,
-            tile: (within / per_tile) as u32,
-            cell_yarn: self.cell_yarns[axis][within % per_tile],
-        }
+        Place { layer: layer as u32, axis, tile: (within / per_tile) as u32, cell_yarn: self.cell_yarns[axis][within % per_tile] }
     }
 
     /// Layer of yarn `yarn` (0 on top).
@@ -117,14 +89,9 @@ impl TiledPanel {
     pub fn packing(&self, yarn: usize) -> Vec<[f64; 2]> {
         let place = self.place(yarn);
         let first = self.cell.yarn_first_fibre(place.cell_yarn);
-        let points: Vec<Vec3> = (first..first + self.yarn_fibres(yarn))
-            .map(|f| self.cell.position(f, 0))
-            .collect();
+        let points: Vec<Vec3> = (first..first + self.yarn_fibres(yarn)).map(|f| self.cell.position(f, 0)).collect();
         let mean = points.iter().sum::<Vec3>() / points.len() as f64;
-        points
-            .iter()
-            .map(|p| [p[1 - place.axis] - mean[1 - place.axis], p.z - mean.z])
-            .collect()
+        points.iter().map(|p| [p[1 - place.axis] - mean[1 - place.axis], p.z - mean.z]).collect()
     }
 
     pub fn yarn_fibres(&self, yarn: usize) -> usize {
@@ -144,18 +111,12 @@ impl TiledPanel {
 
     /// Global ids of fibre `f` are `f * stride + k`: the most nodes any fibre has.
     pub fn gid_stride(&self) -> u32 {
-        (0..self.yarns_per_layer())
-            .map(|y| self.nodes_per_fibre(y))
-            .max()
-            .expect("a yarn")
+        (0..self.yarns_per_layer()).map(|y| self.nodes_per_fibre(y)).max().expect("a yarn")
     }
 
     /// Plan size of a layer along x and y [m].
     pub fn size(&self) -> [f64; 2] {
-        [
-            self.tiles[0] as f64 * self.cell.period[0],
-            self.tiles[1] as f64 * self.cell.period[1],
-        ]
+        [self.tiles[0] as f64 * self.cell.period[0], self.tiles[1] as f64 * self.cell.period[1]]
     }
 
     /// Position of node `k` of fibre `fibre` of yarn `yarn` [m].
@@ -164,21 +125,15 @@ impl TiledPanel {
         let cell_fibre = self.cell.yarn_first_fibre(place.cell_yarn) + fibre;
         let n = self.cell.yarns[place.cell_yarn].nodes_per_period;
         let size = self.size();
-        let mut p =
-            self.cell.position(cell_fibre, k % n) + self.cell.closure(cell_fibre) * (k / n) as f64;
+        let mut p = self.cell.position(cell_fibre, k % n) + self.cell.closure(cell_fibre) * (k / n) as f64;
         p[1 - place.axis] += place.tile as f64 * self.cell.period[1 - place.axis];
         let layer = place.layer as f64;
-        p + Vec3::new(
-            layer * self.layer_shift[0] - 0.5 * size[0],
-            layer * self.layer_shift[1] - 0.5 * size[1],
-            -layer * self.layer_pitch,
-        )
+        p + Vec3::new(layer * self.layer_shift[0] - 0.5 * size[0], layer * self.layer_shift[1] - 0.5 * size[1], -layer * self.layer_pitch)
     }
 
     /// Whether node `k` of a fibre of yarn `yarn`, at `position`, is held by the boundary.
     pub fn clamped(&self, yarn: usize, position: &Vec3, k: u32) -> bool {
-        self.boundary
-            .holds([position.x, position.y], k, self.nodes_per_fibre(yarn))
+        self.boundary.holds([position.x, position.y], k, self.nodes_per_fibre(yarn))
     }
 
     /// Highest node centre [m].
@@ -252,98 +207,35 @@ mod tests {
 
     fn relaxed_orthogonal() -> (PeriodicCell, FibreMaterial) {
         let material = FibreMaterial::kevlar_km2();
-        let yarn = YarnKind {
-            area_m2: 4.63e-8,
-            section_aspect: 3.0,
-        };
-        let weave = ThreeDWeave::of_pattern(
-            Pattern::Orthogonal,
-            2,
-            1.0e-3,
-            0.8e-3,
-            yarn,
-            4,
-            yarn,
-            YarnKind {
-                area_m2: 2.315e-8,
-                section_aspect: 2.0,
-            },
-        );
+        let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
+        let weave = ThreeDWeave::of_pattern(Pattern::Orthogonal, 2, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 });
         let mut cell = weave.unit_cell(&material).unwrap();
-        relax(
-            &mut cell,
-            &material,
-            &NormalLaw::ElastoPlasticKm2,
-            &RelaxOptions {
-                tolerance: 1e-6,
-                max_iterations: 400_000,
-                bending_at_rest: BendingAtRest::Straight,
-            },
-        )
-        .unwrap();
+        relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight }).unwrap();
         (cell, material)
     }
 
     #[test]
     fn a_tiled_panel_repeats_its_cell_and_keeps_its_mass() {
         let (cell, material) = relaxed_orthogonal();
-        let panel = TiledPanel::new(
-            Arc::new(cell.clone()),
-            [3, 2],
-            2,
-            0.0,
-            [0.0, 0.0],
-            Boundary::FixedEdges,
-            3.8e9,
-        );
+        let panel = TiledPanel::new(Arc::new(cell.clone()), [3, 2], 2, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         let built = panel.build(&material, |_, _| true);
         assert_eq!(built.nodes.len() as u64, panel.node_count());
         // the layer's mass per area is the cell's: every fibre spans whole periods
-        assert!(
-            (panel.areal_density(&material) / cell.areal_density(&material) - 1.0).abs() < 1e-12
-        );
+        assert!((panel.areal_density(&material) / cell.areal_density(&material) - 1.0).abs() < 1e-12);
         // every element of a panel fibre is as long as the cell's, across tiles too
         for yarn in [0, panel.yarns_per_layer() - 1] {
             for k in 0..panel.nodes_per_fibre(yarn) - 1 {
                 let place = panel.place(yarn);
                 let f = cell.yarn_first_fibre(place.cell_yarn);
                 let n = cell.yarns[place.cell_yarn].nodes_per_period;
-                let expected = (cell.position(f, (k + 1) % n)
-                    + if (k + 1) % n == 0 {
-                        cell.closure(f)
-                    } else {
-                        Vec3::zeros()
-                    }
-                    - cell.position(f, k % n))
-                .norm();
-                assert!(
-                    ((panel.position(yarn, 0, k + 1) - panel.position(yarn, 0, k)).norm()
-                        - expected)
-                        .abs()
-                        < 1e-15,
-                    "yarn {yarn} k {k}"
-                );
+                let expected = (cell.position(f, (k + 1) % n) + if (k + 1) % n == 0 { cell.closure(f) } else { Vec3::zeros() } - cell.position(f, k % n)).norm();
+                assert!(((panel.position(yarn, 0, k + 1) - panel.position(yarn, 0, k)).norm() - expected).abs() < 1e-15, "yarn {yarn} k {k}");
             }
         }
         // centred in plan; layers touching, one pitch apart
-        let (low, high) = built.nodes.position.iter().fold(
-            (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)),
-            |(l, h), p| (l.inf(p), h.sup(p)),
-        );
-        assert!(
-            (low.x + high.x).abs() < 0.6 * cell.period[0]
-                && (low.y + high.y).abs() < 0.6 * cell.period[1],
-            "{low} {high}"
-        );
-        assert!(
-            panel.layer_pitch > 0.0
-                && (panel.top()
-                    - panel.bottom()
-                    - panel.layer_pitch
-                    - (cell.z_range().1 - cell.z_range().0))
-                    .abs()
-                    < 1e-15
-        );
+        let (low, high) = built.nodes.position.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), p| (l.inf(p), h.sup(p)));
+        assert!((low.x + high.x).abs() < 0.6 * cell.period[0] && (low.y + high.y).abs() < 0.6 * cell.period[1], "{low} {high}");
+        assert!(panel.layer_pitch > 0.0 && (panel.top() - panel.bottom() - panel.layer_pitch - (cell.z_range().1 - cell.z_range().0)).abs() < 1e-15);
         // fixed edges hold the two ends of every fibre, and nothing else
         let held = built.nodes.clamped.iter().filter(|&&c| c).count();
         assert_eq!(held, 2 * *panel.first_fibres().last().unwrap() as usize);
@@ -353,15 +245,7 @@ mod tests {
     fn shifted_layers_with_a_gap_keep_it_and_move_by_the_shift() {
         let (cell, material) = relaxed_orthogonal();
         let (gap, shift) = (20e-6, [0.3e-3, -0.2e-3]);
-        let panel = TiledPanel::new(
-            Arc::new(cell),
-            [2, 2],
-            2,
-            gap,
-            shift,
-            Boundary::FixedEdges,
-            3.8e9,
-        );
+        let panel = TiledPanel::new(Arc::new(cell), [2, 2], 2, gap, shift, Boundary::FixedEdges, 3.8e9);
         let built = panel.build(&material, |_, _| true);
         let nodes = &built.nodes;
         let d = built.sections[0].contact_diameter;
@@ -374,17 +258,9 @@ mod tests {
             }
         }
         // the pitch is periodic: across the finite panel's edges the layers may sit farther
-        assert!(
-            closest >= d + gap - 1e-12 && closest < d + gap + 0.05 * d,
-            "{closest} vs {}",
-            d + gap
-        );
+        assert!(closest >= d + gap - 1e-12 && closest < d + gap + 0.05 * d, "{closest} vs {}", d + gap);
         let yarn = panel.yarns_per_layer();
         let moved = panel.position(yarn, 0, 3) - panel.position(0, 0, 3);
-        assert!(
-            (moved.x - shift[0]).abs() < 1e-15
-                && (moved.y - shift[1]).abs() < 1e-15
-                && (moved.z + panel.layer_pitch).abs() < 1e-15
-        );
+        assert!((moved.x - shift[0]).abs() < 1e-15 && (moved.y - shift[1]).abs() < 1e-15 && (moved.z + panel.layer_pitch).abs() < 1e-15);
     }
 }

@@ -25,57 +25,36 @@ const SWEEPS: usize = 200;
 /// nothing can centre it. Where a coarse axis lies outside the fine ends' spread the
 /// centring is approached as far as the sweeps allow; [`crate::panel::WovenPanel::transition_quality`]
 /// reports what is left.
-pub fn tie_weights(
-    fine: usize,
-    coarse: usize,
-    offset: impl Fn(usize, usize) -> Vec3,
-    coarse_offset: impl Fn(usize, usize) -> Vec3,
-    scale: f64,
-) -> Vec<Vec<f64>> {
+pub fn tie_weights(fine: usize, coarse: usize, offset: impl Fn(usize, usize) -> Vec3, coarse_offset: impl Fn(usize, usize) -> Vec3, scale: f64) -> Vec<Vec<f64>> {
     if coarse == 1 {
         return vec![vec![1.0]; fine];
     }
-    let d: Vec<Vec<Vec3>> = (0..fine)
-        .map(|f| (0..coarse).map(|c| offset(f, c) / scale).collect())
-        .collect();
+    let d: Vec<Vec<Vec3>> = (0..fine).map(|f| (0..coarse).map(|c| offset(f, c) / scale).collect()).collect();
     // each coarse fibre's target: its axis shifted by the fine centre's offset from the
     // coarse centre, both seen across that axis
     let target: Vec<Vec3> = (0..coarse)
         .map(|c| {
             let fine_centre: Vec3 = (0..fine).map(|f| d[f][c]).sum::<Vec3>() / fine as f64;
-            let coarse_centre: Vec3 = (0..coarse)
-                .map(|k| coarse_offset(k, c) / scale)
-                .sum::<Vec3>()
-                / coarse as f64;
+            let coarse_centre: Vec3 = (0..coarse).map(|k| coarse_offset(k, c) / scale).sum::<Vec3>() / coarse as f64;
             fine_centre - coarse_centre
         })
         .collect();
     let share = fine as f64 / coarse as f64;
-    let (mut a, mut b, mut lambda) = (
-        vec![0.0; fine],
-        vec![0.0; coarse],
-        vec![Vec3::zeros(); coarse],
-    );
+    let (mut a, mut b, mut lambda) = (vec![0.0; fine], vec![0.0; coarse], vec![Vec3::zeros(); coarse]);
     let kernel = |f: usize, c: usize, lambda: &Vec3| lambda.dot(&d[f][c]) - d[f][c].norm_squared();
     for _ in 0..SWEEPS {
         for (f, a_f) in a.iter_mut().enumerate() {
             // log-sum-exp over the coarse fibres: row sums 1
-            let terms: Vec<f64> = (0..coarse)
-                .map(|c| b[c] + kernel(f, c, &lambda[c]))
-                .collect();
+            let terms: Vec<f64> = (0..coarse).map(|c| b[c] + kernel(f, c, &lambda[c])).collect();
             let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             *a_f = -(top + terms.iter().map(|t| (t - top).exp()).sum::<f64>().ln());
         }
         for c in 0..coarse {
             // centring: a damped Newton step on sum_f u_f d_fc = 0 (b_c only scales u)
             for _ in 0..4 {
-                let u: Vec<f64> = (0..fine)
-                    .map(|f| (a[f] + kernel(f, c, &lambda[c])).exp())
-                    .collect();
+                let u: Vec<f64> = (0..fine).map(|f| (a[f] + kernel(f, c, &lambda[c])).exp()).collect();
                 let total: f64 = u.iter().sum();
-                let moment: Vec3 = (0..fine)
-                    .map(|f| (d[f][c] - target[c]) * (u[f] / total))
-                    .sum();
+                let moment: Vec3 = (0..fine).map(|f| (d[f][c] - target[c]) * (u[f] / total)).sum();
                 let mut jacobian = nalgebra::Matrix3::<f64>::identity() * 1e-9;
                 for f in 0..fine {
                     let centred = d[f][c] - target[c] - moment;
@@ -92,19 +71,11 @@ pub fn tie_weights(
                 }
                 lambda[c] -= step;
             }
-            let total: f64 = (0..fine)
-                .map(|f| (a[f] + kernel(f, c, &lambda[c])).exp())
-                .sum();
+            let total: f64 = (0..fine).map(|f| (a[f] + kernel(f, c, &lambda[c])).exp()).sum();
             b[c] = share.ln() - total.ln();
         }
     }
-    (0..fine)
-        .map(|f| {
-            (0..coarse)
-                .map(|c| (a[f] + b[c] + kernel(f, c, &lambda[c])).exp())
-                .collect()
-        })
-        .collect()
+    (0..fine).map(|f| (0..coarse).map(|c| (a[f] + b[c] + kernel(f, c, &lambda[c])).exp()).collect()).collect()
 }
 
 #[cfg(test)]
@@ -114,20 +85,9 @@ mod tests {
     /// Fine ends on a hexagonal patch of 19, coarse axes at `coarse` (all along z).
     fn weights(coarse: &[[f64; 2]]) -> (Vec<Vec<f64>>, Vec<[f64; 2]>) {
         let fine = crate::hexagonal_packing(19, 1.0);
-        let offset = |f: usize, c: usize| {
-            Vec3::new(fine[f][0] - coarse[c][0], fine[f][1] - coarse[c][1], 0.0)
-        };
-        let coarse_offset = |k: usize, c: usize| {
-            Vec3::new(
-                coarse[k][0] - coarse[c][0],
-                coarse[k][1] - coarse[c][1],
-                0.0,
-            )
-        };
-        (
-            tie_weights(19, coarse.len(), offset, coarse_offset, 2.0),
-            fine,
-        )
+        let offset = |f: usize, c: usize| Vec3::new(fine[f][0] - coarse[c][0], fine[f][1] - coarse[c][1], 0.0);
+        let coarse_offset = |k: usize, c: usize| Vec3::new(coarse[k][0] - coarse[c][0], coarse[k][1] - coarse[c][1], 0.0);
+        (tie_weights(19, coarse.len(), offset, coarse_offset, 2.0), fine)
     }
 
     #[test]
@@ -141,16 +101,9 @@ mod tests {
         }
         for (c, axis) in coarse.iter().enumerate() {
             let received: f64 = w.iter().map(|row| row[c]).sum();
-            assert!(
-                (received - 19.0 / 4.0).abs() < 1e-9,
-                "coarse {c}: {received}"
-            );
-            let centre =
-                [0, 1].map(|k| (0..19).map(|f| w[f][c] * fine[f][k]).sum::<f64>() / received);
-            assert!(
-                (centre[0] - axis[0]).hypot(centre[1] - axis[1]) < 1e-6,
-                "coarse {c}: centre {centre:?}"
-            );
+            assert!((received - 19.0 / 4.0).abs() < 1e-9, "coarse {c}: {received}");
+            let centre = [0, 1].map(|k| (0..19).map(|f| w[f][c] * fine[f][k]).sum::<f64>() / received);
+            assert!((centre[0] - axis[0]).hypot(centre[1] - axis[1]) < 1e-6, "coarse {c}: centre {centre:?}");
         }
         // the nearest ends weigh most
         assert!(w[0][0] > 0.0 && (0..4).all(|c| w[fine.len() - 1][c] >= 0.0));
@@ -163,16 +116,9 @@ mod tests {
         let (w, fine) = weights(&coarse);
         for (c, axis) in coarse.iter().enumerate() {
             let received: f64 = w.iter().map(|row| row[c]).sum();
-            assert!(
-                (received - 19.0 / 4.0).abs() < 1e-9,
-                "coarse {c}: {received}"
-            );
-            let centre =
-                [0, 1].map(|k| (0..19).map(|f| w[f][c] * fine[f][k]).sum::<f64>() / received);
-            assert!(
-                (centre[0] - axis[0] - shift[0]).hypot(centre[1] - axis[1] - shift[1]) < 1e-6,
-                "coarse {c}: centre {centre:?}"
-            );
+            assert!((received - 19.0 / 4.0).abs() < 1e-9, "coarse {c}: {received}");
+            let centre = [0, 1].map(|k| (0..19).map(|f| w[f][c] * fine[f][k]).sum::<f64>() / received);
+            assert!((centre[0] - axis[0] - shift[0]).hypot(centre[1] - axis[1] - shift[1]) < 1e-6, "coarse {c}: centre {centre:?}");
         }
     }
 

@@ -14,7 +14,9 @@ use crate::cell::{CellYarn, PeriodicCell, YarnRole};
 /// Why a weave cannot be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WeaveError {
-    #[error("section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)")]
+    #[error(
+        "section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)"
+    )]
     TooWide { packed_width: f64, spacing: f64 },
     #[error("initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart")]
     CrimpTooSmall { requested: f64, minimum: f64 },
@@ -38,12 +40,7 @@ pub fn elliptical_packing(count: usize, pitch: f64, aspect: f64) -> Vec<[f64; 2]
         }
     }
     let radius = |x: f64, z: f64| (x / aspect).hypot(z);
-    points.sort_by(|p, q| {
-        radius(p.2, p.3)
-            .total_cmp(&radius(q.2, q.3))
-            .then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2)))
-            .then((p.0, p.1).cmp(&(q.0, q.1)))
-    });
+    points.sort_by(|p, q| radius(p.2, p.3).total_cmp(&radius(q.2, q.3)).then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2))).then((p.0, p.1).cmp(&(q.0, q.1))));
     points.truncate(count);
     let extent = |k: fn(&(i64, i64, f64, f64)) -> f64| {
         let low = points.iter().map(k).fold(f64::INFINITY, f64::min);
@@ -51,10 +48,7 @@ pub fn elliptical_packing(count: usize, pitch: f64, aspect: f64) -> Vec<[f64; 2]
         0.5 * (low + high)
     };
     let (centre_x, centre_z) = (extent(|p| p.2), extent(|p| p.3));
-    points
-        .iter()
-        .map(|p| [(p.2 - centre_x) * pitch, (p.3 - centre_z) * pitch])
-        .collect()
+    points.iter().map(|p| [(p.2 - centre_x) * pitch, (p.3 - centre_z) * pitch]).collect()
 }
 
 /// A balanced plain weave of one yarn, before relaxation.
@@ -83,12 +77,7 @@ pub struct PlainWeave {
 
 /// The four yarns of a plain-weave unit cell: warp 0 and 1 along x at y = 0 and y = s,
 /// weft 0 and 1 along y at x = 0 and x = s. Warp 0 passes over weft 0 at the origin.
-pub const CELL_YARNS: [(YarnDirection, usize); 4] = [
-    (YarnDirection::Warp, 0),
-    (YarnDirection::Warp, 1),
-    (YarnDirection::Weft, 0),
-    (YarnDirection::Weft, 1),
-];
+pub const CELL_YARNS: [(YarnDirection, usize); 4] = [(YarnDirection::Warp, 0), (YarnDirection::Warp, 1), (YarnDirection::Weft, 0), (YarnDirection::Weft, 1)];
 
 /// A plain-weave unit cell: the [`PeriodicCell`] of the four [`CELL_YARNS`], `2 s` square,
 /// with what a panel needs to tile it (its fibres all have `nodes_per_period` nodes, and the
@@ -139,33 +128,10 @@ impl UnitCell {
         if packing.len() != fibres_per_yarn || !nodes_per_period.is_multiple_of(4) {
             return Err(crate::cell::CellError::Sizes(format!("{} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period (a multiple of 4)", packing.len())));
         }
-        let yarns = CELL_YARNS
-            .iter()
-            .map(|&(direction, _)| CellYarn {
-                direction,
-                role: YarnRole::Plain,
-                fibres: fibres_per_yarn,
-                nodes_per_period,
-            })
-            .collect();
+        let yarns = CELL_YARNS.iter().map(|&(direction, _)| CellYarn { direction, role: YarnRole::Plain, fibres: fibres_per_yarn, nodes_per_period }).collect();
         let period = 2.0 * yarn_spacing;
-        let periodic = PeriodicCell::new(
-            [period, period],
-            yarns,
-            section,
-            positions,
-            rest_lengths,
-            rest_angles,
-            fibre_tension,
-        )?;
-        Ok(Self {
-            periodic,
-            yarn_spacing,
-            fibres_per_yarn,
-            nodes_per_period,
-            packing,
-            initial_amplitude,
-        })
+        let periodic = PeriodicCell::new([period, period], yarns, section, positions, rest_lengths, rest_angles, fibre_tension)?;
+        Ok(Self { periodic, yarn_spacing, fibres_per_yarn, nodes_per_period, packing, initial_amplitude })
     }
 
     /// Side of the square cell, `2 s` [m].
@@ -226,33 +192,16 @@ impl PlainWeave {
         let stretch = 1.0 + self.yarn_tension / (material.longitudinal_modulus * self.yarn_area);
         // the contact diameter depends on the element length, which depends on the path: pack
         // at the target ratio, then repeat with the element length found until it settles
-        let mut section = FibreSection::new(
-            material,
-            area,
-            self.element_length_ratio * diameter,
-            self.inertia,
-            self.friction_coefficient,
-        );
+        let mut section = FibreSection::new(material, area, self.element_length_ratio * diameter, self.inertia, self.friction_coefficient);
         let mut previous = 0;
         let mut clearance = 1.0;
         loop {
-            let packing = elliptical_packing(
-                self.fibres_per_yarn,
-                section.contact_diameter,
-                self.section_aspect,
-            );
+            let packing = elliptical_packing(self.fibres_per_yarn, section.contact_diameter, self.section_aspect);
             let across = packing.iter().map(|p| p[0].abs()).fold(0.0, f64::max);
-            let (low, high) = packing
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
-                    (l.min(p[1]), h.max(p[1]))
-                });
+            let (low, high) = packing.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[1]), h.max(p[1])));
             let packed_width = 2.0 * across + section.contact_diameter;
             if 2.0 * across >= 0.9 * s {
-                return Err(WeaveError::TooWide {
-                    packed_width,
-                    spacing: s,
-                });
+                return Err(WeaveError::TooWide { packed_width, spacing: s });
             }
             // where an edge fibre of one yarn crosses an edge fibre of the other, both
             // centrelines have dipped from their crests: A 2 cos(pi across / s) >= h keeps the
@@ -263,12 +212,7 @@ impl PlainWeave {
             let minimum_crimp = sinusoid_length_ratio(minimum, s) - 1.0;
             let amplitude = match self.initial_crimp {
                 None => minimum,
-                Some(crimp) if crimp < minimum_crimp => {
-                    return Err(WeaveError::CrimpTooSmall {
-                        requested: crimp,
-                        minimum: minimum_crimp,
-                    })
-                }
+                Some(crimp) if crimp < minimum_crimp => return Err(WeaveError::CrimpTooSmall { requested: crimp, minimum: minimum_crimp }),
                 Some(crimp) => {
                     let (mut a, mut b) = (minimum, s);
                     for _ in 0..200 {
@@ -285,53 +229,28 @@ impl PlainWeave {
             let path = 2.0 * s * sinusoid_length_ratio(amplitude, s);
             // a multiple of four puts nodes on both crossings of a period and halfway between
             // them, where a panel's fibres start and end (crate::panel)
-            let nodes_per_period =
-                (((path / (self.element_length_ratio * diameter)) / 4.0).round() as u32).max(1) * 4;
+            let nodes_per_period = (((path / (self.element_length_ratio * diameter)) / 4.0).round() as u32).max(1) * 4;
             // equal chords, so every element starts at the strain of the initial tension
             let (stations, chord) = equal_chord_stations(amplitude, s, nodes_per_period);
             let rest_length = chord / stretch;
-            let grown = FibreSection::new(
-                material,
-                area,
-                rest_length,
-                self.inertia,
-                self.friction_coefficient,
-            );
+            let grown = FibreSection::new(material, area, rest_length, self.inertia, self.friction_coefficient);
             // settled once the count of elements repeats and the packing used a contact
             // diameter no smaller than the final one
             if nodes_per_period == previous && grown.contact_diameter <= section.contact_diameter {
-                let cell = self.lay_out(
-                    grown.clone(),
-                    packing,
-                    &stations,
-                    amplitude,
-                    nodes_per_period,
-                );
-                let closest = crate::relax::closest_approach(&cell, |a, b| {
-                    cell.direction(a) != cell.direction(b)
-                });
+                let cell = self.lay_out(grown.clone(), packing, &stations, amplitude, nodes_per_period);
+                let closest = crate::relax::closest_approach(&cell, |a, b| cell.direction(a) != cell.direction(b));
                 if closest >= cell.section.contact_diameter {
                     return Ok(cell);
                 }
                 clearance *= 1.001 * cell.section.contact_diameter / closest;
             }
             previous = nodes_per_period;
-            section = FibreSection {
-                contact_diameter: grown.contact_diameter.max(section.contact_diameter),
-                ..grown
-            };
+            section = FibreSection { contact_diameter: grown.contact_diameter.max(section.contact_diameter), ..grown };
         }
     }
 
     /// Places the fibres of the four yarns on their sinusoids.
-    fn lay_out(
-        &self,
-        section: FibreSection,
-        packing: Vec<[f64; 2]>,
-        stations: &[(f64, f64)],
-        amplitude: f64,
-        nodes_per_period: u32,
-    ) -> UnitCell {
+    fn lay_out(&self, section: FibreSection, packing: Vec<[f64; 2]>, stations: &[(f64, f64)], amplitude: f64, nodes_per_period: u32) -> UnitCell {
         let s = self.yarn_spacing;
         let mut positions = Vec::with_capacity(4 * packing.len() * nodes_per_period as usize);
         for (direction, index) in CELL_YARNS {
@@ -350,19 +269,7 @@ impl PlainWeave {
         let rest_lengths = vec![section.element_length; 4 * packing.len()];
         let fibre_tension = self.yarn_tension / self.fibres_per_yarn as f64;
         let rest_angles = vec![0.0; positions.len()];
-        UnitCell::new(
-            s,
-            self.fibres_per_yarn,
-            nodes_per_period,
-            section,
-            positions,
-            rest_lengths,
-            rest_angles,
-            fibre_tension,
-            packing,
-            amplitude,
-        )
-        .expect("a laid-out cell fits its yarns")
+        UnitCell::new(s, self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, rest_angles, fibre_tension, packing, amplitude).expect("a laid-out cell fits its yarns")
     }
 }
 
@@ -392,10 +299,7 @@ fn equal_chord_stations(amplitude: f64, s: f64, n: u32) -> (Vec<(f64, f64)>, f64
         }
         (stations, x)
     };
-    let (mut low, mut high) = (
-        0.0,
-        2.0 * s * sinusoid_length_ratio(amplitude, s) / n as f64,
-    );
+    let (mut low, mut high) = (0.0, 2.0 * s * sinusoid_length_ratio(amplitude, s) / n as f64);
     for _ in 0..80 {
         let mid = 0.5 * (low + high);
         if walk(mid).1 < 2.0 * s {
@@ -422,33 +326,13 @@ mod tests {
                     assert!((p[0] - q[0]).hypot(p[1] - q[1]) >= 1.0 - 1e-12);
                 }
             }
-            let width = points
-                .iter()
-                .map(|p| p[0])
-                .fold(f64::NEG_INFINITY, f64::max)
-                - points.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min)
-                + 1.0;
-            let height = points
-                .iter()
-                .map(|p| p[1])
-                .fold(f64::NEG_INFINITY, f64::max)
-                - points.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)
-                + 1.0;
+            let width = points.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max) - points.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min) + 1.0;
+            let height = points.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max) - points.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min) + 1.0;
             if count > 1 && aspect > 2.0 {
-                assert!(
-                    width > 1.5 * height,
-                    "{count} fibres, aspect {aspect}: {width} x {height}"
-                );
+                assert!(width > 1.5 * height, "{count} fibres, aspect {aspect}: {width} x {height}");
             }
         }
-        assert_eq!(
-            elliptical_packing(4, 1.0, 7.0)
-                .iter()
-                .filter(|p| p[1] == 0.0)
-                .count(),
-            4,
-            "four fibres lie in one row"
-        );
+        assert_eq!(elliptical_packing(4, 1.0, 7.0).iter().filter(|p| p[1] == 0.0).count(), 4, "four fibres lie in one row");
     }
 
     #[test]
@@ -458,9 +342,7 @@ mod tests {
         let k = 1e-3 * std::f64::consts::PI;
         assert!((sinusoid_length_ratio(1e-3, 1.0) - 1.0 - k * k / 4.0).abs() < 1e-10);
         // A = s / pi: (1/pi) times the integral of sqrt(1 + sin^2) over [0, pi] = 1.2160067
-        assert!(
-            (sinusoid_length_ratio(1.0 / std::f64::consts::PI, 1.0) - 1.216_006_7).abs() < 1e-7
-        );
+        assert!((sinusoid_length_ratio(1.0 / std::f64::consts::PI, 1.0) - 1.216_006_7).abs() < 1e-7);
     }
 
     #[test]
@@ -475,10 +357,7 @@ mod tests {
         assert!((cell.crimp() - 0.06).abs() < 1e-3, "crimp {}", cell.crimp());
         let n = cell.nodes_per_period;
         for (k, x) in [(n / 4, 0.5), (n / 2, 1.0), (3 * n / 4, 1.5)] {
-            assert!(
-                (cell.position(0, k).x / weave.yarn_spacing - x).abs() < 1e-9,
-                "station {k}"
-            );
+            assert!((cell.position(0, k).x / weave.yarn_spacing - x).abs() < 1e-9, "station {k}");
         }
         // warp 1 lies one spacing from warp 0, weft 1 likewise
         let (w0, w1) = (cell.position(0, 0), cell.position(4, 0));
@@ -489,15 +368,10 @@ mod tests {
         let strain = weave.yarn_tension / (material.longitudinal_modulus * weave.yarn_area);
         for k in 0..cell.nodes_per_period - 1 {
             let length = (cell.position(1, k + 1) - cell.position(1, k)).norm();
-            assert!(
-                (length / cell.section.element_length - 1.0 - strain).abs() < 1e-12,
-                "element {k}"
-            );
+            assert!((length / cell.section.element_length - 1.0 - strain).abs() < 1e-12, "element {k}");
         }
         // areal density: two yarn sets of linear density rho A, spaced s, times path / length
-        let expected = 2.0 * material.density * weave.yarn_area / weave.yarn_spacing
-            * (1.0 + cell.crimp())
-            / (1.0 + strain);
+        let expected = 2.0 * material.density * weave.yarn_area / weave.yarn_spacing * (1.0 + cell.crimp()) / (1.0 + strain);
         assert!((cell.areal_density(&material) / expected - 1.0).abs() < 1e-3);
     }
 
@@ -505,9 +379,7 @@ mod tests {
     fn crossing_yarns_start_apart_and_alternate() {
         let material = FibreMaterial::kevlar_km2();
         for fibres in [1, 4, 7] {
-            let cell = PlainWeave::km2_style_706(fibres)
-                .unit_cell(&material)
-                .unwrap();
+            let cell = PlainWeave::km2_style_706(fibres).unit_cell(&material).unwrap();
             let d = cell.section.contact_diameter;
             let mut closest = f64::INFINITY;
             for a in 0..cell.fibres() {
@@ -515,29 +387,17 @@ mod tests {
                     if cell.direction(a) == cell.direction(b) {
                         continue;
                     }
-                    for p in &cell.positions[a * cell.nodes_per_period as usize
-                        ..(a + 1) * cell.nodes_per_period as usize]
-                    {
-                        for q in &cell.positions[b * cell.nodes_per_period as usize
-                            ..(b + 1) * cell.nodes_per_period as usize]
-                        {
+                    for p in &cell.positions[a * cell.nodes_per_period as usize..(a + 1) * cell.nodes_per_period as usize] {
+                        for q in &cell.positions[b * cell.nodes_per_period as usize..(b + 1) * cell.nodes_per_period as usize] {
                             closest = closest.min((p - q).norm());
                         }
                     }
                 }
             }
-            assert!(
-                closest >= d * (1.0 - 1e-9),
-                "{fibres} fibres: {closest} < {d}"
-            );
+            assert!(closest >= d * (1.0 - 1e-9), "{fibres} fibres: {closest} < {d}");
             // warp 0 over weft 0 at the origin, under weft 1 at x = s
             let n = cell.nodes_per_period;
-            let centre = |yarn: usize, k: u32| {
-                (0..fibres)
-                    .map(|f| cell.position(yarn * fibres + f, k).z)
-                    .sum::<f64>()
-                    / fibres as f64
-            };
+            let centre = |yarn: usize, k: u32| (0..fibres).map(|f| cell.position(yarn * fibres + f, k).z).sum::<f64>() / fibres as f64;
             assert!(centre(0, 0) > centre(2, 0));
             assert!(centre(0, n / 2) < centre(3, 0));
             assert!(centre(1, 0) < centre(2, n / 2));
@@ -548,15 +408,9 @@ mod tests {
     fn a_section_wider_than_the_spacing_is_refused() {
         let mut weave = PlainWeave::km2_style_706(40);
         weave.section_aspect = 100.0;
-        assert!(matches!(
-            weave.unit_cell(&FibreMaterial::kevlar_km2()),
-            Err(WeaveError::TooWide { .. })
-        ));
+        assert!(matches!(weave.unit_cell(&FibreMaterial::kevlar_km2()), Err(WeaveError::TooWide { .. })));
         let mut weave = PlainWeave::km2_style_706(4);
         weave.initial_crimp = Some(1e-5);
-        assert!(matches!(
-            weave.unit_cell(&FibreMaterial::kevlar_km2()),
-            Err(WeaveError::CrimpTooSmall { .. })
-        ));
+        assert!(matches!(weave.unit_cell(&FibreMaterial::kevlar_km2()), Err(WeaveError::CrimpTooSmall { .. })));
     }
 }

@@ -48,53 +48,34 @@ pub struct MilStdSpec {
 
 impl Default for MilStdSpec {
     fn default() -> Self {
-        Self {
-            count: 3,
-            spread_m_s: 38.1,
-        }
+        Self { count: 3, spread_m_s: 38.1 }
     }
 }
 
 fn invalid(path: &str, message: impl Into<String>) -> CaseError {
-    CaseError {
-        path: path.to_string(),
-        message: message.into(),
-    }
+    CaseError { path: path.to_string(), message: message.into() }
 }
 
 /// Reads and validates a campaign and its shot case; errors name the campaign file, or the
 /// case file and its field.
 pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     let source = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
     let deserializer = &mut serde_json::Deserializer::from_str(&text);
     let mut campaign: Campaign = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let field = e.path().to_string();
-        invalid(
-            if field == "." { &source } else { &field },
-            format!("{} (in {source})", e.into_inner()),
-        )
+        invalid(if field == "." { &source } else { &field }, format!("{} (in {source})", e.into_inner()))
     })?;
     campaign.design.validate().map_err(|message| {
         let (field, reason) = message.split_once(": ").unwrap_or(("design", &message));
         invalid(field, format!("{reason} (in {source})"))
     })?;
     if !(1..=1000).contains(&campaign.replicates) {
-        return Err(invalid(
-            "replicates",
-            format!(
-                "must be in 1..=1000, got {} (in {source})",
-                campaign.replicates
-            ),
-        ));
+        return Err(invalid("replicates", format!("must be in 1..=1000, got {} (in {source})", campaign.replicates)));
     }
     let spread = campaign.mil_std_662f.spread_m_s;
     if campaign.mil_std_662f.count == 0 || spread.is_nan() || spread <= 0.0 {
-        return Err(invalid(
-            "mil_std_662f",
-            format!("needs count >= 1 and spread_m_s > 0 (in {source})"),
-        ));
+        return Err(invalid("mil_std_662f", format!("needs count >= 1 and spread_m_s > 0 (in {source})")));
     }
     let case = match (&campaign.case_file, &campaign.case) {
         (Some(file), None) => {
@@ -105,12 +86,7 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
             case
         }
         (None, Some(case)) => {
-            case.validate().map_err(|e| {
-                invalid(
-                    &format!("case.{}", e.path),
-                    format!("{} (in {source})", e.message),
-                )
-            })?;
+            case.validate().map_err(|e| invalid(&format!("case.{}", e.path), format!("{} (in {source})", e.message)))?;
             case.clone()
         }
         _ => return Err(invalid(&source, "give exactly one of case_file and case")),
@@ -147,10 +123,7 @@ mod tests {
         let e = error(&|v| v["design"]["high_m_s"] = 50.0.into());
         assert_eq!(e.path, "design.low_m_s");
         let e = error(&|v| v["design"]["kind"] = "guess".into());
-        assert!(
-            e.path.starts_with("design") && e.message.contains("guess"),
-            "{e}"
-        );
+        assert!(e.path.starts_with("design") && e.message.contains("guess"), "{e}");
         let e = error(&|v| v["shots"] = 3.into());
         assert_eq!(e.path, "shots");
         let e = error(&|v| v["case"] = case.clone());
@@ -162,10 +135,7 @@ mod tests {
         });
         assert_eq!(e.path, "case.run.end_time_s");
         let e = error(&|v| v["case_file"] = "missing.json".into());
-        assert!(
-            e.path.ends_with("missing.json") && e.message.contains("cannot read"),
-            "{e}"
-        );
+        assert!(e.path.ends_with("missing.json") && e.message.contains("cannot read"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -24,10 +24,7 @@ pub struct CaseError {
 }
 
 fn invalid(path: &str, message: impl Into<String>) -> CaseError {
-    CaseError {
-        path: path.to_string(),
-        message: message.into(),
-    }
+    CaseError { path: path.to_string(), message: message.into() }
 }
 
 /// A whole case.
@@ -74,14 +71,7 @@ pub struct MaterialSpec {
 
 impl Default for MaterialSpec {
     fn default() -> Self {
-        Self {
-            preset: "kevlar_km2".into(),
-            longitudinal_modulus_pa: None,
-            transverse_modulus_pa: None,
-            density_kg_m3: None,
-            compressive_stiffness_ratio: None,
-            filament_diameter_m: None,
-        }
+        Self { preset: "kevlar_km2".into(), longitudinal_modulus_pa: None, transverse_modulus_pa: None, density_kg_m3: None, compressive_stiffness_ratio: None, filament_diameter_m: None }
     }
 }
 
@@ -197,10 +187,7 @@ fn stacking(layer_gap_m: f64, layer_shift_m: &[f64; 2]) -> Result<(), CaseError>
     non_negative("target.layer_gap_m", layer_gap_m)?;
     for (axis, v) in ["x", "y"].iter().zip(layer_shift_m) {
         if !v.is_finite() {
-            return Err(invalid(
-                &format!("target.layer_shift_m.{axis}"),
-                format!("must be finite, got {v}"),
-            ));
+            return Err(invalid(&format!("target.layer_shift_m.{axis}"), format!("must be finite, got {v}")));
         }
     }
     Ok(())
@@ -257,48 +244,21 @@ fn straight() -> BendingAtRest {
 
 impl Weave3dSpec {
     /// The weave the spec describes, every field checked.
-    pub fn weave(
-        &self,
-        bending: InertiaModel,
-        friction_coefficient: f64,
-    ) -> Result<ThreeDWeave, CaseError> {
+    pub fn weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<ThreeDWeave, CaseError> {
         let layers = self.filler_layers;
         if !(1..=50).contains(&layers) {
-            return Err(invalid(
-                "target.weave.filler_layers",
-                format!("must be in 1..=50, got {layers}"),
-            ));
+            return Err(invalid("target.weave.filler_layers", format!("must be in 1..=50, got {layers}")));
         }
         let columns = match (self.pattern, &self.columns) {
-            (Some(_), Some(_)) => {
-                return Err(invalid(
-                    "target.weave.columns",
-                    "give a pattern or columns, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(invalid(
-                    "target.weave.pattern",
-                    "is needed unless target.weave.columns gives the topology",
-                ))
-            }
-            (Some(pattern), None) if layers < 2 => {
-                return Err(invalid(
-                    "target.weave.filler_layers",
-                    format!("the {pattern:?} pattern needs at least 2 filler layers, got {layers}"),
-                ))
-            }
+            (Some(_), Some(_)) => return Err(invalid("target.weave.columns", "give a pattern or columns, not both")),
+            (None, None) => return Err(invalid("target.weave.pattern", "is needed unless target.weave.columns gives the topology")),
+            (Some(pattern), None) if layers < 2 => return Err(invalid("target.weave.filler_layers", format!("the {pattern:?} pattern needs at least 2 filler layers, got {layers}"))),
             (Some(pattern), None) => pattern.columns(layers),
             (None, Some(columns)) => columns.clone(),
         };
         let kind = |path: &str, kind: &YarnKind| -> Result<YarnKind, CaseError> {
             positive(&format!("{path}.area_m2"), kind.area_m2)?;
-            ranged(
-                &format!("{path}.section_aspect"),
-                kind.section_aspect,
-                1.0,
-                50.0,
-            )?;
+            ranged(&format!("{path}.section_aspect"), kind.section_aspect, 1.0, 50.0)?;
             Ok(*kind)
         };
         let filler = kind("target.weave.filler", &self.filler)?;
@@ -309,29 +269,17 @@ impl Weave3dSpec {
             end_spacing: positive("target.weave.end_spacing_m", self.end_spacing_m)?,
             filler,
             filler_fibres: fibre_count_at("target.weave.filler_fibres", self.filler_fibres)?,
-            stuffer: kind(
-                "target.weave.stuffer",
-                self.stuffer.as_ref().unwrap_or(&filler),
-            )?,
-            binder: kind(
-                "target.weave.binder",
-                self.binder.as_ref().unwrap_or(&filler),
-            )?,
+            stuffer: kind("target.weave.stuffer", self.stuffer.as_ref().unwrap_or(&filler))?,
+            binder: kind("target.weave.binder", self.binder.as_ref().unwrap_or(&filler))?,
             element_length_ratio: 0.5,
             filler_tension: 0.5,
             inertia: bending,
             friction_coefficient,
         };
-        for (path, kind) in [
-            ("target.weave.stuffer", weave.stuffer),
-            ("target.weave.binder", weave.binder),
-        ] {
+        for (path, kind) in [("target.weave.stuffer", weave.stuffer), ("target.weave.binder", weave.binder)] {
             let fibres = weave.fibres_of(&kind);
             if fibres > 400 {
-                return Err(invalid(
-                    &format!("{path}.area_m2"),
-                    format!("holds {fibres} digital fibres of the filler's section, more than 400"),
-                ));
+                return Err(invalid(&format!("{path}.area_m2"), format!("holds {fibres} digital fibres of the filler's section, more than 400")));
             }
         }
         if let Some(v) = self.element_length_ratio {
@@ -340,9 +288,7 @@ impl Weave3dSpec {
         if let Some(v) = self.filler_tension_n {
             weave.filler_tension = positive("target.weave.filler_tension_n", v)?;
         }
-        weave
-            .check_topology()
-            .map_err(|e| invalid("target.weave", e.to_string()))?;
+        weave.check_topology().map_err(|e| invalid("target.weave", e.to_string()))?;
         Ok(weave)
     }
 }
@@ -376,26 +322,12 @@ pub struct HybridSpec {
 impl HybridSpec {
     /// The coarse yarns' weave: `fine` with the coarse fibre count and element length.
     pub fn coarse_weave(&self, fine: &PlainWeave) -> Result<PlainWeave, CaseError> {
-        let fibres = self.fibres_per_yarn.ok_or_else(|| {
-            invalid(
-                "target.hybrid.fibres_per_yarn",
-                "is needed unless target.hybrid.cell_file gives the coarse cell",
-            )
-        })?;
+        let fibres = self.fibres_per_yarn.ok_or_else(|| invalid("target.hybrid.fibres_per_yarn", "is needed unless target.hybrid.cell_file gives the coarse cell"))?;
         let fibres = fibre_count_at("target.hybrid.fibres_per_yarn", fibres)?;
         if fibres >= fine.fibres_per_yarn {
-            return Err(invalid(
-                "target.hybrid.fibres_per_yarn",
-                format!(
-                    "must be fewer than the fine yarns' {} digital fibres, got {fibres}",
-                    fine.fibres_per_yarn
-                ),
-            ));
+            return Err(invalid("target.hybrid.fibres_per_yarn", format!("must be fewer than the fine yarns' {} digital fibres, got {fibres}", fine.fibres_per_yarn)));
         }
-        let mut coarse = PlainWeave {
-            fibres_per_yarn: fibres,
-            ..fine.clone()
-        };
+        let mut coarse = PlainWeave { fibres_per_yarn: fibres, ..fine.clone() };
         if let Some(v) = self.element_length_ratio {
             coarse.element_length_ratio = ratio("target.hybrid.element_length_ratio", v)?;
         }
@@ -490,10 +422,7 @@ fn default_relaxation_iterations() -> u64 {
 
 impl Default for RelaxationSpec {
     fn default() -> Self {
-        Self {
-            tolerance: default_relaxation_tolerance(),
-            max_iterations: default_relaxation_iterations(),
-        }
+        Self { tolerance: default_relaxation_tolerance(), max_iterations: default_relaxation_iterations() }
     }
 }
 
@@ -501,42 +430,23 @@ impl RelaxationSpec {
     fn validate(&self) -> Result<(), CaseError> {
         ranged("target.relaxation.tolerance", self.tolerance, 1e-14, 0.1)?;
         if self.max_iterations == 0 {
-            return Err(invalid(
-                "target.relaxation.max_iterations",
-                "must be >= 1, got 0",
-            ));
+            return Err(invalid("target.relaxation.max_iterations", "must be >= 1, got 0"));
         }
         Ok(())
     }
 
     /// The relaxation's options, with the springs resting as `bending_at_rest` says.
     pub fn options(&self, bending_at_rest: BendingAtRest) -> dea_fabric::relax::RelaxOptions {
-        dea_fabric::relax::RelaxOptions {
-            tolerance: self.tolerance,
-            max_iterations: self.max_iterations,
-            bending_at_rest,
-        }
+        dea_fabric::relax::RelaxOptions { tolerance: self.tolerance, max_iterations: self.max_iterations, bending_at_rest }
     }
 }
 
 impl WeaveSpec {
     /// The weave the spec names (validated: call [`Case::validate`] first for field errors).
-    pub fn plain_weave(
-        &self,
-        bending: InertiaModel,
-        friction_coefficient: f64,
-    ) -> Result<PlainWeave, CaseError> {
+    pub fn plain_weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<PlainWeave, CaseError> {
         let mut weave = match self.preset.as_str() {
-            "km2_style_706" => PlainWeave::km2_style_706(fibre_count_at(
-                "target.weave.fibres_per_yarn",
-                self.fibres_per_yarn,
-            )?),
-            other => {
-                return Err(invalid(
-                    "target.weave.preset",
-                    format!("unknown fabric {other:?}; known: \"km2_style_706\""),
-                ))
-            }
+            "km2_style_706" => PlainWeave::km2_style_706(fibre_count_at("target.weave.fibres_per_yarn", self.fibres_per_yarn)?),
+            other => return Err(invalid("target.weave.preset", format!("unknown fabric {other:?}; known: \"km2_style_706\""))),
         };
         weave.inertia = bending;
         weave.friction_coefficient = friction_coefficient;
@@ -683,10 +593,7 @@ impl DeformableSpec {
         match self.model.as_deref() {
             None | Some("corotational") => Ok(ElasticModel::Corotational),
             Some("neo_hookean") => Ok(ElasticModel::NeoHookean),
-            Some(other) => Err(invalid(
-                "projectile.deformable.model",
-                format!("unknown model {other:?}; known: \"corotational\", \"neo_hookean\""),
-            )),
+            Some(other) => Err(invalid("projectile.deformable.model", format!("unknown model {other:?}; known: \"corotational\", \"neo_hookean\""))),
         }
     }
 }
@@ -781,10 +688,7 @@ pub enum ProjectileBody {
     /// a built-in hexahedral mesh
     Generated { solid: Solid, divisions: usize },
     /// a mesh file, lengths multiplied by `scale`
-    File {
-        path: std::path::PathBuf,
-        scale: f64,
-    },
+    File { path: std::path::PathBuf, scale: f64 },
 }
 
 /// Mesh divisions of the FSP when the case gives none: the edges are resolved at any
@@ -804,25 +708,13 @@ pub enum Strength {
 
 /// Table 4-2 steel sphere: d = 5.56 mm, m = 0.692 g.
 pub fn table_4_2_sphere() -> (RigidShape, f64) {
-    (
-        RigidShape::Sphere {
-            radius: 5.56e-3 / 2.0,
-        },
-        0.692e-3,
-    )
+    (RigidShape::Sphere { radius: 5.56e-3 / 2.0 }, 0.692e-3)
 }
 
 /// Table 4-2 steel RCC: d = 3.4 mm, h = 3.7 mm, m = 0.2592 g; the seed gives no edge radius
 /// for it: 50 µm, the value of its single-yarn cylinder (§5.3).
 pub fn table_4_2_rcc() -> (RigidShape, f64) {
-    (
-        RigidShape::Cylinder {
-            radius: 3.4e-3 / 2.0,
-            height: 3.7e-3,
-            edge_radius: 50e-6,
-        },
-        0.2592e-3,
-    )
+    (RigidShape::Cylinder { radius: 3.4e-3 / 2.0, height: 3.7e-3, edge_radius: 50e-6 }, 0.2592e-3)
 }
 
 fn positive(path: &str, value: f64) -> Result<f64, CaseError> {
@@ -851,12 +743,7 @@ impl Case {
         let m = &self.material;
         let mut material = match m.preset.as_str() {
             "kevlar_km2" => FibreMaterial::kevlar_km2(),
-            other => {
-                return Err(invalid(
-                    "material.preset",
-                    format!("unknown preset {other:?}; known: \"kevlar_km2\""),
-                ))
-            }
+            other => return Err(invalid("material.preset", format!("unknown preset {other:?}; known: \"kevlar_km2\""))),
         };
         if let Some(v) = m.longitudinal_modulus_pa {
             material.longitudinal_modulus = positive("material.longitudinal_modulus_pa", v)?;
@@ -869,10 +756,7 @@ impl Case {
         }
         if let Some(v) = m.compressive_stiffness_ratio {
             if !(0.0..=1.0).contains(&v) {
-                return Err(invalid(
-                    "material.compressive_stiffness_ratio",
-                    format!("must be in [0, 1], got {v}"),
-                ));
+                return Err(invalid("material.compressive_stiffness_ratio", format!("must be in [0, 1], got {v}")));
             }
             material.compressive_stiffness_ratio = v;
         }
@@ -885,14 +769,9 @@ impl Case {
     /// Normal contact law.
     pub fn normal_law(&self, material: &FibreMaterial) -> Result<NormalLaw, CaseError> {
         match self.contact.law.as_str() {
-            "elastic" => Ok(NormalLaw::Elastic {
-                transverse_modulus: material.transverse_modulus,
-            }),
+            "elastic" => Ok(NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }),
             "elasto_plastic_km2" => Ok(NormalLaw::ElastoPlasticKm2),
-            other => Err(invalid(
-                "contact.law",
-                format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""),
-            )),
+            other => Err(invalid("contact.law", format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""))),
         }
     }
 
@@ -901,44 +780,22 @@ impl Case {
         let f = &self.failure;
         match f.mode.as_str() {
             "none" => Ok(Strength::None),
-            "deterministic" => Ok(Strength::Deterministic(positive(
-                "failure.tensile_strength_pa",
-                required("failure.tensile_strength_pa", f.tensile_strength_pa)?,
-            )?)),
+            "deterministic" => Ok(Strength::Deterministic(positive("failure.tensile_strength_pa", required("failure.tensile_strength_pa", f.tensile_strength_pa)?)?)),
             "weibull" => {
-                let w = f.weibull.as_ref().ok_or_else(|| {
-                    invalid(
-                        "failure.weibull",
-                        "is required when failure.mode is \"weibull\"",
-                    )
-                })?;
+                let w = f.weibull.as_ref().ok_or_else(|| invalid("failure.weibull", "is required when failure.mode is \"weibull\""))?;
                 let second = match (w.shape_2, w.scale_2_pa) {
                     (None, None) => None,
-                    (Some(shape), Some(scale)) => Some(WeibullMode {
-                        shape: positive("failure.weibull.shape_2", shape)?,
-                        scale: positive("failure.weibull.scale_2_pa", scale)?,
-                    }),
-                    _ => {
-                        return Err(invalid(
-                            "failure.weibull",
-                            "shape_2 and scale_2_pa go together",
-                        ))
-                    }
+                    (Some(shape), Some(scale)) => Some(WeibullMode { shape: positive("failure.weibull.shape_2", shape)?, scale: positive("failure.weibull.scale_2_pa", scale)? }),
+                    _ => return Err(invalid("failure.weibull", "shape_2 and scale_2_pa go together")),
                 };
                 let law = WeibullStrength {
                     gauge_length: positive("failure.weibull.gauge_length_m", w.gauge_length_m)?,
-                    first: WeibullMode {
-                        shape: positive("failure.weibull.shape_1", w.shape_1)?,
-                        scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)?,
-                    },
+                    first: WeibullMode { shape: positive("failure.weibull.shape_1", w.shape_1)?, scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)? },
                     second,
                 };
                 Ok(Strength::Weibull(law, f.seed))
             }
-            other => Err(invalid(
-                "failure.mode",
-                format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""),
-            )),
+            other => Err(invalid("failure.mode", format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""))),
         }
     }
 
@@ -946,10 +803,7 @@ impl Case {
     pub fn shear_strength(&self) -> Result<f64, CaseError> {
         match self.failure.mode.as_str() {
             "none" => Ok(self.failure.shear_strength_pa.unwrap_or(f64::INFINITY)),
-            _ => positive(
-                "failure.shear_strength_pa",
-                required("failure.shear_strength_pa", self.failure.shear_strength_pa)?,
-            ),
+            _ => positive("failure.shear_strength_pa", required("failure.shear_strength_pa", self.failure.shear_strength_pa)?),
         }
     }
 
@@ -957,12 +811,7 @@ impl Case {
     pub fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
         let p = &self.projectile;
         let divisions = match p.mesh_divisions {
-            Some(n) if !(2..=64).contains(&n) => {
-                return Err(invalid(
-                    "projectile.mesh_divisions",
-                    format!("must lie in 2..=64, got {n}"),
-                ))
-            }
+            Some(n) if !(2..=64).contains(&n) => return Err(invalid("projectile.mesh_divisions", format!("must lie in 2..=64, got {n}"))),
             n => n,
         };
         let mesh_or = |shape: RigidShape, solid: Solid| match divisions {
@@ -971,10 +820,7 @@ impl Case {
         };
         let fsp = |dimensions: FspDimensions| {
             dimensions.check().map_err(|e| invalid("projectile", e))?;
-            Ok(ProjectileBody::Generated {
-                solid: Solid::Fsp(dimensions),
-                divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS),
-            })
+            Ok(ProjectileBody::Generated { solid: Solid::Fsp(dimensions), divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS) })
         };
         let mass = |default: Option<f64>| match (p.mass_kg, default) {
             (Some(m), _) => positive("projectile.mass_kg", m),
@@ -983,72 +829,25 @@ impl Case {
         };
         const PRESETS: &str = "known: \"fsp_17_grain\", \"table_4_2_sphere\", \"table_4_2_rcc\"";
         let (body, mass) = match (&p.preset, &p.shape) {
-            (Some(_), Some(_)) => {
-                return Err(invalid(
-                    "projectile",
-                    "give either preset or shape, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(invalid(
-                    "projectile",
-                    format!("give a preset ({PRESETS}) or a shape"),
-                ))
-            }
+            (Some(_), Some(_)) => return Err(invalid("projectile", "give either preset or shape, not both")),
+            (None, None) => return Err(invalid("projectile", format!("give a preset ({PRESETS}) or a shape"))),
             (Some(name), None) => match name.as_str() {
-                "fsp_17_grain" => (
-                    fsp(FspDimensions::SEVENTEEN_GRAIN)?,
-                    mass(Some(FSP_17_GRAIN_MASS))?,
-                ),
+                "fsp_17_grain" => (fsp(FspDimensions::SEVENTEEN_GRAIN)?, mass(Some(FSP_17_GRAIN_MASS))?),
                 "table_4_2_sphere" => {
                     let (shape, m) = table_4_2_sphere();
-                    let RigidShape::Sphere { radius } = shape else {
-                        unreachable!()
-                    };
+                    let RigidShape::Sphere { radius } = shape else { unreachable!() };
                     (mesh_or(shape, Solid::Sphere { radius }), mass(Some(m))?)
                 }
                 "table_4_2_rcc" => {
                     let (shape, m) = table_4_2_rcc();
-                    let RigidShape::Cylinder {
-                        radius,
-                        height,
-                        edge_radius,
-                    } = shape
-                    else {
-                        unreachable!()
-                    };
-                    (
-                        mesh_or(
-                            shape,
-                            Solid::Cylinder {
-                                radius,
-                                height,
-                                edge_radius,
-                            },
-                        ),
-                        mass(Some(m))?,
-                    )
+                    let RigidShape::Cylinder { radius, height, edge_radius } = shape else { unreachable!() };
+                    (mesh_or(shape, Solid::Cylinder { radius, height, edge_radius }), mass(Some(m))?)
                 }
-                other => {
-                    return Err(invalid(
-                        "projectile.preset",
-                        format!("unknown preset {other:?}; {PRESETS}"),
-                    ))
-                }
+                other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; {PRESETS}"))),
             },
             (None, Some(kind)) => {
-                let diameter = || {
-                    positive(
-                        "projectile.diameter_m",
-                        required("projectile.diameter_m", p.diameter_m)?,
-                    )
-                };
-                let height = || {
-                    positive(
-                        "projectile.height_m",
-                        required("projectile.height_m", p.height_m)?,
-                    )
-                };
+                let diameter = || positive("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
+                let height = || positive("projectile.height_m", required("projectile.height_m", p.height_m)?);
                 let body = match kind.as_str() {
                     "sphere" => {
                         let radius = 0.5 * diameter()?;
@@ -1089,10 +888,7 @@ impl Case {
         let kind = p.shape.as_deref().unwrap_or("preset");
         let uses = |field: &str| match kind {
             "sphere" => matches!(field, "diameter_m" | "mesh_divisions"),
-            "cylinder" => matches!(
-                field,
-                "diameter_m" | "height_m" | "edge_radius_m" | "mesh_divisions"
-            ),
+            "cylinder" => matches!(field, "diameter_m" | "height_m" | "edge_radius_m" | "mesh_divisions"),
             "fsp" => !matches!(field, "mesh_file" | "mesh_scale"),
             "file" => matches!(field, "mesh_file" | "mesh_scale"),
             _ => field == "mesh_divisions",
@@ -1109,39 +905,24 @@ impl Case {
             ("mesh_scale", p.mesh_scale.is_some()),
         ];
         if let Some((field, _)) = given.iter().find(|&&(field, set)| set && !uses(field)) {
-            return Err(invalid(
-                &format!("projectile.{field}"),
-                format!("does not apply to {kind} projectiles"),
-            ));
+            return Err(invalid(&format!("projectile.{field}"), format!("does not apply to {kind} projectiles")));
         }
         let angle = |path: &str, degrees: f64| {
             if degrees.is_finite() && degrees.abs() < 80.0 {
                 Ok(degrees.to_radians())
             } else {
-                Err(invalid(
-                    path,
-                    format!("must lie within ±80 degrees, got {degrees}"),
-                ))
+                Err(invalid(path, format!("must lie within ±80 degrees, got {degrees}")))
             }
         };
         if let Some(d) = &p.deformable {
-            positive(
-                "projectile.deformable.youngs_modulus_pa",
-                d.youngs_modulus_pa,
-            )?;
+            positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
             d.model()?;
             if !(0.0..0.5).contains(&d.poisson_ratio) {
-                return Err(invalid(
-                    "projectile.deformable.poisson_ratio",
-                    format!("must lie in [0, 0.5), got {}", d.poisson_ratio),
-                ));
+                return Err(invalid("projectile.deformable.poisson_ratio", format!("must lie in [0, 0.5), got {}", d.poisson_ratio)));
             }
             let hexahedra = match &body {
                 ProjectileBody::Generated { .. } => true,
-                ProjectileBody::File { path, .. } => path
-                    .extension()
-                    .and_then(|e| e.to_str())
-                    .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
+                ProjectileBody::File { path, .. } => path.extension().and_then(|e| e.to_str()).is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
                 ProjectileBody::Analytic(_) => false,
             };
             if !hexahedra {
@@ -1167,67 +948,32 @@ impl Case {
         self.shear_strength()?;
         self.projectile()?;
         match &self.target {
-            TargetSpec::SingleFibre {
-                length_m,
-                diameter_m,
-                element_length_ratio,
-            } => {
+            TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
                 positive("target.length_m", *length_m)?;
                 positive("target.diameter_m", *diameter_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::StraightYarn {
-                yarn,
-                fibres_per_yarn,
-                length_m,
-                element_length_ratio,
-            } => {
+            TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
                 yarn_area(yarn)?;
                 fibre_count(*fibres_per_yarn)?;
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::StraightYarnLayers {
-                yarn,
-                fibres_per_yarn,
-                layers,
-                yarns_per_layer,
-                length_m,
-                element_length_ratio,
-            } => {
+            TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
                 yarn_area(yarn)?;
                 fibre_count(*fibres_per_yarn)?;
                 if *layers < 1 || *layers > 100 {
-                    return Err(invalid(
-                        "target.layers",
-                        format!("must be in 1..=100, got {layers}"),
-                    ));
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
                 }
                 if *yarns_per_layer < 1 || *yarns_per_layer > 10_000 {
-                    return Err(invalid(
-                        "target.yarns_per_layer",
-                        format!("must be in 1..=10000, got {yarns_per_layer}"),
-                    ));
+                    return Err(invalid("target.yarns_per_layer", format!("must be in 1..=10000, got {yarns_per_layer}")));
                 }
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::WovenPanel {
-                weave,
-                cell_file,
-                side_m,
-                layers,
-                layer_gap_m,
-                layer_shift_m,
-                boundary,
-                relaxation,
-                hybrid,
-            } => {
+            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation, hybrid } => {
                 if cell_file.is_some() && *weave != WeaveSpec::default() {
-                    return Err(invalid(
-                        "target.weave",
-                        "a cell_file carries its weave: leave target.weave out",
-                    ));
+                    return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
                 }
                 let fine = weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
                 positive("target.side_m", *side_m)?;
@@ -1242,7 +988,10 @@ impl Case {
                         (None, Some(radius)) => {
                             positive("target.hybrid.fine_radius_m", radius)?;
                             if radius >= 0.5 * std::f64::consts::SQRT_2 * side_m {
-                                return Err(invalid("target.hybrid.fine_radius_m", format!("must be less than half the panel's diagonal (side_m = {side_m}), got {radius}: every crossing would be fine")));
+                                return Err(invalid(
+                                    "target.hybrid.fine_radius_m",
+                                    format!("must be less than half the panel's diagonal (side_m = {side_m}), got {radius}: every crossing would be fine"),
+                                ));
                             }
                         }
                         _ => return Err(invalid("target.hybrid", "give exactly one of fine_half_width_m (whole yarns fine) and fine_radius_m (yarns fine within a disc)")),
@@ -1259,10 +1008,7 @@ impl Case {
                     }
                 }
                 if *layers < 1 || *layers > 100 {
-                    return Err(invalid(
-                        "target.layers",
-                        format!("must be in 1..=100, got {layers}"),
-                    ));
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
                 }
                 stacking(*layer_gap_m, layer_shift_m)?;
                 if let BoundarySpec::Clamp { opening_m } = boundary {
@@ -1277,42 +1023,20 @@ impl Case {
                 weave.weave(self.bending, self.contact.friction_coefficient)?;
                 relaxation.validate()?;
             }
-            TargetSpec::ThreeDWovenPanel {
-                weave,
-                cell_file,
-                relaxation,
-                side_m,
-                layers,
-                layer_gap_m,
-                layer_shift_m,
-                boundary,
-            } => {
+            TargetSpec::ThreeDWovenPanel { weave, cell_file, relaxation, side_m, layers, layer_gap_m, layer_shift_m, boundary } => {
                 match (weave, cell_file) {
                     (Some(weave), None) => {
                         weave.weave(self.bending, self.contact.friction_coefficient)?;
                     }
                     (None, Some(_)) => {}
-                    (Some(_), Some(_)) => {
-                        return Err(invalid(
-                            "target.weave",
-                            "a cell_file carries its weave: leave target.weave out",
-                        ))
-                    }
-                    (None, None) => {
-                        return Err(invalid(
-                            "target.weave",
-                            "is needed unless target.cell_file gives the relaxed cell",
-                        ))
-                    }
+                    (Some(_), Some(_)) => return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out")),
+                    (None, None) => return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell")),
                 }
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
                 stacking(*layer_gap_m, layer_shift_m)?;
                 if *layers < 1 || *layers > 100 {
-                    return Err(invalid(
-                        "target.layers",
-                        format!("must be in 1..=100, got {layers}"),
-                    ));
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
                 }
                 if let BoundarySpec::Clamp { opening_m } = boundary {
                     positive("target.boundary.opening_m", *opening_m)?;
@@ -1329,14 +1053,8 @@ impl Case {
             }
             InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
         }
-        non_negative(
-            "contact.friction_coefficient",
-            self.contact.friction_coefficient,
-        )?;
-        non_negative(
-            "contact.projectile_friction_coefficient",
-            self.contact.projectile_friction_coefficient,
-        )?;
+        non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
+        non_negative("contact.projectile_friction_coefficient", self.contact.projectile_friction_coefficient)?;
         if let Some(skin) = self.contact.skin_m {
             positive("contact.skin_m", skin)?;
         }
@@ -1349,30 +1067,18 @@ impl Case {
         }
         let safety = self.run.time_step_safety;
         if !(safety > 0.0 && safety <= 1.0) {
-            return Err(invalid(
-                "run.time_step_safety",
-                format!("must be in (0, 1], got {safety}"),
-            ));
+            return Err(invalid("run.time_step_safety", format!("must be in (0, 1], got {safety}")));
         }
         if self.run.history_interval_steps == 0 {
             return Err(invalid("run.history_interval_steps", "must be >= 1, got 0"));
         }
         if self.run.snapshot_interval_steps == Some(0) {
-            return Err(invalid(
-                "run.snapshot_interval_steps",
-                "must be >= 1, got 0",
-            ));
+            return Err(invalid("run.snapshot_interval_steps", "must be >= 1, got 0"));
         }
         if self.run.checkpoint_interval_steps == Some(0) {
-            return Err(invalid(
-                "run.checkpoint_interval_steps",
-                "must be >= 1, got 0",
-            ));
+            return Err(invalid("run.checkpoint_interval_steps", "must be >= 1, got 0"));
         }
-        positive(
-            "run.checkpoint_interval_minutes",
-            self.run.checkpoint_interval_minutes,
-        )?;
+        positive("run.checkpoint_interval_minutes", self.run.checkpoint_interval_minutes)?;
         Ok(())
     }
 }
@@ -1393,10 +1099,7 @@ fn ranged(path: &str, value: f64, low: f64, high: f64) -> Result<f64, CaseError>
     if value.is_finite() && value >= low && value <= high {
         Ok(value)
     } else {
-        Err(invalid(
-            path,
-            format!("must be in [{low}, {high}], got {value}"),
-        ))
+        Err(invalid(path, format!("must be in [{low}, {high}], got {value}")))
     }
 }
 
@@ -1412,10 +1115,7 @@ fn ratio(path: &str, value: f64) -> Result<f64, CaseError> {
 pub fn yarn_area(name: &str) -> Result<f64, CaseError> {
     match name {
         "km2_600_denier" => Ok(KM2_600_DENIER_AREA),
-        other => Err(invalid(
-            "target.yarn",
-            format!("unknown yarn {other:?}; known: \"km2_600_denier\""),
-        )),
+        other => Err(invalid("target.yarn", format!("unknown yarn {other:?}; known: \"km2_600_denier\""))),
     }
 }
 
@@ -1425,52 +1125,25 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     let case: Case = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
-        let path = if path == "." {
-            source.to_string()
-        } else {
-            path
-        };
-        CaseError {
-            path,
-            message: format!("{inner} (in {source})"),
-        }
+        let path = if path == "." { source.to_string() } else { path };
+        CaseError { path, message: format!("{inner} (in {source})") }
     })?;
-    case.validate().map_err(|e| CaseError {
-        message: format!("{} (in {source})", e.message),
-        ..e
-    })?;
+    case.validate().map_err(|e| CaseError { message: format!("{} (in {source})", e.message), ..e })?;
     Ok(case)
 }
 
 /// Reads, parses and validates a case file; a relative mesh or cell file is taken relative to
 /// the case file and made absolute (so that a checkpoint's copy of the case finds it too).
 pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
     let mut case = parse_case(&text, &path.display().to_string())?;
-    let base = path
-        .parent()
-        .map(std::path::Path::to_path_buf)
-        .unwrap_or_default();
+    let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
     let (cell_file, coarse_cell_file) = match &mut case.target {
-        TargetSpec::WovenPanel {
-            cell_file, hybrid, ..
-        } => (
-            cell_file.as_mut(),
-            hybrid.as_mut().and_then(|h| h.cell_file.as_mut()),
-        ),
+        TargetSpec::WovenPanel { cell_file, hybrid, .. } => (cell_file.as_mut(), hybrid.as_mut().and_then(|h| h.cell_file.as_mut())),
         TargetSpec::ThreeDWovenPanel { cell_file, .. } => (cell_file.as_mut(), None),
         _ => (None, None),
     };
-    for file in [
-        case.projectile.mesh_file.as_mut(),
-        cell_file,
-        coarse_cell_file,
-    ]
-    .into_iter()
-    .flatten()
-    .filter(|f| f.is_relative())
-    {
+    for file in [case.projectile.mesh_file.as_mut(), cell_file, coarse_cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
         let joined = base.join(&*file);
         *file = std::path::absolute(&joined).unwrap_or(joined);
     }
@@ -1497,24 +1170,9 @@ pub fn default_case() -> Case {
             hybrid: None,
         },
         bending: default_bending(),
-        contact: ContactSpec {
-            law: "elasto_plastic_km2".into(),
-            friction_coefficient: 0.3,
-            projectile_friction_coefficient: 0.3,
-            skin_m: None,
-        },
-        failure: FailureSpec {
-            mode: "deterministic".into(),
-            tensile_strength_pa: Some(3.8e9),
-            shear_strength_pa: Some(0.7672e9),
-            weibull: None,
-            seed: 1,
-        },
-        projectile: ProjectileSpec {
-            preset: Some("fsp_17_grain".into()),
-            velocity_m_s: 400.0,
-            ..Default::default()
-        },
+        contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
+        failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
+        projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 400.0, ..Default::default() },
         run: RunSpec {
             end_time_s: 30e-6,
             time_step_safety: 0.5,
@@ -1572,8 +1230,7 @@ mod tests {
     fn projectile_fields_are_checked_and_name_themselves() {
         let fsp = |edit: &dyn Fn(&mut serde_json::Value)| {
             error_for(|v| {
-                v["projectile"] =
-                    serde_json::json!({ "shape": "fsp", "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
+                v["projectile"] = serde_json::json!({ "shape": "fsp", "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
                 edit(v);
             })
         };
@@ -1594,55 +1251,20 @@ mod tests {
         let e = fsp(&|v| v["projectile"]["mesh_file"] = "body.stl".into());
         assert_eq!(e.path, "projectile.mesh_file");
         let e = fsp(&|v| v["projectile"]["shape"] = "file".into());
-        assert_eq!(
-            (e.path.as_str(), e.message.as_str()),
-            ("projectile.mesh_file", "is required here (in case.json)")
-        );
-        let e = fsp(&|v| {
-            v["projectile"]
-                .as_object_mut()
-                .unwrap()
-                .remove("mass_kg")
-                .map(drop)
-                .unwrap_or(())
-        });
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("projectile.mesh_file", "is required here (in case.json)"));
+        let e = fsp(&|v| v["projectile"].as_object_mut().unwrap().remove("mass_kg").map(drop).unwrap_or(()));
         assert_eq!(e.path, "projectile.mass_kg");
         // the FSP preset: 17 grains, meshed with the default divisions, the standard shape
         let case = default_case();
         let resolved = case.projectile().unwrap();
-        assert!(
-            (resolved.mass - 1.1016e-3).abs() < 1e-7,
-            "{}",
-            resolved.mass
-        );
-        assert_eq!(
-            resolved.body,
-            ProjectileBody::Generated {
-                solid: Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN),
-                divisions: DEFAULT_FSP_DIVISIONS
-            }
-        );
+        assert!((resolved.mass - 1.1016e-3).abs() < 1e-7, "{}", resolved.mass);
+        assert_eq!(resolved.body, ProjectileBody::Generated { solid: Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN), divisions: DEFAULT_FSP_DIVISIONS });
         // a sphere is analytic unless meshed
         let mut sphere = case.clone();
-        sphere.projectile = ProjectileSpec {
-            shape: Some("sphere".into()),
-            diameter_m: Some(1e-3),
-            mass_kg: Some(1e-6),
-            velocity_m_s: 10.0,
-            ..Default::default()
-        };
-        assert!(matches!(
-            sphere.projectile().unwrap().body,
-            ProjectileBody::Analytic(RigidShape::Sphere { .. })
-        ));
+        sphere.projectile = ProjectileSpec { shape: Some("sphere".into()), diameter_m: Some(1e-3), mass_kg: Some(1e-6), velocity_m_s: 10.0, ..Default::default() };
+        assert!(matches!(sphere.projectile().unwrap().body, ProjectileBody::Analytic(RigidShape::Sphere { .. })));
         sphere.projectile.mesh_divisions = Some(4);
-        assert_eq!(
-            sphere.projectile().unwrap().body,
-            ProjectileBody::Generated {
-                solid: Solid::Sphere { radius: 0.5e-3 },
-                divisions: 4
-            }
-        );
+        assert_eq!(sphere.projectile().unwrap().body, ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 });
     }
 
     #[test]
@@ -1656,44 +1278,21 @@ mod tests {
         };
         // serde reads a tagged target whole, so an unknown pattern is placed at the target
         let e = weave(&|v| v["target"]["weave"]["pattern"] = "satin".into());
-        assert!(
-            e.path == "target"
-                && e.message.contains("satin")
-                && e.message.contains("layer_to_layer"),
-            "{e}"
-        );
-        let e = weave(&|v| {
-            v["target"]["weave"]["columns"] =
-                serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]])
-        });
-        assert_eq!(
-            (e.path.as_str(), e.message.as_str()),
-            (
-                "target.weave.columns",
-                "give a pattern or columns, not both (in case.json)"
-            )
-        );
+        assert!(e.path == "target" && e.message.contains("satin") && e.message.contains("layer_to_layer"), "{e}");
+        let e = weave(&|v| v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]]));
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave.columns", "give a pattern or columns, not both (in case.json)"));
         let e = weave(&|v| v["target"]["weave"]["filler_layers"] = 1.into());
         assert_eq!(e.path, "target.weave.filler_layers");
-        let e = weave(&|v| {
-            v["target"]["weave"]["binder"] =
-                serde_json::json!({ "area_m2": 0.0, "section_aspect": 2.0 })
-        });
+        let e = weave(&|v| v["target"]["weave"]["binder"] = serde_json::json!({ "area_m2": 0.0, "section_aspect": 2.0 }));
         assert_eq!(e.path, "target.weave.binder.area_m2");
         let e = weave(&|v| v["target"]["weave"]["filler_fibres"] = 0.into());
         assert_eq!(e.path, "target.weave.filler_fibres");
         let e = weave(&|v| {
-            v["target"]["weave"]
-                .as_object_mut()
-                .unwrap()
-                .remove("pattern");
+            v["target"]["weave"].as_object_mut().unwrap().remove("pattern");
             v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "stuffer", "gaps": [1, 1] }, { "role": "binder", "gaps": [3, 0] }]]);
         });
         assert_eq!(e.path, "target.weave");
-        assert!(
-            e.message.contains("columns[0][1]") && e.message.contains("cross"),
-            "{e}"
-        );
+        assert!(e.message.contains("columns[0][1]") && e.message.contains("cross"), "{e}");
         let e = weave(&|v| v["target"]["relaxation"] = serde_json::json!({ "tolerance": 0.5 }));
         assert_eq!(e.path, "target.relaxation.tolerance");
         // the same weave tiled into a panel
@@ -1706,30 +1305,15 @@ mod tests {
         };
         let e = panel(&|v| v["target"]["cell_file"] = "cell.h5".into());
         assert_eq!(e.path, "target.weave");
-        let e = panel(&|v| {
-            v["target"]
-                .as_object_mut()
-                .unwrap()
-                .remove("weave")
-                .map(drop)
-                .unwrap_or(())
-        });
-        assert_eq!(
-            (e.path.as_str(), e.message.as_str()),
-            (
-                "target.weave",
-                "is needed unless target.cell_file gives the relaxed cell (in case.json)"
-            )
-        );
+        let e = panel(&|v| v["target"].as_object_mut().unwrap().remove("weave").map(drop).unwrap_or(()));
+        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave", "is needed unless target.cell_file gives the relaxed cell (in case.json)"));
         let e = panel(&|v| v["target"]["side_m"] = 0.0.into());
         assert_eq!(e.path, "target.side_m");
         let e = panel(&|v| v["target"]["layers"] = 0.into());
         assert_eq!(e.path, "target.layers");
         let e = panel(&|v| v["target"]["layer_gap_m"] = (-1e-6).into());
         assert_eq!(e.path, "target.layer_gap_m");
-        let e = panel(&|v| {
-            v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 7e-3 })
-        });
+        let e = panel(&|v| v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 7e-3 }));
         assert_eq!(e.path, "target.boundary.opening_m");
         let e = panel(&|v| v["target"]["weave"]["filler_fibres"] = 500.into());
         assert_eq!(e.path, "target.weave.filler_fibres");
@@ -1745,20 +1329,12 @@ mod tests {
         assert_eq!(e.path, "target.weave.section_aspect");
         let e = error_for(|v| v["target"]["weave"]["yarn_tension_n"] = (-1.0).into());
         assert_eq!(e.path, "target.weave.yarn_tension_n");
-        let e = error_for(|v| {
-            v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 0.02 })
-        });
+        let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "clamp", "opening_m": 0.02 }));
         assert_eq!(e.path, "target.boundary.opening_m");
         assert!(e.message.contains("smaller than the panel"), "{e}");
         let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "glued" }));
-        assert!(
-            e.path.starts_with("target")
-                && e.message.contains("glued")
-                && e.message.contains("clamp"),
-            "{e}"
-        );
-        let e =
-            error_for(|v| v["target"]["relaxation"] = serde_json::json!({ "max_iterations": 0 }));
+        assert!(e.path.starts_with("target") && e.message.contains("glued") && e.message.contains("clamp"), "{e}");
+        let e = error_for(|v| v["target"]["relaxation"] = serde_json::json!({ "max_iterations": 0 }));
         assert_eq!(e.path, "target.relaxation.max_iterations");
         let e = error_for(|v| {
             v["target"]["cell_file"] = "cell.h5".into();
@@ -1766,87 +1342,51 @@ mod tests {
         });
         assert_eq!(e.path, "target.weave");
         let e = error_for(|v| v["target"]["layer_gap"] = 0.into());
-        assert!(
-            e.path.starts_with("target") && e.message.contains("unknown field"),
-            "{e}"
-        );
+        assert!(e.path.starts_with("target") && e.message.contains("unknown field"), "{e}");
     }
 
     #[test]
     fn hybrid_targets_and_settles_name_their_bad_fields() {
-        let hybrid = |h: serde_json::Value| {
-            move |v: &mut serde_json::Value| v["target"]["hybrid"] = h.clone()
-        };
+        let hybrid = |h: serde_json::Value| move |v: &mut serde_json::Value| v["target"]["hybrid"] = h.clone();
         let ok = |f: &dyn Fn(&mut serde_json::Value)| {
             let mut v = default_json();
             f(&mut v);
             parse_case(&v.to_string(), "case.json")
         };
-        assert!(ok(&hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 })
-        ))
-        .is_ok());
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 4 }),
-        ));
+        assert!(ok(&hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 }))).is_ok());
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 4 })));
         assert_eq!(e.path, "target.hybrid.fibres_per_yarn");
         assert!(e.message.contains("fewer than the fine yarns' 4"), "{e}");
         let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002 })));
         assert_eq!(e.path, "target.hybrid.fibres_per_yarn");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.005, "fibres_per_yarn": 1 }),
-        ));
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.005, "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid.fine_half_width_m");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "element_length_ratio": 9.0 }),
-        ));
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "element_length_ratio": 9.0 })));
         assert_eq!(e.path, "target.hybrid.element_length_ratio");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "cell_file": "coarse.h5" }),
-        ));
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "cell_file": "coarse.h5" })));
         assert_eq!(e.path, "target.hybrid.cell_file");
         let e = error_for(|v| {
             v["target"].as_object_mut().unwrap().remove("weave");
             v["target"]["cell_file"] = "cell.h5".into();
-            v["target"]["hybrid"] =
-                serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 });
+            v["target"]["hybrid"] = serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 });
         });
         assert_eq!(e.path, "target.hybrid.cell_file");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fine_radius_m": 0.002, "fibres_per_yarn": 1 }),
-        ));
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fine_radius_m": 0.002, "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid");
         let e = error_for(hybrid(serde_json::json!({ "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid");
-        assert!(ok(&hybrid(
-            serde_json::json!({ "fine_radius_m": 0.004, "fibres_per_yarn": 1 })
-        ))
-        .is_ok());
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_radius_m": 0.01, "fibres_per_yarn": 1 }),
-        ));
+        assert!(ok(&hybrid(serde_json::json!({ "fine_radius_m": 0.004, "fibres_per_yarn": 1 }))).is_ok());
+        let e = error_for(hybrid(serde_json::json!({ "fine_radius_m": 0.01, "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid.fine_radius_m");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_radius_m": -1.0, "fibres_per_yarn": 1 }),
-        ));
+        let e = error_for(hybrid(serde_json::json!({ "fine_radius_m": -1.0, "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid.fine_radius_m");
-        let e = error_for(hybrid(
-            serde_json::json!({ "fine_half_width_m": 0.002, "fibres": 1 }),
-        ));
-        assert!(
-            e.path.starts_with("target") && e.message.contains("unknown field"),
-            "{e}"
-        );
+        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres": 1 })));
+        assert!(e.path.starts_with("target") && e.message.contains("unknown field"), "{e}");
         let e = error_for(|v| v["run"]["settle"] = serde_json::json!({ "time_s": -1e-6 }));
         assert_eq!(e.path, "run.settle.time_s");
-        let e = error_for(|v| {
-            v["run"]["settle"] = serde_json::json!({ "time_s": 1e-6, "damping_per_s": 0.0 })
-        });
+        let e = error_for(|v| v["run"]["settle"] = serde_json::json!({ "time_s": 1e-6, "damping_per_s": 0.0 }));
         assert_eq!(e.path, "run.settle.damping_per_s");
-        let settle = SettleSpec {
-            time_s: 2e-6,
-            damping_per_s: None,
-        };
+        let settle = SettleSpec { time_s: 2e-6, damping_per_s: None };
         assert_eq!(settle.damping(), 5e6);
     }
 
@@ -1859,18 +1399,8 @@ mod tests {
         value["target"]["cell_file"] = "relaxed/cell.h5".into();
         std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
         let case = load_case(&dir.join("case.json")).unwrap();
-        let TargetSpec::WovenPanel {
-            cell_file: Some(file),
-            ..
-        } = case.target
-        else {
-            panic!("a woven target with a cell file")
-        };
-        assert!(
-            file.is_absolute() && file.ends_with("relaxed/cell.h5"),
-            "{}",
-            file.display()
-        );
+        let TargetSpec::WovenPanel { cell_file: Some(file), .. } = case.target else { panic!("a woven target with a cell file") };
+        assert!(file.is_absolute() && file.ends_with("relaxed/cell.h5"), "{}", file.display());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -1883,13 +1413,7 @@ mod tests {
         std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
         let case = load_case(&dir.join("case.json")).unwrap();
         let file = case.projectile.mesh_file.unwrap();
-        assert!(
-            file.is_absolute()
-                && file.ends_with("body.stl")
-                && file.parent().unwrap().ends_with(dir.file_name().unwrap()),
-            "{}",
-            file.display()
-        );
+        assert!(file.is_absolute() && file.ends_with("body.stl") && file.parent().unwrap().ends_with(dir.file_name().unwrap()), "{}", file.display());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -14,10 +14,7 @@ use std::path::{Path, PathBuf};
 
 use dea_core::Vec3;
 
-use crate::results::{
-    read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors,
-    Histories,
-};
+use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
 
 const FORMAT: &str = "dea-mpi checkpoint 4";
 
@@ -30,10 +27,7 @@ pub struct CheckpointError {
 }
 
 fn error(path: &Path, message: impl std::fmt::Display) -> CheckpointError {
-    CheckpointError {
-        path: path.to_path_buf(),
-        message: message.to_string(),
-    }
+    CheckpointError { path: path.to_path_buf(), message: message.to_string() }
 }
 
 /// State of a set of owned nodes, ascending global id.
@@ -85,12 +79,7 @@ pub struct NodeState {
 impl NodeState {
     /// Appends row `k` of `other`, whose contact entries are `entries` and retired
     /// contacts `retired`.
-    fn push_row(
-        &mut self,
-        other: &NodeState,
-        k: usize,
-        (entries, retired): (std::ops::Range<usize>, std::ops::Range<usize>),
-    ) {
+    fn push_row(&mut self, other: &NodeState, k: usize, (entries, retired): (std::ops::Range<usize>, std::ops::Range<usize>)) {
         self.gid.push(other.gid[k]);
         self.position.push(other.position[k]);
         self.velocity.push(other.velocity[k]);
@@ -102,31 +91,20 @@ impl NodeState {
         self.plastic_dissipated.push(other.plastic_dissipated[k]);
         self.fracture_released.push(other.fracture_released[k]);
         self.projectile_anchor.push(other.projectile_anchor[k]);
-        self.projectile_spring_stiffness
-            .push(other.projectile_spring_stiffness[k]);
+        self.projectile_spring_stiffness.push(other.projectile_spring_stiffness[k]);
         self.projectile_touching.push(other.projectile_touching[k]);
-        self.projectile_max_overlap
-            .push(other.projectile_max_overlap[k]);
-        self.projectile_anchor_triangle
-            .push(other.projectile_anchor_triangle[k]);
-        self.projectile_anchor_weights
-            .push(other.projectile_anchor_weights[k]);
+        self.projectile_max_overlap.push(other.projectile_max_overlap[k]);
+        self.projectile_anchor_triangle.push(other.projectile_anchor_triangle[k]);
+        self.projectile_anchor_weights.push(other.projectile_anchor_weights[k]);
         self.row_length.push(other.row_length[k]);
-        self.partner_gid
-            .extend_from_slice(&other.partner_gid[entries.clone()]);
-        self.anchor
-            .extend_from_slice(&other.anchor[entries.clone()]);
-        self.spring_stiffness
-            .extend_from_slice(&other.spring_stiffness[entries.clone()]);
-        self.touching
-            .extend_from_slice(&other.touching[entries.clone()]);
-        self.max_overlap
-            .extend_from_slice(&other.max_overlap[entries]);
+        self.partner_gid.extend_from_slice(&other.partner_gid[entries.clone()]);
+        self.anchor.extend_from_slice(&other.anchor[entries.clone()]);
+        self.spring_stiffness.extend_from_slice(&other.spring_stiffness[entries.clone()]);
+        self.touching.extend_from_slice(&other.touching[entries.clone()]);
+        self.max_overlap.extend_from_slice(&other.max_overlap[entries]);
         self.retired_length.push(other.retired_length[k]);
-        self.retired_gid
-            .extend_from_slice(&other.retired_gid[retired.clone()]);
-        self.retired_max_overlap
-            .extend_from_slice(&other.retired_max_overlap[retired]);
+        self.retired_gid.extend_from_slice(&other.retired_gid[retired.clone()]);
+        self.retired_max_overlap.extend_from_slice(&other.retired_max_overlap[retired]);
     }
 
     /// Contact entries and retired contacts of each row.
@@ -141,10 +119,7 @@ impl NodeState {
                 })
                 .collect()
         };
-        ranges(&self.row_length)
-            .into_iter()
-            .zip(ranges(&self.retired_length))
-            .collect()
+        ranges(&self.row_length).into_iter().zip(ranges(&self.retired_length)).collect()
     }
 
     /// Appends the rows of `other` whose gid `keep` selects (rows stay in their order).
@@ -186,9 +161,7 @@ impl Checksum {
         self
     }
     fn integers(&mut self, values: impl IntoIterator<Item = u64>) -> &mut Self {
-        values
-            .into_iter()
-            .for_each(|v| self.0.update(&v.to_le_bytes()));
+        values.into_iter().for_each(|v| self.0.update(&v.to_le_bytes()));
         self
     }
     fn bytes(&mut self, values: &[u8]) -> &mut Self {
@@ -267,16 +240,7 @@ impl GlobalState {
         let h = &self.histories;
         let mut c = Checksum::default();
         c.bytes(self.case_json.as_bytes())
-            .integers([
-                self.parts as u64,
-                self.nodes,
-                self.step,
-                self.broken[0],
-                self.broken[1],
-                self.broken[2],
-                self.rebuilds,
-                self.list_builds,
-            ])
+            .integers([self.parts as u64, self.nodes, self.step, self.broken[0], self.broken[1], self.broken[2], self.rebuilds, self.list_builds])
             .floats(&[self.time])
             .floats(&self.projectile)
             .floats(&self.run_scalars)
@@ -285,13 +249,7 @@ impl GlobalState {
             .vectors(&h.projectile_velocity)
             .vectors(&h.projectile_angular_velocity)
             .vectors(&h.projectile_force)
-            .integers(
-                h.broken_tension
-                    .iter()
-                    .chain(&h.broken_shear)
-                    .chain(&h.broken_combined)
-                    .copied(),
-            )
+            .integers(h.broken_tension.iter().chain(&h.broken_shear).chain(&h.broken_combined).copied())
             .value()
     }
 }
@@ -326,36 +284,11 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "plastic_dissipated", &part.plastic_dissipated, "J")?;
         write_scalars(&file, "fracture_released", &part.fracture_released, "J")?;
         write_vectors(&file, "projectile_anchor", &part.projectile_anchor, "m")?;
-        write_scalars(
-            &file,
-            "projectile_spring_stiffness",
-            &part.projectile_spring_stiffness,
-            "N/m",
-        )?;
-        write_bytes(
-            &file,
-            "projectile_touching",
-            &part.projectile_touching,
-            "bool",
-        )?;
-        write_scalars(
-            &file,
-            "projectile_max_overlap",
-            &part.projectile_max_overlap,
-            "m",
-        )?;
-        write_scalars(
-            &file,
-            "projectile_anchor_triangle",
-            &part.projectile_anchor_triangle,
-            "-",
-        )?;
-        write_vectors(
-            &file,
-            "projectile_anchor_weights",
-            &part.projectile_anchor_weights,
-            "-",
-        )?;
+        write_scalars(&file, "projectile_spring_stiffness", &part.projectile_spring_stiffness, "N/m")?;
+        write_bytes(&file, "projectile_touching", &part.projectile_touching, "bool")?;
+        write_scalars(&file, "projectile_max_overlap", &part.projectile_max_overlap, "m")?;
+        write_scalars(&file, "projectile_anchor_triangle", &part.projectile_anchor_triangle, "-")?;
+        write_vectors(&file, "projectile_anchor_weights", &part.projectile_anchor_weights, "-")?;
         write_scalars(&file, "row_length", &part.row_length, "entries")?;
         write_scalars(&file, "partner_gid", &part.partner_gid, "-")?;
         write_vectors(&file, "anchor", &part.anchor, "m")?;
@@ -373,27 +306,17 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
 
 /// Forces a written file to stable storage.
 fn sync(path: &Path) -> hdf5::Result<()> {
-    std::fs::File::open(path)
-        .and_then(|f| f.sync_all())
-        .map_err(|e| hdf5::Error::from(format!("{}: {e}", path.display()).as_str()))
+    std::fs::File::open(path).and_then(|f| f.sync_all()).map_err(|e| hdf5::Error::from(format!("{}: {e}", path.display()).as_str()))
 }
 
 fn open(path: &Path) -> Result<hdf5::File, CheckpointError> {
     if !path.exists() {
         return Err(error(path, "missing"));
     }
-    let file = hdf5::File::open(path)
-        .map_err(|e| error(path, format!("cannot open (truncated or corrupt?): {e}")))?;
-    let format: String = file
-        .attr("format")
-        .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
-        .map(|s| s.to_string())
-        .map_err(|e| error(path, format!("not a dea-mpi checkpoint: {e}")))?;
+    let file = hdf5::File::open(path).map_err(|e| error(path, format!("cannot open (truncated or corrupt?): {e}")))?;
+    let format: String = file.attr("format").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map(|s| s.to_string()).map_err(|e| error(path, format!("not a dea-mpi checkpoint: {e}")))?;
     if format != FORMAT {
-        return Err(error(
-            path,
-            format!("format {format:?}, expected {FORMAT:?}"),
-        ));
+        return Err(error(path, format!("format {format:?}, expected {FORMAT:?}")));
     }
     Ok(file)
 }
@@ -403,95 +326,35 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
     let file = open(path)?;
     let fail = |e: hdf5::Error| error(path, format!("unreadable: {e}"));
     let vectors = |name: &str| -> Result<Vec<Vec3>, CheckpointError> {
-        let flat: Vec<f64> = file
-            .dataset(name)
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?;
-        Ok(flat
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect())
+        let flat: Vec<f64> = file.dataset(name).and_then(|d| d.read_raw()).map_err(fail)?;
+        Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
     };
     let part = NodeState {
-        gid: file
-            .dataset("gid")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        gid: file.dataset("gid").and_then(|d| d.read_raw()).map_err(fail)?,
         position: vectors("position")?,
         velocity: vectors("velocity")?,
         force: vectors("force")?,
         reference_position: vectors("reference_position")?,
-        failure: file
-            .dataset("failure")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        tensile_strength: file
-            .dataset("tensile_strength")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        friction_dissipated: file
-            .dataset("friction_dissipated")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        plastic_dissipated: file
-            .dataset("plastic_dissipated")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        fracture_released: file
-            .dataset("fracture_released")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        failure: file.dataset("failure").and_then(|d| d.read_raw()).map_err(fail)?,
+        tensile_strength: file.dataset("tensile_strength").and_then(|d| d.read_raw()).map_err(fail)?,
+        friction_dissipated: file.dataset("friction_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
+        plastic_dissipated: file.dataset("plastic_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
+        fracture_released: file.dataset("fracture_released").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_anchor: vectors("projectile_anchor")?,
-        projectile_spring_stiffness: file
-            .dataset("projectile_spring_stiffness")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        projectile_touching: file
-            .dataset("projectile_touching")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        projectile_max_overlap: file
-            .dataset("projectile_max_overlap")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        projectile_anchor_triangle: file
-            .dataset("projectile_anchor_triangle")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        projectile_spring_stiffness: file.dataset("projectile_spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_touching: file.dataset("projectile_touching").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_max_overlap: file.dataset("projectile_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_anchor_triangle: file.dataset("projectile_anchor_triangle").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_anchor_weights: vectors("projectile_anchor_weights")?,
-        row_length: file
-            .dataset("row_length")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        partner_gid: file
-            .dataset("partner_gid")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        row_length: file.dataset("row_length").and_then(|d| d.read_raw()).map_err(fail)?,
+        partner_gid: file.dataset("partner_gid").and_then(|d| d.read_raw()).map_err(fail)?,
         anchor: vectors("anchor")?,
-        spring_stiffness: file
-            .dataset("spring_stiffness")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        touching: file
-            .dataset("touching")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        max_overlap: file
-            .dataset("max_overlap")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        retired_length: file
-            .dataset("retired_length")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        retired_gid: file
-            .dataset("retired_gid")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        retired_max_overlap: file
-            .dataset("retired_max_overlap")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        spring_stiffness: file.dataset("spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
+        touching: file.dataset("touching").and_then(|d| d.read_raw()).map_err(fail)?,
+        max_overlap: file.dataset("max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_length: file.dataset("retired_length").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_gid: file.dataset("retired_gid").and_then(|d| d.read_raw()).map_err(fail)?,
+        retired_max_overlap: file.dataset("retired_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
     };
     let n = part.gid.len();
     let node_lengths = [
@@ -514,28 +377,13 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.retired_length.len(),
     ];
     let entries: usize = part.row_length.iter().map(|&l| l as usize).sum();
-    let entry_lengths = [
-        part.partner_gid.len(),
-        part.anchor.len(),
-        part.spring_stiffness.len(),
-        part.touching.len(),
-        part.max_overlap.len(),
-    ];
+    let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.spring_stiffness.len(), part.touching.len(), part.max_overlap.len()];
     let retired: usize = part.retired_length.iter().map(|&l| l as usize).sum();
     let retired_lengths = [part.retired_gid.len(), part.retired_max_overlap.len()];
-    if node_lengths.iter().any(|&l| l != n)
-        || entry_lengths.iter().any(|&l| l != entries)
-        || retired_lengths.iter().any(|&l| l != retired)
-    {
-        return Err(error(
-            path,
-            "arrays of different lengths: the part is damaged",
-        ));
+    if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) || retired_lengths.iter().any(|&l| l != retired) {
+        return Err(error(path, "arrays of different lengths: the part is damaged"));
     }
-    let stored: Vec<u32> = file
-        .dataset("checksum")
-        .and_then(|d| d.read_raw())
-        .map_err(fail)?;
+    let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
     if stored != [part.checksum()] {
         return Err(error(path, "checksum mismatch: the part is corrupt"));
     }
@@ -548,22 +396,8 @@ pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
         let file = hdf5::File::create(path)?;
         write_text_attribute(&file, "format", FORMAT)?;
         write_text_attribute(&file, "case", &global.case_json)?;
-        let counters = [
-            global.parts as u64,
-            global.nodes,
-            global.step,
-            global.broken[0],
-            global.broken[1],
-            global.broken[2],
-            global.rebuilds,
-            global.list_builds,
-        ];
-        write_scalars(
-            &file,
-            "counters",
-            &counters,
-            "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds",
-        )?;
+        let counters = [global.parts as u64, global.nodes, global.step, global.broken[0], global.broken[1], global.broken[2], global.rebuilds, global.list_builds];
+        write_scalars(&file, "counters", &counters, "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds")?;
         write_scalars(&file, "time", &[global.time], "s")?;
         write_scalars(&file, "projectile", &global.projectile, "SI")?;
         write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
@@ -582,24 +416,11 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
     let file = open(&path)?;
     let fail = |e: hdf5::Error| error(&path, format!("unreadable: {e}"));
     if file.attr("complete").is_err() {
-        return Err(error(
-            &path,
-            "incomplete (the writer stopped before finishing it)",
-        ));
+        return Err(error(&path, "incomplete (the writer stopped before finishing it)"));
     }
-    let case_json = file
-        .attr("case")
-        .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
-        .map_err(fail)?
-        .to_string();
-    let counters: Vec<u64> = file
-        .dataset("counters")
-        .and_then(|d| d.read_raw())
-        .map_err(fail)?;
-    let reals: Vec<f64> = file
-        .dataset("time")
-        .and_then(|d| d.read_raw())
-        .map_err(fail)?;
+    let case_json = file.attr("case").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map_err(fail)?.to_string();
+    let counters: Vec<u64> = file.dataset("counters").and_then(|d| d.read_raw()).map_err(fail)?;
+    let reals: Vec<f64> = file.dataset("time").and_then(|d| d.read_raw()).map_err(fail)?;
     if counters.len() != 8 || reals.len() != 1 {
         return Err(error(&path, "damaged counters"));
     }
@@ -612,20 +433,11 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
         rebuilds: counters[6],
         list_builds: counters[7],
         time: reals[0],
-        projectile: file
-            .dataset("projectile")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
-        run_scalars: file
-            .dataset("run_scalars")
-            .and_then(|d| d.read_raw())
-            .map_err(fail)?,
+        projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
+        run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
         histories: read_histories_from(&file).map_err(fail)?,
     };
-    let stored: Vec<u32> = file
-        .dataset("checksum")
-        .and_then(|d| d.read_raw())
-        .map_err(fail)?;
+    let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
     if stored != [global.checksum()] {
         return Err(error(&path, "checksum mismatch: the manifest is corrupt"));
     }
@@ -707,10 +519,7 @@ mod tests {
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         let message = read_part(&path).unwrap_err().to_string();
-        assert!(
-            message.contains("part-00003.h5") && message.contains("truncated"),
-            "{message}"
-        );
+        assert!(message.contains("part-00003.h5") && message.contains("truncated"), "{message}");
         // a manifest round-trips; one without its completion mark is refused
         let global = GlobalState {
             case_json: "{}".into(),
@@ -742,10 +551,7 @@ mod tests {
             let file = hdf5::File::create(manifest_path(&dir)).unwrap();
             write_text_attribute(&file, "format", FORMAT).unwrap();
         }
-        assert!(read_manifest(&dir)
-            .unwrap_err()
-            .to_string()
-            .contains("incomplete"));
+        assert!(read_manifest(&dir).unwrap_err().to_string().contains("incomplete"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

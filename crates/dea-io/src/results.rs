@@ -37,112 +37,42 @@ pub struct Histories {
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
-pub const ENERGY_KINDS: [&str; 10] = [
-    "fibre_kinetic",
-    "projectile_kinetic",
-    "projectile_strain",
-    "axial",
-    "bending",
-    "contact",
-    "friction_stored",
-    "friction_dissipated",
-    "plastic_dissipated",
-    "fracture_released",
-];
+pub const ENERGY_KINDS: [&str; 10] =
+    ["fibre_kinetic", "projectile_kinetic", "projectile_strain", "axial", "bending", "contact", "friction_stored", "friction_dissipated", "plastic_dissipated", "fracture_released"];
 
 fn energy_fields(e: &EnergyReport) -> [f64; 10] {
-    [
-        e.fibre_kinetic,
-        e.projectile_kinetic,
-        e.projectile_strain,
-        e.axial,
-        e.bending,
-        e.contact,
-        e.friction_stored,
-        e.friction_dissipated,
-        e.plastic_dissipated,
-        e.fracture_released,
-    ]
+    [e.fibre_kinetic, e.projectile_kinetic, e.projectile_strain, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
 }
 
-pub(crate) fn write_vectors(
-    group: &hdf5::Group,
-    name: &str,
-    values: &[Vec3],
-    unit: &str,
-) -> hdf5::Result<()> {
+pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
     let flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
-    let dataset = group
-        .new_dataset::<f64>()
-        .shape([values.len(), 3])
-        .create(name)?;
+    let dataset = group.new_dataset::<f64>().shape([values.len(), 3]).create(name)?;
     dataset.write_raw(&flat)?;
     write_text_attribute(&dataset, "units", unit)
 }
 
-pub(crate) fn write_scalars<T: hdf5::H5Type + Copy>(
-    group: &hdf5::Group,
-    name: &str,
-    values: &[T],
-    unit: &str,
-) -> hdf5::Result<()> {
-    let dataset = group
-        .new_dataset::<T>()
-        .shape([values.len()])
-        .create(name)?;
+pub(crate) fn write_scalars<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str, values: &[T], unit: &str) -> hdf5::Result<()> {
+    let dataset = group.new_dataset::<T>().shape([values.len()]).create(name)?;
     dataset.write_raw(values)?;
     write_text_attribute(&dataset, "units", unit)
 }
 
-pub(crate) fn write_text_attribute(
-    location: &hdf5::Location,
-    name: &str,
-    text: &str,
-) -> hdf5::Result<()> {
-    let value: VarLenUnicode = text
-        .parse()
-        .map_err(|e| hdf5::Error::from(format!("{e:?}").as_str()))?;
-    location
-        .new_attr::<VarLenUnicode>()
-        .create(name)?
-        .write_scalar(&value)
+pub(crate) fn write_text_attribute(location: &hdf5::Location, name: &str, text: &str) -> hdf5::Result<()> {
+    let value: VarLenUnicode = text.parse().map_err(|e| hdf5::Error::from(format!("{e:?}").as_str()))?;
+    location.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&value)
 }
 
 /// Writes the `history` group of a results file or a checkpoint.
 pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5::Result<()> {
     let history = file.create_group("history")?;
     write_scalars(&history, "time", &histories.time, "s")?;
-    write_vectors(
-        &history,
-        "projectile_position",
-        &histories.projectile_position,
-        "m",
-    )?;
-    write_vectors(
-        &history,
-        "projectile_velocity",
-        &histories.projectile_velocity,
-        "m/s",
-    )?;
-    write_vectors(
-        &history,
-        "projectile_angular_velocity",
-        &histories.projectile_angular_velocity,
-        "rad/s",
-    )?;
-    write_vectors(
-        &history,
-        "projectile_force",
-        &histories.projectile_force,
-        "N",
-    )?;
+    write_vectors(&history, "projectile_position", &histories.projectile_position, "m")?;
+    write_vectors(&history, "projectile_velocity", &histories.projectile_velocity, "m/s")?;
+    write_vectors(&history, "projectile_angular_velocity", &histories.projectile_angular_velocity, "rad/s")?;
+    write_vectors(&history, "projectile_force", &histories.projectile_force, "N")?;
     let energy = history.create_group("energy")?;
     for (k, name) in ENERGY_KINDS.iter().enumerate() {
-        let values: Vec<f64> = histories
-            .energy
-            .iter()
-            .map(|e| energy_fields(e)[k])
-            .collect();
+        let values: Vec<f64> = histories.energy.iter().map(|e| energy_fields(e)[k]).collect();
         write_scalars(&energy, name, &values, "J")?;
     }
     let total: Vec<f64> = histories.energy.iter().map(EnergyReport::total).collect();
@@ -152,16 +82,8 @@ pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5:
     write_scalars(&broken, "shear", &histories.broken_shear, "elements")?;
     write_scalars(&broken, "combined", &histories.broken_combined, "elements")?;
     let layers = histories.broken_by_layer.first().map_or(0, Vec::len);
-    let flat: Vec<u64> = histories
-        .broken_by_layer
-        .iter()
-        .flatten()
-        .copied()
-        .collect();
-    let by_layer = broken
-        .new_dataset::<u64>()
-        .shape([histories.broken_by_layer.len(), layers])
-        .create("by_layer")?;
+    let flat: Vec<u64> = histories.broken_by_layer.iter().flatten().copied().collect();
+    let by_layer = broken.new_dataset::<u64>().shape([histories.broken_by_layer.len(), layers]).create("by_layer")?;
     by_layer.write_raw(&flat)?;
     write_text_attribute(&by_layer, "units", "elements (sample x layer)")
 }
@@ -172,12 +94,7 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     use std::fmt::Write as _;
     let layers = histories.broken_by_layer.first().map_or(0, Vec::len);
     let mut text = String::from("time_s");
-    for (name, unit) in [
-        ("projectile_position", "m"),
-        ("projectile_velocity", "m_s"),
-        ("projectile_angular_velocity", "rad_s"),
-        ("projectile_force", "N"),
-    ] {
+    for (name, unit) in [("projectile_position", "m"), ("projectile_velocity", "m_s"), ("projectile_angular_velocity", "rad_s"), ("projectile_force", "N")] {
         for axis in ["x", "y", "z"] {
             let _ = write!(text, ",{name}_{axis}_{unit}");
         }
@@ -192,23 +109,14 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     text.push('\n');
     for s in 0..histories.time.len() {
         let _ = write!(text, "{:?}", histories.time[s]);
-        for v in [
-            histories.projectile_position[s],
-            histories.projectile_velocity[s],
-            histories.projectile_angular_velocity[s],
-            histories.projectile_force[s],
-        ] {
+        for v in [histories.projectile_position[s], histories.projectile_velocity[s], histories.projectile_angular_velocity[s], histories.projectile_force[s]] {
             let _ = write!(text, ",{:?},{:?},{:?}", v.x, v.y, v.z);
         }
         let e = &histories.energy[s];
         for value in energy_fields(e).iter().chain(&[e.total()]) {
             let _ = write!(text, ",{value:?}");
         }
-        let _ = write!(
-            text,
-            ",{},{},{}",
-            histories.broken_tension[s], histories.broken_shear[s], histories.broken_combined[s]
-        );
+        let _ = write!(text, ",{},{},{}", histories.broken_tension[s], histories.broken_shear[s], histories.broken_combined[s]);
         for count in &histories.broken_by_layer[s] {
             let _ = write!(text, ",{count}");
         }
@@ -218,11 +126,7 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
 }
 
 /// Writes a complete results file.
-pub fn write_results(
-    path: &std::path::Path,
-    case_json: &str,
-    histories: &Histories,
-) -> hdf5::Result<()> {
+pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories) -> hdf5::Result<()> {
     let file = hdf5::File::create(path)?;
     write_text_attribute(&file, "format", "dea-mpi results 1")?;
     write_text_attribute(&file, "case", case_json)?;
@@ -239,15 +143,9 @@ pub fn read_histories(path: &std::path::Path) -> hdf5::Result<Histories> {
 pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> {
     let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> {
         let flat: Vec<f64> = file.dataset(name)?.read_raw()?;
-        Ok(flat
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect())
+        Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
     };
-    let energies: Vec<Vec<f64>> = ENERGY_KINDS
-        .iter()
-        .map(|k| file.dataset(&format!("history/energy/{k}"))?.read_raw())
-        .collect::<hdf5::Result<_>>()?;
+    let energies: Vec<Vec<f64>> = ENERGY_KINDS.iter().map(|k| file.dataset(&format!("history/energy/{k}"))?.read_raw()).collect::<hdf5::Result<_>>()?;
     let time: Vec<f64> = file.dataset("history/time")?.read_raw()?;
     let energy = (0..time.len())
         .map(|s| {
@@ -294,9 +192,7 @@ fn dataset_paths(group: &hdf5::Group, prefix: &str, paths: &mut Vec<String>) -> 
     for name in group.member_names()? {
         let path = format!("{prefix}{name}");
         match group.loc_type_by_name(&name)? {
-            hdf5::LocationType::Group => {
-                dataset_paths(&group.group(&name)?, &format!("{path}/"), paths)?
-            }
+            hdf5::LocationType::Group => dataset_paths(&group.group(&name)?, &format!("{path}/"), paths)?,
             hdf5::LocationType::Dataset => paths.push(path),
             _ => {}
         }
@@ -309,27 +205,11 @@ fn dataset_paths(group: &hdf5::Group, prefix: &str, paths: &mut Vec<String>) -> 
 fn dataset_bits(dataset: &hdf5::Dataset) -> hdf5::Result<Vec<u64>> {
     use hdf5::types::{FloatSize, IntSize, TypeDescriptor};
     Ok(match dataset.dtype()?.to_descriptor()? {
-        TypeDescriptor::Float(FloatSize::U8) => dataset
-            .read_raw::<f64>()?
-            .into_iter()
-            .map(f64::to_bits)
-            .collect(),
+        TypeDescriptor::Float(FloatSize::U8) => dataset.read_raw::<f64>()?.into_iter().map(f64::to_bits).collect(),
         TypeDescriptor::Unsigned(IntSize::U8) => dataset.read_raw::<u64>()?,
-        TypeDescriptor::Unsigned(IntSize::U4) => dataset
-            .read_raw::<u32>()?
-            .into_iter()
-            .map(u64::from)
-            .collect(),
-        TypeDescriptor::Unsigned(IntSize::U1) => dataset
-            .read_raw::<u8>()?
-            .into_iter()
-            .map(u64::from)
-            .collect(),
-        other => {
-            return Err(format!("{}: unsupported type {other:?}", dataset.name())
-                .as_str()
-                .into())
-        }
+        TypeDescriptor::Unsigned(IntSize::U4) => dataset.read_raw::<u32>()?.into_iter().map(u64::from).collect(),
+        TypeDescriptor::Unsigned(IntSize::U1) => dataset.read_raw::<u8>()?.into_iter().map(u64::from).collect(),
+        other => return Err(format!("{}: unsupported type {other:?}", dataset.name()).as_str().into()),
     })
 }
 
@@ -356,10 +236,7 @@ pub fn compare_results(a: &std::path::Path, b: &std::path::Path) -> hdf5::Result
         let (bits_x, bits_y) = (dataset_bits(&x)?, dataset_bits(&y)?);
         if let Some(k) = bits_x.iter().zip(&bits_y).position(|(p, q)| p != q) {
             let count = bits_x.iter().zip(&bits_y).filter(|(p, q)| p != q).count();
-            differences.push(format!(
-                "{path}: {count} of {} values differ, first at flat index {k}",
-                bits_x.len()
-            ));
+            differences.push(format!("{path}: {count} of {} values differ, first at flat index {k}", bits_x.len()));
         }
     }
     Ok(differences)
@@ -381,16 +258,7 @@ mod tests {
             projectile_angular_velocity: vec![Vec3::x() * 2.0, Vec3::zeros()],
             projectile_force: vec![Vec3::y(), Vec3::z()],
             broken_by_layer: vec![vec![0, 0], vec![1, 5]],
-            energy: vec![
-                EnergyReport {
-                    axial: 1.0,
-                    ..Default::default()
-                },
-                EnergyReport {
-                    plastic_dissipated: 2.0,
-                    ..Default::default()
-                },
-            ],
+            energy: vec![EnergyReport { axial: 1.0, ..Default::default() }, EnergyReport { plastic_dissipated: 2.0, ..Default::default() }],
             broken_tension: vec![0, 1],
             broken_shear: vec![0, 2],
             broken_combined: vec![0, 3],
@@ -404,46 +272,23 @@ mod tests {
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(header.len(), 1 + 12 + 11 + 3 + 2);
-        assert!(
-            header.contains(&"projectile_velocity_x_m_s")
-                && header.contains(&"energy_axial_J")
-                && header.contains(&"broken_layer_1")
-        );
+        assert!(header.contains(&"projectile_velocity_x_m_s") && header.contains(&"energy_axial_J") && header.contains(&"broken_layer_1"));
         for (s, line) in lines.enumerate() {
             let row: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
             let column = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
             assert_eq!(column("time_s").to_bits(), histories.time[s].to_bits());
-            assert_eq!(
-                column("projectile_angular_velocity_x_rad_s").to_bits(),
-                histories.projectile_angular_velocity[s].x.to_bits()
-            );
-            assert_eq!(
-                column("energy_plastic_dissipated_J").to_bits(),
-                histories.energy[s].plastic_dissipated.to_bits()
-            );
-            assert_eq!(
-                column("broken_layer_1") as u64,
-                histories.broken_by_layer[s][1]
-            );
+            assert_eq!(column("projectile_angular_velocity_x_rad_s").to_bits(), histories.projectile_angular_velocity[s].x.to_bits());
+            assert_eq!(column("energy_plastic_dissipated_J").to_bits(), histories.energy[s].plastic_dissipated.to_bits());
+            assert_eq!(column("broken_layer_1") as u64, histories.broken_by_layer[s][1]);
         }
         // a copy compares equal; one changed bit does not
         let other = dir.join("other.h5");
         write_results(&other, "{\"name\":\"t\"}", &histories).unwrap();
-        assert_eq!(
-            compare_results(&path, &other).unwrap(),
-            Vec::<String>::new()
-        );
+        assert_eq!(compare_results(&path, &other).unwrap(), Vec::<String>::new());
         let mut changed = histories.clone();
-        changed.projectile_position[1].y =
-            f64::from_bits(changed.projectile_position[1].y.to_bits() + 1);
+        changed.projectile_position[1].y = f64::from_bits(changed.projectile_position[1].y.to_bits() + 1);
         write_results(&other, "{\"name\":\"t\"}", &changed).unwrap();
-        assert_eq!(
-            compare_results(&path, &other).unwrap(),
-            vec![
-                "history/projectile_position: 1 of 6 values differ, first at flat index 4"
-                    .to_string()
-            ]
-        );
+        assert_eq!(compare_results(&path, &other).unwrap(), vec!["history/projectile_position: 1 of 6 values differ, first at flat index 4".to_string()]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

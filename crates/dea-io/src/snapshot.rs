@@ -56,15 +56,9 @@ fn group_name(step: u64) -> String {
 
 /// Opens `name` in the fields directory and gives it a fresh group for `step`, holding the
 /// step and time (a restart after a crash writes again what followed its checkpoint).
-fn snapshot_group(
-    out: &Path,
-    name: &str,
-    step: u64,
-    time: f64,
-) -> hdf5::Result<(hdf5::File, hdf5::Group)> {
+fn snapshot_group(out: &Path, name: &str, step: u64, time: f64) -> hdf5::Result<(hdf5::File, hdf5::Group)> {
     let directory = fields_directory(out);
-    std::fs::create_dir_all(&directory)
-        .map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
+    std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
     let file = hdf5::File::append(directory.join(name))?;
     let group_name = group_name(step);
     if file.link_exists(&group_name) {
@@ -77,30 +71,15 @@ fn snapshot_group(
 }
 
 /// Writes index rows (segments, triangles) as an n x N dataset.
-fn write_rows<const N: usize>(
-    group: &hdf5::Group,
-    name: &str,
-    rows: &[[u32; N]],
-    units: &str,
-) -> hdf5::Result<()> {
+fn write_rows<const N: usize>(group: &hdf5::Group, name: &str, rows: &[[u32; N]], units: &str) -> hdf5::Result<()> {
     let flat: Vec<u32> = rows.iter().flatten().copied().collect();
-    let dataset = group
-        .new_dataset::<u32>()
-        .shape([rows.len(), N])
-        .create(name)?;
+    let dataset = group.new_dataset::<u32>().shape([rows.len(), N]).create(name)?;
     dataset.write_raw(&flat)?;
     write_text_attribute(&dataset, "units", units)
 }
 
 /// Writes (or replaces) this rank's part of the snapshot at `step`.
-pub fn write_part(
-    out: &Path,
-    ranks: usize,
-    rank: u32,
-    step: u64,
-    time: f64,
-    part: &SnapshotPart,
-) -> hdf5::Result<()> {
+pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, part: &SnapshotPart) -> hdf5::Result<()> {
     let (file, group) = snapshot_group(out, &part_name(ranks, rank), step, time)?;
     write_vectors(&group, "position", &part.position, "m")?;
     write_vectors(&group, "velocity", &part.velocity, "m/s")?;
@@ -112,12 +91,7 @@ pub fn write_part(
     write_scalars(&group, "element_gid", &part.element_gid, "-")?;
     write_scalars(&group, "strain", &part.strain, "-")?;
     write_scalars(&group, "stress", &part.stress, "Pa")?;
-    write_scalars(
-        &group,
-        "failure",
-        &part.failure,
-        "0 intact, 1 tension, 2 shear, 3 combined",
-    )?;
+    write_scalars(&group, "failure", &part.failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
     file.flush()
 }
 
@@ -126,13 +100,7 @@ const PROJECTILE_FILE: &str = "projectile.h5";
 
 /// Writes (or replaces) the projectile's surface at `step`: world positions of its vertices
 /// and its triangles, for `projectile.xdmf`.
-pub fn write_projectile(
-    out: &Path,
-    step: u64,
-    time: f64,
-    vertices: &[Vec3],
-    triangles: &[[u32; 3]],
-) -> hdf5::Result<()> {
+pub fn write_projectile(out: &Path, step: u64, time: f64, vertices: &[Vec3], triangles: &[[u32; 3]]) -> hdf5::Result<()> {
     let (file, group) = snapshot_group(out, PROJECTILE_FILE, step, time)?;
     write_vectors(&group, "position", vertices, "m")?;
     write_rows(&group, "triangles", triangles, "vertex index")?;
@@ -147,7 +115,9 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
         return Ok(());
     }
     let file = hdf5::File::open(&path)?;
-    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"projectile\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    let mut x = String::from(
+        "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"projectile\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+    );
     let mut names = file.member_names()?;
     names.sort();
     for name in names {
@@ -157,27 +127,16 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
             continue;
         }
         let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
-        let (points, triangles) = (
-            group.dataset("position")?.shape()[0],
-            group.dataset("triangles")?.shape()[0],
-        );
+        let (points, triangles) = (group.dataset("position")?.shape()[0], group.dataset("triangles")?.shape()[0]);
         let _ = writeln!(x, "      <Grid Name=\"step {step}\" GridType=\"Uniform\">\n        <Time Value=\"{time:e}\" />");
-        let _ = writeln!(
-            x,
-            "        <Topology TopologyType=\"Triangle\" NumberOfElements=\"{triangles}\">"
-        );
+        let _ = writeln!(x, "        <Topology TopologyType=\"Triangle\" NumberOfElements=\"{triangles}\">");
         let _ = writeln!(x, "          <DataItem Dimensions=\"{triangles} 3\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">fields/projectile.h5:/{name}/triangles</DataItem>");
-        let _ = writeln!(
-            x,
-            "        </Topology>\n        <Geometry GeometryType=\"XYZ\">"
-        );
+        let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
         let _ = writeln!(x, "          <DataItem Dimensions=\"{points} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">fields/projectile.h5:/{name}/position</DataItem>");
         let _ = writeln!(x, "        </Geometry>\n      </Grid>");
     }
     x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
-    std::fs::write(out.join("projectile.xdmf"), x).map_err(|e| {
-        hdf5::Error::from(format!("{}: {e}", out.join("projectile.xdmf").display()).as_str())
-    })
+    std::fs::write(out.join("projectile.xdmf"), x).map_err(|e| hdf5::Error::from(format!("{}: {e}", out.join("projectile.xdmf").display()).as_str()))
 }
 
 /// One part of one snapshot on disk.
@@ -206,11 +165,7 @@ pub struct IndexedSnapshot {
 pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<IndexedSnapshot>> {
     let directory = fields_directory(out);
     let mut names: Vec<String> = match std::fs::read_dir(&directory) {
-        Ok(entries) => entries
-            .filter_map(|e| e.ok())
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n.starts_with("ranks-") && n.ends_with(".h5"))
-            .collect(),
+        Ok(entries) => entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with("ranks-") && n.ends_with(".h5")).collect(),
         Err(_) => return Ok(Vec::new()),
     };
     names.sort();
@@ -229,102 +184,41 @@ pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<Index
             let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
             let points = group.dataset("gid")?.size();
             let cells = group.dataset("element_gid")?.size();
-            let entry = by_step
-                .entry(step)
-                .or_default()
-                .entry(writer_ranks)
-                .or_insert_with(|| IndexedSnapshot {
-                    step,
-                    time,
-                    ranks: writer_ranks,
-                    parts: Vec::new(),
-                });
-            entry.parts.push(IndexedPart {
-                file: name.clone(),
-                points,
-                cells,
-            });
+            let entry = by_step.entry(step).or_default().entry(writer_ranks).or_insert_with(|| IndexedSnapshot { step, time, ranks: writer_ranks, parts: Vec::new() });
+            entry.parts.push(IndexedPart { file: name.clone(), points, cells });
         }
     }
     Ok(by_step
         .into_values()
         .filter_map(|mut writers| {
-            let preferred = if writers.contains_key(&ranks) {
-                ranks
-            } else {
-                *writers.keys().next_back()?
-            };
+            let preferred = if writers.contains_key(&ranks) { ranks } else { *writers.keys().next_back()? };
             writers.remove(&preferred)
         })
         .collect())
 }
 
-fn item(
-    out: &mut String,
-    file: &str,
-    step: u64,
-    name: &str,
-    dimensions: &str,
-    number_type: &str,
-    precision: usize,
-) {
-    let _ = writeln!(
-        out,
-        "          <DataItem Dimensions=\"{dimensions}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">fields/{file}:/{}/{name}</DataItem>",
-        group_name(step)
-    );
+fn item(out: &mut String, file: &str, step: u64, name: &str, dimensions: &str, number_type: &str, precision: usize) {
+    let _ =
+        writeln!(out, "          <DataItem Dimensions=\"{dimensions}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">fields/{file}:/{}/{name}</DataItem>", group_name(step));
 }
 
 /// Writes the XDMF file joining `snapshots` (it is replaced whole, so it is always valid).
 pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<()> {
-    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    let mut x = String::from(
+        "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+    );
     for snapshot in snapshots {
         let _ = writeln!(x, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n        <Time Value=\"{:e}\" />", snapshot.step, snapshot.time);
-        for part in snapshot
-            .parts
-            .iter()
-            .filter(|p| p.points > 0 && p.cells > 0)
-        {
-            let (points, cells, step, file) =
-                (part.points, part.cells, snapshot.step, part.file.as_str());
-            let _ = writeln!(
-                x,
-                "      <Grid Name=\"{}\" GridType=\"Uniform\">",
-                file.trim_end_matches(".h5")
-            );
+        for part in snapshot.parts.iter().filter(|p| p.points > 0 && p.cells > 0) {
+            let (points, cells, step, file) = (part.points, part.cells, snapshot.step, part.file.as_str());
+            let _ = writeln!(x, "      <Grid Name=\"{}\" GridType=\"Uniform\">", file.trim_end_matches(".h5"));
             let _ = writeln!(x, "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{cells}\">");
-            item(
-                &mut x,
-                file,
-                step,
-                "connectivity",
-                &format!("{cells} 2"),
-                "UInt",
-                4,
-            );
-            let _ = writeln!(
-                x,
-                "        </Topology>\n        <Geometry GeometryType=\"XYZ\">"
-            );
-            item(
-                &mut x,
-                file,
-                step,
-                "position",
-                &format!("{points} 3"),
-                "Float",
-                8,
-            );
+            item(&mut x, file, step, "connectivity", &format!("{cells} 2"), "UInt", 4);
+            let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
+            item(&mut x, file, step, "position", &format!("{points} 3"), "Float", 8);
             let _ = writeln!(x, "        </Geometry>");
             for (name, kind, center, number_type, precision, dims) in [
-                (
-                    "velocity",
-                    "Vector",
-                    "Node",
-                    "Float",
-                    8,
-                    format!("{points} 3"),
-                ),
+                ("velocity", "Vector", "Node", "Float", 8, format!("{points} 3")),
                 ("gid", "Scalar", "Node", "UInt", 8, format!("{points}")),
                 ("layer", "Scalar", "Node", "UInt", 4, format!("{points}")),
                 ("yarn", "Scalar", "Node", "UInt", 4, format!("{points}")),
@@ -370,87 +264,43 @@ pub fn merged(out: &Path, snapshot: &IndexedSnapshot) -> hdf5::Result<MergedSnap
     for part in &snapshot.parts {
         let file = hdf5::File::open(fields_directory(out).join(&part.file))?;
         let group = file.group(&group_name(snapshot.step))?;
-        let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> {
-            Ok(group
-                .dataset(name)?
-                .read_raw::<f64>()?
-                .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2]))
-                .collect())
-        };
+        let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> { Ok(group.dataset(name)?.read_raw::<f64>()?.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()) };
         let (position, velocity) = (vectors("position")?, vectors("velocity")?);
         let gid: Vec<u64> = group.dataset("gid")?.read_raw()?;
         let layer: Vec<u32> = group.dataset("layer")?.read_raw()?;
         let yarn: Vec<u32> = group.dataset("yarn")?.read_raw()?;
         for k in 0..gid.len() {
-            points.push((
-                gid[k],
-                bits(&position[k]),
-                bits(&velocity[k]),
-                layer[k],
-                yarn[k],
-            ));
+            points.push((gid[k], bits(&position[k]), bits(&velocity[k]), layer[k], yarn[k]));
         }
         let element_gid: Vec<u64> = group.dataset("element_gid")?.read_raw()?;
         let strain: Vec<f64> = group.dataset("strain")?.read_raw()?;
         let stress: Vec<f64> = group.dataset("stress")?.read_raw()?;
         let failure: Vec<u8> = group.dataset("failure")?.read_raw()?;
         for k in 0..element_gid.len() {
-            cells.push((
-                element_gid[k],
-                strain[k].to_bits(),
-                stress[k].to_bits(),
-                failure[k],
-            ));
+            cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
         }
     }
     points.sort();
     points.dedup();
     cells.sort();
-    Ok(MergedSnapshot {
-        time_bits: snapshot.time.to_bits(),
-        points,
-        cells,
-    })
+    Ok(MergedSnapshot { time_bits: snapshot.time.to_bits(), points, cells })
 }
 
 /// Differences between the snapshots of two runs (any rank counts), step by step, node by
 /// node and element by element, the owning rank left out. Empty when identical.
 pub fn compare_snapshots(a: &Path, b: &Path) -> hdf5::Result<Vec<String>> {
-    let (left, right) = (
-        index(a, usize::MAX, u64::MAX)?,
-        index(b, usize::MAX, u64::MAX)?,
-    );
+    let (left, right) = (index(a, usize::MAX, u64::MAX)?, index(b, usize::MAX, u64::MAX)?);
     let steps = |s: &[IndexedSnapshot]| s.iter().map(|x| x.step).collect::<Vec<_>>();
     if steps(&left) != steps(&right) {
-        return Ok(vec![format!(
-            "snapshot steps differ: {:?} vs {:?}",
-            steps(&left),
-            steps(&right)
-        )]);
+        return Ok(vec![format!("snapshot steps differ: {:?} vs {:?}", steps(&left), steps(&right))]);
     }
     let mut differences = Vec::new();
     for (x, y) in left.iter().zip(&right) {
         let (mx, my) = (merged(a, x)?, merged(b, y)?);
         if mx != my {
-            let points = mx
-                .points
-                .iter()
-                .zip(&my.points)
-                .filter(|(p, q)| p != q)
-                .count()
-                + mx.points.len().abs_diff(my.points.len());
-            let cells = mx
-                .cells
-                .iter()
-                .zip(&my.cells)
-                .filter(|(p, q)| p != q)
-                .count()
-                + mx.cells.len().abs_diff(my.cells.len());
-            differences.push(format!(
-                "snapshot at step {}: {points} points and {cells} elements differ",
-                x.step
-            ));
+            let points = mx.points.iter().zip(&my.points).filter(|(p, q)| p != q).count() + mx.points.len().abs_diff(my.points.len());
+            let cells = mx.cells.iter().zip(&my.cells).filter(|(p, q)| p != q).count() + mx.cells.len().abs_diff(my.cells.len());
+            differences.push(format!("snapshot at step {}: {points} points and {cells} elements differ", x.step));
         }
     }
     Ok(differences)
@@ -462,10 +312,7 @@ mod tests {
 
     fn part(first: u64, rank: u32) -> SnapshotPart {
         SnapshotPart {
-            position: vec![
-                Vec3::new(first as f64, 0.0, 0.0),
-                Vec3::new(first as f64 + 1.0, 0.0, 0.0),
-            ],
+            position: vec![Vec3::new(first as f64, 0.0, 0.0), Vec3::new(first as f64 + 1.0, 0.0, 0.0)],
             velocity: vec![Vec3::x() * first as f64, Vec3::x() * (first + 1) as f64],
             gid: vec![first, first + 1],
             layer: vec![0, 0],
@@ -493,23 +340,11 @@ mod tests {
         write_part(&out, 1, 0, 20, 20e-9, &part(0, 0)).unwrap();
         write_part(&out, 1, 0, 30, 30e-9, &part(0, 0)).unwrap();
         let snapshots = index(&out, 1, 25).unwrap();
-        assert_eq!(
-            snapshots
-                .iter()
-                .map(|s| (s.step, s.ranks, s.parts.len()))
-                .collect::<Vec<_>>(),
-            vec![(10, 2, 2), (20, 1, 1)]
-        );
+        assert_eq!(snapshots.iter().map(|s| (s.step, s.ranks, s.parts.len())).collect::<Vec<_>>(), vec![(10, 2, 2), (20, 1, 1)]);
         let merged_10 = merged(&out, &snapshots[0]).unwrap();
         // node 1 is in both parts (the far end of rank 0's element): kept once
-        assert_eq!(
-            merged_10.points.iter().map(|p| p.0).collect::<Vec<_>>(),
-            vec![0, 1, 2]
-        );
-        assert_eq!(
-            merged_10.cells.iter().map(|c| c.0).collect::<Vec<_>>(),
-            vec![0, 1]
-        );
+        assert_eq!(merged_10.points.iter().map(|p| p.0).collect::<Vec<_>>(), vec![0, 1, 2]);
+        assert_eq!(merged_10.cells.iter().map(|c| c.0).collect::<Vec<_>>(), vec![0, 1]);
         write_xdmf(&out, &snapshots).unwrap();
         let text = std::fs::read_to_string(out.join("fields.xdmf")).unwrap();
         assert_eq!(text.matches("CollectionType=\"Spatial\"").count(), 2);

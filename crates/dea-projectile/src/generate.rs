@@ -42,14 +42,8 @@ impl FspDimensions {
     /// The .22-calibre 17-grain FSP: diameter, length and flat width as commonly quoted from
     /// MIL-DTL-46593B, the 35° cuts of seed §4.4.3.2, the edge radii measured in seed §6.2.1
     /// (docs/theory.md records the sources and what is assumed).
-    pub const SEVENTEEN_GRAIN: Self = Self {
-        diameter: 5.46e-3,
-        length: 6.35e-3,
-        flat_width: 1.27e-3,
-        bevel_angle: 35.0 * std::f64::consts::PI / 180.0,
-        flat_edge_radius: 50e-6,
-        rim_edge_radius: 150e-6,
-    };
+    pub const SEVENTEEN_GRAIN: Self =
+        Self { diameter: 5.46e-3, length: 6.35e-3, flat_width: 1.27e-3, bevel_angle: 35.0 * std::f64::consts::PI / 180.0, flat_edge_radius: 50e-6, rim_edge_radius: 150e-6 };
 
     /// Depth of the nose surface behind the flat at lateral position `x` (across the cuts)
     /// before the rim is rounded: zero on the flat, a circular arc of the flat-edge radius,
@@ -74,25 +68,16 @@ impl FspDimensions {
     /// the cuts end before the rear.
     pub fn check(&self) -> Result<(), String> {
         let radius = 0.5 * self.diameter;
-        let fillet_end = 0.5 * self.flat_width
-            + self.flat_edge_radius * (self.bevel_angle.sin() - (0.5 * self.bevel_angle).tan());
+        let fillet_end = 0.5 * self.flat_width + self.flat_edge_radius * (self.bevel_angle.sin() - (0.5 * self.bevel_angle).tan());
         if !(self.bevel_angle > 0.0 && self.bevel_angle < FRAC_PI_2) {
-            return Err(format!(
-                "bevel angle {} rad must lie between 0 and pi/2",
-                self.bevel_angle
-            ));
+            return Err(format!("bevel angle {} rad must lie between 0 and pi/2", self.bevel_angle));
         }
-        if self.flat_width <= 2.0 * self.flat_edge_radius * (0.5 * self.bevel_angle).tan()
-            || fillet_end + self.rim_edge_radius >= 0.5 * radius
-        {
+        if self.flat_width <= 2.0 * self.flat_edge_radius * (0.5 * self.bevel_angle).tan() || fillet_end + self.rim_edge_radius >= 0.5 * radius {
             return Err(format!("flat width {} m does not leave room for its edge fillets and the rim on a {} m face", self.flat_width, self.diameter));
         }
         let deepest = self.cut_depth(radius) + self.rim_edge_radius;
         if deepest >= 0.9 * self.length {
-            return Err(format!(
-                "the cuts reach {deepest} m deep on a {} m long projectile",
-                self.length
-            ));
+            return Err(format!("the cuts reach {deepest} m deep on a {} m long projectile", self.length));
         }
         Ok(())
     }
@@ -120,11 +105,7 @@ impl Solid {
     pub fn mesh(&self, divisions: usize) -> HexMesh {
         match *self {
             Solid::Sphere { radius } => HexMesh::sphere(radius, divisions, divisions.div_ceil(2)),
-            Solid::Cylinder {
-                radius,
-                height,
-                edge_radius,
-            } => HexMesh::rounded_cylinder(radius, height, edge_radius, divisions),
+            Solid::Cylinder { radius, height, edge_radius } => HexMesh::rounded_cylinder(radius, height, edge_radius, divisions),
             Solid::Fsp(ref dimensions) => HexMesh::fsp(dimensions, divisions),
         }
     }
@@ -204,15 +185,7 @@ impl OGrid {
         let arcs = if r > 0.0 { ARC_SEGMENTS } else { 0 };
         // even arc lengths over the quarter circle: r (1 - sin phi) from the side wall (phi =
         // pi/2, the rim itself) to the tangent point (phi = 0)
-        let mut distances: Vec<f64> = (0..=arcs)
-            .map(|k| {
-                if k == 0 {
-                    0.0
-                } else {
-                    r * (1.0 - (FRAC_PI_2 * (arcs - k) as f64 / arcs as f64).sin())
-                }
-            })
-            .collect();
+        let mut distances: Vec<f64> = (0..=arcs).map(|k| if k == 0 { 0.0 } else { r * (1.0 - (FRAC_PI_2 * (arcs - k) as f64 / arcs as f64).sin()) }).collect();
         distances.extend(self.inward.iter().map(|f| r + f * (length - r)));
         distances
     }
@@ -220,85 +193,37 @@ impl OGrid {
     fn section(&self) -> Section {
         let mut set = NodeSet::new(self.radius);
         let mut quads = Vec::new();
-        let mut quad = |set: &mut NodeSet, corners: [(f64, f64); 4]| {
-            quads.push(corners.map(|(x, y)| set.node(Vec3::new(x, y, 0.0))))
-        };
+        let mut quad = |set: &mut NodeSet, corners: [(f64, f64); 4]| quads.push(corners.map(|(x, y)| set.node(Vec3::new(x, y, 0.0))));
         for i in 0..self.xs.len() - 1 {
             for j in 0..self.ys.len() - 1 {
-                quad(
-                    &mut set,
-                    [
-                        (self.xs[i], self.ys[j]),
-                        (self.xs[i + 1], self.ys[j]),
-                        (self.xs[i + 1], self.ys[j + 1]),
-                        (self.xs[i], self.ys[j + 1]),
-                    ],
-                );
+                quad(&mut set, [(self.xs[i], self.ys[j]), (self.xs[i + 1], self.ys[j]), (self.xs[i + 1], self.ys[j + 1]), (self.xs[i], self.ys[j + 1])]);
             }
         }
         // a block line from an inner point to the rim at `angle`, as points from the inside out
         let line = |inner: (f64, f64), angle: f64| -> Vec<(f64, f64)> {
             let rim = (self.radius * angle.cos(), self.radius * angle.sin());
             let length = ((rim.0 - inner.0).powi(2) + (rim.1 - inner.1).powi(2)).sqrt();
-            let mut points: Vec<(f64, f64)> = self
-                .distances_from_rim(length)
-                .iter()
-                .map(|s| {
-                    (
-                        rim.0 + (inner.0 - rim.0) * s / length,
-                        rim.1 + (inner.1 - rim.1) * s / length,
-                    )
-                })
-                .collect();
+            let mut points: Vec<(f64, f64)> = self.distances_from_rim(length).iter().map(|s| (rim.0 + (inner.0 - rim.0) * s / length, rim.1 + (inner.1 - rim.1) * s / length)).collect();
             points.reverse();
             points
         };
         // four blocks: (lines, counter-clockwise when the lines run in that order)
-        let upper: Vec<_> = self
-            .xs
-            .iter()
-            .map(|&x| line((x, self.core), self.upper_angle(x)))
-            .collect();
-        let lower: Vec<_> = self
-            .xs
-            .iter()
-            .rev()
-            .map(|&x| line((x, -self.core), -self.upper_angle(x)))
-            .collect();
-        let right: Vec<_> = self
-            .ys
-            .iter()
-            .map(|&y| line((self.core, y), FRAC_PI_4 * y / self.core))
-            .collect();
-        let left: Vec<_> = self
-            .ys
-            .iter()
-            .rev()
-            .map(|&y| {
-                line(
-                    (-self.core, y),
-                    std::f64::consts::PI - FRAC_PI_4 * y / self.core,
-                )
-            })
-            .collect();
+        let upper: Vec<_> = self.xs.iter().map(|&x| line((x, self.core), self.upper_angle(x))).collect();
+        let lower: Vec<_> = self.xs.iter().rev().map(|&x| line((x, -self.core), -self.upper_angle(x))).collect();
+        let right: Vec<_> = self.ys.iter().map(|&y| line((self.core, y), FRAC_PI_4 * y / self.core)).collect();
+        let left: Vec<_> = self.ys.iter().rev().map(|&y| line((-self.core, y), std::f64::consts::PI - FRAC_PI_4 * y / self.core)).collect();
         for block in [&upper, &lower] {
             // lines run along the rim's counter-clockwise sense above and below
             for pair in block.windows(2) {
                 for k in 0..pair[0].len() - 1 {
-                    quad(
-                        &mut set,
-                        [pair[0][k], pair[1][k], pair[1][k + 1], pair[0][k + 1]],
-                    );
+                    quad(&mut set, [pair[0][k], pair[1][k], pair[1][k + 1], pair[0][k + 1]]);
                 }
             }
         }
         for block in [&right, &left] {
             for pair in block.windows(2) {
                 for k in 0..pair[0].len() - 1 {
-                    quad(
-                        &mut set,
-                        [pair[0][k], pair[0][k + 1], pair[1][k + 1], pair[1][k]],
-                    );
+                    quad(&mut set, [pair[0][k], pair[0][k + 1], pair[1][k + 1], pair[1][k]]);
                 }
             }
         }
@@ -309,59 +234,20 @@ impl OGrid {
 
 /// Extrudes a section into columns: node k of a column at `bottom + t_k (top - bottom)` for
 /// the ascending fractions `layers` from 0 to 1.
-fn columns(
-    section: &Section,
-    layers: &[f64],
-    bottom: impl Fn(f64, f64) -> f64,
-    top: impl Fn(f64, f64) -> f64,
-) -> HexMesh {
+fn columns(section: &Section, layers: &[f64], bottom: impl Fn(f64, f64) -> f64, top: impl Fn(f64, f64) -> f64) -> HexMesh {
     let per_layer = section.points.len() as u32;
-    let ends: Vec<(f64, f64)> = section
-        .points
-        .iter()
-        .map(|&(x, y)| (bottom(x, y), top(x, y)))
-        .collect();
-    let nodes = layers
-        .iter()
-        .flat_map(|&t| {
-            section
-                .points
-                .iter()
-                .zip(&ends)
-                .map(move |(&(x, y), &(low, high))| Vec3::new(x, y, low + t * (high - low)))
-        })
-        .collect();
+    let ends: Vec<(f64, f64)> = section.points.iter().map(|&(x, y)| (bottom(x, y), top(x, y))).collect();
+    let nodes = layers.iter().flat_map(|&t| section.points.iter().zip(&ends).map(move |(&(x, y), &(low, high))| Vec3::new(x, y, low + t * (high - low)))).collect();
     let hexes = (0..layers.len() as u32 - 1)
-        .flat_map(|k| {
-            section
-                .quads
-                .iter()
-                .map(move |q| q.map(|n| n + k * per_layer))
-        })
-        .map(|b| -> Hex {
-            [
-                b[0],
-                b[1],
-                b[2],
-                b[3],
-                b[0] + per_layer,
-                b[1] + per_layer,
-                b[2] + per_layer,
-                b[3] + per_layer,
-            ]
-        })
+        .flat_map(|k| section.quads.iter().map(move |q| q.map(|n| n + k * per_layer)))
+        .map(|b| -> Hex { [b[0], b[1], b[2], b[3], b[0] + per_layer, b[1] + per_layer, b[2] + per_layer, b[3] + per_layer] })
         .collect();
     HexMesh { nodes, hexes }
 }
 
 /// Symmetric positions from -half to half: `one_side` holds those from 0 to half.
 fn mirrored(one_side: &[f64]) -> Vec<f64> {
-    one_side
-        .iter()
-        .rev()
-        .map(|x| -x)
-        .chain(one_side.iter().skip(1).copied())
-        .collect()
+    one_side.iter().rev().map(|x| -x).chain(one_side.iter().skip(1).copied()).collect()
 }
 
 impl HexMesh {
@@ -370,27 +256,10 @@ impl HexMesh {
     /// the circle, `layers` elements along the axis. The rim is a regular polygon of
     /// `4 core` vertices on the circle.
     pub fn cylinder(radius: f64, height: f64, core: usize, radial: usize, layers: usize) -> Self {
-        let uniform = |n: usize, from: f64, to: f64| {
-            (0..=n)
-                .map(|k| from + (to - from) * k as f64 / n as f64)
-                .collect::<Vec<_>>()
-        };
+        let uniform = |n: usize, from: f64, to: f64| (0..=n).map(|k| from + (to - from) * k as f64 / n as f64).collect::<Vec<_>>();
         let half = 0.5 * radius;
-        let grid = OGrid {
-            radius,
-            core: half,
-            xs: uniform(core, -half, half),
-            ys: uniform(core, -half, half),
-            straight: 0.0,
-            rim_radius: 0.0,
-            inward: uniform(radial, 0.0, 1.0)[1..].to_vec(),
-        };
-        columns(
-            &grid.section(),
-            &uniform(layers, 0.0, 1.0),
-            |_, _| -0.5 * height,
-            |_, _| 0.5 * height,
-        )
+        let grid = OGrid { radius, core: half, xs: uniform(core, -half, half), ys: uniform(core, -half, half), straight: 0.0, rim_radius: 0.0, inward: uniform(radial, 0.0, 1.0)[1..].to_vec() };
+        columns(&grid.section(), &uniform(layers, 0.0, 1.0), |_, _| -0.5 * height, |_, _| 0.5 * height)
     }
 
     /// A right circular cylinder along z whose striking edge (at -z) is rounded with
@@ -400,22 +269,9 @@ impl HexMesh {
         let coarse = radius / divisions as f64;
         let half = 0.5 * radius;
         let across = mirrored(&graded(half, 0.0, coarse, coarse));
-        let grid = OGrid {
-            radius,
-            core: half,
-            xs: across.clone(),
-            ys: across,
-            straight: 0.0,
-            rim_radius: edge_radius,
-            inward: Self::inward(radius, half, edge_radius, coarse),
-        };
+        let grid = OGrid { radius, core: half, xs: across.clone(), ys: across, straight: 0.0, rim_radius: edge_radius, inward: Self::inward(radius, half, edge_radius, coarse) };
         let layers = Self::layers(height, edge_radius, coarse);
-        columns(
-            &grid.section(),
-            &layers,
-            |x, y| -0.5 * height + rim_drop(edge_radius, radius - x.hypot(y)),
-            |_, _| 0.5 * height,
-        )
+        columns(&grid.section(), &layers, |x, y| -0.5 * height + rim_drop(edge_radius, radius - x.hypot(y)), |_, _| 0.5 * height)
     }
 
     /// The FSP along z with its nose at -z; `divisions` elements along a quarter of the rim
@@ -428,16 +284,10 @@ impl HexMesh {
         // x runs across the cuts: fine over the flat-edge fillet, both ways from its middle
         let arc = d.flat_edge_radius * d.bevel_angle / ARC_SEGMENTS as f64;
         let fillet_width = d.flat_edge_radius * d.bevel_angle.sin();
-        let middle = 0.5 * d.flat_width - d.flat_edge_radius * (0.5 * d.bevel_angle).tan()
-            + 0.5 * fillet_width;
+        let middle = 0.5 * d.flat_width - d.flat_edge_radius * (0.5 * d.bevel_angle).tan() + 0.5 * fillet_width;
         let towards_axis = graded(middle, 0.5 * fillet_width, arc, coarse);
         let outwards = graded(half - middle, 0.5 * fillet_width, arc, coarse);
-        let one_side: Vec<f64> = towards_axis
-            .iter()
-            .rev()
-            .map(|s| middle - s)
-            .chain(outwards.iter().skip(1).map(|s| middle + s))
-            .collect();
+        let one_side: Vec<f64> = towards_axis.iter().rev().map(|s| middle - s).chain(outwards.iter().skip(1).map(|s| middle + s)).collect();
         let grid = OGrid {
             radius,
             core: half,
@@ -448,14 +298,7 @@ impl HexMesh {
             inward: Self::inward(radius, half, d.rim_edge_radius, coarse),
         };
         let layers = Self::layers(d.length, d.flat_edge_radius.min(d.rim_edge_radius), coarse);
-        columns(
-            &grid.section(),
-            &layers,
-            |x, y| {
-                -0.5 * d.length + d.cut_depth(x) + rim_drop(d.rim_edge_radius, radius - x.hypot(y))
-            },
-            |_, _| 0.5 * d.length,
-        )
+        columns(&grid.section(), &layers, |x, y| -0.5 * d.length + d.cut_depth(x) + rim_drop(d.rim_edge_radius, radius - x.hypot(y)), |_, _| 0.5 * d.length)
     }
 
     /// Inward fractions of a block line beyond the rim fillet: the spacing of the fillet's
@@ -464,19 +307,13 @@ impl HexMesh {
         let shortest = std::f64::consts::SQRT_2 * (radius * FRAC_PI_4.cos() - core);
         let first = rim_radius * (FRAC_PI_2 / ARC_SEGMENTS as f64).sin();
         let rest = shortest - rim_radius;
-        graded(rest, 0.0, first.max(0.05 * rest), coarse)[1..]
-            .iter()
-            .map(|s| s / rest)
-            .collect()
+        graded(rest, 0.0, first.max(0.05 * rest), coarse)[1..].iter().map(|s| s / rest).collect()
     }
 
     /// Layer fractions from the nose (t = 0) to the rear: `fine` thick at the nose, growing to
     /// `coarse`.
     fn layers(length: f64, fine: f64, coarse: f64) -> Vec<f64> {
-        graded(length, 0.0, fine, coarse)
-            .iter()
-            .map(|z| z / length)
-            .collect()
+        graded(length, 0.0, fine, coarse).iter().map(|z| z / length).collect()
     }
 }
 
@@ -487,9 +324,7 @@ mod tests {
 
     /// The exact FSP nose: depth behind the flat, whether rounded or not.
     fn fsp_nose(d: &FspDimensions, x: f64, y: f64) -> f64 {
-        -0.5 * d.length
-            + d.cut_depth(x)
-            + rim_drop(d.rim_edge_radius, 0.5 * d.diameter - x.hypot(y))
+        -0.5 * d.length + d.cut_depth(x) + rim_drop(d.rim_edge_radius, 0.5 * d.diameter - x.hypot(y))
     }
 
     #[test]
@@ -498,19 +333,12 @@ mod tests {
         d.check().unwrap();
         let mesh = HexMesh::fsp(&d, 6);
         let volumes = mesh.volumes();
-        assert!(
-            volumes.iter().all(|&v| v > 0.0),
-            "every element has positive volume"
-        );
+        assert!(volumes.iter().all(|&v| v > 0.0), "every element has positive volume");
         let surface = mesh.surface();
         assert_eq!(check_closed(&surface.triangles), Ok(()));
         let volume: f64 = volumes.iter().sum();
         let properties = MassProperties::of_surface(&mesh.nodes, &surface.triangles);
-        assert!(
-            (properties.volume - volume).abs() < 1e-3 * volume,
-            "normals point out: {} vs {volume}",
-            properties.volume
-        );
+        assert!((properties.volume - volume).abs() < 1e-3 * volume, "normals point out: {} vs {volume}", properties.volume);
         // symmetric about x = 0 and y = 0
         assert!(properties.centroid.xy().norm() < 1e-9 * d.diameter);
         // the nose nodes lie on the exact surface, and every rounded edge gets its arcs
@@ -528,20 +356,11 @@ mod tests {
                 }
             }
         }
-        assert!(
-            on_flat_fillet >= 2 * ARC_SEGMENTS,
-            "{on_flat_fillet} nodes on the flat-edge fillets near the axis"
-        );
-        assert!(
-            on_rim_fillet >= 2 * (ARC_SEGMENTS - 1),
-            "{on_rim_fillet} nodes inside the rim fillet on x = 0"
-        );
+        assert!(on_flat_fillet >= 2 * ARC_SEGMENTS, "{on_flat_fillet} nodes on the flat-edge fillets near the axis");
+        assert!(on_rim_fillet >= 2 * (ARC_SEGMENTS - 1), "{on_rim_fillet} nodes inside the rim fillet on x = 0");
         // the cut geometry: the volume lies between the uncut cylinder and the sharp-edged cut
         let cylinder = std::f64::consts::PI * 0.25 * d.diameter * d.diameter * d.length;
-        assert!(
-            volume < cylinder && volume > 0.9 * cylinder,
-            "{volume} vs {cylinder}"
-        );
+        assert!(volume < cylinder && volume > 0.9 * cylinder, "{volume} vs {cylinder}");
     }
 
     #[test]
@@ -552,13 +371,8 @@ mod tests {
         let mesh = Solid::Sphere { radius }.mesh(8);
         let (vertices, triangles) = mesh.boundary();
         // the widest chord's sagitta bounds how far the facets lie inside the sphere
-        let edge = |t: &[u32; 3], k: usize| {
-            (vertices[t[k] as usize] - vertices[t[(k + 1) % 3] as usize]).norm()
-        };
-        let longest = triangles
-            .iter()
-            .flat_map(|t| (0..3).map(move |k| edge(t, k)))
-            .fold(0.0, f64::max);
+        let edge = |t: &[u32; 3], k: usize| (vertices[t[k] as usize] - vertices[t[(k + 1) % 3] as usize]).norm();
+        let longest = triangles.iter().flat_map(|t| (0..3).map(move |k| edge(t, k))).fold(0.0, f64::max);
         let sagitta = radius - (radius * radius - 0.25 * longest * longest).sqrt();
         let reach = 20e-6;
         let (shape, centroid) = MeshShape::new(&vertices, triangles, reach, 40e-6).unwrap();
@@ -568,36 +382,22 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let mut found = 0;
         for _ in 0..2000 {
-            let direction = Vec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-            .normalize();
+            let direction = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
             let p = direction * (radius + rng.random_range(-reach..reach));
             let (d_exact, n_exact) = exact.distance_and_normal(&p);
             let (d_mesh, n_mesh) = meshed.distance_and_normal(&p);
             if d_mesh.is_finite() {
                 found += 1;
-                assert!(
-                    d_mesh >= d_exact - 1e-12 && d_mesh <= d_exact + 1.5 * sagitta,
-                    "{d_mesh} vs {d_exact} (sagitta {sagitta})"
-                );
+                assert!(d_mesh >= d_exact - 1e-12 && d_mesh <= d_exact + 1.5 * sagitta, "{d_mesh} vs {d_exact} (sagitta {sagitta})");
                 assert!(n_mesh.dot(&n_exact) > 0.95, "normals agree");
             } else {
-                assert!(
-                    d_exact + sagitta > reach - 1e-12,
-                    "{d_exact}: within reach but not found"
-                );
+                assert!(d_exact + sagitta > reach - 1e-12, "{d_exact}: within reach but not found");
             }
         }
         assert!(found > 1000, "{found}");
         // the inertia of a solid sphere, to the volume deficit of the inscribed polyhedron
         let inertia = meshed.inertia(1.0);
-        assert!(
-            (inertia[(0, 0)] / (0.4 * radius * radius) - 1.0).abs() < 0.03,
-            "{inertia}"
-        );
+        assert!((inertia[(0, 0)] / (0.4 * radius * radius) - 1.0).abs() < 0.03, "{inertia}");
         // each quad split along one diagonal leaves the facets without mirror symmetry: a
         // product of inertia of order 1e-4 remains
         assert!(inertia[(0, 1)].abs() < 1e-3 * inertia[(0, 0)], "{inertia}");
@@ -607,18 +407,12 @@ mod tests {
     fn the_fsp_cut_profile_is_smooth_at_the_fillet_ends() {
         let d = FspDimensions::SEVENTEEN_GRAIN;
         let tangent = d.flat_edge_radius * (0.5 * d.bevel_angle).tan();
-        let (start, end) = (
-            0.5 * d.flat_width - tangent,
-            0.5 * d.flat_width - tangent + d.flat_edge_radius * d.bevel_angle.sin(),
-        );
+        let (start, end) = (0.5 * d.flat_width - tangent, 0.5 * d.flat_width - tangent + d.flat_edge_radius * d.bevel_angle.sin());
         let h = 1e-9;
         for (x, slope) in [(start, 0.0), (end, d.bevel_angle.tan())] {
             let numerical = (d.cut_depth(x + h) - d.cut_depth(x - h)) / (2.0 * h);
             // a jump in value would show as a huge slope, a kink as the wrong one
-            assert!(
-                (numerical - slope).abs() < 1e-4,
-                "slope at {x}: {numerical} vs {slope}"
-            );
+            assert!((numerical - slope).abs() < 1e-4, "slope at {x}: {numerical} vs {slope}");
         }
     }
 
@@ -628,10 +422,8 @@ mod tests {
         // the volume of a cylinder with one rounded edge: the fillet removes (1 - pi/4) r^2
         // of the section, swept at its centroid's radius (Pappus)
         let corner = (1.0 - std::f64::consts::FRAC_PI_4) * edge * edge;
-        let centroid = radius
-            - edge * (10.0 - 3.0 * std::f64::consts::PI) / (12.0 - 3.0 * std::f64::consts::PI);
-        let exact = std::f64::consts::PI * radius * radius * height
-            - std::f64::consts::TAU * centroid * corner;
+        let centroid = radius - edge * (10.0 - 3.0 * std::f64::consts::PI) / (12.0 - 3.0 * std::f64::consts::PI);
+        let exact = std::f64::consts::PI * radius * radius * height - std::f64::consts::TAU * centroid * corner;
         let mut previous = f64::INFINITY;
         for divisions in [4, 8, 16] {
             let mesh = HexMesh::rounded_cylinder(radius, height, edge, divisions);

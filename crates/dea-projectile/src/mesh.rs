@@ -11,14 +11,7 @@ pub type Hex = [u32; 8];
 
 /// The six faces of a hexahedron as local corners, ordered so that the right-hand normal
 /// points out of the element.
-pub(crate) const FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
+pub(crate) const FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
 
 /// A mesh of 8-node hexahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -35,31 +28,13 @@ pub struct Surface {
 }
 
 /// Gauss points and weights of the 3-point rule on [-1, 1].
-const GAUSS: [(f64, f64); 3] = [
-    (-0.774_596_669_241_483_4, 5.0 / 9.0),
-    (0.0, 8.0 / 9.0),
-    (0.774_596_669_241_483_4, 5.0 / 9.0),
-];
+const GAUSS: [(f64, f64); 3] = [(-0.774_596_669_241_483_4, 5.0 / 9.0), (0.0, 8.0 / 9.0), (0.774_596_669_241_483_4, 5.0 / 9.0)];
 /// Natural coordinates of the corners, VTK order.
-pub(crate) const CORNERS: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
+pub(crate) const CORNERS: [[f64; 3]; 8] = [[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]];
 
 /// Trilinear shape functions, their gradients in natural coordinates and the Jacobian
 /// `dx/d(r, s, t)` at natural point `(r, s, t)`.
-pub(crate) fn trilinear(
-    corners: &[Vec3; 8],
-    r: f64,
-    s: f64,
-    t: f64,
-) -> ([f64; 8], [Vec3; 8], nalgebra::Matrix3<f64>) {
+pub(crate) fn trilinear(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([f64; 8], [Vec3; 8], nalgebra::Matrix3<f64>) {
     let (mut n, mut natural) = ([0.0; 8], [Vec3::zeros(); 8]);
     let mut jacobian = nalgebra::Matrix3::<f64>::zeros();
     for (k, c) in CORNERS.iter().enumerate() {
@@ -126,9 +101,7 @@ impl HexMesh {
 
     /// The faces no two elements share, split into two triangles each, normals outward.
     pub fn surface(&self) -> Surface {
-        Surface {
-            triangles: outer_triangles(&self.hexes, &[]),
-        }
+        Surface { triangles: outer_triangles(&self.hexes, &[]) }
     }
 
     /// The outer surface with only the vertices it uses: positions and triangles.
@@ -158,22 +131,9 @@ pub fn outer_triangles(hexes: &[Hex], tetrahedra: &[[u32; 4]]) -> Vec<[u32; 3]> 
             add(face.iter().map(|&k| tet[k]).collect());
         }
     }
-    let mut faces: Vec<Vec<u32>> = count
-        .into_values()
-        .filter(|(n, _)| *n == 1)
-        .map(|(_, face)| face)
-        .collect();
+    let mut faces: Vec<Vec<u32>> = count.into_values().filter(|(n, _)| *n == 1).map(|(_, face)| face).collect();
     faces.sort_unstable();
-    faces
-        .iter()
-        .flat_map(|f| {
-            if f.len() == 4 {
-                vec![[f[0], f[1], f[2]], [f[0], f[2], f[3]]]
-            } else {
-                vec![[f[0], f[1], f[2]]]
-            }
-        })
-        .collect()
+    faces.iter().flat_map(|f| if f.len() == 4 { vec![[f[0], f[1], f[2]], [f[0], f[2], f[3]]] } else { vec![[f[0], f[1], f[2]]] }).collect()
 }
 
 /// Faces of a tetrahedron whose corners 1, 2, 3 turn counter-clockwise seen from corner 0's
@@ -211,23 +171,16 @@ pub(crate) struct NodeSet {
 
 impl NodeSet {
     pub(crate) fn new(scale: f64) -> Self {
-        Self {
-            scale,
-            index: HashMap::new(),
-            nodes: Vec::new(),
-        }
+        Self { scale, index: HashMap::new(), nodes: Vec::new() }
     }
 
     pub(crate) fn node(&mut self, x: Vec3) -> u32 {
         let key = |v: f64| (v / self.scale * 1e9).round() as i64;
         let nodes = &mut self.nodes;
-        *self
-            .index
-            .entry((key(x.x), key(x.y), key(x.z)))
-            .or_insert_with(|| {
-                nodes.push(x);
-                (nodes.len() - 1) as u32
-            })
+        *self.index.entry((key(x.x), key(x.y), key(x.z))).or_insert_with(|| {
+            nodes.push(x);
+            (nodes.len() - 1) as u32
+        })
     }
 }
 
@@ -247,22 +200,8 @@ impl HexMesh {
         for i in 0..core {
             for j in 0..core {
                 for k in 0..core {
-                    let p = |a: usize, b: usize, c: usize| {
-                        Vec3::new(grid(i + a), grid(j + b), grid(k + c))
-                    };
-                    add(
-                        &mut set,
-                        [
-                            p(0, 0, 0),
-                            p(1, 0, 0),
-                            p(1, 1, 0),
-                            p(0, 1, 0),
-                            p(0, 0, 1),
-                            p(1, 0, 1),
-                            p(1, 1, 1),
-                            p(0, 1, 1),
-                        ],
-                    );
+                    let p = |a: usize, b: usize, c: usize| Vec3::new(grid(i + a), grid(j + b), grid(k + c));
+                    add(&mut set, [p(0, 0, 0), p(1, 0, 0), p(1, 1, 0), p(0, 1, 0), p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)]);
                 }
             }
         }
@@ -280,30 +219,14 @@ impl HexMesh {
                 for a in 0..core {
                     for b in 0..core {
                         for layer in 0..radial {
-                            let inner = [
-                                point(a, b, layer),
-                                point(a + 1, b, layer),
-                                point(a + 1, b + 1, layer),
-                                point(a, b + 1, layer),
-                            ];
-                            let outer = [
-                                point(a, b, layer + 1),
-                                point(a + 1, b, layer + 1),
-                                point(a + 1, b + 1, layer + 1),
-                                point(a, b + 1, layer + 1),
-                            ];
+                            let inner = [point(a, b, layer), point(a + 1, b, layer), point(a + 1, b + 1, layer), point(a, b + 1, layer)];
+                            let outer = [point(a, b, layer + 1), point(a + 1, b, layer + 1), point(a + 1, b + 1, layer + 1), point(a, b + 1, layer + 1)];
                             // the base runs counter-clockwise seen from the outside on the
                             // positive faces; on the negative ones the layers swap places
                             let corners = if sign > 0.0 {
-                                [
-                                    inner[0], inner[1], inner[2], inner[3], outer[0], outer[1],
-                                    outer[2], outer[3],
-                                ]
+                                [inner[0], inner[1], inner[2], inner[3], outer[0], outer[1], outer[2], outer[3]]
                             } else {
-                                [
-                                    outer[0], outer[1], outer[2], outer[3], inner[0], inner[1],
-                                    inner[2], inner[3],
-                                ]
+                                [outer[0], outer[1], outer[2], outer[3], inner[0], inner[1], inner[2], inner[3]]
                             };
                             add(&mut set, corners);
                         }
@@ -311,10 +234,7 @@ impl HexMesh {
                 }
             }
         }
-        Self {
-            nodes: set.nodes,
-            hexes,
-        }
+        Self { nodes: set.nodes, hexes }
     }
 }
 
@@ -336,22 +256,12 @@ mod tests {
             let sides = 4.0 * core as f64;
             let polygon = 0.5 * sides * radius * radius * (std::f64::consts::TAU / sides).sin();
             let volumes = mesh.volumes();
-            assert!(
-                volumes.iter().all(|&v| v > 0.0),
-                "every element has positive volume"
-            );
+            assert!(volumes.iter().all(|&v| v > 0.0), "every element has positive volume");
             let volume: f64 = volumes.iter().sum();
-            assert!(
-                (volume - polygon * height).abs() < 1e-12 * volume,
-                "{volume} vs {}",
-                polygon * height
-            );
+            assert!((volume - polygon * height).abs() < 1e-12 * volume, "{volume} vs {}", polygon * height);
             let surface = mesh.surface();
             assert_eq!(check_closed(&surface.triangles), Ok(()));
-            assert!(
-                (enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume,
-                "normals point out"
-            );
+            assert!((enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume, "normals point out");
             // a hole makes it open
             let mut open = surface.clone();
             open.triangles.pop();
@@ -367,23 +277,14 @@ mod tests {
         for (core, radial) in [(2, 2), (4, 3), (8, 5)] {
             let mesh = HexMesh::sphere(radius, core, radial);
             let volumes = mesh.volumes();
-            assert!(
-                volumes.iter().all(|&v| v > 0.0),
-                "every element has positive volume ({core}, {radial})"
-            );
+            assert!(volumes.iter().all(|&v| v > 0.0), "every element has positive volume ({core}, {radial})");
             let surface = mesh.surface();
             assert_eq!(check_closed(&surface.triangles), Ok(()));
             let volume: f64 = volumes.iter().sum();
-            assert!(
-                (enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume,
-                "normals point out"
-            );
+            assert!((enclosed_volume(&mesh, &surface) - volume).abs() < 1e-12 * volume, "normals point out");
             for t in &surface.triangles {
                 for &n in t {
-                    assert!(
-                        (mesh.nodes[n as usize].norm() - radius).abs() < 1e-12 * radius,
-                        "surface nodes lie on the sphere"
-                    );
+                    assert!((mesh.nodes[n as usize].norm() - radius).abs() < 1e-12 * radius, "surface nodes lie on the sphere");
                 }
             }
             // an inscribed polyhedron: a little small, and closer with every refinement
@@ -398,41 +299,17 @@ mod tests {
     #[test]
     fn tetrahedra_and_hexahedra_share_one_outer_surface() {
         // a unit cube as one hexahedron, and as five tetrahedra (positive volume each)
-        let cube = HexMesh {
-            nodes: CORNERS
-                .iter()
-                .map(|c| Vec3::new(c[0], c[1], c[2]) * 0.5)
-                .collect(),
-            hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]],
-        };
-        let tetrahedra = [
-            [0, 1, 3, 4],
-            [1, 2, 3, 6],
-            [1, 3, 4, 6],
-            [1, 5, 6, 4],
-            [3, 4, 6, 7],
-        ];
+        let cube = HexMesh { nodes: CORNERS.iter().map(|c| Vec3::new(c[0], c[1], c[2]) * 0.5).collect(), hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]] };
+        let tetrahedra = [[0, 1, 3, 4], [1, 2, 3, 6], [1, 3, 4, 6], [1, 5, 6, 4], [3, 4, 6, 7]];
         for t in &tetrahedra {
             let [a, b, c, d] = t.map(|k| cube.nodes[k as usize]);
-            assert!(
-                (b - a).cross(&(c - a)).dot(&(d - a)) > 0.0,
-                "{t:?} is positive"
-            );
+            assert!((b - a).cross(&(c - a)).dot(&(d - a)) > 0.0, "{t:?} is positive");
         }
-        for triangles in [
-            outer_triangles(&cube.hexes, &[]),
-            outer_triangles(&[], &tetrahedra),
-        ] {
+        for triangles in [outer_triangles(&cube.hexes, &[]), outer_triangles(&[], &tetrahedra)] {
             assert_eq!(check_closed(&triangles), Ok(()));
-            assert!(
-                (MassProperties::of_surface(&cube.nodes, &triangles).volume - 1.0).abs() < 1e-15
-            );
+            assert!((MassProperties::of_surface(&cube.nodes, &triangles).volume - 1.0).abs() < 1e-15);
         }
-        assert_eq!(
-            outer_triangles(&[], &tetrahedra).len(),
-            12,
-            "inner faces cancel"
-        );
+        assert_eq!(outer_triangles(&[], &tetrahedra).len(), 12, "inner faces cancel");
         // compacting drops the unused nodes and keeps the shape
         let mut padded = cube.clone();
         padded.nodes.insert(0, Vec3::new(9.0, 9.0, 9.0));
@@ -452,18 +329,9 @@ mod tests {
         assert!((total - density * volume).abs() < 1e-12 * total);
         assert!(masses.iter().all(|&m| m > 0.0));
         // a rectangular brick: eight equal corners
-        let brick = HexMesh {
-            nodes: CORNERS
-                .iter()
-                .map(|c| Vec3::new(c[0] * 1.0, c[1] * 2.0, c[2] * 0.5))
-                .collect(),
-            hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]],
-        };
+        let brick = HexMesh { nodes: CORNERS.iter().map(|c| Vec3::new(c[0] * 1.0, c[1] * 2.0, c[2] * 0.5)).collect(), hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]] };
         let masses = brick.hrz_masses(1.0);
         // volume 2 x 4 x 1 = 8 at unit density: one each
-        assert!(
-            masses.iter().all(|&m| (m - 1.0).abs() < 1e-12),
-            "{masses:?}"
-        );
+        assert!(masses.iter().all(|&m| (m - 1.0).abs() < 1e-12), "{masses:?}");
     }
 }

@@ -44,11 +44,7 @@ impl Shared {
         }
         while state.1 == generation {
             self.check();
-            state = self
-                .barrier_signal
-                .wait_timeout(state, POLL)
-                .unwrap_or_else(|e| e.into_inner())
-                .0;
+            state = self.barrier_signal.wait_timeout(state, POLL).unwrap_or_else(|e| e.into_inner()).0;
         }
     }
 }
@@ -81,9 +77,7 @@ pub fn run_local<R: Send>(size: usize, body: impl Fn(LocalComm) -> R + Sync) -> 
         slots: Mutex::new(vec![Vec::new(); size]),
         barrier: Mutex::new((0, 0)),
         barrier_signal: Condvar::new(),
-        mailboxes: (0..size * size)
-            .map(|_| Mutex::new(VecDeque::new()))
-            .collect(),
+        mailboxes: (0..size * size).map(|_| Mutex::new(VecDeque::new())).collect(),
         mail_signal: Condvar::new(),
         mail_lock: Mutex::new(()),
         poisoned: AtomicBool::new(false),
@@ -111,12 +105,8 @@ pub fn run_local<R: Send>(size: usize, body: impl Fn(LocalComm) -> R + Sync) -> 
         match result {
             Ok(value) => results_ok.push(value),
             Err(payload) => {
-                let secondary = payload
-                    .downcast_ref::<&str>()
-                    .is_some_and(|m| *m == "another rank panicked");
-                if first_panic.is_none()
-                    || (!secondary && first_panic.as_ref().is_some_and(|(s, _)| *s))
-                {
+                let secondary = payload.downcast_ref::<&str>().is_some_and(|m| *m == "another rank panicked");
+                if first_panic.is_none() || (!secondary && first_panic.as_ref().is_some_and(|(s, _)| *s)) {
                     first_panic = Some((secondary, payload));
                 }
             }
@@ -134,12 +124,7 @@ impl LocalComm {
         self.shared.check();
         self.shared.slots.lock().unwrap_or_else(|e| e.into_inner())[self.rank] = mine;
         self.shared.barrier();
-        let all = self
-            .shared
-            .slots
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone();
+        let all = self.shared.slots.lock().unwrap_or_else(|e| e.into_inner()).clone();
         self.shared.barrier();
         all
     }
@@ -147,48 +132,24 @@ impl LocalComm {
     fn reduce_u64(&self, values: &mut [u64], op: impl Fn(u64, u64) -> u64) {
         let all = self.collective(values.to_vec());
         for (k, v) in values.iter_mut().enumerate() {
-            *v = all
-                .iter()
-                .map(|c| c[k])
-                .reduce(&op)
-                .expect("at least one rank");
+            *v = all.iter().map(|c| c[k]).reduce(&op).expect("at least one rank");
         }
     }
 
     fn send(&self, to: usize, message: Vec<u64>) {
-        let _lock = self
-            .shared
-            .mail_lock
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        self.shared.mailboxes[self.rank * self.shared.size + to]
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push_back(message);
+        let _lock = self.shared.mail_lock.lock().unwrap_or_else(|e| e.into_inner());
+        self.shared.mailboxes[self.rank * self.shared.size + to].lock().unwrap_or_else(|e| e.into_inner()).push_back(message);
         self.shared.mail_signal.notify_all();
     }
 
     fn receive(&self, from: usize) -> Vec<u64> {
-        let mut lock = self
-            .shared
-            .mail_lock
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
+        let mut lock = self.shared.mail_lock.lock().unwrap_or_else(|e| e.into_inner());
         loop {
-            if let Some(message) = self.shared.mailboxes[from * self.shared.size + self.rank]
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .pop_front()
-            {
+            if let Some(message) = self.shared.mailboxes[from * self.shared.size + self.rank].lock().unwrap_or_else(|e| e.into_inner()).pop_front() {
                 return message;
             }
             self.shared.check();
-            lock = self
-                .shared
-                .mail_signal
-                .wait_timeout(lock, POLL)
-                .unwrap_or_else(|e| e.into_inner())
-                .0;
+            lock = self.shared.mail_signal.wait_timeout(lock, POLL).unwrap_or_else(|e| e.into_inner()).0;
         }
     }
 }
@@ -209,10 +170,7 @@ impl Comm for LocalComm {
     fn max_f64(&self, values: &mut [f64]) {
         let all = self.collective(bits(values));
         for (k, v) in values.iter_mut().enumerate() {
-            *v = all
-                .iter()
-                .map(|c| f64::from_bits(c[k]))
-                .fold(f64::NEG_INFINITY, f64::max);
+            *v = all.iter().map(|c| f64::from_bits(c[k])).fold(f64::NEG_INFINITY, f64::max);
         }
     }
 
@@ -233,11 +191,7 @@ impl Comm for LocalComm {
     }
 
     fn all_gather_f64(&self, mine: &[f64]) -> Vec<f64> {
-        self.collective(bits(mine))
-            .into_iter()
-            .flatten()
-            .map(f64::from_bits)
-            .collect()
+        self.collective(bits(mine)).into_iter().flatten().map(f64::from_bits).collect()
     }
 
     fn broadcast_f64(&self, values: &mut [f64]) {
@@ -254,11 +208,7 @@ impl Comm for LocalComm {
 
     fn gather_f64(&self, mine: &[f64]) -> Option<Vec<Vec<f64>>> {
         let all = self.collective(bits(mine));
-        (self.rank == 0).then(|| {
-            all.into_iter()
-                .map(|c| c.into_iter().map(f64::from_bits).collect())
-                .collect()
-        })
+        (self.rank == 0).then(|| all.into_iter().map(|c| c.into_iter().map(f64::from_bits).collect()).collect())
     }
 
     fn exchange(&self, partners: &[Rank], sends: &[Vec<f64>], receives: &mut [Vec<f64>]) {
@@ -268,15 +218,7 @@ impl Comm for LocalComm {
         }
         for (partner, receive) in partners.iter().zip(receives.iter_mut()) {
             let message = self.receive(partner.0 as usize);
-            assert_eq!(
-                message.len(),
-                receive.len(),
-                "rank {} expected {} values from rank {}, got {}",
-                self.rank,
-                receive.len(),
-                partner.0,
-                message.len()
-            );
+            assert_eq!(message.len(), receive.len(), "rank {} expected {} values from rank {}, got {}", self.rank, receive.len(), partner.0, message.len());
             for (r, m) in receive.iter_mut().zip(message) {
                 *r = f64::from_bits(m);
             }
@@ -309,18 +251,10 @@ mod tests {
             // a ring: send to the next rank, receive from the previous one, unknown sizes
             let (next, previous) = (Rank(((r + 1) % 3) as u32), Rank(((r + 2) % 3) as u32));
             let mut received = vec![Vec::new(), Vec::new()];
-            comm.exchange_sized(
-                &[next, previous],
-                &[vec![r as f64; r + 1], vec![]],
-                &mut received,
-            );
-            (
-                max, sum, min, or, gathered, broadcast, text, at_root, received,
-            )
+            comm.exchange_sized(&[next, previous], &[vec![r as f64; r + 1], vec![]], &mut received);
+            (max, sum, min, or, gathered, broadcast, text, at_root, received)
         });
-        for (r, (max, sum, min, or, gathered, broadcast, text, at_root, received)) in
-            results.into_iter().enumerate()
-        {
+        for (r, (max, sum, min, or, gathered, broadcast, text, at_root, received)) in results.into_iter().enumerate() {
             assert_eq!(max, [2.0, 0.0]);
             assert_eq!(sum, [6, -3]);
             assert_eq!(min, [8]);

@@ -35,10 +35,7 @@ pub trait Comm {
 
     /// [`Comm::exchange`] when the receiver does not know the sizes: lengths travel first.
     fn exchange_sized(&self, partners: &[Rank], sends: &[Vec<f64>], receives: &mut [Vec<f64>]) {
-        let lengths: Vec<Vec<f64>> = sends
-            .iter()
-            .map(|s| vec![f64::from_bits(s.len() as u64)])
-            .collect();
+        let lengths: Vec<Vec<f64>> = sends.iter().map(|s| vec![f64::from_bits(s.len() as u64)]).collect();
         let mut incoming: Vec<Vec<f64>> = vec![vec![0.0]; partners.len()];
         self.exchange(partners, &lengths, &mut incoming);
         for (receive, length) in receives.iter_mut().zip(&incoming) {

@@ -36,26 +36,17 @@ impl MpiComm {
     /// Initialises MPI. When the job has more than one rank, a panic on any rank aborts the
     /// whole job at once instead of leaving the others waiting in a collective.
     pub fn initialize() -> anyhow::Result<(MpiSession, Self)> {
-        let universe =
-            mpi::initialize().ok_or_else(|| anyhow::anyhow!("MPI was already initialised"))?;
+        let universe = mpi::initialize().ok_or_else(|| anyhow::anyhow!("MPI was already initialised"))?;
         let world = universe.world();
         if world.size() > 1 {
             let default_hook = std::panic::take_hook();
             std::panic::set_hook(Box::new(move |info| {
                 default_hook(info);
-                eprintln!(
-                    "error: rank {} panicked; aborting every rank",
-                    SimpleCommunicator::world().rank()
-                );
+                eprintln!("error: rank {} panicked; aborting every rank", SimpleCommunicator::world().rank());
                 SimpleCommunicator::world().abort(70);
             }));
         }
-        Ok((
-            MpiSession {
-                _universe: universe,
-            },
-            Self { world },
-        ))
+        Ok((MpiSession { _universe: universe }, Self { world }))
     }
 }
 
@@ -63,10 +54,7 @@ impl MpiComm {
     /// The ranks of this communicator that give the same `color`, in rank order
     /// (`MPI_Comm_split`): a campaign's groups of ranks, one per concurrent shot.
     pub fn split(&self, color: u32) -> Self {
-        let group = self
-            .world
-            .split_by_color(mpi::topology::Color::with_value(color as i32))
-            .expect("every rank names a group");
+        let group = self.world.split_by_color(mpi::topology::Color::with_value(color as i32)).expect("every rank names a group");
         Self { world: group }
     }
 }
@@ -81,8 +69,7 @@ impl MpiComm {
         if values.len() <= STACK_VALUES {
             let mut mine = [T::default(); STACK_VALUES];
             mine[..values.len()].copy_from_slice(values);
-            self.world
-                .all_reduce_into(&mine[..values.len()], values, op);
+            self.world.all_reduce_into(&mine[..values.len()], values, op);
         } else {
             let mine = values.to_vec();
             self.world.all_reduce_into(&mine[..], values, op);
@@ -156,30 +143,16 @@ impl Comm for MpiComm {
             let mut partition = PartitionMut::new(&mut all[..], &counts[..], &displacements[..]);
             root.gather_varcount_into_root(mine, &mut partition);
         }
-        Some(
-            counts
-                .iter()
-                .zip(&displacements)
-                .map(|(&c, &d)| all[d as usize..(d + c) as usize].to_vec())
-                .collect(),
-        )
+        Some(counts.iter().zip(&displacements).map(|(&c, &d)| all[d as usize..(d + c) as usize].to_vec()).collect())
     }
 
     fn exchange(&self, partners: &[Rank], sends: &[Vec<f64>], receives: &mut [Vec<f64>]) {
         mpi::request::multiple_scope(2 * partners.len(), |scope, requests| {
             for (partner, receive) in partners.iter().zip(receives.iter_mut()) {
-                requests.add(
-                    self.world
-                        .process_at_rank(partner.0 as i32)
-                        .immediate_receive_into(scope, &mut receive[..]),
-                );
+                requests.add(self.world.process_at_rank(partner.0 as i32).immediate_receive_into(scope, &mut receive[..]));
             }
             for (partner, send) in partners.iter().zip(sends) {
-                requests.add(
-                    self.world
-                        .process_at_rank(partner.0 as i32)
-                        .immediate_send(scope, &send[..]),
-                );
+                requests.add(self.world.process_at_rank(partner.0 as i32).immediate_send(scope, &send[..]));
             }
             let mut done = Vec::with_capacity(2 * partners.len());
             requests.wait_all(&mut done);
