@@ -105,6 +105,8 @@ pub struct WovenPanel {
     pub transition_nodes: u32,
     /// the pieces, ascending panel yarn and along it
     pieces: Vec<Piece>,
+    /// the ties of a fine disc's transitions, ascending piece (none otherwise)
+    ties: Vec<Tie>,
     /// global id of each piece's first fibre, plus the total at the end
     first_fibre: Vec<u32>,
 }
@@ -241,11 +243,30 @@ impl WovenPanel {
             Some(CoarseYarns { cell: coarse, fine: FineRegion::Disc { .. } }) => transition_nodes(&cell, coarse).expect("the caller checks that the transition fits (transition_nodes)"),
             _ => 0,
         };
-        let mut panel =
-            Self { cell, coarse, cells, layers, layer_gap: gap, layer_shift: shift, layer_pitch, boundary, tensile_strength, transition_nodes, pieces: Vec::new(), first_fibre: Vec::new() };
+        let mut panel = Self {
+            cell,
+            coarse,
+            cells,
+            layers,
+            layer_gap: gap,
+            layer_shift: shift,
+            layer_pitch,
+            boundary,
+            tensile_strength,
+            transition_nodes,
+            pieces: Vec::new(),
+            ties: Vec::new(),
+            first_fibre: Vec::new(),
+        };
         panel.pieces = (0..panel.panel_yarns()).flat_map(|yarn| panel.pieces_of(yarn)).collect();
         panel.first_fibre = first_fibres(panel.yarn_count(), |yarn| panel.yarn_fibres(yarn));
+        panel.ties = panel.tie_transitions();
         panel
+    }
+
+    /// The ties of a fine disc's transitions ([`Self::tie_transitions`]).
+    pub fn ties(&self) -> &[Tie] {
+        &self.ties
     }
 
     /// Panel yarns of one layer: `2 cells` warp yarns, then `2 cells` weft yarns.
@@ -502,7 +523,7 @@ impl WovenPanel {
     /// coarse end element's frame as built, and that share of the mass of the fine fibre's
     /// elements left out, so the yarn's mass per unit of plan length is that of its fine or
     /// coarse kind on either side of the transition's station.
-    pub fn ties(&self) -> Vec<Tie> {
+    fn tie_transitions(&self) -> Vec<Tie> {
         let stride = self.gid_stride() as u64;
         let area = self.cell.section.area;
         let mut ties = Vec::new();
@@ -552,7 +573,7 @@ impl WovenPanel {
             return TransitionQuality::default();
         };
         let mut groups: std::collections::BTreeMap<GlobalNodeId, (f64, Vec3)> = Default::default();
-        for tie in self.ties() {
+        for tie in &self.ties {
             let offset = Tie::offset_across(&self.node_at(&tie.fine), &self.node_at(&tie.coarse), &self.node_at(&tie.coarse_next));
             let group = groups.entry(tie.coarse.gid).or_insert((0.0, Vec3::zeros()));
             group.0 += tie.area;
@@ -608,9 +629,9 @@ pub trait Tiling {
     fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64;
     fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool;
     fn strength(&self) -> f64;
-    /// Rods joining fine fibres to coarse ones along a yarn (none unless a hybrid has them).
-    fn ties(&self) -> Vec<Tie> {
-        Vec::new()
+    /// Ties joining fine fibres to coarse ones along a yarn (none unless a hybrid has them).
+    fn ties(&self) -> &[Tie] {
+        &[]
     }
 
     /// Builds the nodes `keep(yarn, k)` selects, ascending global id (fibre f, node k has
@@ -650,7 +671,7 @@ pub trait Tiling {
                 }
             }
         }
-        let mut ties = self.ties();
+        let mut ties = self.ties().to_vec();
         ties.retain(|tie| {
             let mut kept = false;
             for gid in [tie.fine.gid, tie.coarse.gid] {
@@ -741,7 +762,7 @@ impl Tiling for WovenPanel {
     fn strength(&self) -> f64 {
         self.tensile_strength
     }
-    fn ties(&self) -> Vec<Tie> {
+    fn ties(&self) -> &[Tie] {
         WovenPanel::ties(self)
     }
 }
@@ -876,7 +897,7 @@ mod tests {
             let piece_of = |f: FibreId| panel.first_fibres().partition_point(|&x| x <= f.0) - 1;
             let mut by_fine: std::collections::BTreeMap<GlobalNodeId, f64> = Default::default();
             let mut by_coarse: std::collections::BTreeMap<GlobalNodeId, f64> = Default::default();
-            for tie in &ties {
+            for tie in ties {
                 let (f, c) = (piece_of(tie.fine.fibre), piece_of(tie.coarse.fibre));
                 assert!(!pieces[f].coarse && pieces[c].coarse && pieces[f].yarn == pieces[c].yarn);
                 assert!(tie.fine.along == 0 || tie.fine.along + 1 == pieces[f].nodes);
@@ -903,7 +924,7 @@ mod tests {
                 mass[yarn] += nodes.mass[i];
                 length[yarn] += built.elements.rest_length[i] * built.sections[nodes.section[i] as usize].area / yarn_area;
             }
-            for tie in &ties {
+            for tie in ties {
                 length[pieces[piece_of(tie.fine.fibre)].yarn as usize] += tie.fibre_length * tie.area / yarn_area;
             }
             // per unit of plan length: each kind's between the halfway stations where it ends
