@@ -5,7 +5,8 @@
 # generated and relaxed, then the panel partitioned and built on RANKS ranks (default 2),
 # each rank only its own part plus ghosts. UNIFORM=1 builds the uniform 4-fibre panel
 # instead (1.78 million nodes). Prints dea-mpi fabric's report (relaxations, build time and
-# resident memory per node on each rank) and the peak resident set of one rank.
+# resident memory per node on each rank) and the peak resident set of one rank. RADIUS=r
+# makes the yarns fine only within r m of the centre instead (a fine disc, theory F12).
 # Results: docs/performance.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,6 +22,7 @@ if os.environ.get("UNIFORM") == "1":
 else:
     case["name"] = "bench-km2-706-2in-4-layers-hybrid"
     case["target"]["weave"]["fibres_per_yarn"] = int(os.environ.get("FINE", "19"))
-    case["target"]["hybrid"] = {"fine_half_width_m": float(os.environ.get("HALF_WIDTH", "0.00635")), "fibres_per_yarn": int(os.environ.get("COARSE", "4"))}
+    region = {"fine_radius_m": float(os.environ["RADIUS"])} if os.environ.get("RADIUS") else {"fine_half_width_m": float(os.environ.get("HALF_WIDTH", "0.00635"))}
+    case["target"]["hybrid"] = {**region, "fibres_per_yarn": int(os.environ.get("COARSE", "4"))}
 json.dump(case, open(sys.argv[1], "w"))' "$work/case.json"
 /usr/bin/time -f "peak resident set of one rank: %M kB; wall %e s" "${MPIRUN[@]}" -np "${RANKS:-2}" target/release/dea-mpi fabric "$work/case.json" --out "$work/fabric"

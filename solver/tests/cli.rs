@@ -117,6 +117,29 @@ fn partition_reports_owned_and_ghost_nodes_per_rank() {
     assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "100000"]).status.code(), Some(2));
 }
 
+#[test]
+fn fabric_share_builds_one_rank_of_a_larger_job_alone() {
+    let dir = scratch("share");
+    let out_dir = dir.join("share");
+    let out = dea(&["fabric", "../cases/hybrid_disc_two_layer_settle.json", "--share", "1/3", "--out", out_dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let share: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out_dir.join("share.json")).unwrap()).unwrap();
+    let check: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/hybrid_disc_two_layer_settle.json"]).stdout).unwrap();
+    // the rank built exactly what the partition gives it, of the whole the case describes
+    assert_eq!(share["panel_nodes"], check["resolved"]["nodes"]);
+    assert_eq!(share["ties"], check["resolved"]["hybrid"]["ties"]);
+    let ranks = share["partition"]["ranks"].as_array().unwrap();
+    assert_eq!(ranks.len(), 3);
+    assert_eq!(share["owned_nodes"], ranks[1]["owned_nodes"]);
+    let owned = share["owned_nodes"].as_u64().unwrap();
+    assert!(owned > 0 && owned < share["panel_nodes"].as_u64().unwrap());
+    assert!(share["contact_entries"].as_u64().unwrap() > 0);
+    for bad in ["3/3", "1", "x/4", "0/0"] {
+        assert_eq!(dea(&["fabric", "../cases/hybrid_disc_two_layer_settle.json", "--share", bad]).status.code(), Some(2), "--share {bad}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A surface as ASCII STL.
 fn stl(vertices: &[dea_core::Vec3], triangles: &[[u32; 3]]) -> String {
     let mut text = String::from("solid projectile\n");
