@@ -207,6 +207,13 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                                     1e6 * cell.yarn_spacing
                                 )));
                             }
+                            // the crossings nearest the centre lie half a spacing from it each way
+                            let nearest = std::f64::consts::FRAC_1_SQRT_2 * cell.yarn_spacing;
+                            if radius < nearest {
+                                return Err(SetupError::Case(format!(
+                                    "target.hybrid.fine_radius_m: no crossing lies within {radius} m of the centre (the nearest are {nearest:.3e} m from it), so no yarn would be fine"
+                                )));
+                            }
                             FineRegion::Disc { radius }
                         }
                         (None, None) => unreachable!("a validated hybrid names its fine region"),

@@ -140,6 +140,20 @@ fn fabric_share_builds_one_rank_of_a_larger_job_alone() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_fine_disc_without_a_crossing_exits_3_naming_its_radius() {
+    let dir = scratch("disc");
+    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/hybrid_disc_two_layer_settle.json").unwrap()).unwrap();
+    case["target"]["hybrid"]["fine_radius_m"] = 0.3e-3.into();
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("target.hybrid.fine_radius_m") && stderr.contains("no crossing"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A surface as ASCII STL.
 fn stl(vertices: &[dea_core::Vec3], triangles: &[[u32; 3]]) -> String {
     let mut text = String::from("solid projectile\n");
