@@ -160,34 +160,41 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
             adjacency[s as usize + 1].push(Adjacency { segment: s, ghosts_needed: ghosts });
         }
     }
-    // segments of different yarns within reach: sweep along x, nodes spread evenly in a box
-    let mut order: Vec<usize> = (0..segments.len()).collect();
-    order.sort_by(|&a, &b| segments[a].low.x.total_cmp(&segments[b].low.x).then(a.cmp(&b)));
-    for (position, &a) in order.iter().enumerate() {
+    // segments of different yarns within reach, nodes spread evenly in a box: in plan cells
+    // wider than any segment grown by the reach on both sides, a segment's partners lie in
+    // its own cell and the eight around it (the low corners decide the cell)
+    let width = segments.iter().map(|s| (s.high.x - s.low.x).max(s.high.y - s.low.y)).fold(0.0, f64::max) + 2.0 * reach;
+    let (origin_x, origin_y) = segments.iter().fold((f64::INFINITY, f64::INFINITY), |(x, y), s| (x.min(s.low.x), y.min(s.low.y)));
+    let cell_of = |s: &Segment| (((s.low.x - origin_x) / width).floor() as i64, ((s.low.y - origin_y) / width).floor() as i64);
+    let mut by_cell: Vec<((i64, i64), usize)> = segments.iter().enumerate().map(|(k, s)| (cell_of(s), k)).collect();
+    by_cell.sort_unstable();
+    for a in 0..segments.len() {
         let sa = &segments[a];
         let (grown_low, grown_high) = (sa.low.add_scalar(-reach), sa.high.add_scalar(reach));
-        for &b in &order[position + 1..] {
-            let sb = &segments[b];
-            if sb.low.x > grown_high.x {
-                break;
+        let (cx, cy) = cell_of(sa);
+        for key in [-1, 0, 1].iter().flat_map(|&dx| [-1, 0, 1].map(move |dy| (cx + dx, cy + dy))) {
+            let from = by_cell.partition_point(|e| e.0 < key);
+            // each pair once, from its lower index
+            for &(_, b) in by_cell[from..].iter().take_while(|e| e.0 == key).filter(|e| e.1 > a) {
+                let sb = &segments[b];
+                if sa.yarn == sb.yarn || overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) == 0.0 {
+                    continue;
+                }
+                let b_near_a = sb.nodes as f64 * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
+                let (b_low, b_high) = (sb.low.add_scalar(-reach), sb.high.add_scalar(reach));
+                let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high) / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
+                adjacency[a].push(Adjacency { segment: b as u32, ghosts_needed: b_near_a });
+                adjacency[b].push(Adjacency { segment: a as u32, ghosts_needed: a_near_b });
             }
-            if sa.yarn == sb.yarn || overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) == 0.0 {
-                continue;
-            }
-            let b_near_a = sb.nodes as f64 * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
-            let (b_low, b_high) = (sb.low.add_scalar(-reach), sb.high.add_scalar(reach));
-            let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high) / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
-            adjacency[a].push(Adjacency { segment: b as u32, ghosts_needed: b_near_a });
-            adjacency[b].push(Adjacency { segment: a as u32, ghosts_needed: a_near_b });
         }
+    }
+    for list in &mut adjacency {
+        list.sort_by_key(|e| e.segment);
     }
     // a contact across yarns costs about one list entry per nearby node on each side
     let extra: Vec<f64> = adjacency.iter().enumerate().map(|(s, list)| list.iter().filter(|e| segments[e.segment as usize].yarn != segments[s].yarn).map(|e| e.ghosts_needed).sum()).collect();
     for (segment, extra) in segments.iter_mut().zip(extra) {
         segment.work += extra;
-    }
-    for list in &mut adjacency {
-        list.sort_by_key(|e| e.segment);
     }
     SegmentGraph { segments, adjacency, segment_positions, first_segment, first_fibre: fabric.first_fibres() }
 }

@@ -167,6 +167,8 @@ pub struct ShareReport {
     pub relaxation_s: f64,
     /// building the segment graph and partitioning it (rank 0's work in a job) [s]
     pub partition_s: f64,
+    /// of which building the segment graph [s]
+    pub segment_graph_s: f64,
     /// the partition's predicted quality: every rank's owned and ghost nodes, halo bytes
     pub partition: dea_partition::QualityReport,
     /// nodes the rank generated (its own, no ghosts) and contact-list entries among them
@@ -194,6 +196,7 @@ pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: 
     let Fabric::Woven(panel) = &problem.fabric else { unreachable!("a woven target builds a woven panel") };
     let started = Instant::now();
     let graph = setup::segment_graph(&problem, ranks, None);
+    let segment_graph_s = started.elapsed().as_secs_f64();
     let partition = dea_partition::partition(&graph, ranks, method).map_err(|e| SetupError::Partition(e.to_string()))?;
     let quality = dea_partition::quality(&graph, &partition);
     let partition_s = started.elapsed().as_secs_f64();
@@ -216,6 +219,7 @@ pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: 
         ties: panel.ties().len(),
         relaxation_s,
         partition_s,
+        segment_graph_s,
         partition: quality,
         owned_nodes: owned,
         contact_entries: domain.pairs.partner.len() as u64,
