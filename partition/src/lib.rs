@@ -160,19 +160,21 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
             adjacency[s as usize + 1].push(Adjacency { segment: s, ghosts_needed: ghosts });
         }
     }
-    // segments of different yarns within reach, nodes spread evenly in a box: in plan cells
-    // wider than any segment grown by the reach on both sides, a segment's partners lie in
-    // its own cell and the eight around it (the low corners decide the cell)
-    let width = segments.iter().map(|s| (s.high.x - s.low.x).max(s.high.y - s.low.y)).fold(0.0, f64::max) + 2.0 * reach;
-    let (origin_x, origin_y) = segments.iter().fold((f64::INFINITY, f64::INFINITY), |(x, y), s| (x.min(s.low.x), y.min(s.low.y)));
-    let cell_of = |s: &Segment| (((s.low.x - origin_x) / width).floor() as i64, ((s.low.y - origin_y) / width).floor() as i64);
-    let mut by_cell: Vec<((i64, i64), usize)> = segments.iter().enumerate().map(|(k, s)| (cell_of(s), k)).collect();
+    // segments of different yarns within reach, nodes spread evenly in a box: in cells wider
+    // along each axis than any segment grown by the reach on both sides, a segment's partners
+    // lie in its own cell and the 26 around it (the low corners decide the cell), so the
+    // layers of a thick panel are not compared with each other
+    let width = segments.iter().fold(Vec3::zeros(), |w, s| w.sup(&(s.high - s.low))).add_scalar(2.0 * reach);
+    let origin = segments.iter().fold(Vec3::repeat(f64::INFINITY), |o, s| o.inf(&s.low));
+    let cell_of = |s: &Segment| [0, 1, 2].map(|k| ((s.low[k] - origin[k]) / width[k]).floor() as i64);
+    let mut by_cell: Vec<([i64; 3], usize)> = segments.iter().enumerate().map(|(k, s)| (cell_of(s), k)).collect();
     by_cell.sort_unstable();
+    let around: Vec<[i64; 3]> = (-1..=1).flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [x, y, z]))).collect();
     for a in 0..segments.len() {
         let sa = &segments[a];
         let (grown_low, grown_high) = (sa.low.add_scalar(-reach), sa.high.add_scalar(reach));
-        let (cx, cy) = cell_of(sa);
-        for key in [-1, 0, 1].iter().flat_map(|&dx| [-1, 0, 1].map(move |dy| (cx + dx, cy + dy))) {
+        let c = cell_of(sa);
+        for key in around.iter().map(|d| [c[0] + d[0], c[1] + d[1], c[2] + d[2]]) {
             let from = by_cell.partition_point(|e| e.0 < key);
             // each pair once, from its lower index
             for &(_, b) in by_cell[from..].iter().take_while(|e| e.0 == key).filter(|e| e.1 > a) {

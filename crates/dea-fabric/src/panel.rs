@@ -428,6 +428,14 @@ impl WovenPanel {
 
     /// Position of node `k` of fibre `fibre` (within its yarn) of piece `yarn` [m].
     pub fn position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3 {
+        let (node, stack, offset) = self.cell_place(yarn, k);
+        stack + self.yarn_cell(yarn).position(self.cell_fibre(yarn, fibre), node) + offset
+    }
+
+    /// Where node `k` of piece `yarn`'s fibres comes from: the cell node it repeats, the
+    /// layer's place in the stack and the cell's translation in the layer [m]. The position
+    /// is `stack + cell position + offset`, summed in that order.
+    fn cell_place(&self, yarn: usize, k: u32) -> (u32, Vec3, Vec3) {
         let place = self.place(yarn);
         let cell = self.yarn_cell(yarn);
         let k = k + self.pieces[yarn].start;
@@ -438,15 +446,13 @@ impl WovenPanel {
         let shifted = k + 3 * n / 4;
         let along = (shifted / n) as f64 * period - period + origin;
         let across = (place.index / 2) as f64 * period + origin;
-        let p = cell.position(self.cell_fibre(yarn, fibre), shifted % n);
         let layer = place.layer as f64;
         let stack = Vec3::new(layer * self.layer_shift[0], layer * self.layer_shift[1], -layer * self.layer_pitch);
-        stack
-            + p
-            + match place.direction {
-                YarnDirection::Warp => Vec3::new(along, across, 0.0),
-                YarnDirection::Weft => Vec3::new(across, along, 0.0),
-            }
+        let offset = match place.direction {
+            YarnDirection::Warp => Vec3::new(along, across, 0.0),
+            YarnDirection::Weft => Vec3::new(across, along, 0.0),
+        };
+        (shifted % n, stack, offset)
     }
 
     /// Rest angle of the bending spring at node `k` of fibre `fibre` of piece `yarn` [rad].
@@ -765,6 +771,26 @@ impl Tiling for WovenPanel {
     fn ties(&self) -> &[Tie] {
         WovenPanel::ties(self)
     }
+    /// The box of a segment from the box of each cell node over its yarn's fibres: a node's
+    /// position is monotone in its cell position, so the bits are those of the box over every
+    /// node, for a fraction of the work.
+    fn segment_box(&self, yarn: usize, first: u32, last: u32) -> (Vec3, Vec3) {
+        let cell = self.yarn_cell(yarn);
+        let (fibres, first_fibre) = (self.yarn_fibres(yarn), self.cell_fibre(yarn, 0));
+        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for k in first..=last {
+            let (node, stack, offset) = self.cell_place(yarn, k);
+            let (mut cell_low, mut cell_high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+            for fibre in first_fibre..first_fibre + fibres {
+                let p = cell.position(fibre, node);
+                cell_low = cell_low.inf(&p);
+                cell_high = cell_high.sup(&p);
+            }
+            low = low.inf(&(stack + cell_low + offset));
+            high = high.sup(&(stack + cell_high + offset));
+        }
+        (low, high)
+    }
 }
 
 #[cfg(test)]
@@ -976,6 +1002,26 @@ mod tests {
             }
             let kept = |e: &TieEnd| keep(piece_of(e.fibre), e.along);
             assert_eq!(part.ties, ties.iter().filter(|t| kept(&t.fine) || kept(&t.coarse)).copied().collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn a_segment_box_is_the_box_of_its_nodes_to_the_bit() {
+        let (mut panel, _) = disc(3, 2, 7, 1, 1.6);
+        panel.layer_shift = [1e-4, -3e-5];
+        for yarn in 0..panel.yarn_count() {
+            let nodes = panel.nodes_per_fibre(yarn);
+            for (first, last) in [(0, nodes - 1), (1, nodes / 2), (nodes / 3, nodes / 3)] {
+                let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+                for fibre in 0..panel.yarn_fibres(yarn) {
+                    for k in first..=last {
+                        let p = panel.position(yarn, fibre, k);
+                        low = low.inf(&p);
+                        high = high.sup(&p);
+                    }
+                }
+                assert_eq!(panel.segment_box(yarn, first, last), (low, high), "piece {yarn} nodes {first}..={last}");
+            }
         }
     }
 
