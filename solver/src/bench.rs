@@ -3,12 +3,12 @@
 
 use std::time::Instant;
 
-use dea_core::projectile::{MeshShape, RigidShape};
 use dea_core::Rank;
+use dea_core::projectile::{MeshShape, RigidShape};
 use dea_core::Vec3;
 use dea_io::case::{default_case, Case, ProjectileSpec, TargetSpec, DEFAULT_FSP_DIVISIONS, KM2_600_DENIER_AREA};
-use dea_partition::Method;
 use dea_projectile::generate::{FspDimensions, Solid};
+use dea_partition::Method;
 use serde::Serialize;
 
 use crate::comm::Comm;
@@ -177,9 +177,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     if run.comm.rank() != Rank(0) {
         return Ok(None);
     }
-    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] = totals[..] else {
-        unreachable!("eleven totals")
-    };
+    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts] = totals[..] else { unreachable!("eleven totals") };
     let ranks = run.comm.size();
     let node_steps = nodes * steps as f64;
     let section = &run.domain.sections[0];

@@ -240,9 +240,9 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
     let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
     let text = |e: dea_ballistic::EstimateError| e.to_string();
     let bisection_brackets = match campaign.design {
-        Design::Bisection { low_m_s, high_m_s, .. } => {
-            (0..campaign.replicates).map(|r| bracket(low_m_s, high_m_s, &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>())).collect()
-        }
+        Design::Bisection { low_m_s, high_m_s, .. } => (0..campaign.replicates)
+            .map(|r| bracket(low_m_s, high_m_s, &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>()))
+            .collect(),
         _ => Vec::new(),
     };
     Ok(CampaignReport {

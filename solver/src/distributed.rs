@@ -396,9 +396,7 @@ impl<C: Comm> Distributed<C> {
     /// whether an element has inverted (then every rank stops here).
     fn broadcast_projectile(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
-        let Some(projectile) = self.domain.projectile.as_mut() else {
-            return Ok(());
-        };
+        let Some(projectile) = self.domain.projectile.as_mut() else { return Ok(()) };
         let vertices = projectile.shape.deforming_mesh().map(|mesh| mesh.surface.vertices.len());
         let surface = &mut self.surface;
         if let Some(body) = &self.deformable {
@@ -808,24 +806,12 @@ impl<C: Comm> Distributed<C> {
     /// interrupted run, and future rebuilds fall on the same steps), then every history,
     /// position, velocity and force is put back and the ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
-    pub fn restore(
-        comm: C,
-        mut domain: Domain,
-        partition: Partition,
-        nodes_per_fibre: &[u32],
-        reach: f64,
-        state: &NodeState,
-        projectile: &[f64],
-        mut deformable: Option<DeformableProjectile>,
-    ) -> Result<Self, RestoreError> {
+    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, state: &NodeState, projectile: &[f64], mut deformable: Option<DeformableProjectile>) -> Result<Self, RestoreError> {
         let mut reactions = Vec::new();
         if let Some(deformable) = &mut deformable {
             let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
             let (body, held) = words.split_at(deformable.body.state_words().len().min(words.len()));
-            deformable
-                .body
-                .set_state_words(body)
-                .ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
+            deformable.body.set_state_words(body).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
             if held.len() % REACTION_WORDS != 0 {
                 return Err(RestoreError::Mismatch(format!("the checkpoint's {} words of projectile reactions are not whole records", held.len())));
             }
@@ -871,12 +857,10 @@ impl<C: Comm> Distributed<C> {
         }
         let d = &mut restored.domain;
         // the retired contacts are the interrupted run's (the rebuild above knew no history)
-        d.pairs.retired_start = std::iter::once(0)
-            .chain(state.retired_length.iter().scan(0u32, |total, &l| {
-                *total += l;
-                Some(*total)
-            }))
-            .collect();
+        d.pairs.retired_start = std::iter::once(0).chain(state.retired_length.iter().scan(0u32, |total, &l| {
+            *total += l;
+            Some(*total)
+        })).collect();
         d.pairs.retired_gid = state.retired_gid.iter().map(|&g| GlobalNodeId(g)).collect();
         d.pairs.retired_max_overlap.clone_from(&state.retired_max_overlap);
         let contacts = &mut d.projectile_contacts;

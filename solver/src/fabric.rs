@@ -187,9 +187,7 @@ pub struct ShareReport {
 /// own nodes and their contact lists; its ghosts are predicted by the partition's report).
 /// Writes `out/share.json`.
 pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: &Path) -> Result<ShareReport, SetupError> {
-    if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
-        return Err(SetupError::Case("target.kind: `dea-mpi fabric --share` needs a woven_panel target".into()));
-    }
+    woven_target(case, "`dea-mpi fabric --share`")?;
     let started = Instant::now();
     let problem = setup::problem(case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
@@ -248,11 +246,17 @@ fn status_kilobytes(field: &str) -> f64 {
     std::fs::read_to_string("/proc/self/status").ok().and_then(|text| text.lines().find(|l| l.starts_with(field)).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())).unwrap_or(0.0)
 }
 
+/// Refuses a case whose target is not a woven panel, which `command` needs.
+fn woven_target(case: &Case, command: &str) -> Result<(), SetupError> {
+    match case.target {
+        dea_io::case::TargetSpec::WovenPanel { .. } => Ok(()),
+        _ => Err(SetupError::Case(format!("target.kind: {command} needs a woven_panel target"))),
+    }
+}
+
 /// Runs the command on the ranks of `comm`; rank 0 writes `out` and returns the report.
 pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Result<Option<FabricReport>, SetupError> {
-    if !matches!(case.target, dea_io::case::TargetSpec::WovenPanel { .. }) {
-        return Err(SetupError::Case("target.kind: `dea-mpi fabric` needs a woven_panel target".into()));
-    }
+    woven_target(case, "`dea-mpi fabric`")?;
     let started = Instant::now();
     let problem = setup::shared_problem(&comm, case)?;
     let relaxation_s = started.elapsed().as_secs_f64();

@@ -13,6 +13,14 @@ use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
 use dea_mpi::setup::{self, SetupError};
 
+/// One line on a cell's relaxation, which took `seconds` [s].
+fn print_relaxation(r: &dea_fabric::relax::RelaxReport, seconds: f64) {
+    println!(
+        "relaxed in {} iterations ({seconds:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
+        r.iterations, r.initial_residual_n, r.final_residual_n, r.contacts, 100.0 * r.largest_overlap_ratio
+    );
+}
+
 /// `RANK/RANKS` of `--share`, RANK below RANKS.
 fn parse_share(text: &str) -> Result<(u32, usize), String> {
     let (rank, ranks) = text.split_once('/').ok_or_else(|| format!("expected RANK/RANKS, e.g. 0/64, got {text:?}"))?;
@@ -48,9 +56,7 @@ enum Command {
     /// Run a case (no file: the built-in default case) on the ranks of the job. Checkpoints
     /// go to OUT/checkpoint (run.checkpoint_interval_*); SIGTERM or SIGUSR1 writes one and
     /// stops with exit code 75.
-    #[command(
-        after_help = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel\n  mpirun -np 4 dea-mpi run --restart out/panel/checkpoint --out out/panel"
-    )]
+    #[command(after_help = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel\n  mpirun -np 4 dea-mpi run --restart out/panel/checkpoint --out out/panel")]
     Run {
         /// case file (JSON, SI units)
         case: Option<PathBuf>,
@@ -99,9 +105,7 @@ enum Command {
     /// OUT/v50.json (logistic and probit V10/V50/V90 with 95 % intervals, MIL-STD-662F,
     /// Lambert-Jonas, bisection brackets) and OUT/provenance.json. SIGTERM or SIGUSR1:
     /// every group checkpoints its shot and the job stops with exit code 75.
-    #[command(
-        after_help = "Examples:\n  mpirun -np 4 dea-mpi v50 campaign.json --out out/v50 --ranks-per-shot 2\n  dea-mpi v50 campaign.json --out out/v50          # again: only the missing shots run"
-    )]
+    #[command(after_help = "Examples:\n  mpirun -np 4 dea-mpi v50 campaign.json --out out/v50 --ranks-per-shot 2\n  dea-mpi v50 campaign.json --out out/v50          # again: only the missing shots run")]
     V50 {
         /// campaign file (JSON)
         campaign: PathBuf,
@@ -145,7 +149,10 @@ enum Command {
     /// excepted), and the field snapshots beside them node by node; exit 0 when identical,
     /// 1 when they differ.
     #[command(after_help = "Example:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5")]
-    Compare { first: PathBuf, second: PathBuf },
+    Compare {
+        first: PathBuf,
+        second: PathBuf,
+    },
     /// Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the
     /// ranks of the job.
     #[command(after_help = "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000")]
@@ -508,16 +515,7 @@ fn main() -> ExitCode {
                 Ok(report) => report,
                 Err(e) => return fail(Exit::File, e),
             };
-            println!(
-                "{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}",
-                report.campaign,
-                report.shots.len(),
-                report.partials,
-                report.completes,
-                group.count,
-                per_shot,
-                out.display()
-            );
+            println!("{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}", report.campaign, report.shots.len(), report.partials, report.completes, group.count, per_shot, out.display());
             if report.held_at_end > 0 {
                 println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
             }
@@ -574,30 +572,12 @@ fn main() -> ExitCode {
                 return match dea_mpi::fabric::fabric_cell(&case, comm, &out) {
                     Ok(Some(report)) => {
                         let (r, c) = (&report.relaxation, &report.cell);
-                        println!(
-                            "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
-                            r.iterations,
-                            report.relaxation_s,
-                            r.initial_residual_n,
-                            r.final_residual_n,
-                            r.contacts,
-                            100.0 * r.largest_overlap_ratio
-                        );
+                        print_relaxation(r, report.relaxation_s);
                         let crimps: Vec<String> = report.crimp_by_role.iter().map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp)).collect();
                         println!(
                             "cell: {:.2} x {:.2} mm, {} yarns, {} fibres, {} nodes; thickness {:.1} -> {:.1} um ({:+.1} %), crimp {}, fibre volume fraction {:.3}, {:.1} g/m^2; results in {}",
-                            1e3 * report.period_m[0],
-                            1e3 * report.period_m[1],
-                            report.yarns.len(),
-                            report.fibres,
-                            report.nodes,
-                            1e6 * r.before.thickness_m,
-                            1e6 * c.thickness_m,
-                            100.0 * report.thickness_change,
-                            crimps.join(", "),
-                            c.fibre_volume_fraction,
-                            1e3 * c.areal_density_kg_m2,
-                            out.display()
+                            1e3 * report.period_m[0], 1e3 * report.period_m[1], report.yarns.len(), report.fibres, report.nodes, 1e6 * r.before.thickness_m, 1e6 * c.thickness_m,
+                            100.0 * report.thickness_change, crimps.join(", "), c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, out.display()
                         );
                         ExitCode::SUCCESS
                     }
@@ -609,38 +589,15 @@ fn main() -> ExitCode {
                 Ok(Some(report)) => {
                     let (c, p) = (&report.cell, &report.panel);
                     if let Some(r) = &report.relaxation {
-                        println!(
-                            "relaxed in {} iterations ({:.2} s): largest nodal force {:.3e} -> {:.3e} N, {} contacts, deepest {:.1} % of a contact diameter",
-                            r.iterations,
-                            report.relaxation_s,
-                            r.initial_residual_n,
-                            r.final_residual_n,
-                            r.contacts,
-                            100.0 * r.largest_overlap_ratio
-                        );
+                        print_relaxation(r, report.relaxation_s);
                     }
                     println!(
                         "cell: thickness {:.1} um, crimp {:.2} %, yarn {:.0} x {:.0} um, fibre volume fraction {:.3}, {:.1} g/m^2 ({:+.2} % from style 706's 180)",
-                        1e6 * c.thickness_m,
-                        100.0 * c.crimp,
-                        1e6 * c.yarn_width_m,
-                        1e6 * c.yarn_thickness_m,
-                        c.fibre_volume_fraction,
-                        1e3 * c.areal_density_kg_m2,
-                        100.0 * report.style_706_areal_density_deviation
+                        1e6 * c.thickness_m, 100.0 * c.crimp, 1e6 * c.yarn_width_m, 1e6 * c.yarn_thickness_m, c.fibre_volume_fraction, 1e3 * c.areal_density_kg_m2, 100.0 * report.style_706_areal_density_deviation
                     );
                     println!(
                         "panel: {} x {} cells ({:.2} mm square), {} layers {:.1} um apart ({:.1} um thick), {} yarns, {} fibres, {} nodes; results in {}",
-                        p.cells_per_side,
-                        p.cells_per_side,
-                        1e3 * p.side_m,
-                        p.layers,
-                        1e6 * p.layer_pitch_m,
-                        1e6 * p.thickness_m,
-                        p.yarns,
-                        p.fibres,
-                        p.nodes,
-                        out.display()
+                        p.cells_per_side, p.cells_per_side, 1e3 * p.side_m, p.layers, 1e6 * p.layer_pitch_m, 1e6 * p.thickness_m, p.yarns, p.fibres, p.nodes, out.display()
                     );
                     if let Some(coarse) = &report.coarse_cell {
                         println!(

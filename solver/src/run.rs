@@ -173,9 +173,7 @@ impl Resume {
     }
 
     pub fn from_checkpoint(global: &dea_io::checkpoint::GlobalState) -> Option<Self> {
-        let [max_force, initial_energy, back_face] = global.run_scalars[..] else {
-            return None;
-        };
+        let [max_force, initial_energy, back_face] = global.run_scalars[..] else { return None };
         Some(Self { histories: global.histories.clone(), max_force, initial_energy, back_face })
     }
 }
@@ -213,14 +211,7 @@ pub struct RunOptions<'a> {
 impl<'a> RunOptions<'a> {
     /// The options a case asks for (`case_json`: the case as JSON, kept in the results), for
     /// the run `run` was built for.
-    pub fn for_case<C: Comm>(
-        case: &'a dea_io::case::Case,
-        case_json: &'a str,
-        out: &'a Path,
-        run: &Distributed<C>,
-        stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
-        resume: Option<Resume>,
-    ) -> Self {
+    pub fn for_case<C: Comm>(case: &'a dea_io::case::Case, case_json: &'a str, out: &'a Path, run: &Distributed<C>, stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>, resume: Option<Resume>) -> Self {
         Self {
             case_name: &case.name,
             case_json,
@@ -361,9 +352,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let broken = run.broken();
     let stages = StageSeconds { step: run.domain.times, comm: run.times, output: output_seconds };
     let all_stages = run.comm.gather_f64(&stages.to_array());
-    let Some(all_stages) = all_stages else {
-        return Ok(None);
-    };
+    let Some(all_stages) = all_stages else { return Ok(None) };
     let ranks = run.comm.size();
     let mean: Vec<f64> = (0..StageSeconds::COUNT).map(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64).collect();
     let mean = StageSeconds::from_array(&mean);

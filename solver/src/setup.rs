@@ -297,13 +297,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
 /// about the body's centre of mass. The cubes follow the moving surface with a margin of
 /// one skin.
-fn deformable_body(
-    resolved: &ResolvedProjectile,
-    (youngs_modulus, poisson_ratio, model): (f64, f64, ElasticModel),
-    reach: f64,
-    cell: f64,
-    skin: f64,
-) -> Result<(DeformableProjectile, RigidShape), SetupError> {
+fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio, model): (f64, f64, ElasticModel), reach: f64, cell: f64, skin: f64) -> Result<(DeformableProjectile, RigidShape), SetupError> {
     let (mesh, source) = match &resolved.body {
         ProjectileBody::Generated { solid, divisions } => (solid.mesh(*divisions), format!("the generated {solid:?} mesh")),
         ProjectileBody::File { path, scale } => {
@@ -363,9 +357,7 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
 pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, deformable: Option<&DeformableProjectile>) -> serde_json::Value {
     let shape = match &projectile.shape {
         RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
-        RigidShape::Cylinder { radius, height, edge_radius } => {
-            serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } })
-        }
+        RigidShape::Cylinder { radius, height, edge_radius } => serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } }),
         RigidShape::Mesh(mesh) => serde_json::json!({ "mesh": {
             "vertices": mesh.surface.vertices.len(),
             "triangles": mesh.surface.triangles.len(),

@@ -230,13 +230,7 @@ fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
 fn a_closed_pipe_ends_the_output_quietly() {
     use std::process::{Command, Stdio};
     // the reader goes away before dea-mpi prints: it must stop without a panic
-    let mut child = Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
-        .args(["check", "cases/km2_706_patch.json"])
-        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dea-mpi")).args(["check", "cases/km2_706_patch.json"]).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
     drop(child.stdout.take());
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);

@@ -49,10 +49,7 @@ fn the_relaxed_cell_has_the_same_bits_on_one_two_and_four_ranks_and_is_reusable(
     assert_eq!(fresh.time_step.to_bits(), again.time_step.to_bits());
     // a file that is not a cell file: exit 4, naming the file
     std::fs::write(dir.join("bad.h5"), b"not a cell").unwrap();
-    *match &mut reused.target {
-        TargetSpec::WovenPanel { cell_file, .. } => cell_file,
-        _ => unreachable!(),
-    } = Some(dir.join("bad.h5"));
+    *match &mut reused.target { TargetSpec::WovenPanel { cell_file, .. } => cell_file, _ => unreachable!() } = Some(dir.join("bad.h5"));
     match problem(&reused) {
         Err(SetupError::Mesh(message)) => assert!(message.contains("bad.h5"), "{message}"),
         other => panic!("expected a file error, got {:?}", other.map(|_| ())),
@@ -92,9 +89,7 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
     assert!(dir.join("cell.xdmf").exists());
     // a run refuses the cell target, and a woven panel refuses its file
     match problem(&case) {
-        Err(SetupError::Case(message)) => {
-            assert!(message.contains("three_d_weave_cell"), "{message}")
-        }
+        Err(SetupError::Case(message)) => assert!(message.contains("three_d_weave_cell"), "{message}"),
         other => panic!("expected a case error, got {:?}", other.map(|_| ())),
     }
     let error = read_cell(&dir.join("cell.h5")).unwrap_err();

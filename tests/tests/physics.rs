@@ -13,7 +13,12 @@ use nalgebra::{Rotation3, UnitQuaternion};
 const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false };
 
 fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
-    ContactParameters { law: NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }, friction_coefficient: 0.0, projectile_friction_coefficient: 0.0, skin: 5e-6 }
+    ContactParameters {
+        law: NormalLaw::Elastic { transverse_modulus: material.transverse_modulus },
+        friction_coefficient: 0.0,
+        projectile_friction_coefficient: 0.0,
+        skin: 5e-6,
+    }
 }
 
 /// The seed §6.1 fibre: 0.1016 m KM2, 50 µm, ends fixed, optionally struck at its centre by
@@ -290,23 +295,13 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Domain {
         }
     }
     let sections = vec![fine_built.sections[0].clone(), coarse_built.sections[0].clone()];
-    // the fine areas shared out as a hybrid panel shares them
-    let end = |i: usize| dea_core::tie::TieEnd { gid: nodes.gid[i], fibre: nodes.fibre[i], along: nodes.along[i] };
-    let fine_ends: Vec<usize> = (0..nodes.len()).filter(|&i| nodes.section[i] == 0 && nodes.last[i]).collect();
-    let coarse_starts: Vec<usize> = (0..nodes.len()).filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0).collect();
-    let across = |x: &Vec3, c: usize| dea_core::tie::Tie::offset_across(x, &nodes.position[coarse_starts[c]], &nodes.position[coarse_starts[c] + 1]);
-    let weights =
-        dea_fabric::transition::tie_weights(fine, coarse, |f, c| across(&nodes.position[fine_ends[f]], c), |k, c| across(&nodes.position[coarse_starts[k]], c), 2.0 * sections[0].contact_diameter);
-    let mut ties = Vec::new();
-    for (f, row) in weights.iter().enumerate() {
-        for (c, &w) in row.iter().enumerate() {
-            let (i, j) = (fine_ends[f], coarse_starts[c]);
-            let (axial_length, radial_offset) = dea_core::tie::Tie::rest_geometry(&nodes.position[i], &nodes.position[j], &nodes.position[j + 1]);
-            // the mass the fine fibre would have had up to the coarse fibre's start
-            let fibre_length = 1.05 * reach;
-            ties.push(dea_core::tie::Tie { fine: end(i), coarse: end(j), coarse_next: end(j + 1), axial_length, radial_offset, area: w * sections[0].area, fibre_length });
-        }
-    }
+    // the fine areas shared out as a hybrid panel shares them; each tie stands for the fine
+    // fibre the gap left out
+    use dea_fabric::transition::{transition_ties, EndNode};
+    let at = |i: usize| EndNode { end: dea_core::tie::TieEnd { gid: nodes.gid[i], fibre: nodes.fibre[i], along: nodes.along[i] }, at: nodes.position[i] };
+    let fine_ends: Vec<(EndNode, f64)> = (0..nodes.len()).filter(|&i| nodes.section[i] == 0 && nodes.last[i]).map(|i| (at(i), 1.05 * reach)).collect();
+    let coarse_ends: Vec<(EndNode, EndNode)> = (0..nodes.len()).filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0).map(|i| (at(i), at(i + 1))).collect();
+    let ties = transition_ties(&fine_ends, &coarse_ends, sections[0].area, 2.0 * sections[0].contact_diameter);
     for tie in &ties {
         for gid in [tie.fine.gid, tie.coarse.gid] {
             let i = nodes.gid.binary_search(&gid).unwrap();

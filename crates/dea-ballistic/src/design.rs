@@ -58,20 +58,8 @@ pub fn bracket(low: f64, high: f64, shots: &[Shot]) -> (f64, f64) {
 impl Design {
     /// Checks the numbers; the error names the field (within `design`).
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("design.{name}: must be > 0, got {v}"))
-            }
-        };
-        let shots = |n: usize| {
-            if (1..=10_000).contains(&n) {
-                Ok(())
-            } else {
-                Err(format!("design.shots: must be in 1..=10000, got {n}"))
-            }
-        };
+        let positive = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("design.{name}: must be > 0, got {v}")) };
+        let shots = |n: usize| if (1..=10_000).contains(&n) { Ok(()) } else { Err(format!("design.shots: must be in 1..=10000, got {n}")) };
         let bracket = |low: f64, high: f64| {
             if low > 0.0 && high > low && high.is_finite() {
                 Ok(())
@@ -132,9 +120,7 @@ impl Design {
                 if shots.len() >= count {
                     return None;
                 }
-                let Some(last) = shots.last() else {
-                    return Some(0.5 * (low_m_s + high_m_s));
-                };
+                let Some(last) = shots.last() else { return Some(0.5 * (low_m_s + high_m_s)) };
                 let n = shots.len();
                 let back = (0..n - 1).rev().find(|&p| {
                     let completes = shots[p..].iter().filter(|s| s.perforated).count();

@@ -8,7 +8,7 @@
 //! overlap: a complete penetration below a partial one.
 
 use serde::Serialize;
-use statrs::distribution::{Continuous, ContinuousCDF, Normal};
+use statrs::distribution::{ContinuousCDF, Continuous, Normal};
 
 use crate::{EstimateError, Shot};
 
@@ -127,11 +127,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
             .iter()
             .map(|s| {
                 let p = link.cdf(a + b * standard(s));
-                if s.perforated {
-                    p.max(f64::MIN_POSITIVE).ln()
-                } else {
-                    (1.0 - p).max(f64::MIN_POSITIVE).ln()
-                }
+                if s.perforated { p.max(f64::MIN_POSITIVE).ln() } else { (1.0 - p).max(f64::MIN_POSITIVE).ln() }
             })
             .sum()
     };
@@ -193,7 +189,17 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         let (profile_low, profile_high) = profile_interval(shots, link, mean, scale, q, (velocity - mean) / scale, b, current);
         Limit { probability: p, velocity, standard_error, low: velocity - z * standard_error, high: velocity + z * standard_error, profile_low, profile_high }
     };
-    Ok(Fit { link, intercept: a - b * mean / scale, slope: b / scale, v10: limit(0.1), v50: limit(0.5), v90: limit(0.9), log_likelihood: current, shots: shots.len(), iterations })
+    Ok(Fit {
+        link,
+        intercept: a - b * mean / scale,
+        slope: b / scale,
+        v10: limit(0.1),
+        v50: limit(0.5),
+        v90: limit(0.9),
+        log_likelihood: current,
+        shots: shots.len(),
+        iterations,
+    })
 }
 
 /// chi^2 with one degree of freedom at 0.95.
@@ -209,11 +215,7 @@ fn profile(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m: f64, b0
             .iter()
             .map(|s| {
                 let p = link.cdf(q + b * ((s.velocity - mean) / scale - m));
-                if s.perforated {
-                    p.max(f64::MIN_POSITIVE).ln()
-                } else {
-                    (1.0 - p).max(f64::MIN_POSITIVE).ln()
-                }
+                if s.perforated { p.max(f64::MIN_POSITIVE).ln() } else { (1.0 - p).max(f64::MIN_POSITIVE).ln() }
             })
             .sum()
     };
@@ -266,9 +268,7 @@ fn profile_interval(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m
             inside = trial;
             step *= 1.6;
         }
-        let Some(mut outside) = outside else {
-            return direction * f64::INFINITY;
-        };
+        let Some(mut outside) = outside else { return direction * f64::INFINITY };
         for _ in 0..60 {
             let mid = 0.5 * (inside + outside);
             if deviance(mid) > CHI2_95 {
@@ -346,17 +346,10 @@ mod tests {
         let shots = simulated(Link::Probit, 250.0, 20.0, 40, 3);
         let fit = fit(&shots, Link::Probit).unwrap();
         let ll = |a: f64, b: f64| -> f64 {
-            shots
-                .iter()
-                .map(|s| {
-                    let p = Link::Probit.cdf(a + b * s.velocity);
-                    if s.perforated {
-                        p.ln()
-                    } else {
-                        (1.0 - p).ln()
-                    }
-                })
-                .sum()
+            shots.iter().map(|s| {
+                let p = Link::Probit.cdf(a + b * s.velocity);
+                if s.perforated { p.ln() } else { (1.0 - p).ln() }
+            }).sum()
         };
         let (a, b) = (fit.intercept, fit.slope);
         let best = ll(a, b);

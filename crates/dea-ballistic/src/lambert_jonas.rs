@@ -106,8 +106,7 @@ mod tests {
         assert!((fit.p - p).abs() < 1e-3 && (fit.a - a).abs() < 1e-4, "{fit:?}");
         assert!(fit.rms_m_s < 1e-3);
         // with a little noise the limit moves little
-        let noisy: Vec<Shot> =
-            shots.iter().enumerate().map(|(k, s)| Shot { residual_velocity: if s.perforated { s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 } } else { 0.0 }, ..*s }).collect();
+        let noisy: Vec<Shot> = shots.iter().enumerate().map(|(k, s)| Shot { residual_velocity: if s.perforated { s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 } } else { 0.0 }, ..*s }).collect();
         let fit = lambert_jonas(&noisy).unwrap();
         assert!((fit.v_bl - v_bl).abs() < 10.0, "{fit:?}");
         assert!(matches!(lambert_jonas(&shots[..5]), Err(EstimateError::TooFewPerforations { .. })));

@@ -77,7 +77,8 @@ pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSect
             continue;
         }
         let p = p as usize;
-        let (on_prev, on_next, theta, moment) = torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
+        let (on_prev, on_next, theta, moment) =
+            torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
         scratch.on_prev[i] = on_prev;
         scratch.on_next[i] = on_next;
         scratch.moment[i] = moment;

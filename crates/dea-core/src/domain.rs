@@ -230,7 +230,10 @@ impl Domain {
             .flat_map(|a| sections.iter().map(move |b| (a, b)))
             .map(|(a, b)| {
                 let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
-                PairData { reach: 0.5 * (a.contact_diameter + b.contact_diameter), geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb) }
+                PairData {
+                    reach: 0.5 * (a.contact_diameter + b.contact_diameter),
+                    geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb),
+                }
             })
             .collect();
         let mut bending = BendingScratch::default();
@@ -239,7 +242,11 @@ impl Domain {
         Self {
             material,
             sections,
-            ledger: NodeLedger { friction_dissipated: vec![0.0; nodes.n_owned], plastic_dissipated: vec![0.0; nodes.n_owned], fracture_released: vec![0.0; nodes.n_owned] },
+            ledger: NodeLedger {
+                friction_dissipated: vec![0.0; nodes.n_owned],
+                plastic_dissipated: vec![0.0; nodes.n_owned],
+                fracture_released: vec![0.0; nodes.n_owned],
+            },
             projectile_contacts: ProjectileContacts {
                 anchor: vec![Vec3::zeros(); n_owned],
                 spring_stiffness: vec![0.0; n_owned],
@@ -435,9 +442,7 @@ impl Domain {
     /// last refresh. The surface moved no more than the centre plus the turn times the
     /// shape's reach.
     fn projectile_refresh_due(&self) -> bool {
-        let Some(projectile) = &self.projectile else {
-            return false;
-        };
+        let Some(projectile) = &self.projectile else { return false };
         let contacts = &self.projectile_contacts;
         if contacts.node_reference.len() != self.nodes.n_owned {
             return true;
@@ -456,9 +461,7 @@ impl Domain {
     /// A node that is not a candidate cannot touch, so the choice and its timing never
     /// change a result: each rank refreshes on its own.
     fn refresh_projectile_candidates(&mut self) {
-        let Some(projectile) = &self.projectile else {
-            return;
-        };
+        let Some(projectile) = &self.projectile else { return };
         let contacts = &mut self.projectile_contacts;
         let max_contact_radius = self.sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
         let reach = max_contact_radius + self.pairs.skin;
@@ -575,9 +578,7 @@ impl Domain {
     /// Fibre–projectile contact and friction on candidate nodes; stores each node's force and
     /// the reaction torque for [`Self::projectile_load`].
     fn add_projectile_contacts(&mut self) {
-        let Some(projectile) = self.projectile.take() else {
-            return;
-        };
+        let Some(projectile) = self.projectile.take() else { return };
         let law = self.contact.law;
         let mu = self.contact.projectile_friction_coefficient;
         for c in 0..self.projectile_contacts.candidates.len() {
@@ -827,15 +828,7 @@ impl Domain {
     /// Axial stress E_L eps of every owned element, NaN where there is no element [Pa].
     pub fn element_stress(&self) -> Vec<f64> {
         (0..self.nodes.n_owned)
-            .map(|i| {
-                if self.nodes.next[i] == NONE {
-                    f64::NAN
-                } else if self.elements.failure[i] == FailureMode::Intact {
-                    self.material.longitudinal_modulus * self.elements.strain[i]
-                } else {
-                    0.0
-                }
-            })
+            .map(|i| if self.nodes.next[i] == NONE { f64::NAN } else if self.elements.failure[i] == FailureMode::Intact { self.material.longitudinal_modulus * self.elements.strain[i] } else { 0.0 })
             .collect()
     }
 }

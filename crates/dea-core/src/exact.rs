@@ -103,20 +103,8 @@ impl ExactSum {
         // specials cannot be summed as integers: count infinities of each sign and NaNs
         if self.has_special {
             let s = f64::from_bits(self.special_bits);
-            words[LIMBS] = if s.is_nan() {
-                1 << 40
-            } else if s > 0.0 {
-                1
-            } else {
-                0
-            };
-            words[LIMBS + 1] = if s.is_nan() {
-                0
-            } else if s < 0.0 {
-                1
-            } else {
-                0
-            };
+            words[LIMBS] = if s.is_nan() { 1 << 40 } else if s > 0.0 { 1 } else { 0 };
+            words[LIMBS + 1] = if s.is_nan() { 0 } else if s < 0.0 { 1 } else { 0 };
         }
         words
     }
@@ -157,9 +145,7 @@ impl ExactSum {
             }
             limbs.normalise();
         }
-        let Some(top) = limbs.limbs.iter().rposition(|&l| l != 0) else {
-            return 0.0;
-        };
+        let Some(top) = limbs.limbs.iter().rposition(|&l| l != 0) else { return 0.0 };
         // the top four limbs hold at least 97 significant bits; anything below only decides
         // ties, so it becomes a sticky bit far under the rounding position
         let mut head: u128 = 0;

@@ -31,3 +31,9 @@ pub use nodes::{Elements, Nodes};
 
 /// 3-vector of f64 used for every position, velocity and force.
 pub type Vec3 = nalgebra::Vector3<f64>;
+
+/// Smallest axis-aligned box holding `points`: (low, high) corners; inverted (+inf, -inf)
+/// when there are none, so it grows from any first point.
+pub fn bounding_box(points: impl IntoIterator<Item = Vec3>) -> (Vec3, Vec3) {
+    points.into_iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(low, high), p| (low.inf(&p), high.sup(&p)))
+}

@@ -94,7 +94,9 @@ impl NeighbourList {
         if self.reference_position.len() != nodes.n_owned {
             return f64::INFINITY;
         }
-        (0..nodes.n_owned).map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared()).fold(0.0, f64::max)
+        (0..nodes.n_owned)
+            .map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared())
+            .fold(0.0, f64::max)
     }
 
     /// Pair range of owned node `i`.
@@ -283,16 +285,10 @@ impl NeighbourList {
 }
 
 fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
-    let mut low = Vec3::repeat(f64::INFINITY);
-    let mut high = Vec3::repeat(f64::NEG_INFINITY);
-    for p in points {
-        low = low.inf(p);
-        high = high.sup(p);
-    }
     if points.is_empty() {
         (Vec3::zeros(), Vec3::zeros())
     } else {
-        (low, high)
+        crate::bounding_box(points.iter().copied())
     }
 }
 
@@ -384,6 +380,7 @@ fn same_fibre_within(nodes: &Nodes, i: usize, j: usize, exclusion: u32) -> bool 
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
     same_fibre_within(nodes, i, j, chain_exclusion(&sections[nodes.section[i] as usize]))
 }
+
 
 #[cfg(test)]
 mod tests {

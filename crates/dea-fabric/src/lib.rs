@@ -81,7 +81,12 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
     // ring order, then angle, then lattice indices: a total, platform-independent order
     points.sort_by(|p, q| {
         let (rp, rq) = (p.2.hypot(p.3), q.2.hypot(q.3));
-        (rp / pitch).round().total_cmp(&(rq / pitch).round()).then(rp.total_cmp(&rq)).then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2))).then((p.0, p.1).cmp(&(q.0, q.1)))
+        (rp / pitch)
+            .round()
+            .total_cmp(&(rq / pitch).round())
+            .then(rp.total_cmp(&rq))
+            .then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2)))
+            .then((p.0, p.1).cmp(&(q.0, q.1)))
     });
     points.truncate(count);
     points.into_iter().map(|p| [p.2, p.3]).collect()
@@ -107,18 +112,7 @@ impl StraightFabric {
     /// half a yarn. Yarns sit at the pitch of their envelope (packing radius plus half a
     /// contact diameter, on both sides).
     #[allow(clippy::too_many_arguments)]
-    pub fn cross_ply(
-        layers: usize,
-        yarns_per_layer: usize,
-        fibres: usize,
-        length: f64,
-        fibre_area: f64,
-        element_length_ratio: f64,
-        inertia: InertiaModel,
-        friction_coefficient: f64,
-        tensile_strength: f64,
-        material: &FibreMaterial,
-    ) -> Self {
+    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64, material: &FibreMaterial) -> Self {
         let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, friction_coefficient, tensile_strength);
         let pitch = fabric.yarn_envelope_diameter(material);
         fabric.yarns = (0..layers)
@@ -160,12 +154,10 @@ impl StraightFabric {
 
     /// Global fibre id of each yarn's first fibre, plus the total at the end.
     pub fn first_fibres(&self) -> Vec<u32> {
-        std::iter::once(0)
-            .chain(self.yarns.iter().scan(0u32, |total, y| {
-                *total += y.fibres as u32;
-                Some(*total)
-            }))
-            .collect()
+        std::iter::once(0).chain(self.yarns.iter().scan(0u32, |total, y| {
+            *total += y.fibres as u32;
+            Some(*total)
+        })).collect()
     }
 
     /// Centres of a yarn's fibres in its cross-section: (across, z) offsets [m].

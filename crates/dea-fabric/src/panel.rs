@@ -17,7 +17,7 @@ use dea_core::{Elements, FibreId, FibreMaterial, FibreSection, GlobalNodeId, Nod
 
 use crate::cell::PeriodicCell;
 use crate::relax;
-use crate::transition;
+use crate::transition::{self, EndNode};
 use crate::weave::{UnitCell, YarnDirection};
 use crate::Built;
 
@@ -522,16 +522,13 @@ impl WovenPanel {
     }
 
     /// The ties of every transition from a fine piece to a coarse one (docs/theory.md F12):
-    /// each fine fibre's end node joined to the coarse fibres' ends there, its area shared
-    /// out by [`transition::tie_weights`] (every coarse fibre receives its own area, centred
-    /// on its axis as far as the two kinds' centres allow; shares below 1e-6 are left out
-    /// and the rest rescaled). A tie has its share of the fine fibre's area, its place in the
-    /// coarse end element's frame as built, and that share of the mass of the fine fibre's
+    /// each fine fibre's end node joined to the coarse fibres' ends there
+    /// ([`transition::transition_ties`]: every coarse fibre receives its own area, centred on
+    /// its axis as far as the two kinds' centres allow). A tie stands for the fine fibre's
     /// elements left out, so the yarn's mass per unit of plan length is that of its fine or
     /// coarse kind on either side of the transition's station.
     fn tie_transitions(&self) -> Vec<Tie> {
         let stride = self.gid_stride() as u64;
-        let area = self.cell.section.area;
         let mut ties = Vec::new();
         for p in 1..self.pieces.len() {
             let (before, after) = (self.pieces[p - 1], self.pieces[p]);
@@ -544,20 +541,10 @@ impl WovenPanel {
                 let f = self.first_fibre[piece] + fibre as u32;
                 TieEnd { gid: GlobalNodeId(f as u64 * stride + along as u64), fibre: FibreId(f), along }
             };
-            let (n_fine, n_coarse) = (self.yarn_fibres(fine), self.yarn_fibres(coarse));
-            let fine_at: Vec<Vec3> = (0..n_fine).map(|f| self.position(fine, f, fine_k)).collect();
-            let coarse_at: Vec<(Vec3, Vec3)> = (0..n_coarse).map(|c| (self.position(coarse, c, coarse_k), self.position(coarse, c, next_k))).collect();
-            let across = |x: &Vec3, c: usize| Tie::offset_across(x, &coarse_at[c].0, &coarse_at[c].1);
-            let weights = transition::tie_weights(n_fine, n_coarse, |f, c| across(&fine_at[f], c), |k, c| across(&coarse_at[k].0, c), 2.0 * self.cell.section.contact_diameter);
-            for (f, row) in weights.iter().enumerate() {
-                let kept: f64 = row.iter().filter(|&&w| w >= 1e-6).sum();
-                let fibre_length = self.transition_nodes as f64 * self.fibre_rest_length(fine, f);
-                for (c, &w) in row.iter().enumerate().filter(|(_, &w)| w >= 1e-6) {
-                    let (axial_length, radial_offset) = Tie::rest_geometry(&fine_at[f], &coarse_at[c].0, &coarse_at[c].1);
-                    let share = w / kept;
-                    ties.push(Tie { fine: end(fine, f, fine_k), coarse: end(coarse, c, coarse_k), coarse_next: end(coarse, c, next_k), axial_length, radial_offset, area: share * area, fibre_length });
-                }
-            }
+            let at = |piece: usize, fibre: usize, along: u32| EndNode { end: end(piece, fibre, along), at: self.position(piece, fibre, along) };
+            let fine_ends: Vec<(EndNode, f64)> = (0..self.yarn_fibres(fine)).map(|f| (at(fine, f, fine_k), self.transition_nodes as f64 * self.fibre_rest_length(fine, f))).collect();
+            let coarse_ends: Vec<(EndNode, EndNode)> = (0..self.yarn_fibres(coarse)).map(|c| (at(coarse, c, coarse_k), at(coarse, c, next_k))).collect();
+            ties.extend(transition::transition_ties(&fine_ends, &coarse_ends, self.cell.section.area, 2.0 * self.cell.section.contact_diameter));
         }
         ties
     }
@@ -716,15 +703,7 @@ pub trait Tiling {
 
     /// Box of the node centres of yarn `yarn` between positions `first` and `last` [m].
     fn segment_box(&self, yarn: usize, first: u32, last: u32) -> (Vec3, Vec3) {
-        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-        for fibre in 0..self.fibres_of(yarn) {
-            for k in first..=last {
-                let p = self.node_position(yarn, fibre, k);
-                low = low.inf(&p);
-                high = high.sup(&p);
-            }
-        }
-        (low, high)
+        dea_core::bounding_box((0..self.fibres_of(yarn)).flat_map(|fibre| (first..=last).map(move |k| self.node_position(yarn, fibre, k))))
     }
 }
 
@@ -776,20 +755,12 @@ impl Tiling for WovenPanel {
     /// node, for a fraction of the work.
     fn segment_box(&self, yarn: usize, first: u32, last: u32) -> (Vec3, Vec3) {
         let cell = self.yarn_cell(yarn);
-        let (fibres, first_fibre) = (self.yarn_fibres(yarn), self.cell_fibre(yarn, 0));
-        let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-        for k in first..=last {
+        let fibres = self.cell_fibre(yarn, 0)..self.cell_fibre(yarn, self.yarn_fibres(yarn));
+        dea_core::bounding_box((first..=last).flat_map(|k| {
             let (node, stack, offset) = self.cell_place(yarn, k);
-            let (mut cell_low, mut cell_high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-            for fibre in first_fibre..first_fibre + fibres {
-                let p = cell.position(fibre, node);
-                cell_low = cell_low.inf(&p);
-                cell_high = cell_high.sup(&p);
-            }
-            low = low.inf(&(stack + cell_low + offset));
-            high = high.sup(&(stack + cell_high + offset));
-        }
-        (low, high)
+            let (low, high) = dea_core::bounding_box(fibres.clone().map(|fibre| cell.position(fibre, node)));
+            [stack + low + offset, stack + high + offset]
+        }))
     }
 }
 
@@ -1009,18 +980,12 @@ mod tests {
     fn a_segment_box_is_the_box_of_its_nodes_to_the_bit() {
         let (mut panel, _) = disc(3, 2, 7, 1, 1.6);
         panel.layer_shift = [1e-4, -3e-5];
+        let panel = &panel;
         for yarn in 0..panel.yarn_count() {
             let nodes = panel.nodes_per_fibre(yarn);
             for (first, last) in [(0, nodes - 1), (1, nodes / 2), (nodes / 3, nodes / 3)] {
-                let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-                for fibre in 0..panel.yarn_fibres(yarn) {
-                    for k in first..=last {
-                        let p = panel.position(yarn, fibre, k);
-                        low = low.inf(&p);
-                        high = high.sup(&p);
-                    }
-                }
-                assert_eq!(panel.segment_box(yarn, first, last), (low, high), "piece {yarn} nodes {first}..={last}");
+                let every_node = dea_core::bounding_box((0..panel.yarn_fibres(yarn)).flat_map(|fibre| (first..=last).map(move |k| panel.position(yarn, fibre, k))));
+                assert_eq!(panel.segment_box(yarn, first, last), every_node, "piece {yarn} nodes {first}..={last}");
             }
         }
     }

@@ -11,8 +11,8 @@
 //! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
 
 use dea_core::bending::torsional_spring;
-use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::rod::axial_force;
+use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::stability::stable_time_step;
 use dea_core::{FibreMaterial, Vec3};
 
@@ -69,9 +69,7 @@ pub struct RelaxReport {
 /// Why a cell could not be relaxed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RelaxError {
-    #[error(
-        "relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)"
-    )]
+    #[error("relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)")]
     NotConverged { iterations: u64, reduction: f64, tolerance: f64 },
     #[error("relaxation diverged at iteration {iteration}: a nodal force is not finite")]
     NonFinite { iteration: u64 },
@@ -196,7 +194,10 @@ fn turning_angles(cell: &PeriodicCell) -> Vec<f64> {
 /// over the contact diameter [-]: where the fabric's contacts start.
 pub fn largest_overlap_ratio(cell: &PeriodicCell) -> f64 {
     let d = cell.section.contact_diameter;
-    periodic_pairs(cell, d).into_iter().map(|p| (d - p.separation(&cell.positions, cell.period).norm()) / d).fold(0.0, f64::max)
+    periodic_pairs(cell, d)
+        .into_iter()
+        .map(|p| (d - p.separation(&cell.positions, cell.period).norm()) / d)
+        .fold(0.0, f64::max)
 }
 
 /// The shortest periodic image of a separation in x and y [m].
@@ -375,16 +376,7 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
     let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut chain, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
-    Ok(RelaxReport {
-        iterations: iteration,
-        initial_residual_n: initial,
-        final_residual_n: residual,
-        contacts,
-        largest_overlap_ratio: largest_overlap,
-        history,
-        before,
-        after: cell.statistics(material),
-    })
+    Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history, before, after: cell.statistics(material) })
 }
 
 #[cfg(test)]

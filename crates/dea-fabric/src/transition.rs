@@ -14,6 +14,7 @@
 //! coarse fibre c's axis, `s` a length scale, found by alternating the row sums with a
 //! Newton solve of each coarse fibre's centring (an iterative-scaling scheme).
 
+use dea_core::tie::{Tie, TieEnd};
 use dea_core::Vec3;
 
 /// Sweeps of the alternating solve; each is cheap (fine x coarse terms).
@@ -76,6 +77,35 @@ pub fn tie_weights(fine: usize, coarse: usize, offset: impl Fn(usize, usize) -> 
         }
     }
     (0..fine).map(|f| (0..coarse).map(|c| (a[f] + b[c] + kernel(f, c, &lambda[c])).exp()).collect()).collect()
+}
+
+/// Shares below this are left out, and the rest of the fine fibre's rescaled to its whole.
+const SMALLEST_SHARE: f64 = 1e-6;
+
+/// A fibre's node at a transition: its name and position [m].
+#[derive(Clone, Copy, Debug)]
+pub struct EndNode {
+    pub end: TieEnd,
+    pub at: Vec3,
+}
+
+/// The ties of one transition. `fine` holds every fine fibre's end node and the length of
+/// fine fibre its ties stand for [m]; `coarse` every coarse fibre's end node and the node
+/// inside it. Each fine fibre's area `fine_area` [m^2] is shared out by [`tie_weights`]
+/// with length scale `scale` [m]; a tie takes its share of the area and of the mass, and its
+/// place in the coarse end element's frame as built.
+pub fn transition_ties(fine: &[(EndNode, f64)], coarse: &[(EndNode, EndNode)], fine_area: f64, scale: f64) -> Vec<Tie> {
+    let across = |x: &Vec3, c: usize| Tie::offset_across(x, &coarse[c].0.at, &coarse[c].1.at);
+    let weights = tie_weights(fine.len(), coarse.len(), |f, c| across(&fine[f].0.at, c), |k, c| across(&coarse[k].0.at, c), scale);
+    let mut ties = Vec::new();
+    for ((node, fibre_length), row) in fine.iter().zip(&weights) {
+        let kept: f64 = row.iter().filter(|&&w| w >= SMALLEST_SHARE).sum();
+        for ((end, next), &w) in coarse.iter().zip(row).filter(|(_, &w)| w >= SMALLEST_SHARE) {
+            let (axial_length, radial_offset) = Tie::rest_geometry(&node.at, &end.at, &next.at);
+            ties.push(Tie { fine: node.end, coarse: end.end, coarse_next: next.end, axial_length, radial_offset, area: w / kept * fine_area, fibre_length: *fibre_length });
+        }
+    }
+    ties
 }
 
 #[cfg(test)]

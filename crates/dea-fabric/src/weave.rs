@@ -14,9 +14,7 @@ use crate::cell::{CellYarn, PeriodicCell, YarnRole};
 /// Why a weave cannot be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WeaveError {
-    #[error(
-        "section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)"
-    )]
+    #[error("section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)")]
     TooWide { packed_width: f64, spacing: f64 },
     #[error("initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart")]
     CrimpTooSmall { requested: f64, minimum: f64 },
@@ -40,7 +38,12 @@ pub fn elliptical_packing(count: usize, pitch: f64, aspect: f64) -> Vec<[f64; 2]
         }
     }
     let radius = |x: f64, z: f64| (x / aspect).hypot(z);
-    points.sort_by(|p, q| radius(p.2, p.3).total_cmp(&radius(q.2, q.3)).then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2))).then((p.0, p.1).cmp(&(q.0, q.1))));
+    points.sort_by(|p, q| {
+        radius(p.2, p.3)
+            .total_cmp(&radius(q.2, q.3))
+            .then(p.3.atan2(p.2).total_cmp(&q.3.atan2(q.2)))
+            .then((p.0, p.1).cmp(&(q.0, q.1)))
+    });
     points.truncate(count);
     let extent = |k: fn(&(i64, i64, f64, f64)) -> f64| {
         let low = points.iter().map(k).fold(f64::INFINITY, f64::min);
@@ -113,18 +116,7 @@ impl UnitCell {
     /// Assembles a plain-weave cell from the positions of its four yarns (in [`CELL_YARNS`]
     /// order), checking the sizes.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        yarn_spacing: f64,
-        fibres_per_yarn: usize,
-        nodes_per_period: u32,
-        section: FibreSection,
-        positions: Vec<Vec3>,
-        rest_lengths: Vec<f64>,
-        rest_angles: Vec<f64>,
-        fibre_tension: f64,
-        packing: Vec<[f64; 2]>,
-        initial_amplitude: f64,
-    ) -> Result<Self, crate::cell::CellError> {
+    pub fn new(yarn_spacing: f64, fibres_per_yarn: usize, nodes_per_period: u32, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64, packing: Vec<[f64; 2]>, initial_amplitude: f64) -> Result<Self, crate::cell::CellError> {
         if packing.len() != fibres_per_yarn || !nodes_per_period.is_multiple_of(4) {
             return Err(crate::cell::CellError::Sizes(format!("{} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period (a multiple of 4)", packing.len())));
         }

@@ -32,9 +32,7 @@ pub enum Weave3dError {
     NoRoomToTurn { filler_width: f64, room: f64, needed: f64 },
     #[error("a binder changing gap by {levels} filler layer(s) cannot turn within {room:.3e} m between filler columns on arcs of radius {radius:.3e} m (widen the pick spacing)")]
     TooSteep { levels: u32, room: f64, radius: f64 },
-    #[error(
-        "the yarns cannot be laid out apart: two fibres of different yarns stay {closest:.3e} m apart, under one contact diameter ({contact_diameter:.3e} m) (widen end_spacing_m or pick_spacing_m)"
-    )]
+    #[error("the yarns cannot be laid out apart: two fibres of different yarns stay {closest:.3e} m apart, under one contact diameter ({contact_diameter:.3e} m) (widen end_spacing_m or pick_spacing_m)")]
     Crowded { closest: f64, contact_diameter: f64 },
 }
 
@@ -615,16 +613,10 @@ mod tests {
                 assert!((chord / cell.rest_lengths[f] - 1.0 - strain).abs() < 1e-9);
             }
             // the mass is the yarns' linear density times their path
-            let expected: f64 = cell
-                .yarns
-                .iter()
-                .enumerate()
-                .map(|(y, yarn)| {
-                    let fibres: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == y).collect();
-                    fibres.iter().map(|&f| material.density * cell.section.area * cell.fibre_length(f)).sum::<f64>() / (1.0 + strain) * yarn.fibres as f64 / fibres.len() as f64
-                })
-                .sum::<f64>()
-                / (cell.period[0] * cell.period[1]);
+            let expected: f64 = cell.yarns.iter().enumerate().map(|(y, yarn)| {
+                let fibres: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == y).collect();
+                fibres.iter().map(|&f| material.density * cell.section.area * cell.fibre_length(f)).sum::<f64>() / (1.0 + strain) * yarn.fibres as f64 / fibres.len() as f64
+            }).sum::<f64>() / (cell.period[0] * cell.period[1]);
             assert!((cell.areal_density(&material) / expected - 1.0).abs() < 1e-9);
         }
     }

@@ -71,7 +71,14 @@ pub struct MaterialSpec {
 
 impl Default for MaterialSpec {
     fn default() -> Self {
-        Self { preset: "kevlar_km2".into(), longitudinal_modulus_pa: None, transverse_modulus_pa: None, density_kg_m3: None, compressive_stiffness_ratio: None, filament_diameter_m: None }
+        Self {
+            preset: "kevlar_km2".into(),
+            longitudinal_modulus_pa: None,
+            transverse_modulus_pa: None,
+            density_kg_m3: None,
+            compressive_stiffness_ratio: None,
+            filament_diameter_m: None,
+        }
     }
 }
 
@@ -370,16 +377,7 @@ fn as_woven() -> BendingAtRest {
 
 impl Default for WeaveSpec {
     fn default() -> Self {
-        Self {
-            preset: "km2_style_706".into(),
-            fibres_per_yarn: 4,
-            yarn_spacing_m: None,
-            section_aspect: None,
-            initial_crimp: None,
-            yarn_tension_n: None,
-            element_length_ratio: None,
-            bending_at_rest: BendingAtRest::AsWoven,
-        }
+        Self { preset: "km2_style_706".into(), fibres_per_yarn: 4, yarn_spacing_m: None, section_aspect: None, initial_crimp: None, yarn_tension_n: None, element_length_ratio: None, bending_at_rest: BendingAtRest::AsWoven }
     }
 }
 
@@ -1173,16 +1171,7 @@ pub fn default_case() -> Case {
         contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
         failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
         projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 400.0, ..Default::default() },
-        run: RunSpec {
-            end_time_s: 30e-6,
-            time_step_safety: 0.5,
-            history_interval_steps: 50,
-            stop_on_perforation: true,
-            snapshot_interval_steps: Some(2000),
-            checkpoint_interval_steps: None,
-            checkpoint_interval_minutes: default_checkpoint_minutes(),
-            settle: None,
-        },
+        run: RunSpec { end_time_s: 30e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes(), settle: None },
     }
 }
 

@@ -73,8 +73,7 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
     let name = path.display();
     let (file, periodic) = read_periodic(path)?;
     let wrap = |what: &str, e: hdf5::Error| format!("{name}: {what}: {e}");
-    let plain =
-        periodic.yarns.len() == 4 && periodic.yarns.iter().all(|y| y.role == YarnRole::Plain && y.fibres == periodic.yarns[0].fibres && y.nodes_per_period == periodic.yarns[0].nodes_per_period);
+    let plain = periodic.yarns.len() == 4 && periodic.yarns.iter().all(|y| y.role == YarnRole::Plain && y.fibres == periodic.yarns[0].fibres && y.nodes_per_period == periodic.yarns[0].nodes_per_period);
     if !plain || !file.link_exists("packing") {
         return Err(format!("{name}: not a plain-weave cell (a woven_panel tiles plain-weave cells only; a 3-D weave is struck as a three_d_woven_panel)"));
     }
@@ -87,11 +86,7 @@ pub fn read_cell(path: &Path) -> Result<UnitCell, String> {
     let yarn_spacing = scalar("yarn_spacing")?;
     let (fibres_per_yarn, nodes_per_period) = (periodic.yarns[0].fibres, periodic.yarns[0].nodes_per_period);
     if packing.len() != fibres_per_yarn || nodes_per_period % 4 != 0 || periodic.period != [2.0 * yarn_spacing; 2] {
-        return Err(format!(
-            "{name}: inconsistent plain weave ({} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period, period {:?} for spacing {yarn_spacing:e} m)",
-            packing.len(),
-            periodic.period
-        ));
+        return Err(format!("{name}: inconsistent plain weave ({} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period, period {:?} for spacing {yarn_spacing:e} m)", packing.len(), periodic.period));
     }
     Ok(UnitCell { periodic, yarn_spacing, fibres_per_yarn, nodes_per_period, packing, initial_amplitude: scalar("initial_amplitude")? })
 }

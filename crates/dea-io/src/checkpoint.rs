@@ -110,14 +110,11 @@ impl NodeState {
     /// Contact entries and retired contacts of each row.
     fn row_ranges(&self) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
         let ranges = |lengths: &[u32]| -> Vec<std::ops::Range<usize>> {
-            lengths
-                .iter()
-                .scan(0usize, |next, &l| {
-                    let start = *next;
-                    *next += l as usize;
-                    Some(start..*next)
-                })
-                .collect()
+            lengths.iter().scan(0usize, |next, &l| {
+                let start = *next;
+                *next += l as usize;
+                Some(start..*next)
+            }).collect()
         };
         ranges(&self.row_length).into_iter().zip(ranges(&self.retired_length)).collect()
     }
@@ -314,7 +311,11 @@ fn open(path: &Path) -> Result<hdf5::File, CheckpointError> {
         return Err(error(path, "missing"));
     }
     let file = hdf5::File::open(path).map_err(|e| error(path, format!("cannot open (truncated or corrupt?): {e}")))?;
-    let format: String = file.attr("format").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map(|s| s.to_string()).map_err(|e| error(path, format!("not a dea-mpi checkpoint: {e}")))?;
+    let format: String = file
+        .attr("format")
+        .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
+        .map(|s| s.to_string())
+        .map_err(|e| error(path, format!("not a dea-mpi checkpoint: {e}")))?;
     if format != FORMAT {
         return Err(error(path, format!("format {format:?}, expected {FORMAT:?}")));
     }
@@ -532,18 +533,7 @@ mod tests {
             rebuilds: 4,
             list_builds: 5,
             run_scalars: vec![1.5, 2.5],
-            histories: Histories {
-                time: vec![0.0],
-                projectile_position: vec![Vec3::x()],
-                projectile_velocity: vec![Vec3::y()],
-                projectile_angular_velocity: vec![Vec3::z()],
-                broken_by_layer: vec![vec![1, 2, 3]],
-                projectile_force: vec![Vec3::z()],
-                energy: vec![Default::default()],
-                broken_tension: vec![0],
-                broken_shear: vec![0],
-                broken_combined: vec![0],
-            },
+            histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_angular_velocity: vec![Vec3::z()], broken_by_layer: vec![vec![1, 2, 3]], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
         };
         write_manifest(&manifest_path(&dir), &global).unwrap();
         assert_eq!(read_manifest(&dir).unwrap(), global);

@@ -37,8 +37,18 @@ pub struct Histories {
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
-pub const ENERGY_KINDS: [&str; 10] =
-    ["fibre_kinetic", "projectile_kinetic", "projectile_strain", "axial", "bending", "contact", "friction_stored", "friction_dissipated", "plastic_dissipated", "fracture_released"];
+pub const ENERGY_KINDS: [&str; 10] = [
+    "fibre_kinetic",
+    "projectile_kinetic",
+    "projectile_strain",
+    "axial",
+    "bending",
+    "contact",
+    "friction_stored",
+    "friction_dissipated",
+    "plastic_dissipated",
+    "fracture_released",
+];
 
 fn energy_fields(e: &EnergyReport) -> [f64; 10] {
     [e.fibre_kinetic, e.projectile_kinetic, e.projectile_strain, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
@@ -173,11 +183,7 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
             let dataset = file.dataset("history/broken/by_layer")?;
             let layers = dataset.shape().get(1).copied().unwrap_or(0);
             let flat: Vec<u64> = dataset.read_raw()?;
-            if layers == 0 {
-                vec![Vec::new(); dataset.shape()[0]]
-            } else {
-                flat.chunks_exact(layers).map(<[u64]>::to_vec).collect()
-            }
+            if layers == 0 { vec![Vec::new(); dataset.shape()[0]] } else { flat.chunks_exact(layers).map(<[u64]>::to_vec).collect() }
         },
         broken_tension: file.dataset("history/broken/tension")?.read_raw()?,
         broken_shear: file.dataset("history/broken/shear")?.read_raw()?,

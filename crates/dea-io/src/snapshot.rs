@@ -115,9 +115,7 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
         return Ok(());
     }
     let file = hdf5::File::open(&path)?;
-    let mut x = String::from(
-        "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"projectile\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
-    );
+    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"projectile\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
     let mut names = file.member_names()?;
     names.sort();
     for name in names {
@@ -171,9 +169,7 @@ pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<Index
     names.sort();
     let mut by_step: BTreeMap<u64, BTreeMap<usize, IndexedSnapshot>> = BTreeMap::new();
     for name in names {
-        let Some(writer_ranks) = name.get(6..11).and_then(|r| r.parse::<usize>().ok()) else {
-            continue;
-        };
+        let Some(writer_ranks) = name.get(6..11).and_then(|r| r.parse::<usize>().ok()) else { continue };
         let file = hdf5::File::open(directory.join(&name))?;
         for group_name in file.member_names()? {
             let group = file.group(&group_name)?;
@@ -198,15 +194,16 @@ pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<Index
 }
 
 fn item(out: &mut String, file: &str, step: u64, name: &str, dimensions: &str, number_type: &str, precision: usize) {
-    let _ =
-        writeln!(out, "          <DataItem Dimensions=\"{dimensions}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">fields/{file}:/{}/{name}</DataItem>", group_name(step));
+    let _ = writeln!(
+        out,
+        "          <DataItem Dimensions=\"{dimensions}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">fields/{file}:/{}/{name}</DataItem>",
+        group_name(step)
+    );
 }
 
 /// Writes the XDMF file joining `snapshots` (it is replaced whole, so it is always valid).
 pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<()> {
-    let mut x = String::from(
-        "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
-    );
+    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
     for snapshot in snapshots {
         let _ = writeln!(x, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n        <Time Value=\"{:e}\" />", snapshot.step, snapshot.time);
         for part in snapshot.parts.iter().filter(|p| p.points > 0 && p.cells > 0) {

@@ -324,11 +324,7 @@ mod tests {
             for j in 0..=ny {
                 for i in 0..=nx {
                     let interior = i > 0 && i < nx && j > 0 && j < ny && k > 0 && k < nz;
-                    let wobble = if interior {
-                        jitter * Vec3::new(((i * 7 + j * 3 + k) % 5) as f64 - 2.0, ((i + j * 5 + k * 3) % 5) as f64 - 2.0, ((i * 3 + j + k * 7) % 5) as f64 - 2.0)
-                    } else {
-                        Vec3::zeros()
-                    };
+                    let wobble = if interior { jitter * Vec3::new(((i * 7 + j * 3 + k) % 5) as f64 - 2.0, ((i + j * 5 + k * 3) % 5) as f64 - 2.0, ((i * 3 + j + k * 7) % 5) as f64 - 2.0) } else { Vec3::zeros() };
                     nodes.push(Vec3::new(size.x * i as f64 / nx as f64, size.y * j as f64 / ny as f64, size.z * k as f64 / nz as f64) + wobble);
                 }
             }
@@ -337,16 +333,7 @@ mod tests {
         for k in 0..nz {
             for j in 0..ny {
                 for i in 0..nx {
-                    hexes.push([
-                        index(i, j, k),
-                        index(i + 1, j, k),
-                        index(i + 1, j + 1, k),
-                        index(i, j + 1, k),
-                        index(i, j, k + 1),
-                        index(i + 1, j, k + 1),
-                        index(i + 1, j + 1, k + 1),
-                        index(i, j + 1, k + 1),
-                    ]);
+                    hexes.push([index(i, j, k), index(i + 1, j, k), index(i + 1, j + 1, k), index(i, j + 1, k), index(i, j, k + 1), index(i + 1, j, k + 1), index(i + 1, j + 1, k + 1), index(i, j + 1, k + 1)]);
                 }
             }
         }

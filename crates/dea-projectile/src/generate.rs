@@ -42,8 +42,7 @@ impl FspDimensions {
     /// The .22-calibre 17-grain FSP: diameter, length and flat width as commonly quoted from
     /// MIL-DTL-46593B, the 35° cuts of seed §4.4.3.2, the edge radii measured in seed §6.2.1
     /// (docs/theory.md records the sources and what is assumed).
-    pub const SEVENTEEN_GRAIN: Self =
-        Self { diameter: 5.46e-3, length: 6.35e-3, flat_width: 1.27e-3, bevel_angle: 35.0 * std::f64::consts::PI / 180.0, flat_edge_radius: 50e-6, rim_edge_radius: 150e-6 };
+    pub const SEVENTEEN_GRAIN: Self = Self { diameter: 5.46e-3, length: 6.35e-3, flat_width: 1.27e-3, bevel_angle: 35.0 * std::f64::consts::PI / 180.0, flat_edge_radius: 50e-6, rim_edge_radius: 150e-6 };
 
     /// Depth of the nose surface behind the flat at lateral position `x` (across the cuts)
     /// before the rim is rounded: zero on the flat, a circular arc of the flat-edge radius,
@@ -87,15 +86,9 @@ impl FspDimensions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Solid {
     /// [m]
-    Sphere {
-        radius: f64,
-    },
+    Sphere { radius: f64 },
     /// right circular cylinder with a rounded striking edge [m]
-    Cylinder {
-        radius: f64,
-        height: f64,
-        edge_radius: f64,
-    },
+    Cylinder { radius: f64, height: f64, edge_radius: f64 },
     Fsp(FspDimensions),
 }
 

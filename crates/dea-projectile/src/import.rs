@@ -41,14 +41,14 @@ const GMSH_TETRAHEDRON: i64 = 4;
 /// hexahedron), and whether the type is a volume element.
 fn gmsh_element(kind: i64) -> Option<(usize, bool)> {
     match kind {
-        15 => Some((1, false)), // point
-        1 => Some((2, false)),  // line
-        2 => Some((3, false)),  // triangle
-        3 => Some((4, false)),  // quadrangle
+        15 => Some((1, false)),         // point
+        1 => Some((2, false)),          // line
+        2 => Some((3, false)),          // triangle
+        3 => Some((4, false)),          // quadrangle
         GMSH_TETRAHEDRON => Some((4, true)),
         GMSH_HEXAHEDRON => Some((8, true)),
-        6 => Some((6, true)), // prism
-        7 => Some((5, true)), // pyramid
+        6 => Some((6, true)),           // prism
+        7 => Some((5, true)),           // pyramid
         _ => None,
     }
 }
@@ -249,9 +249,7 @@ fn parse_gmsh_ascii(text: &str, path: &str) -> Result<Collected, ImportError> {
                 for _ in 0..head[0] {
                     let (line, block) = lines.numbers::<i64>(4)?;
                     let (kind, count) = (block[2], block[3] as usize);
-                    let Some((nodes, volume)) = gmsh_element(kind) else {
-                        return Err(lines.error(line, format!("unknown element type {kind}")));
-                    };
+                    let Some((nodes, volume)) = gmsh_element(kind) else { return Err(lines.error(line, format!("unknown element type {kind}"))) };
                     if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
                         return Err(lines.error(line, format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
                     }
@@ -345,9 +343,7 @@ fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<Collected, ImportError>
     for _ in 0..blocks {
         let (_, _, kind) = (reader.int()?, reader.int()?, reader.int()? as i64);
         let count = reader.size()? as usize;
-        let Some((nodes, volume)) = gmsh_element(kind) else {
-            return Err(reader.error(format!("unknown element type {kind}")));
-        };
+        let Some((nodes, volume)) = gmsh_element(kind) else { return Err(reader.error(format!("unknown element type {kind}"))) };
         if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
             return Err(reader.error(format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
         }

@@ -223,11 +223,7 @@ impl HexMesh {
                             let outer = [point(a, b, layer + 1), point(a + 1, b, layer + 1), point(a + 1, b + 1, layer + 1), point(a, b + 1, layer + 1)];
                             // the base runs counter-clockwise seen from the outside on the
                             // positive faces; on the negative ones the layers swap places
-                            let corners = if sign > 0.0 {
-                                [inner[0], inner[1], inner[2], inner[3], outer[0], outer[1], outer[2], outer[3]]
-                            } else {
-                                [outer[0], outer[1], outer[2], outer[3], inner[0], inner[1], inner[2], inner[3]]
-                            };
+                            let corners = if sign > 0.0 { [inner[0], inner[1], inner[2], inner[3], outer[0], outer[1], outer[2], outer[3]] } else { [outer[0], outer[1], outer[2], outer[3], inner[0], inner[1], inner[2], inner[3]] };
                             add(&mut set, corners);
                         }
                     }
@@ -329,7 +325,10 @@ mod tests {
         assert!((total - density * volume).abs() < 1e-12 * total);
         assert!(masses.iter().all(|&m| m > 0.0));
         // a rectangular brick: eight equal corners
-        let brick = HexMesh { nodes: CORNERS.iter().map(|c| Vec3::new(c[0] * 1.0, c[1] * 2.0, c[2] * 0.5)).collect(), hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]] };
+        let brick = HexMesh {
+            nodes: CORNERS.iter().map(|c| Vec3::new(c[0] * 1.0, c[1] * 2.0, c[2] * 0.5)).collect(),
+            hexes: vec![[0, 1, 2, 3, 4, 5, 6, 7]],
+        };
         let masses = brick.hrz_masses(1.0);
         // volume 2 x 4 x 1 = 8 at unit density: one each
         assert!(masses.iter().all(|&m| (m - 1.0).abs() < 1e-12), "{masses:?}");

@@ -130,14 +130,11 @@ impl Comm for MpiComm {
         }
         let mut counts = vec![0 as Count; self.size()];
         root.gather_into_root(&count, &mut counts[..]);
-        let displacements: Vec<Count> = counts
-            .iter()
-            .scan(0, |offset, &c| {
-                let start = *offset;
-                *offset += c;
-                Some(start)
-            })
-            .collect();
+        let displacements: Vec<Count> = counts.iter().scan(0, |offset, &c| {
+            let start = *offset;
+            *offset += c;
+            Some(start)
+        }).collect();
         let mut all = vec![0.0; counts.iter().map(|&c| c as usize).sum()];
         {
             let mut partition = PartitionMut::new(&mut all[..], &counts[..], &displacements[..]);
