@@ -333,7 +333,10 @@ impl<C: Comm> Distributed<C> {
         self.comm.max_f64(&mut largest);
         self.agreed = [largest[1] > 0.0, largest[2] > 0.0];
         self.times.reductions += clock.elapsed().as_secs_f64();
-        if self.domain.rebuild_needed(largest[0]) {
+        let clock = Instant::now();
+        let rebuild = self.domain.rebuild_needed(largest[0], self.comm.size() == 1);
+        self.domain.times.rebuild += clock.elapsed().as_secs_f64();
+        if rebuild {
             self.rebuild()?;
         } else {
             self.forward_halo();

@@ -48,7 +48,7 @@ pub enum DomainError {
     MissingGhost { gid: GlobalNodeId, along: u32 },
     #[error("time step violated at node {} in step {step}: its current stiffness is stable only below dt = {limit:.3e} s, the run uses {time_step:.3e} s (contacts far deeper than the time step was chosen for; lower run.time_step_safety)", gid.0)]
     TimeStep { step: u64, gid: GlobalNodeId, time_step: f64, limit: f64 },
-    #[error("element {element} of the deformable projectile is inverted or no longer finite in step {step}: the strain is far beyond what linear elasticity describes (a softer body at this speed deforms more than the model holds; stiffen it, slow it, or refine its mesh)")]
+    #[error("element {element} of the deformable projectile is inverted or no longer finite in step {step}: its elements cannot follow the deformation (a body this soft at this speed deforms more than its mesh holds: stiffen it, slow it, or round its striking edges more, so that their elements are not crushed; the neo_hookean model holds larger strains than the corotational one)")]
     ProjectileInverted { step: u64, element: usize },
     #[error("node {} is tied to node {} of a hybrid yarn's transition, which is not present: a ghost is missing, so its forces cannot be computed", gid.0, partner.0)]
     MissingTiePartner { gid: GlobalNodeId, partner: GlobalNodeId },
@@ -348,7 +348,8 @@ impl Domain {
     /// projectile.
     pub fn kick_drift(&mut self, half_dt: f64, dt: f64) {
         self.damp(half_dt);
-        integrate::kick_drift(&mut self.nodes, half_dt, dt);
+        let moved = integrate::kick_drift(&mut self.nodes, half_dt, dt);
+        self.pairs.moved_at_most(moved);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
@@ -411,14 +412,16 @@ impl Domain {
     }
 
     /// True when a node may have come within reach of a partner not in its list: a node
-    /// moved more than half the skin. `node` is the largest displacement over every rank.
-    pub fn rebuild_needed(&self, node: f64) -> bool {
-        2.0 * node > self.pairs.skin
+    /// moved more than half the skin (`node` is the largest displacement over every rank),
+    /// and, on a whole domain (`alone`), nodes near each other moved apart by more than the
+    /// skin ([`NeighbourList::hold_every_reachable_pair`]).
+    pub fn rebuild_needed(&mut self, node: f64, alone: bool) -> bool {
+        2.0 * node > self.pairs.skin && !(alone && self.pairs.hold_every_reachable_pair(&self.nodes))
     }
 
     /// [`Self::rebuild_needed`] for a whole domain.
-    pub fn rebuild_due(&self) -> bool {
-        self.rebuild_needed(self.node_displacement())
+    pub fn rebuild_due(&mut self) -> bool {
+        self.rebuild_needed(self.node_displacement(), true)
     }
 
     /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking

@@ -26,8 +26,10 @@ pub fn damp(nodes: &mut Nodes, factor: f64) {
 }
 
 /// Half-step velocity update followed by the position update (4-19, 4-20), in one pass
-/// over the owned nodes; clamped nodes keep zero velocity and their position.
-pub fn kick_drift(nodes: &mut Nodes, h: f64, dt: f64) {
+/// over the owned nodes; clamped nodes keep zero velocity and their position. Returns the
+/// largest distance a node moved [m].
+pub fn kick_drift(nodes: &mut Nodes, h: f64, dt: f64) -> f64 {
+    let mut fastest: f64 = 0.0;
     for i in 0..nodes.n_owned {
         if nodes.clamped[i] {
             nodes.velocity[i].fill(0.0);
@@ -35,6 +37,8 @@ pub fn kick_drift(nodes: &mut Nodes, h: f64, dt: f64) {
             let velocity = nodes.velocity[i] + nodes.force[i] * (h / nodes.mass[i]);
             nodes.velocity[i] = velocity;
             nodes.position[i] += velocity * dt;
+            fastest = fastest.max(velocity.norm_squared());
         }
     }
+    fastest.sqrt() * dt
 }

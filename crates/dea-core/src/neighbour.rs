@@ -40,6 +40,31 @@ pub struct NeighbourList {
     /// number of builds so far
     pub builds: u64,
     scratch: BuildScratch,
+    motion: RelativeMotion,
+}
+
+/// Displacements since the last build, boxed by cells twice the list's cell size (of the
+/// nodes' positions at the build), to tell whether nodes moved together.
+#[derive(Clone, Debug, Default)]
+struct RelativeMotion {
+    /// the cells; none when the lists have ghosts (then only the plain rule holds)
+    grid: Option<HashedGrid>,
+    /// cell size [m]
+    cell: f64,
+    /// largest contact distance of two nodes [m]
+    cutoff: f64,
+    /// each node's slot
+    slot: Vec<u32>,
+    /// coordinates of the occupied cells
+    occupied: Vec<[i64; 3]>,
+    /// per slot, the componentwise least and greatest displacement [m]
+    low: Vec<Vec3>,
+    high: Vec<Vec3>,
+    /// the last check that kept the lists: the largest spread over a block and the largest
+    /// displacement then [m]
+    passed: Option<(f64, f64)>,
+    /// how far any node can have moved since that check [m]
+    moved_since: f64,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -206,8 +231,12 @@ impl NeighbourList {
                             if j == i || same_fibre_within(nodes, i, j, exclusion) {
                                 continue;
                             }
-                            let reach = contact_distance(sections, nodes, i, j) + self.skin;
-                            if single_section || distance_squared < reach * reach {
+                            // one section: the coarse test above was the pair's own
+                            let within = || {
+                                let reach = contact_distance(sections, nodes, i, j) + self.skin;
+                                distance_squared < reach * reach
+                            };
+                            if single_section || within() {
                                 scratch.row.push((nodes.gid[j], j as u32));
                             }
                         }
@@ -280,7 +309,78 @@ impl NeighbourList {
         std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
+        self.motion.build(nodes, max_cutoff, 2.0 * cell_size);
         self.builds += 1;
+    }
+
+    /// True when the lists still hold every pair that can touch, though a node may have moved
+    /// more than half the skin: no two nodes that could have come within contact since the
+    /// build moved more than the skin relative to each other. Such nodes were less than the
+    /// cutoff plus twice the largest displacement apart at the build, so, while that is below
+    /// the cell size, in neighbouring cells: the spread of the displacements over every three
+    /// by three by three block of cells bounds their relative motion. Fibres carried along
+    /// together by a projectile move far and barely apart, and keep their lists. Only for
+    /// lists without ghosts (a whole domain): a partner on another rank is not seen here.
+    ///
+    /// Between full checks, a check that kept the lists still holds while its spread plus
+    /// twice the distance any node has moved since ([`Self::moved_at_most`]) stays below the
+    /// skin: a calm run checks seldom.
+    pub fn hold_every_reachable_pair(&mut self, nodes: &Nodes) -> bool {
+        let motion = &mut self.motion;
+        let Some(grid) = &motion.grid else { return false };
+        if nodes.len() != motion.slot.len() || self.reference_position.len() != nodes.len() {
+            return false;
+        }
+        if let Some((spread, largest)) = motion.passed {
+            if spread + 2.0 * motion.moved_since < self.skin && motion.cutoff + 2.0 * (largest + motion.moved_since) < motion.cell {
+                return true;
+            }
+        }
+        motion.passed = None;
+        motion.moved_since = 0.0;
+        for &cell in &motion.occupied {
+            let slot = grid.slot(cell);
+            motion.low[slot] = Vec3::repeat(f64::INFINITY);
+            motion.high[slot] = Vec3::repeat(f64::NEG_INFINITY);
+        }
+        let mut largest_squared: f64 = 0.0;
+        for ((x, reference), &slot) in nodes.position.iter().zip(&self.reference_position).zip(&motion.slot) {
+            let displacement = x - reference;
+            largest_squared = largest_squared.max(displacement.norm_squared());
+            let slot = slot as usize;
+            motion.low[slot] = motion.low[slot].inf(&displacement);
+            motion.high[slot] = motion.high[slot].sup(&displacement);
+        }
+        // a NaN displacement fails this test, and the rebuild that follows reports nothing
+        // new: the forces catch it
+        let largest = largest_squared.sqrt();
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(motion.cutoff + 2.0 * largest < motion.cell) {
+            return false;
+        }
+        let mut widest: f64 = 0.0;
+        let kept = motion.occupied.iter().all(|&[x, y, z]| {
+            let (mut low, mut high) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let slot = grid.slot([x + dx, y + dy, z + dz]);
+                        low = low.inf(&motion.low[slot]);
+                        high = high.sup(&motion.high[slot]);
+                    }
+                }
+            }
+            let spread = (high - low).norm();
+            widest = widest.max(spread);
+            spread < self.skin
+        });
+        motion.passed = kept.then_some((widest, largest));
+        kept
+    }
+
+    /// Records that no node moved farther than `distance` in a step [m].
+    pub fn moved_at_most(&mut self, distance: f64) {
+        self.motion.moved_since += distance;
     }
 }
 
@@ -292,12 +392,41 @@ fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
     }
 }
 
+impl RelativeMotion {
+    /// Cells of size `cell` over the nodes' present positions, for lists without ghosts.
+    fn build(&mut self, nodes: &Nodes, cutoff: f64, cell: f64) {
+        (self.grid, self.passed) = (None, None);
+        if nodes.len() != nodes.n_owned || nodes.is_empty() {
+            return;
+        }
+        let (low, high) = bounding_box(&nodes.position);
+        // a few dozen nodes share a cell: a small table
+        let grid = HashedGrid::new(nodes.len() / 32, low, high, cell);
+        self.slot.clear();
+        self.occupied.clear();
+        self.low.clear();
+        self.low.resize(grid.slots(), Vec3::repeat(f64::INFINITY));
+        self.high.clear();
+        self.high.resize(grid.slots(), Vec3::repeat(f64::NEG_INFINITY));
+        for x in &nodes.position {
+            let coordinates = grid.coordinates(x);
+            self.slot.push(grid.slot(coordinates) as u32);
+            self.occupied.push(coordinates);
+        }
+        // every occupied cell once (folded cells share a slot: wider boxes, never a missed pair)
+        self.occupied.sort_unstable();
+        self.occupied.dedup();
+        (self.cutoff, self.cell, self.grid) = (cutoff, cell, Some(grid));
+    }
+}
+
 /// A cell grid folded into a table of `slots()` entries: cell (x, y, z) lives in slot
 /// `x s_x + y s_y + z` modulo the table, with strides from the bounding box, so neighbouring
 /// cells stay close in memory as in a dense grid and the cells of a column along z are
 /// consecutive. The table holds at most a few slots per node: when the box is huge (a
 /// fragment flung far away) distant cells share slots, which costs extra candidates, never
 /// a missed pair.
+#[derive(Clone, Debug)]
 struct HashedGrid {
     low: Vec3,
     inverse_cell: f64,
@@ -388,15 +517,20 @@ mod tests {
     use crate::ids::FibreId;
     use crate::material::{FibreMaterial, InertiaModel};
 
+    /// Uniform numbers in [0, 1) from a linear congruential stream.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     fn random_cloud(n: usize, seed: u64) -> (Nodes, Vec<FibreSection>) {
         let material = FibreMaterial::kevlar_km2();
         let section = FibreSection::new(&material, 1e-9, 18e-6, InertiaModel::None, 0.3);
         let mut nodes = Nodes::default();
-        let mut state = seed;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(seed);
         for k in 0..n {
             let x = Vec3::new(next(), next(), next()) * 4e-4;
             nodes.push(GlobalNodeId(k as u64 * 3), x, Vec3::zeros(), 1.0, FibreId((k / 10) as u32), (k % 10) as u32, 0, false, k % 10 == 9);
@@ -435,6 +569,67 @@ mod tests {
         for i in 1..nodes.n_owned {
             assert_eq!(list.partner_gid[list.row(i)], before[i - 1][..], "node {i}");
         }
+    }
+
+    #[test]
+    fn lists_kept_through_motion_together_still_hold_every_touching_pair() {
+        let (reference, sections) = random_cloud(600, 5);
+        let mut list = NeighbourList::new(5e-6);
+        let mut stream = uniform(77);
+        let mut next = move || stream() - 0.5;
+        let (mut kept_beyond_plain_rule, mut refused, mut refused_later) = (0, 0, 0);
+        for trial in 0..60 {
+            let mut nodes = reference.clone();
+            list.rebuild(&nodes, &sections);
+            // nodes carried by a common translation of up to three skins plus a jitter of
+            // up to half a skin: all of them, or those of one half-space
+            let carried = Vec3::new(next(), next(), next()) * 6.0 * list.skin;
+            let scale = list.skin * (next() + 0.5);
+            // a cut on a boundary of the check's cells (twice the list's) moves whole cells
+            // past each other
+            let cell = 2.0 * (sections[0].contact_diameter + list.skin);
+            let low = reference.position.iter().fold(f64::INFINITY, |low, x| low.min(x.x));
+            let cut = match trial % 4 {
+                0 | 2 => f64::INFINITY,
+                1 => 4e-4 * (0.25 + 0.5 * (next() + 0.5)),
+                _ => low + cell * (2 + trial % 5) as f64,
+            };
+            for x in &mut nodes.position {
+                let jitter = Vec3::new(next(), next(), next()) * scale;
+                *x += if x.x < cut { carried + jitter } else { jitter };
+            }
+            let largest = list.max_displacement_squared(&nodes).sqrt();
+            if !list.hold_every_reachable_pair(&nodes) {
+                refused += 1;
+                continue;
+            }
+            kept_beyond_plain_rule += (2.0 * largest > list.skin) as usize;
+            let every_touching_pair_listed = |list: &NeighbourList, nodes: &Nodes, stage: &str| {
+                for i in 0..nodes.n_owned {
+                    for j in (0..nodes.len()).filter(|&j| j != i && !is_excluded(nodes, &sections, i, j)) {
+                        if (nodes.position[j] - nodes.position[i]).norm() < contact_distance(&sections, nodes, i, j) {
+                            assert!(list.partner_gid[list.row(i)].contains(&nodes.gid[j]), "trial {trial}, {stage}: touching pair {i}-{j} not listed");
+                        }
+                    }
+                }
+            };
+            every_touching_pair_listed(&list, &nodes, "first check");
+            // then steps that move the nodes apart, each no farther than it says: the check
+            // that kept the lists answers from its bound until the bound runs out
+            for step in 0..8 {
+                let move_by = 0.1 * list.skin;
+                for (k, x) in nodes.position.iter_mut().enumerate() {
+                    *x += Vec3::new(if k % 2 == 0 { move_by } else { -move_by }, 0.0, 0.0);
+                }
+                list.moved_at_most(move_by);
+                if !list.hold_every_reachable_pair(&nodes) {
+                    refused_later += 1;
+                    break;
+                }
+                every_touching_pair_listed(&list, &nodes, &format!("step {step}"));
+            }
+        }
+        assert!(kept_beyond_plain_rule > 5 && refused > 5 && refused_later > 5, "kept {kept_beyond_plain_rule}, refused {refused}, refused later {refused_later}");
     }
 
     #[test]
