@@ -121,14 +121,14 @@ def deformable_rows(results, reference=None):
     rows = []
     for r in results:
         edge = "" if r["edge"] is None else f", {r['edge'] * 1e3:g} mm edge"
-        against = []
         if "failure" in r:
-            against = [] if reference is None else ["–"]
-            rows.append("| " + " | ".join([f"{r['preset']} ({r['divisions']} div.{edge})", r["model"], f"{r['modulus']:.2e}", "–"] + against + ["–", "–", "–", f"stopped: {r['failure'].split(': ', 1)[-1][:90]}…"]) + " |")
+            name, force, rest = f"{r['divisions']} div.", ["–"], ["–", "–", "–", f"stopped: {r['failure'].split(': ', 1)[-1][:90]}…"]
+            against = "–"
         else:
-            against = [] if reference is None else [f"{100 * (r['force'] / reference - 1):+.1f} %"]
-            rows.append("| " + " | ".join([f"{r['preset']} ({r['nodes']} nodes{edge})", r["model"], f"{r['modulus']:.2e}", f"{r['force']:.1f}"] + against
-                                          + [f"{r['averaged']:.1f}", f"{r['rebound']:.2f}", f"{100 * r['balance']:.2f} %", f"{r['wall']:.0f} s"]) + " |")
+            name, force, rest = f"{r['nodes']} nodes", [f"{r['force']:.1f}"], [f"{r['averaged']:.1f}", f"{r['rebound']:.2f}", f"{100 * r['balance']:.2f} %", f"{r['wall']:.0f} s"]
+            against = None if reference is None else f"{100 * (r['force'] / reference - 1):+.1f} %"
+        columns = [f"{r['preset']} ({name}{edge})", r["model"], f"{r['modulus']:.2e}"] + force + ([] if reference is None else [against]) + rest
+        rows.append("| " + " | ".join(columns) + " |")
     return rows
 
 

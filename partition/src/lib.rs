@@ -165,7 +165,7 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
     // lie in its own cell and the 26 around it (the low corners decide the cell), so the
     // layers of a thick panel are not compared with each other
     let width = segments.iter().fold(Vec3::zeros(), |w, s| w.sup(&(s.high - s.low))).add_scalar(2.0 * reach);
-    let origin = segments.iter().fold(Vec3::repeat(f64::INFINITY), |o, s| o.inf(&s.low));
+    let (origin, _) = dea_core::bounding_box(segments.iter().map(|s| s.low));
     let cell_of = |s: &Segment| [0, 1, 2].map(|k| ((s.low[k] - origin[k]) / width[k]).floor() as i64);
     let mut by_cell: Vec<([i64; 3], usize)> = segments.iter().enumerate().map(|(k, s)| (cell_of(s), k)).collect();
     by_cell.sort_unstable();

@@ -185,6 +185,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     let node_steps = nodes * steps as f64;
     let section = &run.domain.sections[0];
     let (mesh_query, analytic_query, mesh_triangles) = surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
+    let ns_per_contact_entry = static_seconds * 1e9 / (static_touching * statics as f64);
     Ok(Some(BenchReport {
         nodes: nodes as u64,
         steps,
@@ -192,8 +193,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
         wall_s: wall,
         ns_per_node_step: wall * ranks as f64 * 1e9 / node_steps,
         // every touching pair has an entry at each of its nodes, on whichever ranks
-        ns_per_contact_pair: 2.0 * static_seconds * 1e9 / (static_touching * statics as f64),
-        ns_per_contact_entry: static_seconds * 1e9 / (static_touching * statics as f64),
+        ns_per_contact_pair: 2.0 * ns_per_contact_entry,
+        ns_per_contact_entry,
         static_contacts_per_node: static_touching / nodes,
         ns_per_listed_pair: fibre_contacts * 1e9 / (mean_listed * steps as f64),
         ns_per_node_rods: rods * 1e9 / node_steps,

@@ -7,6 +7,11 @@ fn dea(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dea-mpi")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap()
 }
 
+/// A case file of `cases/`, to be changed by a test.
+fn case_file(name: &str) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(format!("../cases/{name}")).unwrap()).unwrap()
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -17,7 +22,7 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn bad_case_names_the_field_and_exits_3() {
     let dir = scratch("bad");
-    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
+    let mut case = case_file("single_fibre_short.json");
     case["target"]["element_length_ratio"] = (-1.0).into();
     let path = dir.join("bad.json");
     std::fs::write(&path, case.to_string()).unwrap();
@@ -143,7 +148,7 @@ fn fabric_share_builds_one_rank_of_a_larger_job_alone() {
 #[test]
 fn a_fine_disc_without_a_crossing_exits_3_naming_its_radius() {
     let dir = scratch("disc");
-    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/hybrid_disc_two_layer_settle.json").unwrap()).unwrap();
+    let mut case = case_file("hybrid_disc_two_layer_settle.json");
     case["target"]["hybrid"]["fine_radius_m"] = 0.3e-3.into();
     let path = dir.join("case.json");
     std::fs::write(&path, case.to_string()).unwrap();
@@ -174,7 +179,7 @@ fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     let (radius, height, edge) = (1.7e-3, 3.7e-3, 0.2e-3);
     let (vertices, triangles) = dea_projectile::generate::Solid::Cylinder { radius, height, edge_radius: edge }.mesh(4).boundary();
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles)).unwrap();
-    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/single_fibre_short.json").unwrap()).unwrap();
+    let mut case = case_file("single_fibre_short.json");
     case["projectile"] = serde_json::json!({ "shape": "cylinder", "diameter_m": 2.0 * radius, "height_m": height, "edge_radius_m": edge, "mesh_divisions": 4, "mass_kg": 5e-6, "velocity_m_s": 100.0 });
     std::fs::write(dir.join("generated.json"), case.to_string()).unwrap();
     // the file's vertices are the generator's, written exactly, in the same order
@@ -208,7 +213,7 @@ fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
 #[test]
 fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
     let dir = scratch("inverted");
-    let mut case: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("../cases/four_layer_deformable_sphere.json").unwrap()).unwrap();
+    let mut case = case_file("four_layer_deformable_sphere.json");
     // a body as soft as rubber at 50 m/s: far beyond linear elasticity
     case["projectile"]["deformable"]["youngs_modulus_pa"] = 2.09e7.into();
     case["projectile"]["velocity_m_s"] = 50.0.into();

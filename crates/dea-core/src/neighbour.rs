@@ -162,11 +162,12 @@ impl NeighbourList {
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
         let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-        let cell_size = max_cutoff + self.skin;
+        // the largest reach of a pair, and the cell size: partners lie in the 27 cells around
+        let coarse_reach = max_cutoff + self.skin;
         let (low, high) = bounding_box(&nodes.position);
         // memory follows the node count, not the extent, so a fragment flung far away can
         // neither blow up the grid nor crowd every node into a few huge cells
-        let grid = HashedGrid::new(n, low, high, cell_size);
+        let grid = HashedGrid::new(n, low, high, coarse_reach);
         let scratch = &mut self.scratch;
         scratch.cell_of.clear();
         scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
@@ -192,7 +193,6 @@ impl NeighbourList {
             scratch.cell_fill[c as usize] += 1;
         }
         let single_section = sections.len() == 1;
-        let coarse_reach = max_cutoff + self.skin;
 
         scratch.start.clear();
         scratch.partner.clear();
@@ -309,7 +309,7 @@ impl NeighbourList {
         std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
-        self.motion.build(nodes, max_cutoff, 2.0 * cell_size);
+        self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
     }
 
@@ -328,7 +328,8 @@ impl NeighbourList {
     pub fn hold_every_reachable_pair(&mut self, nodes: &Nodes) -> bool {
         let motion = &mut self.motion;
         let Some(grid) = &motion.grid else { return false };
-        if nodes.len() != motion.slot.len() || self.reference_position.len() != nodes.len() {
+        // built for these nodes, without ghosts (so `reference_position` holds them all)
+        if nodes.len() != motion.slot.len() {
             return false;
         }
         if let Some((spread, largest)) = motion.passed {
