@@ -6,7 +6,7 @@
 //! the partner's global id, which fixes the summation order of contact forces and lets a
 //! rebuild carry histories over by a sorted merge.
 
-use crate::ids::GlobalNodeId;
+use crate::ids::{FibreId, GlobalNodeId};
 use crate::nodes::Nodes;
 use crate::{FibreSection, Vec3};
 
@@ -74,6 +74,9 @@ struct BuildScratch {
     cell_fill: Vec<u32>,
     sorted: Vec<u32>,
     sorted_position: Vec<Vec3>,
+    /// (fibre, position along it) and global id of each node, in cell order
+    sorted_chain: Vec<(FibreId, u32)>,
+    sorted_gid: Vec<GlobalNodeId>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
     partner: Vec<u32>,
@@ -119,9 +122,7 @@ impl NeighbourList {
         if self.reference_position.len() != nodes.n_owned {
             return f64::INFINITY;
         }
-        (0..nodes.n_owned)
-            .map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared())
-            .fold(0.0, f64::max)
+        (0..nodes.n_owned).map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared()).fold(0.0, f64::max)
     }
 
     /// Pair range of owned node `i`.
@@ -168,7 +169,7 @@ impl NeighbourList {
         // memory follows the node count, not the extent, so a fragment flung far away can
         // neither blow up the grid nor crowd every node into a few huge cells
         let grid = HashedGrid::new(n, low, high, coarse_reach);
-        let scratch = &mut self.scratch;
+        let mut scratch = std::mem::take(&mut self.scratch);
         scratch.cell_of.clear();
         scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
         scratch.cell_start.clear();
@@ -179,17 +180,23 @@ impl NeighbourList {
         for c in 0..grid.slots() {
             scratch.cell_start[c + 1] += scratch.cell_start[c];
         }
-        // nodes and their positions in cell order: the scan below streams through memory
+        // nodes and what the scan reads of them in cell order: it streams through memory
         scratch.sorted.clear();
         scratch.sorted.resize(n, 0);
         scratch.sorted_position.clear();
         scratch.sorted_position.resize(n, Vec3::zeros());
+        scratch.sorted_chain.clear();
+        scratch.sorted_chain.resize(n, (FibreId(0), 0));
+        scratch.sorted_gid.clear();
+        scratch.sorted_gid.resize(n, GlobalNodeId(0));
         scratch.cell_fill.clear();
         scratch.cell_fill.extend_from_slice(&scratch.cell_start);
         for (i, &c) in scratch.cell_of.iter().enumerate() {
             let slot = scratch.cell_fill[c as usize] as usize;
             scratch.sorted[slot] = i as u32;
             scratch.sorted_position[slot] = nodes.position[i];
+            scratch.sorted_chain[slot] = (nodes.fibre[i], nodes.along[i]);
+            scratch.sorted_gid[slot] = nodes.gid[i];
             scratch.cell_fill[c as usize] += 1;
         }
         let single_section = sections.len() == 1;
@@ -207,10 +214,13 @@ impl NeighbourList {
         scratch.start.push(0);
         scratch.retired_start.push(0);
         let has_history = self.start.len() == nodes.n_owned + 1;
+        // where the present run of unchanged rows starts in the old list and retired pairs
+        let mut run = None;
         for i in 0..nodes.n_owned {
             let xi = nodes.position[i];
             let [cx, cy, cz] = grid.coordinates(&xi);
             let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
+            let (fibre, along) = (nodes.fibre[i], nodes.along[i]);
             scratch.row.clear();
             for dx in -1..=1 {
                 for dy in -1..=1 {
@@ -227,17 +237,19 @@ impl NeighbourList {
                             if !(distance_squared < coarse_reach * coarse_reach) {
                                 continue;
                             }
-                            let j = scratch.sorted[k] as usize;
-                            if j == i || same_fibre_within(nodes, i, j, exclusion) {
+                            // the node itself and its chain neighbours
+                            let (partner_fibre, partner_along) = scratch.sorted_chain[k];
+                            if partner_fibre == fibre && partner_along.abs_diff(along) <= exclusion {
                                 continue;
                             }
+                            let j = scratch.sorted[k] as usize;
                             // one section: the coarse test above was the pair's own
                             let within = || {
                                 let reach = contact_distance(sections, nodes, i, j) + self.skin;
                                 distance_squared < reach * reach
                             };
                             if single_section || within() {
-                                scratch.row.push((nodes.gid[j], j as u32));
+                                scratch.row.push((scratch.sorted_gid[k], j as u32));
                             }
                         }
                     }
@@ -250,52 +262,68 @@ impl NeighbourList {
             // pairs (a gid is in one or the other): a listed pair carries its history, a
             // retired one that is back its largest overlap
             let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
-            let (mut cursor, mut back) = (old.start, retired.start);
-            for &(gid, j) in &scratch.row {
-                while cursor < old.end && self.partner_gid[cursor] < gid {
-                    cursor += 1;
+            // most rows are what they were (the skin is there for that): their histories are
+            // copied a run of rows at a time
+            let unchanged = old.len() == scratch.row.len() && scratch.row.iter().zip(&self.partner_gid[old.clone()]).all(|(&(gid, _), &listed)| gid == listed);
+            scratch.partner.extend(scratch.row.iter().map(|&(_, j)| j));
+            let retired_end = if unchanged {
+                run.get_or_insert((old.start, retired.start));
+                // the run's retired pairs are still gone: they are not copied yet, but counted
+                scratch.retired_start[i] as usize + retired.len()
+            } else {
+                if let Some(from) = run.take() {
+                    self.copy_history(&mut scratch, from, (old.start, retired.start));
                 }
-                while back < retired.end && self.retired_gid[back] < gid {
-                    back += 1;
+                let (mut cursor, mut back) = (old.start, retired.start);
+                for &(gid, _) in &scratch.row {
+                    while cursor < old.end && self.partner_gid[cursor] < gid {
+                        cursor += 1;
+                    }
+                    while back < retired.end && self.retired_gid[back] < gid {
+                        back += 1;
+                    }
+                    let carried = cursor < old.end && self.partner_gid[cursor] == gid;
+                    let returned = back < retired.end && self.retired_gid[back] == gid;
+                    scratch.partner_gid.push(gid);
+                    scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
+                    scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
+                    scratch.touching.push(carried && self.touching[cursor]);
+                    scratch.max_overlap.push(if carried {
+                        self.max_overlap[cursor]
+                    } else if returned {
+                        self.retired_max_overlap[back]
+                    } else {
+                        0.0
+                    });
                 }
-                let carried = cursor < old.end && self.partner_gid[cursor] == gid;
-                let returned = back < retired.end && self.retired_gid[back] == gid;
-                scratch.partner.push(j);
-                scratch.partner_gid.push(gid);
-                scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
-                scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
-                scratch.touching.push(carried && self.touching[cursor]);
-                scratch.max_overlap.push(if carried {
-                    self.max_overlap[cursor]
-                } else if returned {
-                    self.retired_max_overlap[back]
-                } else {
-                    0.0
-                });
-            }
+                // retired now: the old row's pairs that touched and are gone, and the retired
+                // pairs still gone, merged by gid
+                let row = &scratch.row;
+                let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
+                let (mut a, mut b) = (old.start, retired.start);
+                loop {
+                    let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
+                    let (gid, max_overlap) = if from_list {
+                        a += 1;
+                        (self.partner_gid[a - 1], self.max_overlap[a - 1])
+                    } else if b < retired.end {
+                        b += 1;
+                        (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
+                    } else {
+                        break;
+                    };
+                    if max_overlap > 0.0 && gone(gid) {
+                        scratch.retired_gid.push(gid);
+                        scratch.retired_max_overlap.push(max_overlap);
+                    }
+                }
+                scratch.retired_gid.len()
+            };
             scratch.start.push(scratch.partner.len() as u32);
-            // retired now: the old row's pairs that touched and are gone, and the retired
-            // pairs still gone, merged by gid
-            let row = &scratch.row;
-            let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
-            let (mut a, mut b) = (old.start, retired.start);
-            loop {
-                let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
-                let (gid, max_overlap) = if from_list {
-                    a += 1;
-                    (self.partner_gid[a - 1], self.max_overlap[a - 1])
-                } else if b < retired.end {
-                    b += 1;
-                    (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
-                } else {
-                    break;
-                };
-                if max_overlap > 0.0 && gone(gid) {
-                    scratch.retired_gid.push(gid);
-                    scratch.retired_max_overlap.push(max_overlap);
-                }
-            }
-            scratch.retired_start.push(scratch.retired_gid.len() as u32);
+            scratch.retired_start.push(retired_end as u32);
+        }
+        if let Some(from) = run {
+            self.copy_history(&mut scratch, from, (self.partner_gid.len(), self.retired_gid.len()));
         }
         std::mem::swap(&mut self.start, &mut scratch.start);
         std::mem::swap(&mut self.partner, &mut scratch.partner);
@@ -307,10 +335,24 @@ impl NeighbourList {
         std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
         std::mem::swap(&mut self.retired_gid, &mut scratch.retired_gid);
         std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
+        self.scratch = scratch;
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
         self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
+    }
+
+    /// Appends to the lists being built the histories of the listed and retired pairs of the
+    /// old lists from `from` to `to` (listed, retired): rows that did not change.
+    fn copy_history(&self, scratch: &mut BuildScratch, from: (usize, usize), to: (usize, usize)) {
+        let (listed, retired) = (from.0..to.0, from.1..to.1);
+        scratch.partner_gid.extend_from_slice(&self.partner_gid[listed.clone()]);
+        scratch.anchor.extend_from_slice(&self.anchor[listed.clone()]);
+        scratch.spring_stiffness.extend_from_slice(&self.spring_stiffness[listed.clone()]);
+        scratch.touching.extend_from_slice(&self.touching[listed.clone()]);
+        scratch.max_overlap.extend_from_slice(&self.max_overlap[listed]);
+        scratch.retired_gid.extend_from_slice(&self.retired_gid[retired.clone()]);
+        scratch.retired_max_overlap.extend_from_slice(&self.retired_max_overlap[retired]);
     }
 
     /// True when the lists still hold every pair that can touch, though a node may have moved
@@ -511,7 +553,6 @@ pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize)
     same_fibre_within(nodes, i, j, chain_exclusion(&sections[nodes.section[i] as usize]))
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -669,6 +710,27 @@ mod tests {
         let returning: Vec<GlobalNodeId> = list.retired_gid[list.retired_row(0)].to_vec();
         assert!(!returning.is_empty() && returning.windows(2).all(|g| g[0] < g[1]));
         assert!(list.retired_max_overlap[list.retired_row(0)].iter().zip(&returning).all(|(&m, g)| m == g.0 as f64));
+        // another node leaves: the rows around it change, the others are copied a run of
+        // rows at a time, their retired pairs with them; then it comes back
+        let before = list.clone();
+        let leaving = (1..nodes.n_owned).max_by_key(|&i| list.row(i).len()).unwrap();
+        nodes.position[leaving] += Vec3::new(1.0, 0.0, 0.0);
+        list.rebuild(&nodes, &sections);
+        let mut changed = 0;
+        for i in 0..nodes.n_owned {
+            if list.partner_gid[list.row(i)] == before.partner_gid[before.row(i)] {
+                assert_eq!(list.retired_gid[list.retired_row(i)], before.retired_gid[before.retired_row(i)]);
+                assert_eq!(list.retired_max_overlap[list.retired_row(i)], before.retired_max_overlap[before.retired_row(i)]);
+            } else {
+                changed += 1;
+                assert!(list.retired_row(i).len() > before.retired_row(i).len(), "row {i} retires its pair with the node that left");
+            }
+        }
+        assert!(changed > 1 && changed < 50, "{changed}");
+        nodes.position[leaving] -= Vec3::new(1.0, 0.0, 0.0);
+        list.rebuild(&nodes, &sections);
+        assert_eq!((&list.start, &list.partner_gid, &list.retired_start, &list.retired_gid), (&before.start, &before.partner_gid, &before.retired_start, &before.retired_gid));
+        assert_eq!((&list.max_overlap, &list.retired_max_overlap), (&before.max_overlap, &before.retired_max_overlap));
         nodes.position[0] -= Vec3::new(1.0, 0.0, 0.0);
         list.rebuild(&nodes, &sections);
         assert_eq!(list.partner_gid[list.row(0)], returning[..]);
