@@ -454,7 +454,10 @@ impl RelativeMotion {
         for x in &nodes.position {
             let coordinates = grid.coordinates(x);
             self.slot.push(grid.slot(coordinates) as u32);
-            self.occupied.push(coordinates);
+            // nodes along a fibre share cells: a run of them adds its cell once
+            if self.occupied.last() != Some(&coordinates) {
+                self.occupied.push(coordinates);
+            }
         }
         // every occupied cell once (folded cells share a slot: wider boxes, never a missed pair)
         self.occupied.sort_unstable();
@@ -493,7 +496,7 @@ impl HashedGrid {
 
     #[inline]
     fn coordinates(&self, x: &Vec3) -> [i64; 3] {
-        let c = |k: usize| ((x[k] - self.low[k]) * self.inverse_cell).floor() as i64;
+        let c = |k: usize| crate::floor_index((x[k] - self.low[k]) * self.inverse_cell);
         [c(0), c(1), c(2)]
     }
 

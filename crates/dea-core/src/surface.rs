@@ -121,7 +121,7 @@ struct CellGrid {
 
 impl CellGrid {
     fn key(&self, p: &Vec3) -> [i32; 3] {
-        [(p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32, (p.z / self.cell).floor() as i32]
+        [p.x, p.y, p.z].map(|v| crate::floor_index(v / self.cell).clamp(i32::MIN.into(), i32::MAX.into()) as i32)
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
