@@ -229,8 +229,10 @@ impl NeighbourList {
                     let wrap = (first + 3).saturating_sub(grid.slots());
                     let ranges = [first..first + 3 - wrap, 0..wrap];
                     for slots in ranges {
-                        for k in scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize {
-                            let distance_squared = (scratch.sorted_position[k] - xi).norm_squared();
+                        let cells = scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize;
+                        // a slice, so that the sweep checks its bounds once
+                        for (k, x) in cells.clone().zip(&scratch.sorted_position[cells]) {
+                            let distance_squared = (x - xi).norm_squared();
                             // written so that a NaN position (caught after the forces) pairs
                             // with nothing, whatever grid cell it falls into
                             #[allow(clippy::neg_cmp_op_on_partial_ord)]
