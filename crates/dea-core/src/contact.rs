@@ -37,11 +37,13 @@ pub struct ContactGeometry {
     pub reference_length: f64,
     /// `2 sqrt(r) l0 / L` [m^0.5], cached: force = this x integral of E_t(eps) sqrt(delta) d delta
     area_factor: f64,
+    /// `1 / L` [1/m], cached: the strain of every evaluation without a division
+    inverse_reference_length: f64,
 }
 
 impl ContactGeometry {
     pub fn new(radius: f64, element_length: f64, reference_length: f64) -> Self {
-        Self { radius, element_length, reference_length, area_factor: 2.0 * radius.sqrt() * element_length / reference_length }
+        Self { radius, element_length, reference_length, area_factor: 2.0 * radius.sqrt() * element_length / reference_length, inverse_reference_length: 1.0 / reference_length }
     }
 }
 
@@ -69,11 +71,10 @@ impl NormalLaw {
 
     /// Force and tangent stiffness on the loading curve: the force is the integral of
     /// `E_t(delta / L) 2 sqrt(r delta) l0 / L`; elastic: `4 E_T sqrt(r) l0 delta^(3/2) / (3 L)`
-    /// (4-8). One square root per call.
+    /// (4-8). `s` is `sqrt(overlap)`: the callers share it.
     #[inline]
-    fn loading(&self, geometry: &ContactGeometry, overlap: f64) -> NormalResponse {
-        let s = overlap.sqrt();
-        let strain = overlap / geometry.reference_length;
+    fn loading(&self, geometry: &ContactGeometry, overlap: f64, s: f64) -> NormalResponse {
+        let strain = overlap * geometry.inverse_reference_length;
         let integral = match *self {
             NormalLaw::Elastic { transverse_modulus } => transverse_modulus * (2.0 / 3.0) * overlap * s,
             NormalLaw::ElastoPlasticKm2 => {
@@ -86,18 +87,24 @@ impl NormalLaw {
 
     /// Force on the loading curve [N] (see [`Self::evaluate`] for the full law).
     pub fn loading_force(&self, geometry: &ContactGeometry, overlap: f64) -> f64 {
-        self.loading(geometry, overlap).force
+        self.loading(geometry, overlap, overlap.sqrt()).force
     }
 
     /// Work done along the loading curve from 0 to `overlap` [J].
     pub fn loading_work(&self, geometry: &ContactGeometry, overlap: f64) -> f64 {
-        let length = geometry.reference_length;
-        let d52 = overlap * overlap * overlap.sqrt();
+        self.loading_work_at(geometry, overlap, overlap.sqrt())
+    }
+
+    /// [`Self::loading_work`] given `s = sqrt(overlap)`.
+    #[inline]
+    fn loading_work_at(&self, geometry: &ContactGeometry, overlap: f64, s: f64) -> f64 {
+        let d52 = overlap * overlap * s;
         let integral = match *self {
             NormalLaw::Elastic { transverse_modulus } => transverse_modulus * (4.0 / 15.0) * d52,
             NormalLaw::ElastoPlasticKm2 => {
                 let [_, c1, c2, c3] = KM2_LOADING_GPA;
-                1e9 * d52 * ((12.0 / 63.0) * c3 * overlap * overlap / (length * length) + (8.0 / 35.0) * c2 * overlap / length + (4.0 / 15.0) * c1)
+                let strain = overlap * geometry.inverse_reference_length;
+                1e9 * d52 * ((12.0 / 63.0) * c3 * strain * strain + (8.0 / 35.0) * c2 * strain + (4.0 / 15.0) * c1)
             }
         };
         geometry.area_factor * integral
@@ -105,13 +112,14 @@ impl NormalLaw {
 
     /// Unloading stiffness from the largest overlap reached [N/m]: slope (4-10) on the contact
     /// area at `max_overlap`, never below the loading tangent there, so the unloading line
-    /// stays under the (convex) loading curve and a cycle can only dissipate.
+    /// stays under the (convex) loading curve and a cycle can only dissipate. `s` is
+    /// `sqrt(max_overlap)`.
     #[inline]
-    fn unloading_stiffness(&self, geometry: &ContactGeometry, max_overlap: f64) -> f64 {
-        let strain = max_overlap / geometry.reference_length;
+    fn unloading_stiffness(&self, geometry: &ContactGeometry, max_overlap: f64, s: f64) -> f64 {
+        let strain = max_overlap * geometry.inverse_reference_length;
         let [k0, k1, k2] = KM2_UNLOADING_GPA;
         let slope = (k2 * strain * strain + k1 * strain + k0) * 1e9;
-        geometry.area_factor * slope.max(self.loading_tangent(strain)) * max_overlap.sqrt()
+        geometry.area_factor * slope.max(self.loading_tangent(strain)) * s
     }
 
     /// Evaluates the law at `overlap` (> 0) given the largest overlap reached so far;
@@ -119,11 +127,12 @@ impl NormalLaw {
     #[inline]
     pub fn evaluate(&self, geometry: &ContactGeometry, overlap: f64, max_overlap: f64) -> (NormalResponse, f64) {
         match self {
-            NormalLaw::Elastic { .. } => (self.loading(geometry, overlap), max_overlap.max(overlap)),
-            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => (self.loading(geometry, overlap), overlap),
+            NormalLaw::Elastic { .. } => (self.loading(geometry, overlap, overlap.sqrt()), max_overlap.max(overlap)),
+            NormalLaw::ElastoPlasticKm2 if overlap >= max_overlap => (self.loading(geometry, overlap, overlap.sqrt()), overlap),
             NormalLaw::ElastoPlasticKm2 => {
-                let k_u = self.unloading_stiffness(geometry, max_overlap);
-                let force = self.loading_force(geometry, max_overlap) - k_u * (max_overlap - overlap);
+                let s = max_overlap.sqrt();
+                let k_u = self.unloading_stiffness(geometry, max_overlap, s);
+                let force = self.loading(geometry, max_overlap, s).force - k_u * (max_overlap - overlap);
                 let response = if force > 0.0 { NormalResponse { force, stiffness: k_u } } else { NormalResponse::default() };
                 (response, max_overlap)
             }
@@ -140,7 +149,7 @@ impl NormalLaw {
             NormalLaw::Elastic { .. } => self.loading_work(geometry, overlap),
             NormalLaw::ElastoPlasticKm2 => {
                 let (response, peak) = self.evaluate(geometry, overlap, max_overlap);
-                response.force * response.force / (2.0 * self.unloading_stiffness(geometry, peak))
+                response.force * response.force / (2.0 * self.unloading_stiffness(geometry, peak, peak.sqrt()))
             }
         }
     }
@@ -154,8 +163,10 @@ impl NormalLaw {
                 if max_overlap <= 0.0 {
                     return 0.0;
                 }
-                let peak = self.loading_force(geometry, max_overlap);
-                self.loading_work(geometry, max_overlap) - peak * peak / (2.0 * self.unloading_stiffness(geometry, max_overlap))
+                // the three terms share one square root: this runs at every loading evaluation
+                let s = max_overlap.sqrt();
+                let peak = self.loading(geometry, max_overlap, s).force;
+                self.loading_work_at(geometry, max_overlap, s) - peak * peak / (2.0 * self.unloading_stiffness(geometry, max_overlap, s))
             }
         }
     }
