@@ -46,6 +46,9 @@ const ATAN_COEFFICIENTS: [f64; 11] = [
 /// Below this tangent the turning angle comes from the polynomial.
 const ATAN_POLYNOMIAL_RANGE: f64 = 0.4375;
 
+/// Below this sine a turn is straight to rounding: `sine^2 / 6` is below half an ulp of 1.
+const STRAIGHT: f64 = 1e-8;
+
 /// `atan(x) / x` for |x| < 0.4375.
 #[inline]
 fn atan_over_argument(x: f64) -> f64 {
@@ -66,7 +69,10 @@ fn atan_over_argument(x: f64) -> f64 {
 /// `atan2` cost half of it. Sharper turns take `atan2`.
 #[inline]
 pub fn turning_angle(sine: f64, cosine: f64) -> (f64, f64) {
-    if cosine > 0.0 && sine < ATAN_POLYNOMIAL_RANGE * cosine {
+    if cosine > 0.0 && sine < STRAIGHT {
+        // theta = sine (1 + sine^2 / 6 + ...) and theta / sine round to sine and 1 here
+        (sine, 1.0)
+    } else if cosine > 0.0 && sine < ATAN_POLYNOMIAL_RANGE * cosine {
         let inverse_cosine = 1.0 / cosine;
         let over_sine = atan_over_argument(sine * inverse_cosine) * inverse_cosine;
         (sine * over_sine, over_sine)

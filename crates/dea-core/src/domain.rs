@@ -531,7 +531,8 @@ impl Domain {
             let (mut plastic, mut friction_loss) = (0.0, 0.0);
             for k in pairs.start[i] as usize..pairs.start[i + 1] as usize {
                 let j = pairs.partner[k] as usize;
-                let data = &self.pair_data[si + nodes.section[j] as usize];
+                // one section (most cases): no look-up of the partner's
+                let data = if n_sections == 1 { &self.pair_data[0] } else { &self.pair_data[si + nodes.section[j] as usize] };
                 let relative = nodes.position[j] - xi;
                 let distance_squared = relative.norm_squared();
                 if distance_squared >= data.reach * data.reach {
