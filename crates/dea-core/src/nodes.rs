@@ -66,8 +66,9 @@ pub struct Elements {
     pub failure: Vec<FailureMode>,
     /// engineering strain (l - l0) / l0 of the current step [-] (scratch)
     pub strain: Vec<f64>,
-    /// axial force the element exerts on its first node [N] (scratch)
-    pub tension: Vec<Vec3>,
+    /// axial force of the element, positive in tension [N] (scratch; it pulls its first node
+    /// along `direction`)
+    pub axial_force: Vec<f64>,
     /// unit vector from the first to the second node (scratch, reused by bending)
     pub direction: Vec<Vec3>,
     /// 1 / current length [1/m] (scratch, reused by bending)
@@ -200,7 +201,7 @@ impl Elements {
         self.tensile_strength.push(tensile_strength);
         self.failure.push(failure);
         self.strain.push(0.0);
-        self.tension.push(Vec3::zeros());
+        self.axial_force.push(0.0);
         self.direction.push(Vec3::zeros());
         self.inverse_length.push(0.0);
     }
@@ -211,7 +212,7 @@ impl Elements {
         self.tensile_strength.truncate(n);
         self.failure.truncate(n);
         self.strain.truncate(n);
-        self.tension.truncate(n);
+        self.axial_force.truncate(n);
         self.direction.truncate(n);
         self.inverse_length.truncate(n);
     }

@@ -7,8 +7,9 @@ use crate::{FibreMaterial, FibreSection};
 
 /// Computes strain and axial force of every intact element whose first node is local
 /// (seed 4-2: `f = E_L A (l - l0) / l0`; in compression the stiffness is scaled by
-/// `compressive_stiffness_ratio`). Stores the force on the first node in `elements.tension`,
-/// and the element's direction and inverse length for the bending pass.
+/// `compressive_stiffness_ratio`). Stores the force in `elements.axial_force`, and the
+/// element's direction and inverse length for the bending pass and the chain forces (the
+/// force is stored as a magnitude: the step moves a third of the bytes it would as a vector).
 pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
     for i in 0..nodes.len() {
         let j = nodes.next[i];
@@ -25,11 +26,11 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
         let strain = (length - rest) / rest;
         elements.strain[i] = strain;
         if !elements.is_intact(nodes, i) {
-            elements.tension[i].fill(0.0);
+            elements.axial_force[i] = 0.0;
             continue;
         }
         // force on the first node points along the element when stretched (4-2)
-        elements.tension[i] = direction * axial_force(material, sections[nodes.section[i] as usize].area, strain);
+        elements.axial_force[i] = axial_force(material, sections[nodes.section[i] as usize].area, strain);
     }
 }
 
@@ -40,9 +41,9 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
 pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &BendingScratch) {
     for i in 0..nodes.n_owned {
         let (p, n) = (nodes.prev[i], nodes.next[i]);
-        let mut axial = elements.tension[i];
+        let mut axial = elements.direction[i] * elements.axial_force[i];
         if p != NONE {
-            axial -= elements.tension[p as usize];
+            axial -= elements.direction[p as usize] * elements.axial_force[p as usize];
         }
         let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
         if p != NONE {
