@@ -11,8 +11,8 @@ pub fn kick(nodes: &mut Nodes, h: f64) {
         if nodes.clamped[i] {
             nodes.velocity[i].fill(0.0);
         } else {
-            let acceleration = nodes.force[i] / nodes.mass[i]; // (4-18)
-            nodes.velocity[i] += acceleration * h;
+            // (4-18), with one division per node instead of one per component
+            nodes.velocity[i] += nodes.force[i] * (h / nodes.mass[i]);
         }
     }
 }
