@@ -307,7 +307,7 @@ impl<C: Comm> Distributed<C> {
         let time_step = self.domain.time_step;
         let half = 0.5 * time_step;
         let clock = Instant::now();
-        self.domain.kick_drift(half, time_step);
+        let node = self.domain.kick_drift(half, time_step);
         if let Some(body) = &mut self.deformable {
             // subcycles: the body's own elements, with the fibres' last reactions held, then
             // the last one's first half; the fibres meet its surface once per step
@@ -323,9 +323,6 @@ impl<C: Comm> Distributed<C> {
         }
         self.domain.times.integrate += clock.elapsed().as_secs_f64();
         self.broadcast_projectile()?;
-        let clock = Instant::now();
-        let node = self.domain.node_displacement();
-        self.domain.times.rebuild += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         // the run loop's requests ride on the same reduction
         let flag = |b: bool| if b { 1.0 } else { 0.0 };

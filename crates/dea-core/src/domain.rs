@@ -320,9 +320,9 @@ impl Domain {
     pub fn step(&mut self) -> Result<(), DomainError> {
         let half = 0.5 * self.time_step;
         let clock = Instant::now();
-        self.kick_drift(half, self.time_step);
+        let farthest = self.kick_drift(half, self.time_step);
         self.times.integrate += clock.elapsed().as_secs_f64();
-        if self.rebuild_due() {
+        if self.rebuild_needed(farthest, true) {
             self.rebuild_neighbours()?;
         }
         self.compute_forces()?;
@@ -345,15 +345,17 @@ impl Domain {
     }
 
     /// Half-step velocity update, then position update, of owned nodes and the owned
-    /// projectile.
-    pub fn kick_drift(&mut self, half_dt: f64, dt: f64) {
+    /// projectile. Returns the largest displacement of an owned node since the last build of
+    /// the fibre lists [m].
+    pub fn kick_drift(&mut self, half_dt: f64, dt: f64) -> f64 {
         self.damp(half_dt);
-        let moved = integrate::kick_drift(&mut self.nodes, half_dt, dt);
+        let (moved, farthest) = integrate::kick_drift(&mut self.nodes, half_dt, dt, &self.pairs.reference_position);
         self.pairs.moved_at_most(moved);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
         }
+        farthest
     }
 
     /// The damping of a settle over a half step (none in a shot).
@@ -406,22 +408,12 @@ impl Domain {
         largest
     }
 
-    /// Largest displacement of an owned node since the last build of the fibre lists [m].
-    pub fn node_displacement(&self) -> f64 {
-        self.pairs.max_displacement_squared(&self.nodes).sqrt()
-    }
-
     /// True when a node may have come within reach of a partner not in its list: a node
     /// moved more than half the skin (`node` is the largest displacement over every rank),
     /// and, on a whole domain (`alone`), nodes near each other moved apart by more than the
     /// skin ([`NeighbourList::hold_every_reachable_pair`]).
     pub fn rebuild_needed(&mut self, node: f64, alone: bool) -> bool {
         2.0 * node > self.pairs.skin && !(alone && self.pairs.hold_every_reachable_pair(&self.nodes))
-    }
-
-    /// [`Self::rebuild_needed`] for a whole domain.
-    pub fn rebuild_due(&mut self) -> bool {
-        self.rebuild_needed(self.node_displacement(), true)
     }
 
     /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking

@@ -117,14 +117,6 @@ impl NeighbourList {
         Self { skin, ..Default::default() }
     }
 
-    /// Largest squared displacement of an owned node since the last build [m^2].
-    pub fn max_displacement_squared(&self, nodes: &Nodes) -> f64 {
-        if self.reference_position.len() != nodes.n_owned {
-            return f64::INFINITY;
-        }
-        (0..nodes.n_owned).map(|i| (nodes.position[i] - self.reference_position[i]).norm_squared()).fold(0.0, f64::max)
-    }
-
     /// Pair range of owned node `i`.
     #[inline]
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {
@@ -645,7 +637,7 @@ mod tests {
                 let jitter = Vec3::new(next(), next(), next()) * scale;
                 *x += if x.x < cut { carried + jitter } else { jitter };
             }
-            let largest = list.max_displacement_squared(&nodes).sqrt();
+            let largest = nodes.position.iter().zip(&list.reference_position).map(|(x, r)| (x - r).norm()).fold(0.0, f64::max);
             if !list.hold_every_reachable_pair(&nodes) {
                 refused += 1;
                 continue;
