@@ -343,6 +343,10 @@ impl TriangleSurface {
                 continue;
             }
             let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
+            // nor one whose plane is farther: no point of the triangle is nearer than it
+            if (p - a).dot(&self.face_normals[t as usize]).abs() > limit {
+                continue;
+            }
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
             let squared = (p - q).norm_squared();
             if squared <= self.reach * self.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
