@@ -343,8 +343,9 @@ impl TriangleSurface {
                 continue;
             }
             let [a, b, c] = self.triangles[t as usize].map(|v| self.vertices[v as usize]);
-            // nor one whose plane is farther: no point of the triangle is nearer than it
-            if (p - a).dot(&self.face_normals[t as usize]).abs() > limit {
+            // nor one whose plane is farther: no point of the triangle is nearer than it (with
+            // a margin far above rounding, so a triangle tied with the best is still tested)
+            if (p - a).dot(&self.face_normals[t as usize]).abs() > limit * (1.0 + 1e-9) {
                 continue;
             }
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
