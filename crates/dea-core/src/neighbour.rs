@@ -75,7 +75,7 @@ struct BuildScratch {
     sorted: Vec<u32>,
     sorted_position: Vec<Vec3>,
     /// (fibre, position along it) and global id of each node, in cell order
-    sorted_chain: Vec<(FibreId, u32)>,
+    sorted_chain: Vec<ChainPlace>,
     sorted_gid: Vec<GlobalNodeId>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
@@ -212,7 +212,7 @@ impl NeighbourList {
             let xi = nodes.position[i];
             let [cx, cy, cz] = grid.coordinates(&xi);
             let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
-            let (fibre, along) = (nodes.fibre[i], nodes.along[i]);
+            let place = (nodes.fibre[i], nodes.along[i]);
             scratch.row.clear();
             for dx in -1..=1 {
                 for dy in -1..=1 {
@@ -232,8 +232,7 @@ impl NeighbourList {
                                 continue;
                             }
                             // the node itself and its chain neighbours
-                            let (partner_fibre, partner_along) = scratch.sorted_chain[k];
-                            if partner_fibre == fibre && partner_along.abs_diff(along) <= exclusion {
+                            if same_fibre_within(place, scratch.sorted_chain[k], exclusion) {
                                 continue;
                             }
                             let j = scratch.sorted[k] as usize;
@@ -252,67 +251,22 @@ impl NeighbourList {
             scratch.row.sort_unstable();
             // two columns may share slots of the table: a node can be met twice
             scratch.row.dedup();
-            // sorted merge with the previous row of the same owned node, and with its retired
-            // pairs (a gid is in one or the other): a listed pair carries its history, a
-            // retired one that is back its largest overlap
+            // the previous row of the same owned node and its retired pairs
             let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
             // most rows are what they were (the skin is there for that): their histories are
             // copied a run of rows at a time
             let unchanged = old.len() == scratch.row.len() && scratch.row.iter().zip(&self.partner_gid[old.clone()]).all(|(&(gid, _), &listed)| gid == listed);
             scratch.partner.extend(scratch.row.iter().map(|&(_, j)| j));
-            let retired_end = if unchanged {
+            if unchanged {
                 run.get_or_insert((old.start, retired.start));
-                // the run's retired pairs are still gone: they are not copied yet, but counted
-                scratch.retired_start[i] as usize + retired.len()
             } else {
                 if let Some(from) = run.take() {
                     self.copy_history(&mut scratch, from, (old.start, retired.start));
                 }
-                let (mut cursor, mut back) = (old.start, retired.start);
-                for &(gid, _) in &scratch.row {
-                    while cursor < old.end && self.partner_gid[cursor] < gid {
-                        cursor += 1;
-                    }
-                    while back < retired.end && self.retired_gid[back] < gid {
-                        back += 1;
-                    }
-                    let carried = cursor < old.end && self.partner_gid[cursor] == gid;
-                    let returned = back < retired.end && self.retired_gid[back] == gid;
-                    scratch.partner_gid.push(gid);
-                    scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
-                    scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
-                    scratch.touching.push(carried && self.touching[cursor]);
-                    scratch.max_overlap.push(if carried {
-                        self.max_overlap[cursor]
-                    } else if returned {
-                        self.retired_max_overlap[back]
-                    } else {
-                        0.0
-                    });
-                }
-                // retired now: the old row's pairs that touched and are gone, and the retired
-                // pairs still gone, merged by gid
-                let row = &scratch.row;
-                let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
-                let (mut a, mut b) = (old.start, retired.start);
-                loop {
-                    let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
-                    let (gid, max_overlap) = if from_list {
-                        a += 1;
-                        (self.partner_gid[a - 1], self.max_overlap[a - 1])
-                    } else if b < retired.end {
-                        b += 1;
-                        (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
-                    } else {
-                        break;
-                    };
-                    if max_overlap > 0.0 && gone(gid) {
-                        scratch.retired_gid.push(gid);
-                        scratch.retired_max_overlap.push(max_overlap);
-                    }
-                }
-                scratch.retired_gid.len()
-            };
+                self.merge_changed_row(&mut scratch, old, retired.clone());
+            }
+            // the retired pairs of a run are still gone: not copied yet, but counted
+            let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { scratch.retired_gid.len() };
             scratch.start.push(scratch.partner.len() as u32);
             scratch.retired_start.push(retired_end as u32);
         }
@@ -334,6 +288,57 @@ impl NeighbourList {
         self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
         self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
+    }
+
+    /// Appends to the lists being built the history of a row that changed, `old` and `retired`
+    /// being its listed and retired pairs in the old lists (a gid is in one or the other): a
+    /// pair still listed carries its history, a retired one that is back its largest overlap;
+    /// retired now are the old row's pairs that touched and are gone, and the retired pairs
+    /// still gone.
+    fn merge_changed_row(&self, scratch: &mut BuildScratch, old: std::ops::Range<usize>, retired: std::ops::Range<usize>) {
+        let (mut cursor, mut back) = (old.start, retired.start);
+        for &(gid, _) in &scratch.row {
+            while cursor < old.end && self.partner_gid[cursor] < gid {
+                cursor += 1;
+            }
+            while back < retired.end && self.retired_gid[back] < gid {
+                back += 1;
+            }
+            let carried = cursor < old.end && self.partner_gid[cursor] == gid;
+            let returned = back < retired.end && self.retired_gid[back] == gid;
+            scratch.partner_gid.push(gid);
+            scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
+            scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
+            scratch.touching.push(carried && self.touching[cursor]);
+            scratch.max_overlap.push(if carried {
+                self.max_overlap[cursor]
+            } else if returned {
+                self.retired_max_overlap[back]
+            } else {
+                0.0
+            });
+        }
+        // retired now: the old row's pairs that touched and are gone, and the retired
+        // pairs still gone, merged by gid
+        let row = &scratch.row;
+        let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
+        let (mut a, mut b) = (old.start, retired.start);
+        loop {
+            let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
+            let (gid, max_overlap) = if from_list {
+                a += 1;
+                (self.partner_gid[a - 1], self.max_overlap[a - 1])
+            } else if b < retired.end {
+                b += 1;
+                (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
+            } else {
+                break;
+            };
+            if max_overlap > 0.0 && gone(gid) {
+                scratch.retired_gid.push(gid);
+                scratch.retired_max_overlap.push(max_overlap);
+            }
+        }
     }
 
     /// Appends to the lists being built the histories of the listed and retired pairs of the
@@ -539,15 +544,18 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
         .collect()
 }
 
-/// True when `j` lies on the fibre of `i` within `exclusion` positions.
+/// A node's place on its chain: its fibre and its position along it.
+type ChainPlace = (FibreId, u32);
+
+/// True when two places lie on one fibre within `exclusion` positions of each other.
 #[inline]
-fn same_fibre_within(nodes: &Nodes, i: usize, j: usize, exclusion: u32) -> bool {
-    nodes.fibre[j] == nodes.fibre[i] && nodes.along[j].abs_diff(nodes.along[i]) <= exclusion
+fn same_fibre_within((fibre, along): ChainPlace, (other_fibre, other_along): ChainPlace, exclusion: u32) -> bool {
+    fibre == other_fibre && along.abs_diff(other_along) <= exclusion
 }
 
 /// True when `j` is a chain neighbour of `i` that the contact search must skip.
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
-    same_fibre_within(nodes, i, j, chain_exclusion(&sections[nodes.section[i] as usize]))
+    same_fibre_within((nodes.fibre[i], nodes.along[i]), (nodes.fibre[j], nodes.along[j]), chain_exclusion(&sections[nodes.section[i] as usize]))
 }
 
 #[cfg(test)]
