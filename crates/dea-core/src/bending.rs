@@ -111,24 +111,111 @@ pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_
 /// Evaluates the torsional spring at every local node whose two elements are intact.
 /// Reads the element directions of [`crate::rod::compute_element_tension`] (run it first).
 pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::lanes::available() {
+        // SAFETY: the processor has AVX2
+        return unsafe { bending_in_lanes(nodes, elements, sections, scratch) };
+    }
     for i in 0..nodes.len() {
-        let (p, n) = (nodes.prev[i], nodes.next[i]);
-        let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
-        if p == NONE || n == NONE || k_t == 0.0 || !elements.is_intact(nodes, p as usize) || !elements.is_intact(nodes, i) {
-            scratch.on_prev[i].fill(0.0);
-            scratch.on_next[i].fill(0.0);
-            scratch.moment[i].fill(0.0);
-            // a spring that does not act holds no energy
-            scratch.angle[i] = nodes.rest_angle[i];
+        node_bending(nodes, elements, sections, scratch, i);
+    }
+}
+
+/// [`compute_bending`] at node `i`.
+#[inline]
+fn node_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch, i: usize) {
+    let (p, n) = (nodes.prev[i], nodes.next[i]);
+    let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
+    if p == NONE || n == NONE || k_t == 0.0 || !elements.is_intact(nodes, p as usize) || !elements.is_intact(nodes, i) {
+        scratch.on_prev[i].fill(0.0);
+        scratch.on_next[i].fill(0.0);
+        scratch.moment[i].fill(0.0);
+        // a spring that does not act holds no energy
+        scratch.angle[i] = nodes.rest_angle[i];
+        return;
+    }
+    let p = p as usize;
+    let (on_prev, on_next, theta, moment) = torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
+    scratch.on_prev[i] = on_prev;
+    scratch.on_next[i] = on_next;
+    scratch.moment[i] = moment;
+    scratch.angle[i] = theta;
+}
+
+/// [`compute_bending`] four nodes at a time where four acting springs follow each other along
+/// a fibre in memory and none is bent beyond the polynomial's range (almost everywhere): the
+/// operations of [`torsional_spring`] lane by lane, with the scalar code's bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn bending_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
+    use crate::lanes::{F4, V4};
+    use crate::nodes::FailureMode;
+    let n = nodes.len();
+    let stiffness = |k: usize| sections[nodes.section[k] as usize].torsional_stiffness;
+    let acting = |k: usize| {
+        nodes.prev[k] == k as u32 - 1 && nodes.next[k] == k as u32 + 1 && elements.failure[k - 1] == FailureMode::Intact && elements.failure[k] == FailureMode::Intact && stiffness(k) != 0.0
+    };
+    let zero = F4::splat(0.0);
+    let mut i = 0;
+    while i + 4 <= n {
+        // a group reads the element before its first node
+        if i == 0 || !(i..i + 4).all(acting) {
+            for k in i..i + 4 {
+                node_bending(nodes, elements, sections, scratch, k);
+            }
+            i += 4;
             continue;
         }
-        let p = p as usize;
-        let (on_prev, on_next, theta, moment) = torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
-        scratch.on_prev[i] = on_prev;
-        scratch.on_next[i] = on_next;
-        scratch.moment[i] = moment;
-        scratch.angle[i] = theta;
+        let (ua, ub) = (V4::load(&elements.direction, i - 1), V4::load(&elements.direction, i));
+        let cross = ua.cross(ub);
+        let sine = cross.dot(cross).sqrt();
+        let cosine = ua.dot(ub);
+        // turning_angle's two first paths
+        let turning = zero.lt(cosine);
+        let straight = turning.and(sine.lt(F4::splat(STRAIGHT)));
+        if !straight.or(turning.and(sine.lt(F4::splat(ATAN_POLYNOMIAL_RANGE).mul(cosine)))).all() {
+            for k in i..i + 4 {
+                node_bending(nodes, elements, sections, scratch, k);
+            }
+            i += 4;
+            continue;
+        }
+        let inverse_cosine = F4::splat(1.0).div(cosine);
+        let over_sine = F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
+        let theta = F4::select(straight, sine, sine.mul(over_sine));
+        // torsional_spring's factor
+        let k_t = F4::new([stiffness(i), stiffness(i + 1), stiffness(i + 2), stiffness(i + 3)]);
+        let rest = F4::load(&nodes.rest_angle, i);
+        let straight_at_rest = rest.eq(zero);
+        let factor = if straight_at_rest.all() {
+            k_t.mul(over_sine)
+        } else {
+            let bent_at_rest = F4::select(F4::splat(1e-12).lt(sine), k_t.mul(theta.sub(rest)).div(sine), zero);
+            F4::select(straight_at_rest, k_t.mul(over_sine), bent_at_rest)
+        };
+        let (inverse_la, inverse_lb) = (F4::load(&elements.inverse_length, i - 1), F4::load(&elements.inverse_length, i));
+        ua.scale(cosine).sub(ub).scale(factor.mul(inverse_la)).store(&mut scratch.on_prev, i);
+        ua.sub(ub.scale(cosine)).scale(factor.mul(inverse_lb)).store(&mut scratch.on_next, i);
+        cross.scale(factor).store(&mut scratch.moment, i);
+        theta.store(&mut scratch.angle, i);
+        i += 4;
     }
+    for k in i..n {
+        node_bending(nodes, elements, sections, scratch, k);
+    }
+}
+
+/// [`atan_over_argument`] in four lanes, operation for operation.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn atan_over_argument_in_lanes(x: crate::lanes::F4) -> crate::lanes::F4 {
+    use crate::lanes::F4;
+    let a = ATAN_COEFFICIENTS.map(|c| F4::splat(c));
+    let z = x.mul(x);
+    let w = z.mul(z);
+    let odd = z.mul(a[0].add(w.mul(a[2].add(w.mul(a[4].add(w.mul(a[6].add(w.mul(a[8].add(w.mul(a[10])))))))))));
+    let even = w.mul(a[1].add(w.mul(a[3].add(w.mul(a[5].add(w.mul(a[7].add(w.mul(a[9])))))))));
+    F4::splat(1.0).sub(odd.add(even))
 }
 
 /// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N].
@@ -230,6 +317,100 @@ mod tests {
         let (_, _, theta, moment) = spring(Vec3::x(), Vec3::y(), 3.0);
         assert!((theta - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
         assert!((moment - Vec3::z() * 3.0 * theta).norm() < 1e-14);
+    }
+
+    /// Fibres that take every path of the rod kernels: bent gently and sharply, exactly
+    /// straight, bent at rest, stretched and compressed, broken elements, a section without
+    /// bending rigidity, and a ghost-like stretch stored out of chain order.
+    fn fibres_on_every_path() -> (Nodes, Elements, Vec<FibreSection>) {
+        use crate::ids::{FibreId, GlobalNodeId};
+        use crate::material::{FibreMaterial, InertiaModel};
+        use crate::nodes::FailureMode;
+        let material = FibreMaterial::kevlar_km2();
+        let l0 = 25e-6;
+        let sections = vec![
+            FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3),
+            FibreSection::new(&material, 1.2e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3),
+            FibreSection::new(&material, 2.4e-9, l0, InertiaModel::None, 0.3),
+        ];
+        let mut state = 99u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
+        let per_fibre = 41;
+        for fibre in 0..6u32 {
+            for along in 0..per_fibre {
+                // fibre 1 exactly straight, fibre 3 kinked sharply every seventh node
+                let jitter = match fibre {
+                    1 => 0.0,
+                    3 if along % 7 == 3 => 0.6,
+                    _ => 0.05,
+                } * l0;
+                let x = Vec3::new(along as f64 * l0 * (1.0 + 0.02 * next()), fibre as f64 * 1e-4 + jitter * next(), jitter * next());
+                let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
+                nodes.push(gid, x, Vec3::zeros(), 1e-12, FibreId(fibre), along, (fibre % 3) as u16, along == 0, along + 1 == per_fibre);
+                // fibre 4 bent at rest
+                *nodes.rest_angle.last_mut().unwrap() = if fibre == 4 { 0.05 + 0.05 * next() } else { 0.0 };
+                let failure = if along % 11 == 5 { FailureMode::Tension } else { FailureMode::Intact };
+                elements.push(l0, 3.9e9, failure);
+            }
+        }
+        // the last fibre's nodes stored backwards, as ghosts may be
+        let n = nodes.len();
+        nodes.n_owned = n - per_fibre as usize;
+        let reversed: Vec<usize> = (0..nodes.n_owned).chain((nodes.n_owned..n).rev()).collect();
+        macro_rules! permute {
+            ($($field:expr),*) => { $( $field = reversed.iter().map(|&k| $field[k].clone()).collect(); )* };
+        }
+        permute!(nodes.gid, nodes.position, nodes.velocity, nodes.force, nodes.mass, nodes.fibre, nodes.along, nodes.section, nodes.clamped, nodes.last, nodes.rest_angle);
+        permute!(elements.rest_length, elements.tensile_strength, elements.failure, elements.strain, elements.axial_force, elements.direction, elements.inverse_length);
+        nodes.link_chains();
+        (nodes, elements, sections)
+    }
+
+    /// Every value of `got` has the bits of its value in `expected` (`Debug` prints the
+    /// shortest decimal that reads back to the same bits, the sign of a zero included).
+    fn assert_same_bits<T: std::fmt::Debug>(name: &str, got: &[T], expected: &[T]) {
+        let bits = |v: &T| format!("{v:?}");
+        if let Some(k) = (0..expected.len()).find(|&k| bits(&got[k]) != bits(&expected[k])) {
+            panic!("{name} of node {k}: {:?} against the scalar {:?}", got[k], expected[k]);
+        }
+    }
+
+    #[test]
+    fn the_lanes_give_the_bits_of_the_scalar_kernels_on_every_path() {
+        let (nodes, mut elements, sections) = fibres_on_every_path();
+        let material = crate::material::FibreMaterial::kevlar_km2();
+        let mut scalar = elements.clone();
+        crate::rod::compute_element_tension(&nodes, &mut elements, &sections, &material);
+        for i in 0..nodes.len() {
+            crate::rod::element_tension(&nodes, &mut scalar, &sections, &material, i);
+        }
+        assert_same_bits("direction", &elements.direction, &scalar.direction);
+        assert_same_bits("inverse length", &elements.inverse_length, &scalar.inverse_length);
+        assert_same_bits("strain", &elements.strain, &scalar.strain);
+        assert_same_bits("axial force", &elements.axial_force, &scalar.axial_force);
+        // compressed and stretched elements both present
+        assert!(elements.strain.iter().any(|&e| e < 0.0) && elements.strain.iter().any(|&e| e > 0.0));
+
+        let (mut lanes, mut reference) = (BendingScratch::default(), BendingScratch::default());
+        lanes.resize(nodes.len());
+        reference.resize(nodes.len());
+        compute_bending(&nodes, &elements, &sections, &mut lanes);
+        for i in 0..nodes.len() {
+            node_bending(&nodes, &elements, &sections, &mut reference, i);
+        }
+        assert_same_bits("force on the previous node", &lanes.on_prev, &reference.on_prev);
+        assert_same_bits("force on the next node", &lanes.on_next, &reference.on_next);
+        assert_same_bits("moment", &lanes.moment, &reference.moment);
+        assert_same_bits("angle", &lanes.angle, &reference.angle);
+        // the paths were taken: exactly straight, the polynomial, atan2, bent at rest
+        assert!(reference.angle.iter().any(|&t| t == 0.0));
+        assert!(reference.angle.iter().any(|&t| t > 1e-3 && t < 0.4));
+        assert!(reference.angle.iter().any(|&t| t > 0.5));
+        assert!(reference.moment.iter().zip(&nodes.rest_angle).any(|(m, &rest)| rest > 0.0 && m.norm() > 0.0));
     }
 
     #[test]

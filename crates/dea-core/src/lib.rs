@@ -14,6 +14,8 @@ pub mod failure;
 pub mod friction;
 pub mod ids;
 pub mod integrate;
+#[cfg(target_arch = "x86_64")]
+pub mod lanes;
 pub mod material;
 pub mod neighbour;
 pub mod nodes;
