@@ -99,6 +99,14 @@ impl F4 {
         Self(_mm256_sqrt_pd(self.0))
     }
 
+    /// `self.max(other)` in each lane where `self` is not NaN; `other` where it is (as the
+    /// scalar `other.max(self)` does).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn max_with(self, other: Self) -> Self {
+        Self(_mm256_max_pd(self.0, other.0))
+    }
+
     /// `-self`, exact as the scalar negation (the sign bit flipped).
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -197,6 +205,12 @@ impl V4 {
             _mm256_storeu_pd(values.add(4), _mm256_permute2f128_pd::<0x30>(c, a));
             _mm256_storeu_pd(values.add(8), _mm256_permute2f128_pd::<0x31>(b, c));
         }
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn add(self, other: Self) -> Self {
+        Self { x: self.x.add(other.x), y: self.y.add(other.y), z: self.z.add(other.z) }
     }
 
     #[target_feature(enable = "avx2")]
