@@ -11,9 +11,9 @@ import math
 # --- measured on this machine ---------------------------------------------------------
 # A shot is priced at what a woven shot costs, not the straight-yarn bench (66 ns per
 # node-step, a rebuild every 65 steps): the default case, four layers of KM2 706 struck by
-# the FSP at 400 m/s, 1 rank, session 9 (docs/performance.md).
-NS_PER_NODE_STEP = 261.0      # MEASURED: default case, core time per node-step (all stages)
-NS_PER_GHOST_STEP = 27.0      # MEASURED: default case, rods per node-step; ghosts get rods only
+# the FSP at 400 m/s, 1 rank, session 10 (docs/performance.md).
+NS_PER_NODE_STEP = 253.0      # MEASURED: default case, core time per node-step (all stages)
+NS_PER_GHOST_STEP = 19.0      # MEASURED: default case, rods per node-step; ghosts get rods only
 HALO_BYTES_PER_GHOST = 32     # MEASURED: position + failure state per ghost per step
 RECORD_BYTES_PER_GHOST = 88   # MEASURED: full ghost record at a rebuild (11 words)
 STEPS_PER_REBUILD = 8.6       # MEASURED: default case, 621 rebuilds in 5,350 steps
