@@ -103,20 +103,8 @@ impl ExactSum {
         // specials cannot be summed as integers: count infinities of each sign and NaNs
         if self.has_special {
             let s = f64::from_bits(self.special_bits);
-            words[LIMBS] = if s.is_nan() {
-                1 << 40
-            } else if s > 0.0 {
-                1
-            } else {
-                0
-            };
-            words[LIMBS + 1] = if s.is_nan() {
-                0
-            } else if s < 0.0 {
-                1
-            } else {
-                0
-            };
+            words[LIMBS] = if s.is_nan() { 1 << 40 } else if s > 0.0 { 1 } else { 0 };
+            words[LIMBS + 1] = if s.is_nan() { 0 } else if s < 0.0 { 1 } else { 0 };
         }
         words
     }

@@ -56,7 +56,11 @@ pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, spring_stiffn
     let elastic_slip = if stiffness > 0.0 { limit / stiffness } else { 0.0 };
     // Cundall–Strack: keep only the elastic part of the tangential displacement
     *anchor = relative - direction * elastic_slip;
-    FrictionResponse { force: direction * limit, dissipated: limit * (tangential_norm - elastic_slip), stored: limit * elastic_slip / 2.0 }
+    FrictionResponse {
+        force: direction * limit,
+        dissipated: limit * (tangential_norm - elastic_slip),
+        stored: limit * elastic_slip / 2.0,
+    }
 }
 
 #[cfg(test)]

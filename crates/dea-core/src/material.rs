@@ -23,7 +23,13 @@ impl FibreMaterial {
     /// Kevlar KM2, seed Table 4-1 (E_L = 84.6 GPa, E_T = 1.34 GPa, rho = 1440 kg/m^3) with
     /// 12 µm filaments (seed §2.2.3; PHYSICS.md §6); linear elastic in axial compression.
     pub fn kevlar_km2() -> Self {
-        Self { longitudinal_modulus: 84.6e9, transverse_modulus: 1.34e9, density: 1440.0, compressive_stiffness_ratio: 1.0, filament_diameter: 12.0e-6 }
+        Self {
+            longitudinal_modulus: 84.6e9,
+            transverse_modulus: 1.34e9,
+            density: 1440.0,
+            compressive_stiffness_ratio: 1.0,
+            filament_diameter: 12.0e-6,
+        }
     }
 
     /// Longitudinal bar wave speed sqrt(E_L / rho) [m/s].
@@ -68,11 +74,18 @@ pub struct FibreSection {
 impl FibreSection {
     /// Builds a section from the digital fibre area, element length and bending model.
     /// `friction_coefficient` is the inter-fibre mu that (5-10) uses.
-    pub fn new(material: &FibreMaterial, area: f64, element_length: f64, inertia: InertiaModel, friction_coefficient: f64) -> Self {
+    pub fn new(
+        material: &FibreMaterial,
+        area: f64,
+        element_length: f64,
+        inertia: InertiaModel,
+        friction_coefficient: f64,
+    ) -> Self {
         let diameter = (4.0 * area / std::f64::consts::PI).sqrt();
         let filament_area = std::f64::consts::PI * material.filament_diameter.powi(2) / 4.0;
         let filaments_per_fibre = (area / filament_area).max(1.0);
-        let moment_of_inertia = effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia, friction_coefficient);
+        let moment_of_inertia =
+            effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia, friction_coefficient);
         Self {
             diameter,
             area,
@@ -104,7 +117,13 @@ pub fn modified_contact_diameter(diameter: f64, element_length: f64) -> f64 {
 /// `I_0 = n pi d_a^4/64` (free filaments), `I_inf = pi d_d^4/64` (locked bundle),
 /// `I_e = (mu/k2)^k1 I_inf + (1 - (mu/k2)^k1) I_0`, with mu/k2 capped at 1 (above k2 the
 /// bundle is locked, seed §5.2.3).
-pub fn effective_moment_of_inertia(fibre_diameter: f64, filament_diameter: f64, filaments_per_fibre: f64, model: InertiaModel, friction_coefficient: f64) -> f64 {
+pub fn effective_moment_of_inertia(
+    fibre_diameter: f64,
+    filament_diameter: f64,
+    filaments_per_fibre: f64,
+    model: InertiaModel,
+    friction_coefficient: f64,
+) -> f64 {
     let pi = std::f64::consts::PI;
     let free = filaments_per_fibre * pi * filament_diameter.powi(4) / 64.0; // (5-7)
     let locked = pi * fibre_diameter.powi(4) / 64.0; // (5-8)

@@ -268,8 +268,7 @@ mod tests {
                 surface.push(Vec3::new(c * 0.8 * t, s * 0.8 * t, -0.75)); // bottom cap
                 let e = t * std::f64::consts::FRAC_PI_2;
                 surface.push(Vec3::new(c * (0.8 + 0.2 * e.cos()), s * (0.8 + 0.2 * e.cos()), 0.55 + 0.2 * e.sin())); // top edge
-                surface.push(Vec3::new(c * (0.8 + 0.2 * e.cos()), s * (0.8 + 0.2 * e.cos()), -0.55 - 0.2 * e.sin()));
-                // bottom edge
+                surface.push(Vec3::new(c * (0.8 + 0.2 * e.cos()), s * (0.8 + 0.2 * e.cos()), -0.55 - 0.2 * e.sin())); // bottom edge
             }
         }
         for p in [Vec3::new(1.5, 0.2, 0.1), Vec3::new(0.3, 0.1, 1.4), Vec3::new(1.1, 0.0, 0.9), Vec3::new(-0.7, 0.6, -1.0)] {

@@ -364,7 +364,11 @@ impl TriangleSurface {
         let offset = p - point;
         let distance = squared.sqrt();
         let outside = offset.dot(&pseudonormal) >= 0.0;
-        let normal = if distance > 0.0 { offset * (if outside { 1.0 } else { -1.0 } / distance) } else { pseudonormal.normalize() };
+        let normal = if distance > 0.0 {
+            offset * (if outside { 1.0 } else { -1.0 } / distance)
+        } else {
+            pseudonormal.normalize()
+        };
         Some(SurfacePoint { distance: if outside { distance } else { -distance }, normal, point, triangle: t, weights })
     }
 }
@@ -432,10 +436,10 @@ mod tests {
 /// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
 #[cfg(test)]
 pub(crate) fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
-    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-    let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-    (vertices, triangles)
+        let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        (vertices, triangles)
 }
 
 #[cfg(test)]
@@ -456,8 +460,7 @@ mod surface_tests {
             // the box's own signed distance
             let q = p.abs() - Vec3::new(a, b, c);
             let exact = if q.max() > 0.0 { q.sup(&Vec3::zeros()).norm() } else { q.max() };
-            let brute =
-                triangles.iter().map(|t| (p - closest_point_on_triangle(&p, &vertices[t[0] as usize], &vertices[t[1] as usize], &vertices[t[2] as usize]).0).norm()).fold(f64::INFINITY, f64::min);
+            let brute = triangles.iter().map(|t| (p - closest_point_on_triangle(&p, &vertices[t[0] as usize], &vertices[t[1] as usize], &vertices[t[2] as usize]).0).norm()).fold(f64::INFINITY, f64::min);
             assert!((exact.abs() - brute).abs() < 1e-12);
             match surface.closest(&p) {
                 Some(found) => {
@@ -465,11 +468,7 @@ mod surface_tests {
                     assert!((found.normal.norm() - 1.0).abs() < 1e-12);
                     // the normal leads from the surface point to an outside point
                     assert!((found.point + found.normal * found.distance - p).norm() < 1e-12);
-                    if found.distance < 0.0 {
-                        inside += 1
-                    } else {
-                        outside += 1
-                    }
+                    if found.distance < 0.0 { inside += 1 } else { outside += 1 }
                 }
                 None => {
                     assert!(brute > reach, "{p:?} is within reach ({brute}) but was not found");

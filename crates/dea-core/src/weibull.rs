@@ -89,7 +89,11 @@ mod tests {
     use super::*;
 
     fn bimodal() -> WeibullStrength {
-        WeibullStrength { gauge_length: 0.0254, first: WeibullMode { shape: 12.0, scale: 4.0e9 }, second: Some(WeibullMode { shape: 3.0, scale: 1.2e9 }) }
+        WeibullStrength {
+            gauge_length: 0.0254,
+            first: WeibullMode { shape: 12.0, scale: 4.0e9 },
+            second: Some(WeibullMode { shape: 3.0, scale: 1.2e9 }),
+        }
     }
 
     #[test]
@@ -123,7 +127,11 @@ mod tests {
         assert!(statistic < critical, "D = {statistic} >= {critical}");
         // and a wrong law is rejected by the same test (the test can fail)
         let wrong = WeibullStrength { second: None, ..bimodal() };
-        let wrong_statistic = samples.iter().enumerate().map(|(k, &s)| (wrong.cdf(s, length) - k as f64 / n as f64).abs()).fold(0.0, f64::max);
+        let wrong_statistic = samples
+            .iter()
+            .enumerate()
+            .map(|(k, &s)| (wrong.cdf(s, length) - k as f64 / n as f64).abs())
+            .fold(0.0, f64::max);
         assert!(wrong_statistic > critical);
     }
 
