@@ -142,67 +142,72 @@ fn node_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], s
     scratch.angle[i] = theta;
 }
 
-/// [`compute_bending`] four nodes at a time where four acting springs follow each other along
-/// a fibre in memory and none is bent beyond the polynomial's range (almost everywhere): the
-/// operations of [`torsional_spring`] lane by lane, with the scalar code's bits.
+/// [`compute_bending`] four nodes at a time where it can ([`springs_in_lanes`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn bending_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
-    use crate::lanes::{F4, V4};
-    use crate::nodes::FailureMode;
     let n = nodes.len();
-    let stiffness = |k: usize| sections[nodes.section[k] as usize].torsional_stiffness;
-    let acting = |k: usize| {
-        nodes.prev[k] == k as u32 - 1 && nodes.next[k] == k as u32 + 1 && elements.failure[k - 1] == FailureMode::Intact && elements.failure[k] == FailureMode::Intact && stiffness(k) != 0.0
-    };
-    let zero = F4::splat(0.0);
     let mut i = 0;
     while i + 4 <= n {
-        // a group reads the element before its first node
-        if i == 0 || !(i..i + 4).all(acting) {
+        if !springs_in_lanes(nodes, elements, sections, scratch, i) {
             for k in i..i + 4 {
                 node_bending(nodes, elements, sections, scratch, k);
             }
-            i += 4;
-            continue;
         }
-        let (ua, ub) = (V4::load(&elements.direction, i - 1), V4::load(&elements.direction, i));
-        let cross = ua.cross(ub);
-        let sine = cross.dot(cross).sqrt();
-        let cosine = ua.dot(ub);
-        // turning_angle's two first paths
-        let turning = zero.lt(cosine);
-        let straight = turning.and(sine.lt(F4::splat(STRAIGHT)));
-        if !straight.or(turning.and(sine.lt(F4::splat(ATAN_POLYNOMIAL_RANGE).mul(cosine)))).all() {
-            for k in i..i + 4 {
-                node_bending(nodes, elements, sections, scratch, k);
-            }
-            i += 4;
-            continue;
-        }
-        let inverse_cosine = F4::splat(1.0).div(cosine);
-        let over_sine = F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
-        let theta = F4::select(straight, sine, sine.mul(over_sine));
-        // torsional_spring's factor
-        let k_t = F4::new([stiffness(i), stiffness(i + 1), stiffness(i + 2), stiffness(i + 3)]);
-        let rest = F4::load(&nodes.rest_angle, i);
-        let straight_at_rest = rest.eq(zero);
-        let factor = if straight_at_rest.all() {
-            k_t.mul(over_sine)
-        } else {
-            let bent_at_rest = F4::select(F4::splat(1e-12).lt(sine), k_t.mul(theta.sub(rest)).div(sine), zero);
-            F4::select(straight_at_rest, k_t.mul(over_sine), bent_at_rest)
-        };
-        let (inverse_la, inverse_lb) = (F4::load(&elements.inverse_length, i - 1), F4::load(&elements.inverse_length, i));
-        ua.scale(cosine).sub(ub).scale(factor.mul(inverse_la)).store(&mut scratch.on_prev, i);
-        ua.sub(ub.scale(cosine)).scale(factor.mul(inverse_lb)).store(&mut scratch.on_next, i);
-        cross.scale(factor).store(&mut scratch.moment, i);
-        theta.store(&mut scratch.angle, i);
         i += 4;
     }
     for k in i..n {
         node_bending(nodes, elements, sections, scratch, k);
     }
+}
+
+/// The springs at nodes `i..i + 4` in four lanes, the operations of [`torsional_spring`]
+/// lane by lane with the scalar code's bits, when four acting springs follow each other
+/// along a fibre in memory and none is bent beyond the polynomial's range (almost
+/// everywhere); false, and nothing written, otherwise.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn springs_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch, i: usize) -> bool {
+    use crate::lanes::{F4, V4};
+    use crate::nodes::FailureMode;
+    let stiffness = |k: usize| sections[nodes.section[k] as usize].torsional_stiffness;
+    let acting = |k: usize| {
+        nodes.prev[k] == k as u32 - 1 && nodes.next[k] == k as u32 + 1 && elements.failure[k - 1] == FailureMode::Intact && elements.failure[k] == FailureMode::Intact && stiffness(k) != 0.0
+    };
+    // a group reads the element before its first node
+    if i == 0 || !(i..i + 4).all(acting) {
+        return false;
+    }
+    let zero = F4::splat(0.0);
+    let (ua, ub) = (V4::load(&elements.direction, i - 1), V4::load(&elements.direction, i));
+    let cross = ua.cross(ub);
+    let sine = cross.dot(cross).sqrt();
+    let cosine = ua.dot(ub);
+    // turning_angle's two first paths
+    let turning = zero.lt(cosine);
+    let straight = turning.and(sine.lt(F4::splat(STRAIGHT)));
+    if !straight.or(turning.and(sine.lt(F4::splat(ATAN_POLYNOMIAL_RANGE).mul(cosine)))).all() {
+        return false;
+    }
+    let inverse_cosine = F4::splat(1.0).div(cosine);
+    let over_sine = F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
+    let theta = F4::select(straight, sine, sine.mul(over_sine));
+    // torsional_spring's factor
+    let k_t = F4::new([stiffness(i), stiffness(i + 1), stiffness(i + 2), stiffness(i + 3)]);
+    let rest = F4::load(&nodes.rest_angle, i);
+    let straight_at_rest = rest.eq(zero);
+    let factor = if straight_at_rest.all() {
+        k_t.mul(over_sine)
+    } else {
+        let bent_at_rest = F4::select(F4::splat(1e-12).lt(sine), k_t.mul(theta.sub(rest)).div(sine), zero);
+        F4::select(straight_at_rest, k_t.mul(over_sine), bent_at_rest)
+    };
+    let (inverse_la, inverse_lb) = (F4::load(&elements.inverse_length, i - 1), F4::load(&elements.inverse_length, i));
+    ua.scale(cosine).sub(ub).scale(factor.mul(inverse_la)).store(&mut scratch.on_prev, i);
+    ua.sub(ub.scale(cosine)).scale(factor.mul(inverse_lb)).store(&mut scratch.on_next, i);
+    cross.scale(factor).store(&mut scratch.moment, i);
+    theta.store(&mut scratch.angle, i);
+    true
 }
 
 /// [`atan_over_argument`] in four lanes, operation for operation.

@@ -1,4 +1,4 @@
-//! Four `f64` lanes on AVX2, for the rod kernels.
+//! Four `f64` lanes on AVX2, for the rod and integration kernels.
 //!
 //! The rod passes are bound by the latency of a chain of square root, division and a
 //! polynomial per node; four nodes in the lanes of one register run four chains at once.
@@ -20,6 +20,17 @@ const _: () = assert!(std::mem::size_of::<Vec3>() == 3 * std::mem::size_of::<f64
 #[inline]
 pub fn available() -> bool {
     is_x86_feature_detected!("avx2")
+}
+
+/// A lane-by-lane arithmetic operation of [`F4`] by its intrinsic.
+macro_rules! binary {
+    ($name:ident, $intrinsic:ident) => {
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub fn $name(self, other: Self) -> Self {
+            Self($intrinsic(self.0, other.0))
+        }
+    };
 }
 
 /// Four `f64` values.
@@ -69,29 +80,10 @@ impl F4 {
         values
     }
 
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn add(self, other: Self) -> Self {
-        Self(_mm256_add_pd(self.0, other.0))
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn sub(self, other: Self) -> Self {
-        Self(_mm256_sub_pd(self.0, other.0))
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn mul(self, other: Self) -> Self {
-        Self(_mm256_mul_pd(self.0, other.0))
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn div(self, other: Self) -> Self {
-        Self(_mm256_div_pd(self.0, other.0))
-    }
+    binary!(add, _mm256_add_pd);
+    binary!(sub, _mm256_sub_pd);
+    binary!(mul, _mm256_mul_pd);
+    binary!(div, _mm256_div_pd);
 
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -105,13 +97,6 @@ impl F4 {
     #[inline]
     pub fn max_with(self, other: Self) -> Self {
         Self(_mm256_max_pd(self.0, other.0))
-    }
-
-    /// `-self`, exact as the scalar negation (the sign bit flipped).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn neg(self) -> Self {
-        Self(_mm256_xor_pd(self.0, _mm256_set1_pd(-0.0)))
     }
 
     /// `self < other` in each lane (false on NaN, as the scalar comparison).
@@ -135,7 +120,7 @@ impl F4 {
         Mask(_mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, other.0))
     }
 
-    /// `if mask { self } else { other }` in each lane.
+    /// `if mask { if_true } else { if_false }` in each lane.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn select(mask: Mask, if_true: Self, if_false: Self) -> Self {

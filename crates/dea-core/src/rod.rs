@@ -52,29 +52,28 @@ pub(crate) fn element_tension(nodes: &Nodes, elements: &mut Elements, sections: 
 fn tension_in_lanes(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
     use crate::lanes::{F4, V4};
     let n = nodes.len();
-    let stiffness = |k: usize| material.longitudinal_modulus * sections[nodes.section[k] as usize].area;
+    let stiffness_of = |k: usize| material.longitudinal_modulus * sections[nodes.section[k] as usize].area;
     let mut i = 0;
     // a group reads the position after its last element
     while i + 5 <= n {
-        if !(i..i + 4).all(|k| nodes.next[k] == k as u32 + 1 && elements.failure[k] == FailureMode::Intact) {
+        if (i..i + 4).all(|k| nodes.next[k] == k as u32 + 1 && elements.failure[k] == FailureMode::Intact) {
+            let axis = V4::load(&nodes.position, i + 1).sub(V4::load(&nodes.position, i));
+            let length = axis.dot(axis).sqrt();
+            let inverse_length = F4::splat(1.0).div(length);
+            axis.scale(inverse_length).store(&mut elements.direction, i);
+            inverse_length.store(&mut elements.inverse_length, i);
+            let rest = F4::load(&elements.rest_length, i);
+            let strain = length.sub(rest).div(rest);
+            strain.store(&mut elements.strain, i);
+            // axial_force: the compressive ratio below zero strain
+            let scale = F4::select(strain.ge(F4::splat(0.0)), F4::splat(1.0), F4::splat(material.compressive_stiffness_ratio));
+            let stiffness = F4::new([stiffness_of(i), stiffness_of(i + 1), stiffness_of(i + 2), stiffness_of(i + 3)]);
+            scale.mul(stiffness).mul(strain).store(&mut elements.axial_force, i);
+        } else {
             for k in i..i + 4 {
                 element_tension(nodes, elements, sections, material, k);
             }
-            i += 4;
-            continue;
         }
-        let axis = V4::load(&nodes.position, i + 1).sub(V4::load(&nodes.position, i));
-        let length = axis.dot(axis).sqrt();
-        let inverse_length = F4::splat(1.0).div(length);
-        axis.scale(inverse_length).store(&mut elements.direction, i);
-        inverse_length.store(&mut elements.inverse_length, i);
-        let rest = F4::load(&elements.rest_length, i);
-        let strain = length.sub(rest).div(rest);
-        strain.store(&mut elements.strain, i);
-        // axial_force: the compressive ratio below zero strain
-        let scale = F4::select(strain.ge(F4::splat(0.0)), F4::splat(1.0), F4::splat(material.compressive_stiffness_ratio));
-        let stiffness = F4::new([stiffness(i), stiffness(i + 1), stiffness(i + 2), stiffness(i + 3)]);
-        scale.mul(stiffness).mul(strain).store(&mut elements.axial_force, i);
         i += 4;
     }
     for k in i..n {
