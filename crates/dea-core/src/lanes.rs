@@ -1,7 +1,9 @@
-//! Four `f64` lanes on AVX2, for the rod and integration kernels.
+//! Four `f64` lanes on AVX2, for the rod and integration kernels and the contact search.
 //!
 //! The rod passes are bound by the latency of a chain of square root, division and a
 //! polynomial per node; four nodes in the lanes of one register run four chains at once.
+//! The contact search tests four candidates at a time ([`U4`] for their places on the chain)
+//! and packs the hits without a branch per candidate ([`pack_counting`]).
 //! Every lane does exactly the operations the scalar code does, in the same order (Rust never
 //! contracts to fused multiply–adds), and IEEE arithmetic rounds each lane as it rounds a
 //! scalar: the lanes give the scalar code's bits, which the kernels' tests check.
@@ -141,11 +143,50 @@ impl Mask {
         Self(_mm256_or_pd(self.0, other.0))
     }
 
+    /// The lanes as bits, lane 0 lowest (set where true).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn bits(self) -> u32 {
+        _mm256_movemask_pd(self.0) as u32
+    }
+
     /// True when every lane is true.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn all(self) -> bool {
-        _mm256_movemask_pd(self.0) == 0b1111
+        self.bits() == 0b1111
+    }
+}
+
+/// Four `u64` values.
+#[derive(Clone, Copy)]
+pub struct U4(__m256i);
+
+impl U4 {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn splat(value: u64) -> Self {
+        Self(_mm256_set1_epi64x(value as i64))
+    }
+
+    /// The four values of `values` from index `start` on.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn load(values: &[u64], start: usize) -> Self {
+        let four = &values[start..start + 4];
+        // SAFETY: `four` holds four u64 values, and the load accepts any alignment
+        Self(unsafe { _mm256_loadu_si256(four.as_ptr().cast()) })
+    }
+
+    /// `(self - other) as i64` (wrapping) within `-limit..=limit` in each lane (`limit` below
+    /// 2^63).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn distance_within(self, other: Self, limit: Self) -> Mask {
+        let difference = _mm256_sub_epi64(self.0, other.0);
+        let negative_limit = _mm256_sub_epi64(_mm256_setzero_si256(), limit.0);
+        let outside = _mm256_or_si256(_mm256_cmpgt_epi64(difference, limit.0), _mm256_cmpgt_epi64(negative_limit, difference));
+        Mask(_mm256_castsi256_pd(_mm256_andnot_si256(outside, _mm256_set1_epi64x(-1))))
     }
 }
 
@@ -226,6 +267,46 @@ impl V4 {
     }
 }
 
+/// Shuffles for [`pack_counting`]: for each four-bit mask, the bytes of the set lanes' 32-bit values,
+/// lowest lane first.
+const PACK_SHUFFLES: [[u8; 16]; 16] = {
+    let mut table = [[0x80u8; 16]; 16];
+    let mut mask = 0;
+    while mask < 16 {
+        let (mut lane, mut packed) = (0, 0);
+        while lane < 4 {
+            if mask & (1 << lane) != 0 {
+                let mut byte = 0;
+                while byte < 4 {
+                    table[mask][4 * packed + byte] = (4 * lane + byte) as u8;
+                    byte += 1;
+                }
+                packed += 1;
+            }
+            lane += 1;
+        }
+        mask += 1;
+    }
+    table
+};
+
+/// Writes to the front of `to` those of `start..start + 4` whose bit is set in `bits` (lane 0
+/// lowest), in order, and returns how many: a left-pack without branches.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub fn pack_counting(start: u32, bits: u32, to: &mut [u32]) -> usize {
+    let to = &mut to[..4];
+    let bits = bits as usize & 0b1111;
+    let values = _mm_add_epi32(_mm_set1_epi32(start as i32), _mm_setr_epi32(0, 1, 2, 3));
+    // SAFETY: `to` holds four u32 values, the table row sixteen bytes, and the load and
+    // store accept any alignment
+    unsafe {
+        let shuffle = _mm_loadu_si128(PACK_SHUFFLES[bits].as_ptr().cast());
+        _mm_storeu_si128(to.as_mut_ptr().cast(), _mm_shuffle_epi8(values, shuffle));
+    }
+    bits.count_ones() as usize
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -254,5 +335,33 @@ mod tests {
             cross.remove(0);
             (cross, a.dot(b).to_array(), F4::splat(1.0).div(a.dot(a).sqrt()).to_array())
         }
+    }
+
+    #[test]
+    fn packing_keeps_the_set_lanes_in_order() {
+        if !available() {
+            return;
+        }
+        for bits in 0..16u32 {
+            let mut to = [u32::MAX; 5];
+            // SAFETY: AVX2 is present (checked above)
+            let count = unsafe { pack_counting(40, bits | 0b110000, &mut to) };
+            let expected: Vec<u32> = (0..4).filter(|lane| bits & (1 << lane) != 0).map(|lane| 40 + lane).collect();
+            assert_eq!(count, expected.len(), "bits {bits:04b}: the bits above the four lanes are ignored");
+            assert_eq!(&to[..count], &expected[..], "bits {bits:04b}");
+            assert_eq!(to[4], u32::MAX, "the store stays within its four values");
+        }
+    }
+
+    #[test]
+    fn distance_within_wraps_as_the_scalar_difference() {
+        if !available() {
+            return;
+        }
+        let place = 7u64 << 32 | 100;
+        let others = [place + 3, place - 4, (8u64 << 32) | 100, place.wrapping_sub(1 << 32) + 2];
+        // SAFETY: AVX2 is present (checked above)
+        let bits = unsafe { U4::load(&others, 0).distance_within(U4::splat(place), U4::splat(3)).bits() };
+        assert_eq!(bits, 0b0001, "within 3 below and above, not 4 away, not on another fibre");
     }
 }

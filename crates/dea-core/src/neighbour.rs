@@ -72,11 +72,10 @@ struct BuildScratch {
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
     cell_fill: Vec<u32>,
-    sorted: Vec<u32>,
-    sorted_position: Vec<Vec3>,
-    /// (fibre, position along it) and global id of each node, in cell order
-    sorted_chain: Vec<ChainPlace>,
-    sorted_gid: Vec<GlobalNodeId>,
+    cells: CellOrdered,
+    stencil: Stencil,
+    /// the cell-ordered entries a node's list takes
+    hits: Vec<u32>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
     partner: Vec<u32>,
@@ -88,6 +87,125 @@ struct BuildScratch {
     retired_start: Vec<u32>,
     retired_gid: Vec<GlobalNodeId>,
     retired_max_overlap: Vec<f64>,
+}
+
+/// The nodes in cell order, with what the contact search reads of them, so that the search
+/// streams through memory; the coordinates separately, four at a time.
+#[derive(Clone, Debug, Default)]
+struct CellOrdered {
+    /// local index of each entry
+    node: Vec<u32>,
+    /// coordinates [m], and three entries of padding so that four can be read from any entry
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    /// place on the chain ([`chain_place`])
+    place: Vec<u64>,
+    gid: Vec<GlobalNodeId>,
+}
+
+impl CellOrdered {
+    /// Sorts the nodes by cell (`cell_of`, whose entries start at `cell_start`; `fill` is
+    /// scratch), in local order within a cell.
+    fn fill(&mut self, nodes: &Nodes, cell_start: &[u32], cell_of: &[u32], fill: &mut Vec<u32>) {
+        let n = nodes.len();
+        self.node.resize(n, 0);
+        for coordinate in [&mut self.x, &mut self.y, &mut self.z] {
+            coordinate.resize(n + 3, 0.0);
+        }
+        self.place.resize(n + 3, 0);
+        self.gid.resize(n, GlobalNodeId(0));
+        fill.clear();
+        fill.extend_from_slice(cell_start);
+        for (i, &c) in cell_of.iter().enumerate() {
+            let k = fill[c as usize] as usize;
+            self.node[k] = i as u32;
+            [self.x[k], self.y[k], self.z[k]] = [nodes.position[i].x, nodes.position[i].y, nodes.position[i].z];
+            self.place[k] = chain_place(nodes.fibre[i], nodes.along[i]);
+            self.gid[k] = nodes.gid[i];
+            fill[c as usize] += 1;
+        }
+    }
+}
+
+/// The candidates of a node: the runs of cell-ordered entries in the 27 cells around its
+/// cell, found once for the nodes of a fibre that follow each other in one cell.
+#[derive(Clone, Debug, Default)]
+struct Stencil {
+    /// the cell gathered around
+    cell: Option<[i64; 3]>,
+    /// runs of entries (one per column of three cells along z, two where it wraps the table)
+    runs: Vec<std::ops::Range<usize>>,
+}
+
+impl Stencil {
+    /// Finds the runs of the cells around `cell`.
+    fn gather(&mut self, grid: &HashedGrid, cell_start: &[u32], cell: [i64; 3]) {
+        let [cx, cy, cz] = cell;
+        self.runs.clear();
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                // the three cells along z sit in consecutive slots (modulo the table)
+                let first = grid.slot([cx + dx, cy + dy, cz - 1]);
+                let wrap = (first + 3).saturating_sub(grid.slots());
+                for slots in [first..first + 3 - wrap, 0..wrap] {
+                    let run = cell_start[slots.start] as usize..cell_start[slots.end] as usize;
+                    if !run.is_empty() {
+                        self.runs.push(run);
+                    }
+                }
+            }
+        }
+        self.cell = Some(cell);
+    }
+
+    /// Writes to `hits` the cell-ordered entries closer to `x` than the square root of
+    /// `reach_squared` and not within `exclusion` places of `place` on its chain (none for a
+    /// NaN `x`: a NaN position, caught after the forces, pairs with nothing).
+    fn within(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+        hits.clear();
+        #[cfg(target_arch = "x86_64")]
+        if crate::lanes::available() {
+            // SAFETY: the processor runs AVX2
+            return unsafe { self.within_in_lanes(cells, x, place, exclusion, reach_squared, hits) };
+        }
+        self.within_one_at_a_time(cells, x, place, exclusion, reach_squared, hits);
+    }
+
+    /// [`Self::within`], one entry at a time.
+    fn within_one_at_a_time(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+        for k in self.runs.iter().flat_map(|run| run.clone()) {
+            let (dx, dy, dz) = (cells.x[k] - x.x, cells.y[k] - x.y, cells.z[k] - x.z);
+            if dx * dx + dy * dy + dz * dz < reach_squared && !same_fibre_within(place, cells.place[k], exclusion) {
+                hits.push(k as u32);
+            }
+        }
+    }
+
+    /// [`Self::within`], four entries at a time (a run's last group masked to the run), the
+    /// hits packed without a branch.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn within_in_lanes(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+        use crate::lanes::{pack_counting, F4, U4};
+        let (px, py, pz, reach_squared) = (F4::splat(x.x), F4::splat(x.y), F4::splat(x.z), F4::splat(reach_squared));
+        let (place, exclusion) = (U4::splat(place), U4::splat(exclusion as u64));
+        // room for a whole group past the last hit
+        hits.resize(self.runs.iter().map(|run| run.len() + 4).sum(), 0);
+        let mut count = 0;
+        for run in &self.runs {
+            // the run and the three entries of padding after it, so that every group reads four
+            let (xs, ys, zs, places) = (&cells.x[run.start..run.end + 3], &cells.y[run.start..run.end + 3], &cells.z[run.start..run.end + 3], &cells.place[run.start..run.end + 3]);
+            for offset in (0..run.len()).step_by(4) {
+                let (dx, dy, dz) = (F4::load(xs, offset).sub(px), F4::load(ys, offset).sub(py), F4::load(zs, offset).sub(pz));
+                let near = dx.mul(dx).add(dy.mul(dy)).add(dz.mul(dz)).lt(reach_squared).bits();
+                let linked = U4::load(places, offset).distance_within(place, exclusion).bits();
+                let in_run = (1u32 << (run.len() - offset).min(4)) - 1;
+                count += pack_counting((run.start + offset) as u32, near & !linked & in_run, &mut hits[count..count + 4]);
+            }
+        }
+        hits.truncate(count);
+    }
 }
 
 /// Row `i` of compressed rows with starts `starts` (empty while no row is built).
@@ -173,24 +291,8 @@ impl NeighbourList {
             scratch.cell_start[c + 1] += scratch.cell_start[c];
         }
         // nodes and what the scan reads of them in cell order: it streams through memory
-        scratch.sorted.clear();
-        scratch.sorted.resize(n, 0);
-        scratch.sorted_position.clear();
-        scratch.sorted_position.resize(n, Vec3::zeros());
-        scratch.sorted_chain.clear();
-        scratch.sorted_chain.resize(n, (FibreId(0), 0));
-        scratch.sorted_gid.clear();
-        scratch.sorted_gid.resize(n, GlobalNodeId(0));
-        scratch.cell_fill.clear();
-        scratch.cell_fill.extend_from_slice(&scratch.cell_start);
-        for (i, &c) in scratch.cell_of.iter().enumerate() {
-            let slot = scratch.cell_fill[c as usize] as usize;
-            scratch.sorted[slot] = i as u32;
-            scratch.sorted_position[slot] = nodes.position[i];
-            scratch.sorted_chain[slot] = (nodes.fibre[i], nodes.along[i]);
-            scratch.sorted_gid[slot] = nodes.gid[i];
-            scratch.cell_fill[c as usize] += 1;
-        }
+        scratch.cells.fill(nodes, &scratch.cell_start, &scratch.cell_of, &mut scratch.cell_fill);
+        scratch.stencil.cell = None;
         let single_section = sections.len() == 1;
 
         scratch.start.clear();
@@ -212,40 +314,22 @@ impl NeighbourList {
             let xi = nodes.position[i];
             let [cx, cy, cz] = grid.coordinates(&xi);
             let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
-            let place = (nodes.fibre[i], nodes.along[i]);
+            let place = chain_place(nodes.fibre[i], nodes.along[i]);
+            // consecutive nodes of a fibre often share a cell, and so its candidates
+            if scratch.stencil.cell != Some([cx, cy, cz]) {
+                scratch.stencil.gather(&grid, &scratch.cell_start, [cx, cy, cz]);
+            }
+            scratch.stencil.within(&scratch.cells, &xi, place, exclusion, coarse_reach * coarse_reach, &mut scratch.hits);
             scratch.row.clear();
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    // the three cells along z sit in consecutive slots (modulo the table)
-                    let first = grid.slot([cx + dx, cy + dy, cz - 1]);
-                    let wrap = (first + 3).saturating_sub(grid.slots());
-                    let ranges = [first..first + 3 - wrap, 0..wrap];
-                    for slots in ranges {
-                        let cells = scratch.cell_start[slots.start] as usize..scratch.cell_start[slots.end] as usize;
-                        // a slice, so that the sweep checks its bounds once
-                        for (k, x) in cells.clone().zip(&scratch.sorted_position[cells]) {
-                            let distance_squared = (x - xi).norm_squared();
-                            // written so that a NaN position (caught after the forces) pairs
-                            // with nothing, whatever grid cell it falls into
-                            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-                            if !(distance_squared < coarse_reach * coarse_reach) {
-                                continue;
-                            }
-                            // the node itself and its chain neighbours
-                            if same_fibre_within(place, scratch.sorted_chain[k], exclusion) {
-                                continue;
-                            }
-                            let j = scratch.sorted[k] as usize;
-                            // one section: the coarse test above was the pair's own
-                            let within = || {
-                                let reach = contact_distance(sections, nodes, i, j) + self.skin;
-                                distance_squared < reach * reach
-                            };
-                            if single_section || within() {
-                                scratch.row.push((scratch.sorted_gid[k], j as u32));
-                            }
-                        }
-                    }
+            for &k in &scratch.hits {
+                let j = scratch.cells.node[k as usize] as usize;
+                // one section: the coarse test was the pair's own
+                let within = || {
+                    let reach = contact_distance(sections, nodes, i, j) + self.skin;
+                    (nodes.position[j] - xi).norm_squared() < reach * reach
+                };
+                if single_section || within() {
+                    scratch.row.push((scratch.cells.gid[k as usize], j as u32));
                 }
             }
             scratch.row.sort_unstable();
@@ -544,18 +628,25 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
         .collect()
 }
 
-/// A node's place on its chain: its fibre and its position along it.
-type ChainPlace = (FibreId, u32);
-
-/// True when two places lie on one fibre within `exclusion` positions of each other.
+/// A node's place on its chain: its fibre in the high half, its position along it in the low
+/// half, so that places of one fibre differ by their distance along it and places of two
+/// fibres by at least 2^31 (a fibre holds fewer than 2^31 nodes).
 #[inline]
-fn same_fibre_within((fibre, along): ChainPlace, (other_fibre, other_along): ChainPlace, exclusion: u32) -> bool {
-    fibre == other_fibre && along.abs_diff(other_along) <= exclusion
+fn chain_place(fibre: FibreId, along: u32) -> u64 {
+    debug_assert!(along < 1 << 31);
+    (fibre.0 as u64) << 32 | along as u64
+}
+
+/// True when two chain places lie on one fibre within `exclusion` (below 2^31) positions of
+/// each other.
+#[inline]
+fn same_fibre_within(place: u64, other: u64, exclusion: u32) -> bool {
+    (other.wrapping_sub(place) as i64).unsigned_abs() <= exclusion as u64
 }
 
 /// True when `j` is a chain neighbour of `i` that the contact search must skip.
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
-    same_fibre_within((nodes.fibre[i], nodes.along[i]), (nodes.fibre[j], nodes.along[j]), chain_exclusion(&sections[nodes.section[i] as usize]))
+    same_fibre_within(chain_place(nodes.fibre[i], nodes.along[i]), chain_place(nodes.fibre[j], nodes.along[j]), chain_exclusion(&sections[nodes.section[i] as usize]))
 }
 
 #[cfg(test)]
@@ -585,6 +676,52 @@ mod tests {
         nodes.n_owned = n;
         nodes.link_chains();
         (nodes, vec![section])
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_lanes_find_the_candidates_one_at_a_time_finds() {
+        if !crate::lanes::available() {
+            return;
+        }
+        let mut next = uniform(11);
+        let n = 256;
+        let mut cells = CellOrdered { node: (0..n as u32).collect(), gid: (0..n as u64).map(GlobalNodeId).collect(), ..Default::default() };
+        for _ in 0..n + 3 {
+            cells.x.push(next());
+            cells.y.push(next());
+            cells.z.push(next());
+            // three fibres, places along them close to the node's
+            cells.place.push(chain_place(FibreId((3.0 * next()) as u32), 10 + (7.0 * next()) as u32));
+        }
+        cells.x[17] = f64::NAN;
+        // runs of every length modulo four, one at the end of the entries
+        let stencil = Stencil { cell: None, runs: vec![0..5, 9..23, 30..31, 40..46, 57..150, 201..256] };
+        let place = chain_place(FibreId(1), 14);
+        let mut found = 0;
+        for x in [Vec3::new(0.5, 0.5, 0.5), Vec3::new(0.1, 0.9, 0.3), Vec3::new(f64::NAN, 0.5, 0.5)] {
+            let (mut one_at_a_time, mut in_lanes) = (Vec::new(), Vec::new());
+            stencil.within_one_at_a_time(&cells, &x, place, 2, 0.2, &mut one_at_a_time);
+            // SAFETY: AVX2 is present (checked above)
+            unsafe { stencil.within_in_lanes(&cells, &x, place, 2, 0.2, &mut in_lanes) };
+            assert_eq!(in_lanes, one_at_a_time, "from {x:?}");
+            assert!(one_at_a_time.iter().all(|&k| stencil.runs.iter().any(|run| run.contains(&(k as usize)))));
+            found += one_at_a_time.len();
+        }
+        let mut near = Vec::new();
+        stencil.within_one_at_a_time(&cells, &Vec3::new(0.5, 0.5, 0.5), place, 0, 0.2, &mut near);
+        let mut linked = Vec::new();
+        stencil.within_one_at_a_time(&cells, &Vec3::new(0.5, 0.5, 0.5), place, 2, 0.2, &mut linked);
+        assert!(found > 5 && linked.len() < near.len(), "the test finds candidates ({found}) and leaves out chain neighbours");
+    }
+
+    #[test]
+    fn chain_places_tell_fibres_apart_at_any_distance_along() {
+        let far = (1 << 31) - 1;
+        assert!(same_fibre_within(chain_place(FibreId(4), far), chain_place(FibreId(4), far - 3), 3));
+        assert!(!same_fibre_within(chain_place(FibreId(4), far), chain_place(FibreId(5), 0), far));
+        assert!(!same_fibre_within(chain_place(FibreId(u32::MAX), 0), chain_place(FibreId(0), far), far));
+        assert!(!same_fibre_within(chain_place(FibreId(4), 10), chain_place(FibreId(4), 14), 3));
     }
 
     #[test]
