@@ -152,6 +152,40 @@ fn prefetch(positions: &[Vec3], index: Option<&u32>) {
     }
 }
 
+/// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
+/// shear stress of its shear force (5-4, 5-5), against its strengths [Pa].
+fn element_breaks(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> Option<FailureMode> {
+    if !elements.is_intact(nodes, i) {
+        return None;
+    }
+    let sigma = longitudinal_modulus * elements.strain[i]; // (4-16)
+    let area = sections[nodes.section[i] as usize].area;
+    let tau = max_shear_stress(element_shear_force(nodes, elements, bending, i), area);
+    combined_criterion(sigma, elements.tensile_strength[i], tau, shear_strength)
+}
+
+/// Which of elements `i..i + 4` may break now (bit `l` for element `i + l`): the criterion
+/// (5-6) of [`element_breaks`] in four lanes, leaving to that scalar test every element
+/// within a margin of the boundary far wider than the lanes' rounding, every NaN, and every
+/// element not intact between consecutive nodes. So the elements it leaves out are ones the
+/// scalar test keeps, and the same elements break.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn may_break_in_lanes(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> u32 {
+    use crate::lanes::{F4, V4};
+    let plain = (0..4).filter(|&l| nodes.next[i + l] == (i + l) as u32 + 1 && elements.failure[i + l] == FailureMode::Intact).fold(0, |bits, l| bits | 1 << l);
+    let sigma = F4::splat(longitudinal_modulus).mul(F4::load(&elements.strain, i));
+    let tension = sigma.max_with(F4::splat(0.0)).div(F4::load(&elements.tensile_strength, i));
+    // (5-4), (5-5): the shear force from the jump of the moment along the element
+    let jump = V4::load(&bending.moment, i).sub(V4::load(&bending.moment, i + 1));
+    let shear_force = jump.dot(jump).sqrt().div(F4::load(&elements.rest_length, i));
+    let area = F4::new(std::array::from_fn(|l| sections[nodes.section[i + l] as usize].area));
+    let shear = F4::splat(4.0).mul(shear_force).div(F4::splat(3.0).mul(area)).div(F4::splat(shear_strength));
+    let total = tension.mul(tension).add(shear.mul(shear));
+    let clear = total.lt(F4::splat(1.0 - 1e-9)).bits();
+    !(clear & plain) & 0b1111
+}
+
 /// Wall time spent in each stage [s].
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct StageTimes {
@@ -244,10 +278,7 @@ impl Domain {
             .flat_map(|a| sections.iter().map(move |b| (a, b)))
             .map(|(a, b)| {
                 let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
-                PairData {
-                    reach: 0.5 * (a.contact_diameter + b.contact_diameter),
-                    geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb),
-                }
+                PairData { reach: 0.5 * (a.contact_diameter + b.contact_diameter), geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb) }
             })
             .collect();
         let mut bending = BendingScratch::default();
@@ -256,11 +287,7 @@ impl Domain {
         Self {
             material,
             sections,
-            ledger: NodeLedger {
-                friction_dissipated: vec![0.0; nodes.n_owned],
-                plastic_dissipated: vec![0.0; nodes.n_owned],
-                fracture_released: vec![0.0; nodes.n_owned],
-            },
+            ledger: NodeLedger { friction_dissipated: vec![0.0; nodes.n_owned], plastic_dissipated: vec![0.0; nodes.n_owned], fracture_released: vec![0.0; nodes.n_owned] },
             projectile_contacts: ProjectileContacts {
                 anchor: vec![Vec3::zeros(); n_owned],
                 spring_stiffness: vec![0.0; n_owned],
@@ -683,13 +710,7 @@ impl Domain {
     /// or `None` while it holds (or is already broken). Reads this step's strains and
     /// moments, so it gives the same answer on every rank that holds the element's stencil.
     fn breaks_now(&self, i: usize) -> Option<FailureMode> {
-        if !self.elements.is_intact(&self.nodes, i) {
-            return None;
-        }
-        let sigma = self.material.longitudinal_modulus * self.elements.strain[i]; // (4-16)
-        let area = self.sections[self.nodes.section[i] as usize].area;
-        let tau = max_shear_stress(element_shear_force(&self.nodes, &self.elements, &self.bending, i), area);
-        combined_criterion(sigma, self.elements.tensile_strength[i], tau, self.failure.shear_strength)
+        element_breaks(&self.nodes, &self.elements, &self.bending, &self.sections, self.material.longitudinal_modulus, self.failure.shear_strength, i)
     }
 
     /// Applies the combined criterion (5-6) to owned elements and books the strain and bending
@@ -699,15 +720,23 @@ impl Domain {
             return;
         }
         self.newly_broken.clear();
-        for i in 0..self.nodes.n_owned {
-            if let Some(mode) = self.breaks_now(i) {
-                self.newly_broken.push((i as u32, mode));
-                match mode {
-                    FailureMode::Tension => self.broken.tension += 1,
-                    FailureMode::Shear => self.broken.shear += 1,
-                    _ => self.broken.combined += 1,
+        let n_owned = self.nodes.n_owned;
+        let mut i = 0;
+        // almost no element is near breaking: four at a time are told so in lanes
+        #[cfg(target_arch = "x86_64")]
+        if crate::lanes::available() {
+            // a group reads the moment after its last element
+            while i + 4 <= n_owned && i + 5 <= self.bending.moment.len() {
+                // SAFETY: the processor runs AVX2
+                let candidates = unsafe { may_break_in_lanes(&self.nodes, &self.elements, &self.bending, &self.sections, self.material.longitudinal_modulus, self.failure.shear_strength, i) };
+                for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
+                    self.book_if_broken(k);
                 }
+                i += 4;
             }
+        }
+        for i in i..n_owned {
+            self.book_if_broken(i);
         }
         for k in 0..self.newly_broken.len() {
             let i = self.newly_broken[k].0 as usize;
@@ -727,6 +756,18 @@ impl Domain {
         }
         for &(i, mode) in &self.newly_broken {
             self.elements.failure[i as usize] = mode;
+        }
+    }
+
+    /// Records element `i` among the newly broken if (5-6) breaks it now.
+    fn book_if_broken(&mut self, i: usize) {
+        if let Some(mode) = self.breaks_now(i) {
+            self.newly_broken.push((i as u32, mode));
+            match mode {
+                FailureMode::Tension => self.broken.tension += 1,
+                FailureMode::Shear => self.broken.shear += 1,
+                _ => self.broken.combined += 1,
+            }
         }
     }
 
@@ -839,7 +880,78 @@ impl Domain {
     /// Axial stress E_L eps of every owned element, NaN where there is no element [Pa].
     pub fn element_stress(&self) -> Vec<f64> {
         (0..self.nodes.n_owned)
-            .map(|i| if self.nodes.next[i] == NONE { f64::NAN } else if self.elements.failure[i] == FailureMode::Intact { self.material.longitudinal_modulus * self.elements.strain[i] } else { 0.0 })
+            .map(|i| {
+                if self.nodes.next[i] == NONE {
+                    f64::NAN
+                } else if self.elements.failure[i] == FailureMode::Intact {
+                    self.material.longitudinal_modulus * self.elements.strain[i]
+                } else {
+                    0.0
+                }
+            })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::InertiaModel;
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_lanes_leave_out_only_elements_the_scalar_test_keeps() {
+        if !crate::lanes::available() {
+            return;
+        }
+        let material = FibreMaterial::kevlar_km2();
+        let l0 = 25e-6;
+        let sections = vec![FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3), FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None, 0.3)];
+        let (shear_strength, strength) = (0.7672e9, 3.4e9);
+        let mut state = 5u64;
+        let mut uniform = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut nodes, mut elements, mut bending) = (Nodes::default(), Elements::default(), BendingScratch::default());
+        let per_fibre = 203;
+        for fibre in 0..5u32 {
+            for along in 0..per_fibre {
+                let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
+                nodes.push(gid, Vec3::new(along as f64 * l0, fibre as f64 * 1e-4, 0.0), Vec3::zeros(), 1e-12, FibreId(fibre), along, (fibre % 2) as u16, false, along + 1 == per_fibre);
+                let failure = if along % 37 == 5 { FailureMode::Tension } else { FailureMode::Intact };
+                elements.push(l0, strength * (0.9 + 0.2 * uniform()), failure);
+            }
+        }
+        nodes.link_chains();
+        let n = nodes.len();
+        let area = |k: usize| sections[nodes.section[k] as usize].area;
+        // the moment jumps by the drawn shear force along each element (5-4)
+        let mut moment = Vec3::zeros();
+        for k in 0..n {
+            // states spread over the criterion, a quarter within rounding of its boundary, some NaN
+            let (tension, shear) = (uniform(), uniform());
+            let scale = match k % 4 {
+                0 => 1.0 + (uniform() - 0.5) * 1e-13,
+                _ => 2.0 * uniform(),
+            } / (tension * tension + shear * shear).sqrt();
+            let sigma = tension * scale * elements.tensile_strength[k];
+            elements.strain[k] = if k % 53 == 7 { f64::NAN } else { sigma / material.longitudinal_modulus };
+            let shear_force = shear * scale * shear_strength * 3.0 * area(k) / 4.0;
+            bending.moment.push(moment);
+            moment -= Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize() * shear_force * l0;
+        }
+        let (mut breaking, mut candidates) = (0, 0);
+        for i in (0..n - 4).step_by(4) {
+            // SAFETY: AVX2 is present (checked above)
+            let bits = unsafe { may_break_in_lanes(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, i) };
+            for k in i..i + 4 {
+                let breaks = element_breaks(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, k).is_some();
+                assert!(!breaks || bits & (1 << (k - i)) != 0, "element {k} breaks but the lanes left it out");
+                breaking += breaks as usize;
+                candidates += (bits & (1 << (k - i)) != 0) as usize;
+            }
+        }
+        assert!(breaking > n / 4 && candidates < 3 * n / 4, "{breaking} break, {candidates} of {n} left to the scalar test");
     }
 }
