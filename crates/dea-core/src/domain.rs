@@ -278,7 +278,10 @@ impl Domain {
             .flat_map(|a| sections.iter().map(move |b| (a, b)))
             .map(|(a, b)| {
                 let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
-                PairData { reach: 0.5 * (a.contact_diameter + b.contact_diameter), geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb) }
+                PairData {
+                    reach: 0.5 * (a.contact_diameter + b.contact_diameter),
+                    geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb),
+                }
             })
             .collect();
         let mut bending = BendingScratch::default();
@@ -287,7 +290,11 @@ impl Domain {
         Self {
             material,
             sections,
-            ledger: NodeLedger { friction_dissipated: vec![0.0; nodes.n_owned], plastic_dissipated: vec![0.0; nodes.n_owned], fracture_released: vec![0.0; nodes.n_owned] },
+            ledger: NodeLedger {
+                friction_dissipated: vec![0.0; nodes.n_owned],
+                plastic_dissipated: vec![0.0; nodes.n_owned],
+                fracture_released: vec![0.0; nodes.n_owned],
+            },
             projectile_contacts: ProjectileContacts {
                 anchor: vec![Vec3::zeros(); n_owned],
                 spring_stiffness: vec![0.0; n_owned],
@@ -880,15 +887,7 @@ impl Domain {
     /// Axial stress E_L eps of every owned element, NaN where there is no element [Pa].
     pub fn element_stress(&self) -> Vec<f64> {
         (0..self.nodes.n_owned)
-            .map(|i| {
-                if self.nodes.next[i] == NONE {
-                    f64::NAN
-                } else if self.elements.failure[i] == FailureMode::Intact {
-                    self.material.longitudinal_modulus * self.elements.strain[i]
-                } else {
-                    0.0
-                }
-            })
+            .map(|i| if self.nodes.next[i] == NONE { f64::NAN } else if self.elements.failure[i] == FailureMode::Intact { self.material.longitudinal_modulus * self.elements.strain[i] } else { 0.0 })
             .collect()
     }
 }

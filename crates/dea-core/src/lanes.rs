@@ -267,8 +267,8 @@ impl V4 {
     }
 }
 
-/// Shuffles for [`pack_counting`]: for each four-bit mask, the bytes of the set lanes' 32-bit values,
-/// lowest lane first.
+/// Shuffles for [`pack_counting`]: for each four-bit mask, the bytes of the set lanes' 32-bit
+/// values, lowest lane first.
 const PACK_SHUFFLES: [[u8; 16]; 16] = {
     let mut table = [[0x80u8; 16]; 16];
     let mut mask = 0;
