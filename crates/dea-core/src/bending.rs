@@ -193,7 +193,7 @@ fn springs_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection
     let over_sine = F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
     let theta = F4::select(straight, sine, sine.mul(over_sine));
     // torsional_spring's factor
-    let k_t = F4::new([stiffness(i), stiffness(i + 1), stiffness(i + 2), stiffness(i + 3)]);
+    let k_t = F4::gather(i, stiffness);
     let rest = F4::load(&nodes.rest_angle, i);
     let straight_at_rest = rest.eq(zero);
     let factor = if straight_at_rest.all() {

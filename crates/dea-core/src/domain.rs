@@ -179,7 +179,7 @@ fn may_break_in_lanes(nodes: &Nodes, elements: &Elements, bending: &BendingScrat
     // (5-4), (5-5): the shear force from the jump of the moment along the element
     let jump = V4::load(&bending.moment, i).sub(V4::load(&bending.moment, i + 1));
     let shear_force = jump.dot(jump).sqrt().div(F4::load(&elements.rest_length, i));
-    let area = F4::new(std::array::from_fn(|l| sections[nodes.section[i + l] as usize].area));
+    let area = F4::gather(i, |k| sections[nodes.section[k] as usize].area);
     let shear = F4::splat(4.0).mul(shear_force).div(F4::splat(3.0).mul(area)).div(F4::splat(shear_strength));
     let total = tension.mul(tension).add(shear.mul(shear));
     let clear = total.lt(F4::splat(1.0 - 1e-9)).bits();

@@ -50,10 +50,12 @@ impl F4 {
         Self(_mm256_set1_pd(value))
     }
 
+    /// `value(k)` for the four indices `k` from `start` on (a per-node quantity not stored
+    /// per node, such as a section's).
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub fn new(values: [f64; 4]) -> Self {
-        Self(_mm256_setr_pd(values[0], values[1], values[2], values[3]))
+    pub fn gather(start: usize, value: impl Fn(usize) -> f64) -> Self {
+        Self(_mm256_setr_pd(value(start), value(start + 1), value(start + 2), value(start + 3)))
     }
 
     /// The four values of `values` from index `start` on.

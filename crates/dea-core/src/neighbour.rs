@@ -132,7 +132,7 @@ impl CellOrdered {
 /// cell, found once for the nodes of a fibre that follow each other in one cell.
 #[derive(Clone, Debug, Default)]
 struct Stencil {
-    /// the cell gathered around
+    /// the cell whose surroundings the runs cover
     cell: Option<[i64; 3]>,
     /// runs of entries (one per column of three cells along z, two where it wraps the table)
     runs: Vec<std::ops::Range<usize>>,
@@ -140,7 +140,7 @@ struct Stencil {
 
 impl Stencil {
     /// Finds the runs of the cells around `cell`.
-    fn gather(&mut self, grid: &HashedGrid, cell_start: &[u32], cell: [i64; 3]) {
+    fn find(&mut self, grid: &HashedGrid, cell_start: &[u32], cell: [i64; 3]) {
         let [cx, cy, cz] = cell;
         self.runs.clear();
         for dx in -1..=1 {
@@ -317,7 +317,7 @@ impl NeighbourList {
             let place = chain_place(nodes.fibre[i], nodes.along[i]);
             // consecutive nodes of a fibre often share a cell, and so its candidates
             if scratch.stencil.cell != Some([cx, cy, cz]) {
-                scratch.stencil.gather(&grid, &scratch.cell_start, [cx, cy, cz]);
+                scratch.stencil.find(&grid, &scratch.cell_start, [cx, cy, cz]);
             }
             scratch.stencil.within(&scratch.cells, &xi, place, exclusion, coarse_reach * coarse_reach, &mut scratch.hits);
             scratch.row.clear();

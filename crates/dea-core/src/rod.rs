@@ -67,7 +67,7 @@ fn tension_in_lanes(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSec
             strain.store(&mut elements.strain, i);
             // axial_force: the compressive ratio below zero strain
             let scale = F4::select(strain.ge(F4::splat(0.0)), F4::splat(1.0), F4::splat(material.compressive_stiffness_ratio));
-            let stiffness = F4::new([stiffness_of(i), stiffness_of(i + 1), stiffness_of(i + 2), stiffness_of(i + 3)]);
+            let stiffness = F4::gather(i, stiffness_of);
             scale.mul(stiffness).mul(strain).store(&mut elements.axial_force, i);
         } else {
             for k in i..i + 4 {
