@@ -3,10 +3,12 @@
 //!
 //! Ghosts: the chain stencil (±[`CHAIN_STENCIL`] positions along each fibre, chosen by
 //! topology, so no stretching can lose one) and every node within contact reach (largest
-//! contact diameter plus the Verlet skin) of an owned node. They are rebuilt collectively
-//! when any node has moved more than half the skin; between rebuilds a forward halo sends
-//! position and element failure state of every ghost each step (velocities are not needed:
-//! no force depends on a partner's velocity). Rank 0 owns the projectile: it integrates it,
+//! contact diameter plus the Verlet skin) of an owned node, and one skin more. They are
+//! rebuilt collectively when some rank's lists may miss a pair: once a node has moved more
+//! than half the skin, unless, on every rank, the nodes near each other moved together and
+//! no node moved a whole skin ([`Domain::lists_may_miss_a_pair`]). Each step a forward halo
+//! sends position and element failure state of every ghost (velocities are not needed: no
+//! force depends on a partner's velocity). Rank 0 owns the projectile: it integrates it,
 //! broadcasts its state every step, and sums the reactions of every rank's nodes in
 //! global-id order.
 
@@ -16,7 +18,7 @@ use dea_core::domain::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
 use dea_core::projectile::{RigidProjectile, RigidShape};
-use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, Rank, Reaction, Vec3, CHAIN_STENCIL};
+use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
 use dea_io::snapshot::SnapshotPart;
 use dea_partition::Partition;
@@ -120,7 +122,7 @@ pub struct Distributed<C: Comm> {
     pub times: CommTimes,
     /// bytes of forward halo received so far
     pub halo_bytes: u64,
-    /// steps that used the forward halo (the others rebuilt the ghosts)
+    /// steps that sent the forward halo (all since lists may be kept past half the skin)
     pub halo_steps: u64,
     pub rebuilds: u64,
     /// this rank's requests for the next step's reduction: (stop on a signal, checkpoint due)
@@ -307,7 +309,7 @@ impl<C: Comm> Distributed<C> {
         let time_step = self.domain.time_step;
         let half = 0.5 * time_step;
         let clock = Instant::now();
-        let node = self.domain.kick_drift(half, time_step);
+        let motion = self.domain.kick_drift(half, time_step);
         if let Some(body) = &mut self.deformable {
             // subcycles: the body's own elements, with the fibres' last reactions held, then
             // the last one's first half; the fibres meet its surface once per step
@@ -326,17 +328,23 @@ impl<C: Comm> Distributed<C> {
         let clock = Instant::now();
         // the run loop's requests ride on the same reduction
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        let mut largest = [node, flag(self.requests[0]), flag(self.requests[1])];
+        let mut largest = [motion.since_build, motion.step, flag(self.requests[0]), flag(self.requests[1])];
         self.comm.max_f64(&mut largest);
-        self.agreed = [largest[1] > 0.0, largest[2] > 0.0];
+        self.agreed = [largest[2] > 0.0, largest[3] > 0.0];
         self.times.reductions += clock.elapsed().as_secs_f64();
+        // the ghosts' present positions, which the check for missed pairs reads
+        self.forward_halo();
         let clock = Instant::now();
-        let rebuild = self.domain.rebuild_needed(largest[0], self.comm.size() == 1);
+        let alone = self.comm.size() == 1;
+        let verdict = self.domain.lists_may_miss_a_pair(NodeMotion { since_build: largest[0], step: largest[1] }, (!alone).then(|| self.ghost_margin()));
         self.domain.times.rebuild += clock.elapsed().as_secs_f64();
+        let rebuild = match verdict {
+            None => false,
+            Some(local) if alone => local,
+            Some(local) => self.any(local),
+        };
         if rebuild {
             self.rebuild()?;
-        } else {
-            self.forward_halo();
         }
         let forces = self.domain.compute_forces();
         self.agree(forces)?;
@@ -497,7 +505,7 @@ impl<C: Comm> Distributed<C> {
     pub fn rebuild(&mut self) -> Result<(), DomainError> {
         let clock = Instant::now();
         let me = self.comm.rank();
-        let reach = self.reach;
+        let reach = self.reach + self.ghost_margin();
         let nodes = &self.domain.nodes;
         let owned = &nodes.position[..nodes.n_owned];
         let (low, high) = owned.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
@@ -690,6 +698,13 @@ impl<C: Comm> Distributed<C> {
         flag[0] > 0.0
     }
 
+    /// How far beyond the contact search distance ghosts are taken: one skin, so that the
+    /// lists can be kept until a node has moved a whole skin (not half) when nodes move
+    /// together ([`Domain::lists_may_miss_a_pair`]) [m].
+    fn ghost_margin(&self) -> f64 {
+        self.domain.pairs.skin
+    }
+
     /// Rank 0's values on every rank.
     pub fn from_rank0<const N: usize>(&self, mut values: [f64; N]) -> [f64; N] {
         self.comm.broadcast_f64(&mut values);
@@ -776,7 +791,7 @@ impl<C: Comm> Distributed<C> {
             position: d.nodes.position[..n].to_vec(),
             velocity: d.nodes.velocity[..n].to_vec(),
             force: d.nodes.force[..n].to_vec(),
-            reference_position: pairs.reference_position.clone(),
+            reference_position: pairs.reference_position[..n].to_vec(),
             failure: d.elements.failure[..n].iter().map(|&m| m as u8).collect(),
             tensile_strength: d.elements.tensile_strength[..n].to_vec(),
             friction_dissipated: d.ledger.friction_dissipated.clone(),

@@ -90,7 +90,6 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
     // friction creates no energy (the stick spring keeps its energy when k_s changes):
     // without that rescaling this run gained 5.2 %
     assert!(reference.energy_balance_error < 0.01, "energy balance {}", reference.energy_balance_error);
-    let mut shared_rebuilds = None;
     for ranks in [2, 3, 4] {
         let summary = run_on(&case, ranks, &dir.join(ranks.to_string()));
         let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
@@ -103,10 +102,8 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
         assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
         assert_eq!(summary.residual_velocity_m_s.to_bits(), reference.residual_velocity_m_s.to_bits());
         assert_eq!(summary.max_projectile_force_n.to_bits(), reference.max_projectile_force_n.to_bits());
-        // several ranks rebuild at the same steps; one rank also keeps its lists while
-        // nodes move together (theory I5b), so it rebuilds no more often
-        assert_eq!(*shared_rebuilds.get_or_insert(summary.neighbour_rebuilds), summary.neighbour_rebuilds);
-        assert!(reference.neighbour_rebuilds <= summary.neighbour_rebuilds);
+        // each rank count keeps its lists while its own nodes and ghosts move together
+        // (theory I5b, D5), so they may rebuild at different steps, with the same results
         assert!(summary.ghost_fraction > 0.0 && summary.halo_bytes_per_step > 0.0);
     }
     std::fs::remove_dir_all(&dir).unwrap();
@@ -357,6 +354,47 @@ fn every_node_is_owned_once_and_halos_are_symmetric() {
         let mut local: Vec<GlobalNodeId> = va.owned.iter().chain(&va.ghosts).copied().collect();
         local.sort();
         assert!(va.needed.iter().all(|g| local.binary_search(g).is_ok()));
+    }
+}
+
+/// The final positions of the owned nodes of every rank, by gid, as bits.
+fn final_positions(states: Vec<Vec<(GlobalNodeId, [u64; 3])>>) -> Vec<(GlobalNodeId, [u64; 3])> {
+    let mut all: Vec<_> = states.into_iter().flatten().collect();
+    all.sort();
+    all
+}
+
+#[test]
+fn ranks_keep_their_lists_while_the_nodes_move_together() {
+    // the panel, unclamped, glides sideways (the projectile held back): its nodes move most
+    // of a skin but barely apart, so no rank needs new lists (theory I5b); before the ghosts
+    // were taken a skin further, several ranks rebuilt as soon as a node had moved half the skin
+    const GLIDE: f64 = 50.0;
+    let mut case = stretched_case();
+    case.projectile.velocity_m_s = 0.0;
+    let p = problem(&case).unwrap();
+    let steps = (0.9 * p.contact.skin / (GLIDE * p.time_step)) as usize;
+    assert!(steps > 20);
+    let glide = |nodes: &mut dea_core::Nodes| {
+        nodes.clamped.fill(false);
+        nodes.velocity.fill(dea_core::Vec3::new(GLIDE, 0.0, 0.0));
+    };
+    let mut reference = None;
+    for ranks in [1, 2, 3] {
+        let states = run_local(ranks, |comm| {
+            let mut state = build_adjusted(&case, comm, Method::KWay, None, glide).unwrap();
+            let built = state.rebuilds;
+            for _ in 0..steps {
+                state.step().unwrap();
+            }
+            let nodes = &state.domain.nodes;
+            let moved = (0..nodes.n_owned).map(|i| (nodes.position[i] - state.domain.pairs.reference_position[i]).norm()).fold(0.0, f64::max);
+            assert!(moved > 0.75 * p.contact.skin, "a node moved {moved} m, skin {} m, {steps} steps of {} s, rebuilds {} {built}", p.contact.skin, p.time_step, state.rebuilds);
+            assert_eq!(state.rebuilds, built, "{ranks} ranks rebuilt their lists");
+            (0..nodes.n_owned).map(|i| (nodes.gid[i], nodes.position[i].map(f64::to_bits).into())).collect::<Vec<_>>()
+        });
+        let positions = final_positions(states);
+        assert_eq!(*reference.get_or_insert_with(|| positions.clone()), positions, "{ranks} ranks");
     }
 }
 

@@ -197,6 +197,15 @@ pub struct StageTimes {
     pub failure: f64,
 }
 
+/// The largest motion of a node [m].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeMotion {
+    /// in the last step
+    pub step: f64,
+    /// since the fibre lists were built (infinite when they were built for other nodes)
+    pub since_build: f64,
+}
+
 /// Broken elements by mode, cumulative.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BrokenCount {
@@ -368,9 +377,9 @@ impl Domain {
     pub fn step(&mut self) -> Result<(), DomainError> {
         let half = 0.5 * self.time_step;
         let clock = Instant::now();
-        let farthest = self.kick_drift(half, self.time_step);
+        let motion = self.kick_drift(half, self.time_step);
         self.times.integrate += clock.elapsed().as_secs_f64();
-        if self.rebuild_needed(farthest, true) {
+        if self.lists_may_miss_a_pair(motion, None) == Some(true) {
             self.rebuild_neighbours()?;
         }
         self.compute_forces()?;
@@ -393,17 +402,18 @@ impl Domain {
     }
 
     /// Half-step velocity update, then position update, of owned nodes and the owned
-    /// projectile. Returns the largest displacement of an owned node since the last build of
-    /// the fibre lists [m].
-    pub fn kick_drift(&mut self, half_dt: f64, dt: f64) -> f64 {
+    /// projectile. Returns the largest motion of an owned node.
+    pub fn kick_drift(&mut self, half_dt: f64, dt: f64) -> NodeMotion {
         self.damp(half_dt);
-        let (moved, farthest) = integrate::kick_drift(&mut self.nodes, half_dt, dt, &self.pairs.reference_position);
-        self.pairs.moved_at_most(moved);
+        // the reference positions of the owned nodes, if the lists were built for these nodes
+        let built = &self.pairs.reference_position;
+        let reference = if built.len() == self.nodes.len() { &built[..self.nodes.n_owned] } else { &[] };
+        let (step, since_build) = integrate::kick_drift(&mut self.nodes, half_dt, dt, reference);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
         }
-        farthest
+        NodeMotion { step, since_build }
     }
 
     /// The damping of a settle over a half step (none in a shot).
@@ -456,12 +466,25 @@ impl Domain {
         largest
     }
 
-    /// True when a node may have come within reach of a partner not in its list: a node
-    /// moved more than half the skin (`node` is the largest displacement over every rank),
-    /// and, on a whole domain (`alone`), nodes near each other moved apart by more than the
-    /// skin ([`NeighbourList::hold_every_reachable_pair`]).
-    pub fn rebuild_needed(&mut self, node: f64, alone: bool) -> bool {
-        2.0 * node > self.pairs.skin && !(alone && self.pairs.hold_every_reachable_pair(&self.nodes))
+    /// Whether an owned node may have come within reach of a partner not in its list, given
+    /// the largest motions of a node over every rank (the step's is recorded here). `None`
+    /// while no node moved more than half the skin since the lists were built: then no pair
+    /// is missed, and every rank knows it alike. Otherwise this domain's answer, true when
+    /// nodes near each other here (ghosts included, at their present positions) moved apart
+    /// by more than the skin ([`NeighbourList::hold_every_reachable_pair`]), or, when other
+    /// ranks hold nodes, when one that is no ghost here may have come within reach: the
+    /// ghosts were taken `remote_margin` beyond the search reach [m], so such a node was
+    /// farther than the cutoff plus the skin plus that margin, and needs twice the largest
+    /// displacement to exceed the skin plus the margin. The ranks' answers may differ; all
+    /// rebuild if any needs to.
+    pub fn lists_may_miss_a_pair(&mut self, motion: NodeMotion, remote_margin: Option<f64>) -> Option<bool> {
+        self.pairs.moved_at_most(motion.step);
+        let skin = self.pairs.skin;
+        if 2.0 * motion.since_build <= skin {
+            return None;
+        }
+        let beyond_ghosts = remote_margin.is_some_and(|margin| 2.0 * motion.since_build >= skin + margin);
+        Some(beyond_ghosts || !self.pairs.hold_every_reachable_pair(&self.nodes))
     }
 
     /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking

@@ -26,7 +26,7 @@ pub mod surface;
 pub mod tie;
 pub mod weibull;
 
-pub use domain::{Domain, DomainError, GhostRecord, Reaction, CHAIN_STENCIL};
+pub use domain::{Domain, DomainError, GhostRecord, NodeMotion, Reaction, CHAIN_STENCIL};
 pub use ids::{FibreId, GlobalNodeId, Rank, NONE};
 pub use material::{FibreMaterial, FibreSection};
 pub use nodes::{Elements, Nodes};

@@ -33,7 +33,7 @@ pub struct NeighbourList {
     pub retired_start: Vec<u32>,
     pub retired_gid: Vec<GlobalNodeId>,
     pub retired_max_overlap: Vec<f64>,
-    /// owned node positions when the lists were built [m]
+    /// positions of the local nodes (owned, then ghosts) when the lists were built [m]
     pub reference_position: Vec<Vec3>,
     /// Verlet skin [m]
     pub skin: f64,
@@ -47,7 +47,7 @@ pub struct NeighbourList {
 /// nodes' positions at the build), to tell whether nodes moved together.
 #[derive(Clone, Debug, Default)]
 struct RelativeMotion {
-    /// the cells; none when the lists have ghosts (then only the plain rule holds)
+    /// the cells; none before the first build
     grid: Option<HashedGrid>,
     /// cell size [m]
     cell: f64,
@@ -369,7 +369,7 @@ impl NeighbourList {
         std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.scratch = scratch;
         self.reference_position.clear();
-        self.reference_position.extend_from_slice(&nodes.position[..nodes.n_owned]);
+        self.reference_position.extend_from_slice(&nodes.position);
         self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
     }
@@ -438,22 +438,24 @@ impl NeighbourList {
         scratch.retired_max_overlap.extend_from_slice(&self.retired_max_overlap[retired]);
     }
 
-    /// True when the lists still hold every pair that can touch, though a node may have moved
-    /// more than half the skin: no two nodes that could have come within contact since the
-    /// build moved more than the skin relative to each other. Such nodes were less than the
-    /// cutoff plus twice the largest displacement apart at the build, so, while that is below
-    /// the cell size, in neighbouring cells: the spread of the displacements over every three
-    /// by three by three block of cells bounds their relative motion. Fibres carried along
-    /// together by a projectile move far and barely apart, and keep their lists. Only for
-    /// lists without ghosts (a whole domain): a partner on another rank is not seen here.
+    /// True when the lists still hold every pair of local nodes (owned and ghosts) that can
+    /// touch, though a node may have moved more than half the skin: no two nodes that could
+    /// have come within contact since the build moved more than the skin relative to each
+    /// other. Such nodes were less than the cutoff plus twice the largest displacement apart
+    /// at the build, so, while that is below the cell size, in neighbouring cells: the spread
+    /// of the displacements over every three by three by three block of cells bounds their
+    /// relative motion. Fibres carried along together by a projectile move far and barely
+    /// apart, and keep their lists. A node that is on another rank and no ghost here is not
+    /// seen: with ghosts, the caller must know by other means that none came within reach
+    /// ([`crate::Domain::rebuild_needed`]), and the ghosts' positions must be the present ones.
     ///
     /// Between full checks, a check that kept the lists still holds while its spread plus
-    /// twice the distance any node has moved since ([`Self::moved_at_most`]) stays below the
-    /// skin: a calm run checks seldom.
+    /// twice the distance any local node has moved since ([`Self::moved_at_most`]) stays
+    /// below the skin: a calm run checks seldom.
     pub fn hold_every_reachable_pair(&mut self, nodes: &Nodes) -> bool {
         let motion = &mut self.motion;
         let Some(grid) = &motion.grid else { return false };
-        // built for these nodes, without ghosts (so `reference_position` holds them all)
+        // built for these nodes
         if nodes.len() != motion.slot.len() {
             return false;
         }
@@ -504,7 +506,7 @@ impl NeighbourList {
         kept
     }
 
-    /// Records that no node moved farther than `distance` in a step [m].
+    /// Records that no local node (ghosts included) moved farther than `distance` in a step [m].
     pub fn moved_at_most(&mut self, distance: f64) {
         self.motion.moved_since += distance;
     }
@@ -519,10 +521,10 @@ fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
 }
 
 impl RelativeMotion {
-    /// Cells of size `cell` over the nodes' present positions, for lists without ghosts.
+    /// Cells of size `cell` over the local nodes' present positions.
     fn build(&mut self, nodes: &Nodes, cutoff: f64, cell: f64) {
         (self.grid, self.passed) = (None, None);
-        if nodes.len() != nodes.n_owned || nodes.is_empty() {
+        if nodes.is_empty() {
             return;
         }
         let (low, high) = bounding_box(&nodes.position);
