@@ -15,11 +15,11 @@ import math
 NS_PER_NODE_STEP = 253.0      # MEASURED: default case, core time per node-step (all stages)
 NS_PER_GHOST_STEP = 19.0      # MEASURED: default case, rods per node-step; ghosts get rods only
 HALO_BYTES_PER_GHOST = 32     # MEASURED: position + failure state per ghost per step
-RECORD_BYTES_PER_GHOST = 88   # MEASURED: full ghost record at a rebuild (11 words)
-STEPS_PER_REBUILD = 8.6       # MEASURED: default case, 621 rebuilds in 5,350 steps
+RECORD_BYTES_PER_GHOST = 96   # code: full ghost record at a rebuild (12 words)
+STEPS_PER_REBUILD = 8.4       # MEASURED: default case on 2 ranks, 638 rebuilds in 5,350 steps (session 12)
 BYTES_PER_NODE = 1730         # MEASURED: peak RSS / nodes of the 300,010-node bench
 IMBALANCE = 1.01              # MEASURED: bench on 2 ranks, slowest / mean compute
-COLLECTIVES_PER_STEP = 5      # code: projectile broadcast, displacement max, error min, reaction gather (2)
+COLLECTIVES_PER_STEP = 6      # code: projectile broadcast, displacement max, error min, reaction gather (2), rebuild vote (past half a skin; counted in every step)
 REACTION_BYTES = 56           # code: gid, force, torque per touching node, to rank 0
 
 # --- assumed --------------------------------------------------------------------------
@@ -32,7 +32,7 @@ TOUCHING_NODES = 1.1e4        # ESTIMATE: 17-grain FSP face (23 mm2) on a 19-fib
 PANEL_SIDE_M = 0.3048
 LAYER_THICKNESS_M = 0.23e-3
 LAYERS = 28
-GHOST_DEPTH_M = 84e-6          # 3 l0 = 1.5 d along fibres, >= 1.25 d contact reach across
+GHOST_DEPTH_M = 84e-6          # 3 l0 = 1.5 d along fibres, >= 1.5 d ghost reach across (contact diameter plus two skins)
 STEPS_PER_SHOT = 100e-6 / 1.8e-9
 
 CASES = {
