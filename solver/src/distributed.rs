@@ -18,6 +18,7 @@ use dea_core::domain::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
 use dea_core::projectile::{RigidProjectile, RigidShape};
+use dea_core::neighbour::SharedCubes;
 use dea_core::{Domain, DomainError, FibreId, GhostRecord, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_io::checkpoint::NodeState;
 use dea_io::snapshot::SnapshotPart;
@@ -27,6 +28,10 @@ use serde::Serialize;
 
 use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
+
+/// The most cubes of a box two ranks share ([`SharedCubes`]) before the rebuild sends every
+/// node in the partner's grown box instead (a fragment flung far away grows the boxes).
+const MOST_SHARED_CUBES: usize = 1 << 21;
 
 /// f64 words of a ghost record at a rebuild.
 const RECORD_WORDS: usize = 12;
@@ -522,13 +527,27 @@ impl<C: Comm> Distributed<C> {
         }
         partners.sort_unstable();
         partners.dedup();
-        // candidates for each partner: its chain stencil plus our nodes inside its grown box
+        // the cubes of the box both ranks of a pair know (their grown boxes overlap there)
+        // that hold the partner's nodes: a node of ours within reach of one of them lies in
+        // that box, next to one of those cubes; the cubes of a huge box are not worth it
+        let shared = |r: usize| {
+            let (mine, theirs) = (grown(me.0 as usize), grown(r));
+            SharedCubes::new(mine.0.sup(&theirs.0), mine.1.inf(&theirs.1), reach, MOST_SHARED_CUBES)
+        };
+        let cubes: Vec<Option<SharedCubes>> = partners.iter().map(|p| shared(p.0 as usize)).collect();
+        let offers: Vec<Vec<f64>> = cubes.iter().map(|c| c.as_ref().map_or(Vec::new(), |c| c.occupied(owned.iter()).into_iter().map(word).collect())).collect();
+        let mut occupied: Vec<Vec<f64>> = offers.iter().map(|o| vec![0.0; o.len()]).collect();
+        self.comm.exchange(&partners, &offers, &mut occupied);
+        // candidates for each partner: its chain stencil plus our nodes inside its grown box,
+        // next to its nodes where the cubes tell
         let mut candidates: Vec<Vec<u32>> = Vec::with_capacity(partners.len());
         let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
-        for &partner in &partners {
+        for ((&partner, cubes), occupied) in partners.iter().zip(&cubes).zip(&occupied) {
             let chain = self.chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &self.chain_send[k].1[..]);
             let region = grown(partner.0 as usize);
-            let mut list: Vec<u32> = (0..nodes.n_owned as u32).filter(|&i| inside(&nodes.position[i as usize], &region)).collect();
+            let near = cubes.as_ref().map(|c| (c, c.next_to(&occupied.iter().map(|&w| integer(w)).collect::<Vec<u64>>())));
+            let next_to_theirs = |x: &Vec3| near.as_ref().is_none_or(|(c, near)| c.cube(x).is_some_and(|k| near[k]));
+            let mut list: Vec<u32> = (0..nodes.n_owned as u32).filter(|&i| inside(&nodes.position[i as usize], &region) && next_to_theirs(&nodes.position[i as usize])).collect();
             list.extend_from_slice(chain);
             list.sort_unstable();
             list.dedup();

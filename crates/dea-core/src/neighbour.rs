@@ -592,6 +592,71 @@ impl HashedGrid {
     }
 }
 
+/// Cubes of side a hair over a reach, laid over a box that two ranks both know, to tell
+/// which nodes of one lie next to nodes of the other without sending them: two points closer
+/// than the reach lie in the same cube or in neighbouring ones (the hair keeps rounding from
+/// putting them two cubes apart).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedCubes {
+    low: Vec3,
+    side: f64,
+    dims: [usize; 3],
+}
+
+impl SharedCubes {
+    /// Cubes over the box from `low` to `high` for points closer than `reach`; none when the
+    /// box is empty or would take more than `most` cubes.
+    pub fn new(low: Vec3, high: Vec3, reach: f64, most: usize) -> Option<Self> {
+        let side = reach * (1.0 + 1e-9);
+        let extent = high - low;
+        if !(extent.min() >= 0.0 && side > 0.0) {
+            return None;
+        }
+        let dims = [0, 1, 2].map(|k| (extent[k] / side).floor().min(1e12) as usize + 1);
+        let cubes = dims.iter().try_fold(1usize, |total, &d| total.checked_mul(d))?;
+        (cubes <= most).then_some(Self { low, side, dims })
+    }
+
+    /// The cube of `x`, if `x` lies in the box.
+    pub fn cube(&self, x: &Vec3) -> Option<usize> {
+        let mut index = 0;
+        for k in 0..3 {
+            let c = ((x[k] - self.low[k]) / self.side).floor();
+            if !(c >= 0.0 && c < self.dims[k] as f64) {
+                return None;
+            }
+            index = index * self.dims[k] + c as usize;
+        }
+        Some(index)
+    }
+
+    /// The cubes that hold a point of `points`, as bits in words of 64.
+    pub fn occupied<'a>(&self, points: impl Iterator<Item = &'a Vec3>) -> Vec<u64> {
+        let mut bits = vec![0u64; self.dims.iter().product::<usize>().div_ceil(64)];
+        for c in points.filter_map(|x| self.cube(x)) {
+            bits[c / 64] |= 1 << (c % 64);
+        }
+        bits
+    }
+
+    /// For each cube, whether it is or touches a cube set in `occupied` ([`Self::occupied`]).
+    pub fn next_to(&self, occupied: &[u64]) -> Vec<bool> {
+        let [nx, ny, nz] = self.dims;
+        let mut near = vec![false; nx * ny * nz];
+        for c in (0..nx * ny * nz).filter(|&c| occupied.get(c / 64).is_some_and(|w| w >> (c % 64) & 1 == 1)) {
+            let (x, y, z) = (c / (ny * nz), c / nz % ny, c % nz);
+            for i in x.saturating_sub(1)..(x + 2).min(nx) {
+                for j in y.saturating_sub(1)..(y + 2).min(ny) {
+                    for k in z.saturating_sub(1)..(z + 2).min(nz) {
+                        near[(i * ny + j) * nz + k] = true;
+                    }
+                }
+            }
+        }
+        near
+    }
+}
+
 /// For each candidate point, whether it lies closer than `reach` to any target point: which
 /// nodes another rank sends are within contact reach of this rank's own nodes.
 pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
@@ -816,6 +881,36 @@ mod tests {
             }
         }
         assert!(kept_beyond_plain_rule > 5 && refused > 5 && refused_later > 5, "kept {kept_beyond_plain_rule}, refused {refused}, refused later {refused_later}");
+    }
+
+    #[test]
+    fn shared_cubes_mark_every_point_within_reach_of_the_other_set() {
+        let mut next = uniform(11);
+        let reach = 0.1;
+        let (low, high) = (Vec3::new(-0.3, -0.2, 0.0), Vec3::new(0.4, 0.5, 0.25));
+        let cubes = SharedCubes::new(low, high, reach, 10_000).unwrap();
+        // points on both sides of the box's faces, and pairs placed just inside the reach
+        let point = |next: &mut dyn FnMut() -> f64| Vec3::new(-0.35 + 0.8 * next(), -0.25 + 0.8 * next(), -0.05 + 0.35 * next());
+        let theirs: Vec<Vec3> = (0..60).map(|_| point(&mut next)).collect();
+        let mut ours: Vec<Vec3> = (0..400).map(|_| point(&mut next)).collect();
+        ours.extend(theirs.iter().map(|t| t + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * (reach * (1.0 - 1e-12))));
+        let near = cubes.next_to(&cubes.occupied(theirs.iter()));
+        let (mut within, mut marked) = (0, 0);
+        for x in &ours {
+            let inside = (0..3).all(|k| x[k] >= low[k] && x[k] <= high[k]);
+            let close = theirs.iter().any(|t| (0..3).all(|k| t[k] >= low[k] && t[k] <= high[k]) && (t - x).norm() < reach);
+            let flagged = cubes.cube(x).is_some_and(|c| near[c]);
+            if inside && close {
+                within += 1;
+                assert!(flagged, "{x:?} lies within reach of a point in the box but its cube is not marked");
+            }
+            marked += flagged as usize;
+        }
+        assert!(within > 20, "the test meets pairs within reach ({within})");
+        assert!(marked < ours.len(), "the cubes rule some points out ({marked} of {})", ours.len());
+        // a box too large for the allowance gets no cubes, and so does an empty one
+        assert!(SharedCubes::new(low, high, reach, 100).is_none());
+        assert!(SharedCubes::new(high, low, reach, 10_000).is_none());
     }
 
     #[test]
