@@ -398,6 +398,66 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
     }
 }
 
+/// Runs `case` (its nodes set up by `adjust`) on 3 ranks for `steps` steps and asserts after
+/// every step that each owned node lists every node of any rank within contact distance of
+/// it, chain neighbours excepted: the invariant that keeping lists rests on (theory I5b,
+/// D5). Returns, per rank, the contacts checked and the rebuilds.
+fn assert_every_contact_is_listed(case: &Case, adjust: impl Fn(&mut dea_core::Nodes) + Sync, steps: usize) -> Vec<(usize, u64)> {
+    const WORDS: usize = 6;
+    run_local(3, |comm| {
+        let mut state = build_adjusted(case, comm, Method::KWay, None, &adjust).unwrap();
+        let section = state.domain.sections[0].clone();
+        let (cutoff, exclusion) = (section.contact_diameter, dea_core::neighbour::chain_exclusion(&section));
+        let mut touching = 0;
+        for _ in 0..steps {
+            state.step().unwrap();
+            let nodes = &state.domain.nodes;
+            let n = nodes.n_owned;
+            // every node of every rank: position, gid, fibre, place along it (NaN pads the
+            // shorter ranks to the longest, as the gather wants equal lengths)
+            let longest = state.comm.all_gather_f64(&[n as f64]).into_iter().fold(0.0, f64::max) as usize;
+            let mut mine: Vec<f64> = (0..n).flat_map(|i| [nodes.position[i].x, nodes.position[i].y, nodes.position[i].z, nodes.gid[i].0 as f64, nodes.fibre[i].0 as f64, nodes.along[i] as f64]).collect();
+            mine.resize(longest * WORDS, f64::NAN);
+            let mut all: Vec<[f64; WORDS]> = state.comm.all_gather_f64(&mine).chunks_exact(WORDS).map(|w| w.try_into().unwrap()).filter(|w: &[f64; WORDS]| !w[0].is_nan()).collect();
+            all.sort_by(|a, b| a[0].total_cmp(&b[0]));
+            for i in 0..n {
+                let x = nodes.position[i];
+                let listed = &state.domain.pairs.partner_gid[state.domain.pairs.row(i)];
+                let from = all.partition_point(|w| w[0] < x.x - cutoff);
+                for w in all[from..].iter().take_while(|w| w[0] < x.x + cutoff) {
+                    let chain = w[4] as u32 == nodes.fibre[i].0 && (w[5] - nodes.along[i] as f64).abs() <= exclusion as f64;
+                    if !chain && (dea_core::Vec3::new(w[0], w[1], w[2]) - x).norm() < cutoff {
+                        touching += 1;
+                        assert!(listed.contains(&GlobalNodeId(w[3] as u64)), "step {}: node {} does not list node {} in contact", state.domain.step, nodes.gid[i].0, w[3]);
+                    }
+                }
+            }
+        }
+        (touching, state.rebuilds)
+    })
+}
+
+#[test]
+fn every_rank_lists_every_pair_in_contact_at_every_step() {
+    // the sphere strikes the panel
+    let struck = assert_every_contact_is_listed(&panel_case(), |_| {}, 400);
+    assert!(struck.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 2), "{struck:?}");
+    // the panel, unclamped and without the projectile, squeezed through its thickness: the
+    // layers close on each other by several skins, the nodes of a layer moving together
+    let mut case = stretched_case();
+    case.projectile.velocity_m_s = 0.0;
+    let p = problem(&case).unwrap();
+    let rate = 3.0 * p.contact.skin / (6e-4 * 400.0 * p.time_step);
+    let squeeze = move |nodes: &mut dea_core::Nodes| {
+        nodes.clamped.fill(false);
+        for (v, x) in nodes.velocity.iter_mut().zip(&nodes.position) {
+            v.z = -rate * x.z;
+        }
+    };
+    let squeezed = assert_every_contact_is_listed(&case, squeeze, 400);
+    assert!(squeezed.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 1), "{squeezed:?}");
+}
+
 /// Displaces every other node of each fibre by 1 mm across it: every element is stretched to
 /// many times the contact reach, so only topological chain ghosts keep the forces right.
 fn sawtooth(nodes: &mut dea_core::Nodes) {
