@@ -127,7 +127,7 @@ pub struct Distributed<C: Comm> {
     pub times: CommTimes,
     /// bytes of forward halo received so far
     pub halo_bytes: u64,
-    /// steps that sent the forward halo (all since lists may be kept past half the skin)
+    /// steps that sent the forward halo (every step: the rebuild check reads the ghosts)
     pub halo_steps: u64,
     pub rebuilds: u64,
     /// this rank's requests for the next step's reduction: (stop on a signal, checkpoint due)
