@@ -837,8 +837,9 @@ impl<C: Comm> Distributed<C> {
     /// Restarts from a checkpoint. `domain` holds this rank's owned nodes as generated, in
     /// the gid order of `state`; the projectile's state is `projectile`. The neighbour lists
     /// are rebuilt from the positions of their last build (so they are the lists of the
-    /// interrupted run, and future rebuilds fall on the same steps), then every history,
-    /// position, velocity and force is put back and the ghosts are refreshed.
+    /// interrupted run; later rebuilds may fall on other steps, which changes no result,
+    /// theory D11), then every history, position, velocity and force is put back and the
+    /// ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
     pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, state: &NodeState, projectile: &[f64], mut deformable: Option<DeformableProjectile>) -> Result<Self, RestoreError> {
         let mut reactions = Vec::new();
