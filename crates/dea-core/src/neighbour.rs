@@ -447,7 +447,7 @@ impl NeighbourList {
     /// relative motion. Fibres carried along together by a projectile move far and barely
     /// apart, and keep their lists. A node that is on another rank and no ghost here is not
     /// seen: with ghosts, the caller must know by other means that none came within reach
-    /// ([`crate::Domain::rebuild_needed`]), and the ghosts' positions must be the present ones.
+    /// ([`crate::Domain::lists_may_miss_a_pair`]), and the ghosts' positions must be the present ones.
     ///
     /// Between full checks, a check that kept the lists still holds while its spread plus
     /// twice the distance any local node has moved since ([`Self::moved_at_most`]) stays
