@@ -355,7 +355,8 @@ impl<C: Comm> Distributed<C> {
         self.agree(forces)?;
         self.gather_projectile_load();
         let clock = Instant::now();
-        self.domain.kick(half);
+        // the nodes' part of the closing kick rides on the next step's first pass
+        self.domain.defer_kick(half);
         if let Some(body) = &mut self.deformable {
             body.body.kick(0.5 * time_step / body.substeps as f64);
         }
@@ -738,9 +739,9 @@ impl<C: Comm> Distributed<C> {
     /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no
     /// force needs it).
     fn refresh_ghost_velocities(&mut self) {
-        let nodes = &self.domain.nodes;
+        let domain = &self.domain;
         let halo = &self.halo;
-        let sends: Vec<Vec<f64>> = halo.send_nodes.iter().map(|send| send.iter().flat_map(|&i| nodes.velocity[i as usize].as_slice().to_vec()).collect()).collect();
+        let sends: Vec<Vec<f64>> = halo.send_nodes.iter().map(|send| send.iter().flat_map(|&i| domain.velocity(i as usize).as_slice().to_vec()).collect()).collect();
         let mut receives: Vec<Vec<f64>> = halo.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         self.comm.exchange(&halo.partners, &sends, &mut receives);
         let mut g = self.domain.nodes.n_owned;
@@ -766,7 +767,7 @@ impl<C: Comm> Distributed<C> {
         let mut point_of_ghost = std::collections::HashMap::new();
         let add_point = |part: &mut SnapshotPart, i: usize, rank: u32| {
             part.position.push(nodes.position[i]);
-            part.velocity.push(nodes.velocity[i]);
+            part.velocity.push(d.velocity(i));
             part.gid.push(nodes.gid[i].0);
             part.layer.push(self.layer_of(nodes.fibre[i]));
             part.yarn.push(self.partition.yarn_of(nodes.fibre[i]) as u32);
@@ -808,7 +809,7 @@ impl<C: Comm> Distributed<C> {
         NodeState {
             gid: d.nodes.gid[..n].iter().map(|g| g.0).collect(),
             position: d.nodes.position[..n].to_vec(),
-            velocity: d.nodes.velocity[..n].to_vec(),
+            velocity: (0..n).map(|i| d.velocity(i)).collect(),
             force: d.nodes.force[..n].to_vec(),
             reference_position: pairs.reference_position[..n].to_vec(),
             failure: d.elements.failure[..n].iter().map(|&m| m as u8).collect(),

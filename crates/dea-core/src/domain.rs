@@ -263,6 +263,11 @@ pub struct Domain {
     /// contact stiffness summed over each owned node's touching contacts this step [N/m]
     contact_stiffness: Vec<f64>,
     newly_broken: Vec<(u32, FailureMode)>,
+    /// the last step's closing kick of the owned nodes, left for the next step's opening one
+    /// to apply in the same pass ([`Self::defer_kick`]): its half step [s]. While it waits,
+    /// `nodes.velocity` is half a step behind the positions, and [`Self::velocity`] gives
+    /// the velocities of the present step.
+    deferred_kick: Option<f64>,
 }
 
 impl Domain {
@@ -337,6 +342,7 @@ impl Domain {
             tie_stiffness: vec![0.0; n_owned],
             contact_stiffness: vec![0.0; n_owned],
             newly_broken: Vec::new(),
+            deferred_kick: None,
         }
     }
 
@@ -394,6 +400,7 @@ impl Domain {
 
     /// Half-step velocity update of owned nodes and the owned projectile.
     pub fn kick(&mut self, half_dt: f64) {
+        debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
         self.damp(half_dt);
         integrate::kick(&mut self.nodes, half_dt);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
@@ -401,14 +408,40 @@ impl Domain {
         }
     }
 
-    /// Half-step velocity update, then position update, of owned nodes and the owned
-    /// projectile. Returns the largest motion of an owned node.
+    /// The closing kick of a step, as [`Self::kick`], but the owned nodes' part waits for
+    /// the next [`Self::kick_drift`], which applies it in its own pass over the nodes with
+    /// the same bits: one pass over the nodes' velocities, forces and masses less per step.
+    /// The projectile is kicked now. A damped settle kicks at once: its damping falls
+    /// between the two kicks.
+    pub fn defer_kick(&mut self, half_dt: f64) {
+        if self.damping > 0.0 {
+            return self.kick(half_dt);
+        }
+        debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
+        if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
+            projectile.kick(half_dt);
+        }
+        self.deferred_kick = Some(half_dt);
+    }
+
+    /// The velocity of local node `i` at the present step, whether or not its last kick
+    /// waits ([`Self::defer_kick`]); a ghost's as last received [m/s].
+    pub fn velocity(&self, i: usize) -> Vec3 {
+        match self.deferred_kick {
+            Some(half_dt) if i < self.nodes.n_owned => integrate::kicked(&self.nodes, half_dt, i),
+            _ => self.nodes.velocity[i],
+        }
+    }
+
+    /// Half-step velocity update (after a deferred closing kick of the last step, in the
+    /// same pass), then position update, of owned nodes and the owned projectile. Returns
+    /// the largest motion of an owned node.
     pub fn kick_drift(&mut self, half_dt: f64, dt: f64) -> NodeMotion {
         self.damp(half_dt);
         // the reference positions of the owned nodes, if the lists were built for these nodes
         let built = &self.pairs.reference_position;
         let reference = if built.len() == self.nodes.len() { &built[..self.nodes.n_owned] } else { &[] };
-        let (step, since_build) = integrate::kick_drift(&mut self.nodes, half_dt, dt, reference);
+        let (step, since_build) = integrate::kick_drift(&mut self.nodes, self.deferred_kick.take(), half_dt, dt, reference);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
@@ -429,6 +462,7 @@ impl Domain {
     /// due for a refresh.
     pub fn start_afresh(&mut self) {
         self.nodes.velocity.fill(Vec3::zeros());
+        self.deferred_kick = None;
         self.pairs.forget_history();
         let contacts = &mut self.projectile_contacts;
         contacts.touching.fill(false);
@@ -853,7 +887,7 @@ impl Domain {
         let n_sections = self.sections.len();
         for i in 0..nodes.n_owned {
             let report = &mut sums[group(i)];
-            report.fibre_kinetic.add(0.5 * nodes.mass[i] * nodes.velocity[i].norm_squared());
+            report.fibre_kinetic.add(0.5 * nodes.mass[i] * self.velocity(i).norm_squared());
             if nodes.next[i] != NONE {
                 report.axial.add(element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i));
             }

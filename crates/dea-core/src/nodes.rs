@@ -16,7 +16,8 @@ pub struct Nodes {
     pub gid: Vec<GlobalNodeId>,
     /// position [m]
     pub position: Vec<Vec3>,
-    /// velocity [m/s]
+    /// velocity; half a step behind while a domain defers its closing kick (read
+    /// `Domain::velocity` for the present step's) [m/s]
     pub velocity: Vec<Vec3>,
     /// force accumulated in the current step [N]
     pub force: Vec<Vec3>,
