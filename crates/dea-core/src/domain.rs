@@ -403,6 +403,11 @@ impl Domain {
         debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
         self.damp(half_dt);
         integrate::kick(&mut self.nodes, half_dt);
+        self.kick_projectile(half_dt);
+    }
+
+    /// Half-step velocity update of the projectile, on the rank that owns it.
+    fn kick_projectile(&mut self, half_dt: f64) {
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
         }
@@ -418,9 +423,7 @@ impl Domain {
             return self.kick(half_dt);
         }
         debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
-        if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
-            projectile.kick(half_dt);
-        }
+        self.kick_projectile(half_dt);
         self.deferred_kick = Some(half_dt);
     }
 
