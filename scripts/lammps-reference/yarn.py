@@ -30,6 +30,17 @@ def hexagonal_packing(count, pitch):
     return [(p[3], p[4]) for p in points[:count]]
 
 
+def write_chain_runs(f, per_fibre, span):
+    """Numbered lines of type 1 naming every run of `span` consecutive atoms along each
+    fibre: the bonds (span 2) and the angles (span 3)."""
+    line = 0
+    for fibre in range(FIBRES):
+        for k in range(per_fibre - span + 1):
+            line += 1
+            first = fibre * per_fibre + k + 1
+            f.write(f"{line} 1 " + " ".join(str(first + m) for m in range(span)) + "\n")
+
+
 def main():
     nodes, out = int(sys.argv[1]), sys.argv[2]
     per_fibre = math.ceil(nodes / FIBRES)
@@ -54,22 +65,11 @@ def main():
                 kind = 2 if k in (0, per_fibre - 1) else 1  # 2: clamped ends
                 f.write(f"{atom} {kind} {k * ELEMENT:.9e} {y * SQUEEZE:.9e} {z * SQUEEZE:.9e} {CONTACT:.9e} {sphere_density:.9e} {fibre + 1}\n")
         f.write("\nBonds\n\n")
-        bond = 0
-        for fibre in range(FIBRES):
-            for k in range(per_fibre - 1):
-                bond += 1
-                a = fibre * per_fibre + k + 1
-                f.write(f"{bond} 1 {a} {a + 1}\n")
+        write_chain_runs(f, per_fibre, 2)
         f.write("\nAngles\n\n")
-        angle = 0
-        for fibre in range(FIBRES):
-            for k in range(per_fibre - 2):
-                angle += 1
-                a = fibre * per_fibre + k + 1
-                f.write(f"{angle} 1 {a} {a + 1} {a + 2}\n")
+        write_chain_runs(f, per_fibre, 3)
     modulus = 84.62e9  # KM2 longitudinal (Table 4-1) [Pa]
     inertia = math.pi * DIAMETER**4 / 64.0
-    print(f"variable nodes equal {n}")
     print(f"variable length equal {length:.9e}")
     print(f"variable yarn_radius equal {radius + 0.5 * CONTACT:.9e}")
     print(f"variable contact equal {CONTACT:.9e}")
