@@ -35,6 +35,9 @@ pub struct NeighbourList {
     pub retired_max_overlap: Vec<f64>,
     /// positions of the local nodes (owned, then ghosts) when the lists were built [m]
     pub reference_position: Vec<Vec3>,
+    /// global ids of the local nodes when the lists were built: while they are the present
+    /// ones, a partner's local index still names the same node
+    reference_gid: Vec<GlobalNodeId>,
     /// Verlet skin [m]
     pub skin: f64,
     /// number of builds so far
@@ -76,17 +79,67 @@ struct BuildScratch {
     stencil: Stencil,
     /// the cell-ordered entries a node's list takes
     hits: Vec<u32>,
+    /// per local node, the last row that met it as an old partner ([`same_partners`])
+    mark: Vec<u32>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
     partner: Vec<u32>,
+    retired_start: Vec<u32>,
+    old: OldHistories,
+}
+
+/// The histories of the old lists from the first row a rebuild changed on, moved out of the
+/// lists while their new rows are written in their place.
+#[derive(Clone, Debug, Default)]
+struct OldHistories {
+    /// where the moved listed and retired pairs started in the old lists
+    listed_offset: usize,
+    retired_offset: usize,
     partner_gid: Vec<GlobalNodeId>,
     anchor: Vec<Vec3>,
     spring_stiffness: Vec<f64>,
     touching: Vec<bool>,
     max_overlap: Vec<f64>,
-    retired_start: Vec<u32>,
     retired_gid: Vec<GlobalNodeId>,
     retired_max_overlap: Vec<f64>,
+}
+
+impl OldHistories {
+    /// Moves the histories of `list` from listed pair `listed` and retired pair `retired` on
+    /// (at least: with a short head, the whole lists are swapped out and the head copied back,
+    /// so no rebuild copies more than the tail written back and the lists once).
+    fn take_from(&mut self, list: &mut NeighbourList, listed: usize, retired: usize) {
+        let whole = 2 * listed < list.partner_gid.len();
+        (self.listed_offset, self.retired_offset) = if whole { (0, 0) } else { (listed, retired) };
+        fn tail<T: Copy>(to: &mut Vec<T>, from: &mut Vec<T>, at: usize, whole: bool) {
+            if whole {
+                std::mem::swap(to, from);
+                from.clear();
+                from.extend_from_slice(&to[..at]);
+            } else {
+                to.clear();
+                to.extend_from_slice(&from[at..]);
+                from.truncate(at);
+            }
+        }
+        tail(&mut self.partner_gid, &mut list.partner_gid, listed, whole);
+        tail(&mut self.anchor, &mut list.anchor, listed, whole);
+        tail(&mut self.spring_stiffness, &mut list.spring_stiffness, listed, whole);
+        tail(&mut self.touching, &mut list.touching, listed, whole);
+        tail(&mut self.max_overlap, &mut list.max_overlap, listed, whole);
+        tail(&mut self.retired_gid, &mut list.retired_gid, retired, whole);
+        tail(&mut self.retired_max_overlap, &mut list.retired_max_overlap, retired, whole);
+    }
+
+    /// The partners of old row `row` (positions in the old lists).
+    fn listed(&self, row: std::ops::Range<usize>) -> &[GlobalNodeId] {
+        &self.partner_gid[row.start - self.listed_offset..row.end - self.listed_offset]
+    }
+
+    /// Where the old lists' listed and retired pairs ended.
+    fn end(&self) -> (usize, usize) {
+        (self.listed_offset + self.partner_gid.len(), self.retired_offset + self.retired_gid.len())
+    }
 }
 
 /// The nodes in cell order, with what the contact search reads of them, so that the search
@@ -208,6 +261,28 @@ impl Stencil {
     }
 }
 
+/// True when the cell-ordered entries `hits` (local indices `cell_node`) that pass `within`
+/// are the local nodes `old`, each met once: a row whose partners did not change. `stamp`
+/// is odd, greater than any earlier row's of the build (`mark` zeroed at its start).
+fn same_partners(mark: &mut [u32], stamp: u32, old: &[u32], hits: &[u32], cell_node: &[u32], within: impl Fn(usize) -> bool) -> bool {
+    for &j in old {
+        mark[j as usize] = stamp;
+    }
+    let mut met = 0;
+    for &k in hits {
+        let j = cell_node[k as usize] as usize;
+        if within(j) {
+            // a partner met twice, or a new one, leaves `met` short of the hits
+            if mark[j] != stamp {
+                return false;
+            }
+            mark[j] = stamp + 1;
+            met += 1;
+        }
+    }
+    met == old.len()
+}
+
 /// Row `i` of compressed rows with starts `starts` (empty while no row is built).
 #[inline]
 fn compressed_row(starts: &[u32], i: usize) -> std::ops::Range<usize> {
@@ -262,6 +337,17 @@ impl NeighbourList {
         self.retired_max_overlap.clear();
     }
 
+    /// Drops every listed and retired pair's history.
+    fn clear_histories(&mut self) {
+        self.partner_gid.clear();
+        self.anchor.clear();
+        self.spring_stiffness.clear();
+        self.touching.clear();
+        self.max_overlap.clear();
+        self.retired_gid.clear();
+        self.retired_max_overlap.clear();
+    }
+
     /// Retired pairs of owned node `i`.
     #[inline]
     pub fn retired_row(&self, i: usize) -> std::ops::Range<usize> {
@@ -297,17 +383,24 @@ impl NeighbourList {
 
         scratch.start.clear();
         scratch.partner.clear();
-        scratch.partner_gid.clear();
-        scratch.anchor.clear();
-        scratch.spring_stiffness.clear();
-        scratch.touching.clear();
-        scratch.max_overlap.clear();
         scratch.retired_start.clear();
-        scratch.retired_gid.clear();
-        scratch.retired_max_overlap.clear();
         scratch.start.push(0);
         scratch.retired_start.push(0);
         let has_history = self.start.len() == nodes.n_owned + 1;
+        if !has_history {
+            // histories of other rows, if any: none carries over
+            self.clear_histories();
+        }
+        // the same local numbering as at the last build: an old row's local indices can be
+        // checked against the candidates directly
+        let renumbered = !has_history || self.reference_gid != nodes.gid;
+        if !renumbered {
+            scratch.mark.clear();
+            scratch.mark.resize(n, 0);
+        }
+        // the histories stay where they are up to the first row that changed; from there on
+        // they are moved to `scratch.old` and written back row by row
+        let mut moved = false;
         // where the present run of unchanged rows starts in the old list and retired pairs
         let mut run = None;
         for i in 0..nodes.n_owned {
@@ -320,122 +413,134 @@ impl NeighbourList {
                 scratch.stencil.find(&grid, &scratch.cell_start, [cx, cy, cz]);
             }
             scratch.stencil.within(&scratch.cells, &xi, place, exclusion, coarse_reach * coarse_reach, &mut scratch.hits);
-            scratch.row.clear();
-            for &k in &scratch.hits {
-                let j = scratch.cells.node[k as usize] as usize;
-                // one section: the coarse test was the pair's own
-                let within = || {
+            // one section: the coarse test was the pair's own
+            let within = |j: usize| {
+                single_section || {
                     let reach = contact_distance(sections, nodes, i, j) + self.skin;
                     (nodes.position[j] - xi).norm_squared() < reach * reach
-                };
-                if single_section || within() {
-                    scratch.row.push((scratch.cells.gid[k as usize], j as u32));
                 }
-            }
-            scratch.row.sort_unstable();
-            // two columns may share slots of the table: a node can be met twice
-            scratch.row.dedup();
+            };
             // the previous row of the same owned node and its retired pairs
             let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
-            // most rows are what they were (the skin is there for that): their histories are
-            // copied a run of rows at a time
-            let unchanged = old.len() == scratch.row.len() && scratch.row.iter().zip(&self.partner_gid[old.clone()]).all(|(&(gid, _), &listed)| gid == listed);
-            scratch.partner.extend(scratch.row.iter().map(|&(_, j)| j));
-            if unchanged {
-                run.get_or_insert((old.start, retired.start));
+            // most rows are what they were (the skin is there for that): such a row needs no
+            // sorting, and its histories are copied a run of rows at a time, or not at all
+            // before the first change
+            let unchanged = if !renumbered && same_partners(&mut scratch.mark, 2 * i as u32 + 1, &self.partner[old.clone()], &scratch.hits, &scratch.cells.node, within) {
+                scratch.partner.extend_from_slice(&self.partner[old.clone()]);
+                true
             } else {
-                if let Some(from) = run.take() {
-                    self.copy_history(&mut scratch, from, (old.start, retired.start));
+                scratch.row.clear();
+                for &k in &scratch.hits {
+                    let j = scratch.cells.node[k as usize] as usize;
+                    if within(j) {
+                        scratch.row.push((scratch.cells.gid[k as usize], j as u32));
+                    }
                 }
-                self.merge_changed_row(&mut scratch, old, retired.clone());
+                scratch.row.sort_unstable();
+                // two columns may share slots of the table: a node can be met twice
+                scratch.row.dedup();
+                scratch.partner.extend(scratch.row.iter().map(|&(_, j)| j));
+                let listed = if moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
+                old.len() == scratch.row.len() && scratch.row.iter().zip(listed).all(|(&(gid, _), &listed)| gid == listed)
+            };
+            if unchanged {
+                if moved {
+                    run.get_or_insert((old.start, retired.start));
+                }
+            } else {
+                if !moved {
+                    scratch.old.take_from(self, old.start, retired.start);
+                    moved = true;
+                }
+                if let Some(from) = run.take() {
+                    self.copy_history(&scratch.old, from, (old.start, retired.start));
+                }
+                self.merge_changed_row(&scratch.old, &scratch.row, old, retired.clone());
             }
             // the retired pairs of a run are still gone: not copied yet, but counted
-            let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { scratch.retired_gid.len() };
+            let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
             scratch.start.push(scratch.partner.len() as u32);
             scratch.retired_start.push(retired_end as u32);
         }
         if let Some(from) = run {
-            self.copy_history(&mut scratch, from, (self.partner_gid.len(), self.retired_gid.len()));
+            self.copy_history(&scratch.old, from, scratch.old.end());
         }
+        debug_assert_eq!((self.partner_gid.len(), self.retired_gid.len()), (scratch.partner.len(), *scratch.retired_start.last().unwrap() as usize));
         std::mem::swap(&mut self.start, &mut scratch.start);
         std::mem::swap(&mut self.partner, &mut scratch.partner);
-        std::mem::swap(&mut self.partner_gid, &mut scratch.partner_gid);
-        std::mem::swap(&mut self.anchor, &mut scratch.anchor);
-        std::mem::swap(&mut self.spring_stiffness, &mut scratch.spring_stiffness);
-        std::mem::swap(&mut self.touching, &mut scratch.touching);
-        std::mem::swap(&mut self.max_overlap, &mut scratch.max_overlap);
         std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
-        std::mem::swap(&mut self.retired_gid, &mut scratch.retired_gid);
-        std::mem::swap(&mut self.retired_max_overlap, &mut scratch.retired_max_overlap);
         self.scratch = scratch;
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position);
+        self.reference_gid.clear();
+        self.reference_gid.extend_from_slice(&nodes.gid);
         self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
     }
 
     /// Appends to the lists being built the history of a row that changed, `old` and `retired`
-    /// being its listed and retired pairs in the old lists (a gid is in one or the other): a
-    /// pair still listed carries its history, a retired one that is back its largest overlap;
-    /// retired now are the old row's pairs that touched and are gone, and the retired pairs
-    /// still gone.
-    fn merge_changed_row(&self, scratch: &mut BuildScratch, old: std::ops::Range<usize>, retired: std::ops::Range<usize>) {
+    /// being its listed and retired pairs in the old lists `from` (a gid is in one or the
+    /// other), `row` its new partners: a pair still listed carries its history, a retired one
+    /// that is back its largest overlap; retired now are the old row's pairs that touched and
+    /// are gone, and the retired pairs still gone.
+    fn merge_changed_row(&mut self, from: &OldHistories, row: &[(GlobalNodeId, u32)], old: std::ops::Range<usize>, retired: std::ops::Range<usize>) {
+        let (old, retired) = (old.start - from.listed_offset..old.end - from.listed_offset, retired.start - from.retired_offset..retired.end - from.retired_offset);
         let (mut cursor, mut back) = (old.start, retired.start);
-        for &(gid, _) in &scratch.row {
-            while cursor < old.end && self.partner_gid[cursor] < gid {
+        for &(gid, _) in row {
+            while cursor < old.end && from.partner_gid[cursor] < gid {
                 cursor += 1;
             }
-            while back < retired.end && self.retired_gid[back] < gid {
+            while back < retired.end && from.retired_gid[back] < gid {
                 back += 1;
             }
-            let carried = cursor < old.end && self.partner_gid[cursor] == gid;
-            let returned = back < retired.end && self.retired_gid[back] == gid;
-            scratch.partner_gid.push(gid);
-            scratch.anchor.push(if carried { self.anchor[cursor] } else { Vec3::zeros() });
-            scratch.spring_stiffness.push(if carried { self.spring_stiffness[cursor] } else { 0.0 });
-            scratch.touching.push(carried && self.touching[cursor]);
-            scratch.max_overlap.push(if carried {
-                self.max_overlap[cursor]
+            let carried = cursor < old.end && from.partner_gid[cursor] == gid;
+            let returned = back < retired.end && from.retired_gid[back] == gid;
+            self.partner_gid.push(gid);
+            self.anchor.push(if carried { from.anchor[cursor] } else { Vec3::zeros() });
+            self.spring_stiffness.push(if carried { from.spring_stiffness[cursor] } else { 0.0 });
+            self.touching.push(carried && from.touching[cursor]);
+            self.max_overlap.push(if carried {
+                from.max_overlap[cursor]
             } else if returned {
-                self.retired_max_overlap[back]
+                from.retired_max_overlap[back]
             } else {
                 0.0
             });
         }
         // retired now: the old row's pairs that touched and are gone, and the retired
         // pairs still gone, merged by gid
-        let row = &scratch.row;
         let gone = |gid: GlobalNodeId| row.binary_search_by(|probe| probe.0.cmp(&gid)).is_err();
         let (mut a, mut b) = (old.start, retired.start);
         loop {
-            let from_list = a < old.end && (b >= retired.end || self.partner_gid[a] < self.retired_gid[b]);
+            let from_list = a < old.end && (b >= retired.end || from.partner_gid[a] < from.retired_gid[b]);
             let (gid, max_overlap) = if from_list {
                 a += 1;
-                (self.partner_gid[a - 1], self.max_overlap[a - 1])
+                (from.partner_gid[a - 1], from.max_overlap[a - 1])
             } else if b < retired.end {
                 b += 1;
-                (self.retired_gid[b - 1], self.retired_max_overlap[b - 1])
+                (from.retired_gid[b - 1], from.retired_max_overlap[b - 1])
             } else {
                 break;
             };
             if max_overlap > 0.0 && gone(gid) {
-                scratch.retired_gid.push(gid);
-                scratch.retired_max_overlap.push(max_overlap);
+                self.retired_gid.push(gid);
+                self.retired_max_overlap.push(max_overlap);
             }
         }
     }
 
     /// Appends to the lists being built the histories of the listed and retired pairs of the
-    /// old lists from `from` to `to` (listed, retired): rows that did not change.
-    fn copy_history(&self, scratch: &mut BuildScratch, from: (usize, usize), to: (usize, usize)) {
-        let (listed, retired) = (from.0..to.0, from.1..to.1);
-        scratch.partner_gid.extend_from_slice(&self.partner_gid[listed.clone()]);
-        scratch.anchor.extend_from_slice(&self.anchor[listed.clone()]);
-        scratch.spring_stiffness.extend_from_slice(&self.spring_stiffness[listed.clone()]);
-        scratch.touching.extend_from_slice(&self.touching[listed.clone()]);
-        scratch.max_overlap.extend_from_slice(&self.max_overlap[listed]);
-        scratch.retired_gid.extend_from_slice(&self.retired_gid[retired.clone()]);
-        scratch.retired_max_overlap.extend_from_slice(&self.retired_max_overlap[retired]);
+    /// old lists `old` from `start` to `end` (listed, retired): rows that did not change.
+    fn copy_history(&mut self, old: &OldHistories, start: (usize, usize), end: (usize, usize)) {
+        let listed = start.0 - old.listed_offset..end.0 - old.listed_offset;
+        let retired = start.1 - old.retired_offset..end.1 - old.retired_offset;
+        self.partner_gid.extend_from_slice(&old.partner_gid[listed.clone()]);
+        self.anchor.extend_from_slice(&old.anchor[listed.clone()]);
+        self.spring_stiffness.extend_from_slice(&old.spring_stiffness[listed.clone()]);
+        self.touching.extend_from_slice(&old.touching[listed.clone()]);
+        self.max_overlap.extend_from_slice(&old.max_overlap[listed]);
+        self.retired_gid.extend_from_slice(&old.retired_gid[retired.clone()]);
+        self.retired_max_overlap.extend_from_slice(&old.retired_max_overlap[retired]);
     }
 
     /// True when the lists still hold every pair of local nodes (owned and ghosts) that can
@@ -925,6 +1030,82 @@ mod tests {
         assert!(found.iter().any(|&h| h) && found.iter().any(|&h| !h));
         // a candidate far outside the targets' box (folded onto the same slots) is not hit
         assert_eq!(within_reach_of_any(targets, &[Vec3::new(1.0, 1.0, 1.0)], reach), vec![false]);
+    }
+
+    #[test]
+    fn a_row_is_unchanged_only_when_its_candidates_are_its_old_partners_each_met_once() {
+        // candidates k name local nodes 10 + k
+        let cell_node: Vec<u32> = (10..20).collect();
+        let mut mark = vec![0; 20];
+        let everyone = |_: usize| true;
+        let mut stamp = 1;
+        let mut same = |old: &[u32], hits: &[u32], within: &dyn Fn(usize) -> bool| {
+            stamp += 2;
+            same_partners(&mut mark, stamp, old, hits, &cell_node, within)
+        };
+        assert!(same(&[12, 15, 11], &[5, 1, 2], &everyone));
+        assert!(same(&[], &[], &everyone));
+        assert!(!same(&[12, 15, 11], &[5, 1], &everyone), "a partner gone");
+        assert!(!same(&[12, 15], &[5, 1, 2], &everyone), "a partner new");
+        assert!(!same(&[12, 15, 11], &[5, 1, 5], &everyone), "a partner met twice, another gone");
+        assert!(!same(&[12, 15], &[5, 2, 5], &everyone), "a partner met twice");
+        assert!(same(&[12, 15], &[5, 1, 2], &|j: usize| j != 11), "a candidate out of the pair's own reach");
+        assert!(!same(&[12, 15, 11], &[5, 1, 2], &|j: usize| j != 11));
+    }
+
+    #[test]
+    fn a_rebuild_keeps_unchanged_histories_and_follows_renumbered_ghosts() {
+        let (cloud, sections) = random_cloud(600, 13);
+        // the last third are ghosts
+        let local = |order: &mut dyn Iterator<Item = usize>| {
+            let mut nodes = Nodes::default();
+            for k in order {
+                nodes.push(cloud.gid[k], cloud.position[k], Vec3::zeros(), 1.0, cloud.fibre[k], cloud.along[k], 0, false, cloud.last[k]);
+            }
+            nodes.n_owned = 400;
+            nodes.link_chains();
+            nodes
+        };
+        let nodes = local(&mut (0..600));
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        for k in 0..list.len() {
+            list.max_overlap[k] = list.partner_gid[k].0 as f64 + 0.5;
+            list.touching[k] = k % 3 == 0;
+            list.anchor[k] = Vec3::repeat(k as f64);
+        }
+        let histories = |list: &NeighbourList| (list.start.clone(), list.partner_gid.clone(), list.anchor.clone(), list.touching.clone(), list.max_overlap.clone(), list.retired_gid.clone());
+        let before = histories(&list);
+        list.rebuild(&nodes, &sections);
+        assert_eq!(histories(&list), before, "nothing moved: every row and history as it was");
+        // the same nodes with the ghosts in reverse order: the same pairs, partners at their
+        // new local indices
+        let reversed = local(&mut (0..400).chain((400..600).rev()));
+        list.rebuild(&reversed, &sections);
+        assert_eq!(histories(&list), before);
+        assert!(list.partner.iter().zip(&list.partner_gid).all(|(&j, &gid)| reversed.gid[j as usize] == gid));
+        assert!(list.partner.iter().any(|&j| j >= 400), "ghosts are partners");
+        // a node near the end of the owned ones leaves: the rows before the first changed
+        // one keep their histories in place, those after carry theirs over
+        let mut moved = reversed.clone();
+        let leaving = (300..400).max_by_key(|&i| list.row(i).len()).unwrap();
+        moved.position[leaving] += Vec3::new(1.0, 0.0, 0.0);
+        list.rebuild(&moved, &sections);
+        assert_eq!(list.row(leaving).len(), 0);
+        let (mut changed, mut kept) = (0, 0);
+        for i in 0..moved.n_owned {
+            let row = list.row(i);
+            let old = before.0[i] as usize..before.0[i + 1] as usize;
+            if list.partner_gid[row.clone()] == before.1[old.clone()] {
+                kept += 1;
+                assert_eq!((&list.anchor[row.clone()], &list.max_overlap[row]), (&before.2[old.clone()], &before.4[old]), "row {i}");
+            } else {
+                changed += 1;
+                assert!(row.clone().all(|k| list.max_overlap[k] == list.partner_gid[k].0 as f64 + 0.5), "row {i}");
+                assert!(list.retired_row(i).len() > 0, "row {i} retires its pair with the node that left");
+            }
+        }
+        assert!(changed > 1 && kept > 300, "{changed} changed, {kept} kept");
     }
 
     #[test]
