@@ -79,7 +79,8 @@ struct BuildScratch {
     stencil: Stencil,
     /// the cell-ordered entries a node's list takes
     hits: Vec<u32>,
-    /// per local node, the last row that met it as an old partner ([`same_partners`])
+    /// per local node, the stamp of the last row that listed it as an old partner
+    /// ([`same_partners`])
     mark: Vec<u32>,
     row: Vec<(GlobalNodeId, u32)>,
     start: Vec<u32>,
@@ -105,9 +106,9 @@ struct OldHistories {
 }
 
 impl OldHistories {
-    /// Moves the histories of `list` from listed pair `listed` and retired pair `retired` on
-    /// (at least: with a short head, the whole lists are swapped out and the head copied back,
-    /// so no rebuild copies more than the tail written back and the lists once).
+    /// Takes the histories of `list` from listed pair `listed` and retired pair `retired` on,
+    /// leaving `list` its head. The shorter part is the one copied: the tail out, or, when the
+    /// head is shorter, the whole arrays are swapped out and the head copied back.
     fn take_from(&mut self, list: &mut NeighbourList, listed: usize, retired: usize) {
         let whole = 2 * listed < list.partner_gid.len();
         (self.listed_offset, self.retired_offset) = if whole { (0, 0) } else { (listed, retired) };
@@ -263,7 +264,7 @@ impl Stencil {
 
 /// True when the cell-ordered entries `hits` (local indices `cell_node`) that pass `within`
 /// are the local nodes `old`, each met once: a row whose partners did not change. `stamp`
-/// is odd, greater than any earlier row's of the build (`mark` zeroed at its start).
+/// is odd and above every stamp used earlier in the build, which zeroes `mark` at its start.
 fn same_partners(mark: &mut [u32], stamp: u32, old: &[u32], hits: &[u32], cell_node: &[u32], within: impl Fn(usize) -> bool) -> bool {
     for &j in old {
         mark[j as usize] = stamp;
