@@ -153,6 +153,38 @@ fn assert_same_bits_on_three_ranks_and_after_a_restart(case: &Case, dir: &Path) 
     assert!(differences.is_empty(), "restart on 2 ranks: {differences:#?}");
 }
 
+/// The contact query of a rigid mesh is skipped for a node clear of the surface by more
+/// than the two can have moved since it was last found clear. Only a node out of contact
+/// may be skipped: at every step each candidate touches exactly when a fresh query finds
+/// it overlapping the oblique FSP, which is also set tumbling (its rim about as fast as its
+/// flight) so that the surface's turn counts.
+#[test]
+fn the_projectile_skips_only_the_queries_of_nodes_out_of_contact() {
+    let case = case_file("four_layer_fsp.json");
+    let steps = (case.run.end_time_s / problem(&case).unwrap().time_step) as usize;
+    run_local(1, |comm| {
+        let mut state = build(&case, comm, Method::KWay, None).unwrap();
+        let projectile = state.domain.projectile.as_mut().unwrap();
+        projectile.angular_momentum = projectile.orientation * (projectile.inertia * dea_core::Vec3::new(5e5, 0.0, 0.0));
+        let (mut touching, mut clear) = (0, 0);
+        for step in 0..steps {
+            state.step().unwrap();
+            let d = &state.domain;
+            let projectile = d.projectile.as_ref().unwrap();
+            for &i in &d.projectile_contacts.candidates {
+                let i = i as usize;
+                let radius = 0.5 * d.sections[d.nodes.section[i] as usize].contact_diameter;
+                let distance = projectile.shape.contact_point(&projectile.to_body(&d.nodes.position[i])).distance;
+                assert_eq!(d.projectile_contacts.touching[i], distance < radius, "step {step}, node {:?}: {distance} m from the surface", d.nodes.gid[i]);
+                touching += (distance < radius) as usize;
+                clear += (distance >= radius) as usize;
+            }
+        }
+        let skipped = state.domain.projectile_contacts.skipped_queries as usize;
+        assert!(touching > 1000 && skipped > clear / 4, "{touching} touching, {clear} clear, {skipped} skipped");
+    });
+}
+
 #[test]
 fn a_meshed_oblique_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     // the panel struck obliquely by a small meshed FSP, yawed: triangle-surface contact,

@@ -14,7 +14,7 @@ use crate::friction::stick_slip;
 use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
-use crate::projectile::RigidProjectile;
+use crate::projectile::{RigidProjectile, RigidShape};
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
 use crate::surface::SurfacePoint;
 use crate::tie::{Tie, Ties};
@@ -108,7 +108,34 @@ pub struct ProjectileContacts {
     pub reference_position: Vec3,
     /// projectile orientation at the last refresh
     pub reference_orientation: UnitQuaternion<f64>,
+    /// per owned node, the last query of a rigid mesh that found it clear of the surface:
+    /// how far clear (distance less contact radius; -inf: no such query) [m], the node's
+    /// position then [m] and the surface's travel then [m]. While the node and the surface
+    /// have moved less than that since, the query cannot find it touching and is skipped.
+    clearance: Vec<f64>,
+    clearance_position: Vec<Vec3>,
+    clearance_travel: Vec<f64>,
+    /// how far any point of the projectile's surface has moved since the set-up, summed over
+    /// the steps (centre plus bounding radius times the turn) [m], and the projectile's pose
+    /// at the last step
+    surface_travel: f64,
+    travel_pose: Option<(Vec3, UnitQuaternion<f64>)>,
+    /// queries skipped so far for nodes known to be clear
+    pub skipped_queries: u64,
 }
+
+impl ProjectileContacts {
+    /// Owned node `i` is out of contact with the projectile this step.
+    fn release(&mut self, i: usize) {
+        self.touching[i] = false;
+        self.force_on_node[i].fill(0.0);
+        self.torque_on_projectile[i].fill(0.0);
+    }
+}
+
+/// The margin by which a skipped query's node must be clear of the surface [m], far above
+/// the rounding of a distance and far below any contact's overlap.
+const CLEARANCE_MARGIN: f64 = 1e-12;
 
 /// The reaction of one fibre node on the projectile.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -576,9 +603,7 @@ impl Domain {
                 contacts.candidates.push(i as u32);
             } else {
                 // a node leaving the candidate set is out of contact
-                contacts.touching[i] = false;
-                contacts.force_on_node[i].fill(0.0);
-                contacts.torque_on_projectile[i].fill(0.0);
+                contacts.release(i);
             }
         }
         contacts.node_reference.clear();
@@ -686,15 +711,39 @@ impl Domain {
         let Some(projectile) = self.projectile.take() else { return };
         let law = self.contact.law;
         let mu = self.contact.projectile_friction_coefficient;
+        // a rigid mesh's query is costly: it is skipped for a node known to be clear
+        let skips = matches!(projectile.shape, RigidShape::Mesh(_)) && projectile.shape.deforming_mesh().is_none();
+        let n_owned = self.nodes.n_owned;
+        let contacts = &mut self.projectile_contacts;
+        if skips {
+            if let Some((position, orientation)) = contacts.travel_pose {
+                contacts.surface_travel += (projectile.position - position).norm() + projectile.shape.bounding_radius() * (orientation.inverse() * projectile.orientation).angle();
+            }
+            contacts.travel_pose = Some((projectile.position, projectile.orientation));
+            contacts.clearance.resize(n_owned, f64::NEG_INFINITY);
+            contacts.clearance_position.resize(n_owned, Vec3::zeros());
+            contacts.clearance_travel.resize(n_owned, 0.0);
+        }
         for c in 0..self.projectile_contacts.candidates.len() {
             let i = self.projectile_contacts.candidates[c] as usize;
+            let contacts = &mut self.projectile_contacts;
+            // the signed distance moves no faster than the node and the surface together
+            if skips && contacts.clearance[i] - (self.nodes.position[i] - contacts.clearance_position[i]).norm() - (contacts.surface_travel - contacts.clearance_travel[i]) > CLEARANCE_MARGIN {
+                contacts.release(i);
+                contacts.skipped_queries += 1;
+                continue;
+            }
             let (overlap, point, body, geometry) = self.projectile_contact_geometry(&projectile, i);
             let normal = point.normal;
             let contacts = &mut self.projectile_contacts;
             if overlap <= 0.0 {
-                contacts.touching[i] = false;
-                contacts.force_on_node[i].fill(0.0);
-                contacts.torque_on_projectile[i].fill(0.0);
+                if skips {
+                    // a node beyond the mesh's reach may be deep inside: it is not known clear
+                    contacts.clearance[i] = if overlap.is_finite() { -overlap } else { f64::NEG_INFINITY };
+                    contacts.clearance_position[i] = self.nodes.position[i];
+                    contacts.clearance_travel[i] = contacts.surface_travel;
+                }
+                contacts.release(i);
                 continue;
             }
             let previous_max = contacts.max_overlap[i];
