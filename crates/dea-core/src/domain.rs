@@ -347,6 +347,9 @@ impl Domain {
                 weights: vec![[0.0; 3]; n_owned],
                 anchor_triangle: vec![NONE; n_owned],
                 anchor_weights: vec![[0.0; 3]; n_owned],
+                clearance: vec![f64::NEG_INFINITY; n_owned],
+                clearance_position: vec![Vec3::zeros(); n_owned],
+                clearance_travel: vec![0.0; n_owned],
                 ..Default::default()
             },
             nodes,
@@ -577,7 +580,7 @@ impl Domain {
         if contacts.node_reference.len() != self.nodes.n_owned {
             return true;
         }
-        let mut surface = (projectile.position - contacts.reference_position).norm() + projectile.shape.bounding_radius() * (contacts.reference_orientation.inverse() * projectile.orientation).angle();
+        let mut surface = projectile.surface_moved_since(&contacts.reference_position, &contacts.reference_orientation);
         if let Some(mesh) = projectile.shape.deforming_mesh() {
             // a deformable body's surface also moves against its frame
             surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
@@ -713,16 +716,12 @@ impl Domain {
         let mu = self.contact.projectile_friction_coefficient;
         // a rigid mesh's query is costly: it is skipped for a node known to be clear
         let skips = matches!(projectile.shape, RigidShape::Mesh(_)) && projectile.shape.deforming_mesh().is_none();
-        let n_owned = self.nodes.n_owned;
         let contacts = &mut self.projectile_contacts;
         if skips {
             if let Some((position, orientation)) = contacts.travel_pose {
-                contacts.surface_travel += (projectile.position - position).norm() + projectile.shape.bounding_radius() * (orientation.inverse() * projectile.orientation).angle();
+                contacts.surface_travel += projectile.surface_moved_since(&position, &orientation);
             }
             contacts.travel_pose = Some((projectile.position, projectile.orientation));
-            contacts.clearance.resize(n_owned, f64::NEG_INFINITY);
-            contacts.clearance_position.resize(n_owned, Vec3::zeros());
-            contacts.clearance_travel.resize(n_owned, 0.0);
         }
         for c in 0..self.projectile_contacts.candidates.len() {
             let i = self.projectile_contacts.candidates[c] as usize;

@@ -132,9 +132,19 @@ impl OldHistories {
         tail(&mut self.retired_max_overlap, &mut list.retired_max_overlap, retired, whole);
     }
 
+    /// Positions `listed` of the old lists' listed pairs, in the moved arrays.
+    fn listed_range(&self, listed: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        listed.start - self.listed_offset..listed.end - self.listed_offset
+    }
+
+    /// Positions `retired` of the old lists' retired pairs, in the moved arrays.
+    fn retired_range(&self, retired: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        retired.start - self.retired_offset..retired.end - self.retired_offset
+    }
+
     /// The partners of old row `row` (positions in the old lists).
     fn listed(&self, row: std::ops::Range<usize>) -> &[GlobalNodeId] {
-        &self.partner_gid[row.start - self.listed_offset..row.end - self.listed_offset]
+        &self.partner_gid[self.listed_range(row)]
     }
 
     /// Where the old lists' listed and retired pairs ended.
@@ -485,7 +495,7 @@ impl NeighbourList {
     /// that is back its largest overlap; retired now are the old row's pairs that touched and
     /// are gone, and the retired pairs still gone.
     fn merge_changed_row(&mut self, from: &OldHistories, row: &[(GlobalNodeId, u32)], old: std::ops::Range<usize>, retired: std::ops::Range<usize>) {
-        let (old, retired) = (old.start - from.listed_offset..old.end - from.listed_offset, retired.start - from.retired_offset..retired.end - from.retired_offset);
+        let (old, retired) = (from.listed_range(old), from.retired_range(retired));
         let (mut cursor, mut back) = (old.start, retired.start);
         for &(gid, _) in row {
             while cursor < old.end && from.partner_gid[cursor] < gid {
@@ -533,8 +543,7 @@ impl NeighbourList {
     /// Appends to the lists being built the histories of the listed and retired pairs of the
     /// old lists `old` from `start` to `end` (listed, retired): rows that did not change.
     fn copy_history(&mut self, old: &OldHistories, start: (usize, usize), end: (usize, usize)) {
-        let listed = start.0 - old.listed_offset..end.0 - old.listed_offset;
-        let retired = start.1 - old.retired_offset..end.1 - old.retired_offset;
+        let (listed, retired) = (old.listed_range(start.0..end.0), old.retired_range(start.1..end.1));
         self.partner_gid.extend_from_slice(&old.partner_gid[listed.clone()]);
         self.anchor.extend_from_slice(&old.anchor[listed.clone()]);
         self.spring_stiffness.extend_from_slice(&old.spring_stiffness[listed.clone()]);

@@ -228,6 +228,13 @@ impl RigidProjectile {
         0.5 * self.mass * self.velocity.norm_squared() + 0.5 * self.angular_momentum.dot(&self.angular_velocity())
     }
 
+    /// How far any point of the rigid surface can have moved since the body stood at
+    /// `position` turned by `orientation`: the centre's displacement plus the bounding radius
+    /// times the turn [m].
+    pub fn surface_moved_since(&self, position: &Vec3, orientation: &UnitQuaternion<f64>) -> f64 {
+        (self.position - position).norm() + self.shape.bounding_radius() * (orientation.inverse() * self.orientation).angle()
+    }
+
     /// World position of a node expressed in the body frame.
     #[inline]
     pub fn to_body(&self, world: &Vec3) -> Vec3 {
