@@ -348,7 +348,12 @@ impl<C: Comm> Distributed<C> {
             Some(local) if alone => local,
             Some(local) => self.any(local),
         };
-        if rebuild {
+        if rebuild && alone {
+            // no ghosts to choose again: only the rows around the nodes that moved
+            let built = self.domain.rebuild_neighbours_around_moved();
+            self.rebuilds += 1;
+            self.agree(built)?;
+        } else if rebuild {
             self.rebuild()?;
         }
         let forces = self.domain.compute_forces();

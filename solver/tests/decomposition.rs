@@ -622,6 +622,12 @@ fn a_restart_from_a_checkpoint_gives_the_same_bits_on_the_same_or_other_rank_cou
         let differences = compare_results(&dir.join("reference/results.h5"), &out.join("results.h5")).unwrap();
         assert!(differences.is_empty(), "restart on {ranks} ranks: {differences:#?}");
     }
+    // one rank rebuilds its lists only around the nodes that moved: its checkpoint restarts too
+    run_checkpointed(&case, 1, &dir.join("checkpointed-1"), Some(500));
+    let summary = restart_on(&dir.join("checkpointed-1/checkpoint"), 2, &dir.join("restarted-from-1")).unwrap();
+    assert_eq!(summary.steps, 1215);
+    let differences = compare_results(&dir.join("reference/results.h5"), &dir.join("restarted-from-1/results.h5")).unwrap();
+    assert!(differences.is_empty(), "restart of a 1-rank checkpoint on 2 ranks: {differences:#?}");
     // a damaged part is refused on every rank, naming the file
     let part = dea_io::checkpoint::part_path(&checkpoint, 1);
     let bytes = std::fs::read(&part).unwrap();

@@ -557,6 +557,17 @@ impl Domain {
     /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking
     /// that every owned node has its chain stencil.
     pub fn rebuild_neighbours(&mut self) -> Result<(), DomainError> {
+        self.build_neighbours(NeighbourList::rebuild)
+    }
+
+    /// [`Self::rebuild_neighbours`] with the lists rebuilt only around the nodes that moved
+    /// ([`NeighbourList::rebuild_around_moved`]): for a domain whose ghosts are those of the
+    /// last build.
+    pub fn rebuild_neighbours_around_moved(&mut self) -> Result<(), DomainError> {
+        self.build_neighbours(NeighbourList::rebuild_around_moved)
+    }
+
+    fn build_neighbours(&mut self, build: fn(&mut NeighbourList, &Nodes, &[FibreSection])) -> Result<(), DomainError> {
         if let Some((gid, along)) = self.nodes.missing_chain_neighbour(CHAIN_STENCIL) {
             return Err(DomainError::MissingGhost { gid, along });
         }
@@ -564,7 +575,7 @@ impl Domain {
             return Err(DomainError::MissingTiePartner { gid, partner });
         }
         let clock = Instant::now();
-        self.pairs.rebuild(&self.nodes, &self.sections);
+        build(&mut self.pairs, &self.nodes, &self.sections);
         self.refresh_projectile_candidates();
         self.times.rebuild += clock.elapsed().as_secs_f64();
         Ok(())

@@ -10,6 +10,11 @@ use crate::ids::{FibreId, GlobalNodeId};
 use crate::nodes::Nodes;
 use crate::{FibreSection, Vec3};
 
+/// A node that moved more than this share of the skin from its reference position takes a
+/// new one at a rebuild around moved nodes: the others keep at least three quarters of the
+/// skin for the motion still to come ([`NeighbourList::rebuild_around_moved`]).
+const MOVED_SHARE_OF_SKIN: f64 = 0.125;
+
 /// Full neighbour lists in compressed rows with per-pair contact history.
 #[derive(Clone, Debug, Default)]
 pub struct NeighbourList {
@@ -33,7 +38,9 @@ pub struct NeighbourList {
     pub retired_start: Vec<u32>,
     pub retired_gid: Vec<GlobalNodeId>,
     pub retired_max_overlap: Vec<f64>,
-    /// positions of the local nodes (owned, then ghosts) when the lists were built [m]
+    /// reference positions of the local nodes (owned, then ghosts): where each was when the
+    /// lists were last built around it; the lists hold every pair within reach plus skin at
+    /// these positions [m]
     pub reference_position: Vec<Vec3>,
     /// global ids of the local nodes when the lists were built: while they are the present
     /// ones, a partner's local index still names the same node
@@ -87,6 +94,70 @@ struct BuildScratch {
     partner: Vec<u32>,
     retired_start: Vec<u32>,
     old: OldHistories,
+    /// a rebuild around moved nodes ([`NeighbourList::rebuild_around_moved`]): which local
+    /// nodes moved, the rows of the moved owned nodes (starts, then partners), and the
+    /// partners other owned nodes gain (row starts, then partners)
+    moved: Vec<bool>,
+    fresh_start: Vec<u32>,
+    fresh: Vec<(GlobalNodeId, u32)>,
+    gained: Vec<(u32, GlobalNodeId, u32)>,
+    gained_start: Vec<u32>,
+    gained_sorted: Vec<(GlobalNodeId, u32)>,
+}
+
+/// Where a build that writes its rows in order stands with the old histories.
+#[derive(Clone, Copy, Debug, Default)]
+struct Placement {
+    /// the old histories were moved out at the first row that changed
+    moved: bool,
+    /// where the present run of unchanged rows started in the old listed and retired pairs
+    run: Option<(usize, usize)>,
+}
+
+impl BuildScratch {
+    /// Sorts the local nodes into the cells of a grid of side `reach` over `positions` (the
+    /// positions the lists are built at), ready for the contact search.
+    fn bin(&mut self, nodes: &Nodes, positions: &[Vec3], reach: f64) -> HashedGrid {
+        let (low, high) = bounding_box(positions);
+        // memory follows the node count, not the extent, so a fragment flung far away can
+        // neither blow up the grid nor crowd every node into a few huge cells
+        let grid = HashedGrid::new(positions.len(), low, high, reach);
+        self.cell_of.clear();
+        self.cell_of.extend(positions.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
+        self.cell_start.clear();
+        self.cell_start.resize(grid.slots() + 1, 0);
+        for &c in &self.cell_of {
+            self.cell_start[c as usize + 1] += 1;
+        }
+        for c in 0..grid.slots() {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        // nodes and what the scan reads of them in cell order: it streams through memory
+        self.cells.fill(nodes, positions, &self.cell_start, &self.cell_of, &mut self.cell_fill);
+        self.stencil.cell = None;
+        grid
+    }
+
+    /// Writes to `hits` the cell-ordered entries within `reach` of local node `i` at
+    /// `positions[i]`, its chain neighbours left out.
+    fn search(&mut self, grid: &HashedGrid, nodes: &Nodes, sections: &[FibreSection], positions: &[Vec3], i: usize, reach: f64) {
+        let x = positions[i];
+        let cell = grid.coordinates(&x);
+        // consecutive nodes of a fibre often share a cell, and so its candidates
+        if self.stencil.cell != Some(cell) {
+            self.stencil.find(grid, &self.cell_start, cell);
+        }
+        let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
+        self.stencil.within(&self.cells, &x, chain_place(nodes.fibre[i], nodes.along[i]), exclusion, reach * reach, &mut self.hits);
+    }
+
+    /// Sorts the new row by partner gid and appends its partners to the lists being built.
+    fn take_row(&mut self) {
+        self.row.sort_unstable();
+        // two columns may share slots of the table: a node can be met twice
+        self.row.dedup();
+        self.partner.extend(self.row.iter().map(|&(_, j)| j));
+    }
 }
 
 /// The histories of the old lists from the first row a rebuild changed on, moved out of the
@@ -171,7 +242,7 @@ struct CellOrdered {
 impl CellOrdered {
     /// Sorts the nodes by cell (`cell_of`, whose entries start at `cell_start`; `fill` is
     /// scratch), in local order within a cell.
-    fn fill(&mut self, nodes: &Nodes, cell_start: &[u32], cell_of: &[u32], fill: &mut Vec<u32>) {
+    fn fill(&mut self, nodes: &Nodes, positions: &[Vec3], cell_start: &[u32], cell_of: &[u32], fill: &mut Vec<u32>) {
         let n = nodes.len();
         self.node.resize(n, 0);
         for coordinate in [&mut self.x, &mut self.y, &mut self.z] {
@@ -184,7 +255,7 @@ impl CellOrdered {
         for (i, &c) in cell_of.iter().enumerate() {
             let k = fill[c as usize] as usize;
             self.node[k] = i as u32;
-            [self.x[k], self.y[k], self.z[k]] = [nodes.position[i].x, nodes.position[i].y, nodes.position[i].z];
+            [self.x[k], self.y[k], self.z[k]] = [positions[i].x, positions[i].y, positions[i].z];
             self.place[k] = chain_place(nodes.fibre[i], nodes.along[i]);
             self.gid[k] = nodes.gid[i];
             fill[c as usize] += 1;
@@ -365,38 +436,17 @@ impl NeighbourList {
         compressed_row(&self.retired_start, i)
     }
 
-    /// Rebuilds the lists of all owned nodes against all local nodes, carrying the history
-    /// of pairs that persist (matched by partner global id).
+    /// Rebuilds the lists of all owned nodes against all local nodes at their present
+    /// positions, carrying the history of pairs that persist (matched by partner global id).
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
-        let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
-        // the largest reach of a pair, and the cell size: partners lie in the 27 cells around
-        let coarse_reach = max_cutoff + self.skin;
-        let (low, high) = bounding_box(&nodes.position);
-        // memory follows the node count, not the extent, so a fragment flung far away can
-        // neither blow up the grid nor crowd every node into a few huge cells
-        let grid = HashedGrid::new(n, low, high, coarse_reach);
+        let (max_cutoff, coarse_reach) = self.reaches(sections);
+        self.reference_position.clear();
+        self.reference_position.extend_from_slice(&nodes.position);
+        let references = std::mem::take(&mut self.reference_position);
         let mut scratch = std::mem::take(&mut self.scratch);
-        scratch.cell_of.clear();
-        scratch.cell_of.extend(nodes.position.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
-        scratch.cell_start.clear();
-        scratch.cell_start.resize(grid.slots() + 1, 0);
-        for &c in &scratch.cell_of {
-            scratch.cell_start[c as usize + 1] += 1;
-        }
-        for c in 0..grid.slots() {
-            scratch.cell_start[c + 1] += scratch.cell_start[c];
-        }
-        // nodes and what the scan reads of them in cell order: it streams through memory
-        scratch.cells.fill(nodes, &scratch.cell_start, &scratch.cell_of, &mut scratch.cell_fill);
-        scratch.stencil.cell = None;
+        let grid = scratch.bin(nodes, &references, coarse_reach);
         let single_section = sections.len() == 1;
-
-        scratch.start.clear();
-        scratch.partner.clear();
-        scratch.retired_start.clear();
-        scratch.start.push(0);
-        scratch.retired_start.push(0);
         let has_history = self.start.len() == nodes.n_owned + 1;
         if !has_history {
             // histories of other rows, if any: none carries over
@@ -409,30 +459,13 @@ impl NeighbourList {
             scratch.mark.clear();
             scratch.mark.resize(n, 0);
         }
-        // the histories stay where they are up to the first row that changed; from there on
-        // they are moved to `scratch.old` and written back row by row
-        let mut moved = false;
-        // where the present run of unchanged rows starts in the old list and retired pairs
-        let mut run = None;
+        let mut placement = self.start_placing(&mut scratch);
         for i in 0..nodes.n_owned {
-            let xi = nodes.position[i];
-            let [cx, cy, cz] = grid.coordinates(&xi);
-            let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
-            let place = chain_place(nodes.fibre[i], nodes.along[i]);
-            // consecutive nodes of a fibre often share a cell, and so its candidates
-            if scratch.stencil.cell != Some([cx, cy, cz]) {
-                scratch.stencil.find(&grid, &scratch.cell_start, [cx, cy, cz]);
-            }
-            scratch.stencil.within(&scratch.cells, &xi, place, exclusion, coarse_reach * coarse_reach, &mut scratch.hits);
+            let xi = references[i];
+            scratch.search(&grid, nodes, sections, &references, i, coarse_reach);
             // one section: the coarse test was the pair's own
-            let within = |j: usize| {
-                single_section || {
-                    let reach = contact_distance(sections, nodes, i, j) + self.skin;
-                    (nodes.position[j] - xi).norm_squared() < reach * reach
-                }
-            };
-            // the previous row of the same owned node and its retired pairs
-            let (old, retired) = if has_history { (compressed_row(&self.start, i), compressed_row(&self.retired_start, i)) } else { (0..0, 0..0) };
+            let within = |j: usize| single_section || (references[j] - xi).norm_squared() < self.pair_reach_squared(sections, nodes, i, j);
+            let old = if has_history { compressed_row(&self.start, i) } else { 0..0 };
             // most rows are what they were (the skin is there for that): such a row needs no
             // sorting, and its histories are copied a run of rows at a time, or not at all
             // before the first change
@@ -447,33 +480,179 @@ impl NeighbourList {
                         scratch.row.push((scratch.cells.gid[k as usize], j as u32));
                     }
                 }
-                scratch.row.sort_unstable();
-                // two columns may share slots of the table: a node can be met twice
-                scratch.row.dedup();
-                scratch.partner.extend(scratch.row.iter().map(|&(_, j)| j));
-                let listed = if moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
-                old.len() == scratch.row.len() && scratch.row.iter().zip(listed).all(|(&(gid, _), &listed)| gid == listed)
+                scratch.take_row();
+                self.row_is_old(&scratch, &placement, i)
             };
-            if unchanged {
-                if moved {
-                    run.get_or_insert((old.start, retired.start));
-                }
-            } else {
-                if !moved {
-                    scratch.old.take_from(self, old.start, retired.start);
-                    moved = true;
-                }
-                if let Some(from) = run.take() {
-                    self.copy_history(&scratch.old, from, (old.start, retired.start));
-                }
-                self.merge_changed_row(&scratch.old, &scratch.row, old, retired.clone());
-            }
-            // the retired pairs of a run are still gone: not copied yet, but counted
-            let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
-            scratch.start.push(scratch.partner.len() as u32);
-            scratch.retired_start.push(retired_end as u32);
+            self.place_row(&mut scratch, &mut placement, i, unchanged);
         }
-        if let Some(from) = run {
+        self.finish_build(scratch, placement, nodes, references, max_cutoff, coarse_reach);
+    }
+
+    /// Rebuilds the lists around the local nodes that moved more than an eighth of the skin
+    /// from their reference positions. Those take their present positions as references; their
+    /// rows are built afresh, and the other rows lose them and gain those now within reach.
+    /// The lists are then what [`Self::rebuild`] gives with every node at its reference
+    /// position, so the checks hold as after it, while the nodes that barely moved keep their
+    /// rows unsearched. When the local numbering changed since the last build, or most nodes
+    /// moved, this is [`Self::rebuild`].
+    pub fn rebuild_around_moved(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
+        let n = nodes.len();
+        let as_built = self.start.len() == nodes.n_owned + 1 && self.reference_gid == nodes.gid;
+        let threshold = MOVED_SHARE_OF_SKIN * self.skin;
+        let mut scratch = std::mem::take(&mut self.scratch);
+        scratch.moved.clear();
+        // a NaN position counts as moved, and pairs with nothing
+        scratch.moved.extend(nodes.position.iter().zip(&self.reference_position).map(|(x, r)| {
+            let squared = (x - r).norm_squared();
+            squared > threshold * threshold || squared.is_nan()
+        }));
+        let moved_count = scratch.moved.iter().filter(|&&m| m).count();
+        if !as_built || 2 * moved_count > n {
+            self.scratch = scratch;
+            return self.rebuild(nodes, sections);
+        }
+        let (max_cutoff, coarse_reach) = self.reaches(sections);
+        let mut references = std::mem::take(&mut self.reference_position);
+        for (i, _) in scratch.moved.iter().enumerate().filter(|(_, &m)| m) {
+            references[i] = nodes.position[i];
+        }
+        let grid = scratch.bin(nodes, &references, coarse_reach);
+        let single_section = sections.len() == 1;
+        // the moved nodes' surroundings: their own rows, and what the others gain
+        scratch.fresh_start.clear();
+        scratch.fresh_start.push(0);
+        scratch.fresh.clear();
+        scratch.gained.clear();
+        for j in 0..n {
+            if !scratch.moved[j] {
+                continue;
+            }
+            scratch.search(&grid, nodes, sections, &references, j, coarse_reach);
+            for &k in &scratch.hits {
+                let i = scratch.cells.node[k as usize] as usize;
+                if !(single_section || (references[i] - references[j]).norm_squared() < self.pair_reach_squared(sections, nodes, i, j)) {
+                    continue;
+                }
+                if j < nodes.n_owned {
+                    scratch.fresh.push((scratch.cells.gid[k as usize], i as u32));
+                }
+                if i < nodes.n_owned && !scratch.moved[i] {
+                    scratch.gained.push((i as u32, nodes.gid[j], j as u32));
+                }
+            }
+            if j < nodes.n_owned {
+                scratch.fresh_start.push(scratch.fresh.len() as u32);
+            }
+        }
+        // the gained partners by row
+        scratch.gained_start.clear();
+        scratch.gained_start.resize(nodes.n_owned + 1, 0);
+        for &(i, _, _) in &scratch.gained {
+            scratch.gained_start[i as usize + 1] += 1;
+        }
+        for i in 0..nodes.n_owned {
+            scratch.gained_start[i + 1] += scratch.gained_start[i];
+        }
+        scratch.gained_sorted.clear();
+        scratch.gained_sorted.resize(scratch.gained.len(), (GlobalNodeId(0), 0));
+        scratch.cell_fill.clear();
+        scratch.cell_fill.extend_from_slice(&scratch.gained_start);
+        for &(i, gid, j) in &scratch.gained {
+            scratch.gained_sorted[scratch.cell_fill[i as usize] as usize] = (gid, j);
+            scratch.cell_fill[i as usize] += 1;
+        }
+        let mut placement = self.start_placing(&mut scratch);
+        let mut fresh_row = 0;
+        for i in 0..nodes.n_owned {
+            let old = compressed_row(&self.start, i);
+            let gained = compressed_row(&scratch.gained_start, i);
+            let unchanged = if scratch.moved[i] {
+                let fresh = compressed_row(&scratch.fresh_start, fresh_row);
+                fresh_row += 1;
+                scratch.row.clear();
+                scratch.row.extend_from_slice(&scratch.fresh[fresh]);
+                scratch.take_row();
+                self.row_is_old(&scratch, &placement, i)
+            } else if gained.is_empty() && !self.partner[old.clone()].iter().any(|&j| scratch.moved[j as usize]) {
+                scratch.partner.extend_from_slice(&self.partner[old.clone()]);
+                true
+            } else {
+                // the partners that did not move stay, the moved ones are met again as gained
+                let listed = if placement.moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
+                scratch.row.clear();
+                scratch.row.extend(self.partner[old.clone()].iter().zip(listed).filter(|(&j, _)| !scratch.moved[j as usize]).map(|(&j, &gid)| (gid, j)));
+                scratch.row.extend_from_slice(&scratch.gained_sorted[gained]);
+                scratch.take_row();
+                self.row_is_old(&scratch, &placement, i)
+            };
+            self.place_row(&mut scratch, &mut placement, i, unchanged);
+        }
+        self.finish_build(scratch, placement, nodes, references, max_cutoff, coarse_reach);
+    }
+
+    /// The largest contact distance of two nodes, and the reach of the search (plus the skin),
+    /// which is also the cell size [m].
+    fn reaches(&self, sections: &[FibreSection]) -> (f64, f64) {
+        let max_cutoff = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
+        (max_cutoff, max_cutoff + self.skin)
+    }
+
+    /// Square of the reach of the pair of local nodes `i` and `j`: their contact distance plus
+    /// the skin [m^2].
+    #[inline]
+    fn pair_reach_squared(&self, sections: &[FibreSection], nodes: &Nodes, i: usize, j: usize) -> f64 {
+        let reach = contact_distance(sections, nodes, i, j) + self.skin;
+        reach * reach
+    }
+
+    /// Starts writing new lists into `scratch`, the old ones and their histories still in place.
+    fn start_placing(&self, scratch: &mut BuildScratch) -> Placement {
+        scratch.start.clear();
+        scratch.partner.clear();
+        scratch.retired_start.clear();
+        scratch.start.push(0);
+        scratch.retired_start.push(0);
+        Placement::default()
+    }
+
+    /// True when the new row of owned node `i` in `scratch.row` has the partners of its old row.
+    fn row_is_old(&self, scratch: &BuildScratch, placement: &Placement, i: usize) -> bool {
+        let old = compressed_row(&self.start, i);
+        let listed = if placement.moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
+        old.len() == scratch.row.len() && scratch.row.iter().zip(listed).all(|(&(gid, _), &listed)| gid == listed)
+    }
+
+    /// Places the histories of owned node `i`, whose partners were just appended to
+    /// `scratch.partner`: an `unchanged` row keeps its old ones (the histories stay where they
+    /// are up to the first row that changed; from there on they are moved to `scratch.old`
+    /// and written back a run of rows at a time); a changed row, whose new partners are in
+    /// `scratch.row`, merges them.
+    fn place_row(&mut self, scratch: &mut BuildScratch, placement: &mut Placement, i: usize, unchanged: bool) {
+        let (old, retired) = (compressed_row(&self.start, i), compressed_row(&self.retired_start, i));
+        if unchanged {
+            if placement.moved {
+                placement.run.get_or_insert((old.start, retired.start));
+            }
+        } else {
+            if !placement.moved {
+                scratch.old.take_from(self, old.start, retired.start);
+                placement.moved = true;
+            }
+            if let Some(from) = placement.run.take() {
+                self.copy_history(&scratch.old, from, (old.start, retired.start));
+            }
+            self.merge_changed_row(&scratch.old, &scratch.row, old, retired.clone());
+        }
+        // the retired pairs of a run are still gone: not copied yet, but counted
+        let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
+        scratch.start.push(scratch.partner.len() as u32);
+        scratch.retired_start.push(retired_end as u32);
+    }
+
+    /// Ends a build: the last run of unchanged rows' histories, the new rows, and the
+    /// reference positions and numbering the next build and the checks start from.
+    fn finish_build(&mut self, mut scratch: BuildScratch, placement: Placement, nodes: &Nodes, references: Vec<Vec3>, max_cutoff: f64, coarse_reach: f64) {
+        if let Some(from) = placement.run {
             self.copy_history(&scratch.old, from, scratch.old.end());
         }
         debug_assert_eq!((self.partner_gid.len(), self.retired_gid.len()), (scratch.partner.len(), *scratch.retired_start.last().unwrap() as usize));
@@ -481,11 +660,10 @@ impl NeighbourList {
         std::mem::swap(&mut self.partner, &mut scratch.partner);
         std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
         self.scratch = scratch;
-        self.reference_position.clear();
-        self.reference_position.extend_from_slice(&nodes.position);
+        self.motion.build(&references, max_cutoff, 2.0 * coarse_reach);
+        self.reference_position = references;
         self.reference_gid.clear();
         self.reference_gid.extend_from_slice(&nodes.gid);
-        self.motion.build(nodes, max_cutoff, 2.0 * coarse_reach);
         self.builds += 1;
     }
 
@@ -636,22 +814,22 @@ fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
 }
 
 impl RelativeMotion {
-    /// Cells of size `cell` over the local nodes' present positions.
-    fn build(&mut self, nodes: &Nodes, cutoff: f64, cell: f64) {
+    /// Cells of size `cell` over the local nodes' reference positions.
+    fn build(&mut self, positions: &[Vec3], cutoff: f64, cell: f64) {
         (self.grid, self.passed) = (None, None);
-        if nodes.is_empty() {
+        if positions.is_empty() {
             return;
         }
-        let (low, high) = bounding_box(&nodes.position);
+        let (low, high) = bounding_box(positions);
         // a few dozen nodes share a cell: a small table
-        let grid = HashedGrid::new(nodes.len() / 32, low, high, cell);
+        let grid = HashedGrid::new(positions.len() / 32, low, high, cell);
         self.slot.clear();
         self.occupied.clear();
         self.low.clear();
         self.low.resize(grid.slots(), Vec3::repeat(f64::INFINITY));
         self.high.clear();
         self.high.resize(grid.slots(), Vec3::repeat(f64::NEG_INFINITY));
-        for x in &nodes.position {
+        for x in positions {
             let coordinates = grid.coordinates(x);
             self.slot.push(grid.slot(coordinates) as u32);
             // nodes along a fibre share cells: a run of them adds its cell once
@@ -1116,6 +1294,70 @@ mod tests {
             }
         }
         assert!(changed > 1 && kept > 300, "{changed} changed, {kept} kept");
+    }
+
+    #[test]
+    fn a_rebuild_around_moved_nodes_lists_what_a_full_build_at_the_references_lists() {
+        let (cloud, sections) = random_cloud(600, 21);
+        // the last third are ghosts
+        let mut nodes = Nodes::default();
+        for k in 0..600 {
+            nodes.push(cloud.gid[k], cloud.position[k], Vec3::zeros(), 1.0, cloud.fibre[k], cloud.along[k], 0, false, cloud.last[k]);
+        }
+        nodes.n_owned = 400;
+        nodes.link_chains();
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        // each pair's history names the pair
+        let key = |list: &NeighbourList, nodes: &Nodes, i: usize, k: usize| (nodes.gid[i].0 * 1000 + list.partner_gid[k].0) as f64;
+        let mut next = uniform(5);
+        let (mut partial, mut unsearched) = (0, 0);
+        for round in 0..40 {
+            let mut listed = std::collections::HashSet::new();
+            for i in 0..nodes.n_owned {
+                for k in list.row(i) {
+                    list.max_overlap[k] = key(&list, &nodes, i, k);
+                    list.anchor[k] = Vec3::repeat(list.max_overlap[k]);
+                    list.touching[k] = true;
+                    listed.insert((nodes.gid[i], list.partner_gid[k]));
+                }
+            }
+            // a few nodes move far, the others creep
+            for x in &mut nodes.position {
+                let scale = if next() < 0.05 { 4e-6 } else { 3e-7 };
+                *x += Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * scale;
+            }
+            let old_references = list.reference_position.clone();
+            list.rebuild_around_moved(&nodes, &sections);
+            let kept = old_references.iter().zip(&list.reference_position).filter(|(a, b)| a == b).count();
+            if kept > 0 {
+                partial += 1;
+                unsearched += kept;
+            }
+            assert!(nodes.position.iter().zip(&list.reference_position).all(|(x, r)| (x - r).norm() <= MOVED_SHARE_OF_SKIN * list.skin), "round {round}");
+            let mut at_references = nodes.clone();
+            at_references.position = list.reference_position.clone();
+            let mut full = NeighbourList::new(list.skin);
+            full.rebuild(&at_references, &sections);
+            assert_eq!((&list.start, &list.partner, &list.partner_gid), (&full.start, &full.partner, &full.partner_gid), "round {round}");
+            for i in 0..nodes.n_owned {
+                for k in list.row(i) {
+                    let pair = (nodes.gid[i], list.partner_gid[k]);
+                    if listed.contains(&pair) {
+                        assert_eq!(
+                            (list.max_overlap[k], list.anchor[k], list.touching[k]),
+                            (key(&list, &nodes, i, k), Vec3::repeat(key(&list, &nodes, i, k)), true),
+                            "round {round}: {pair:?} keeps its history"
+                        );
+                    } else {
+                        // new, or back from retirement with its largest overlap only
+                        assert!(list.max_overlap[k] == 0.0 || list.max_overlap[k] == key(&list, &nodes, i, k));
+                        assert!(!list.touching[k] && list.anchor[k] == Vec3::zeros());
+                    }
+                }
+            }
+        }
+        assert!(partial > 30 && unsearched > 30 * 300, "{partial} partial rebuilds, {unsearched} nodes kept their references");
     }
 
     #[test]
