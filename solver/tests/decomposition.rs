@@ -434,9 +434,9 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
 /// every step that each owned node lists every node of any rank within contact distance of
 /// it, chain neighbours excepted: the invariant that keeping lists rests on (theory I5b,
 /// D5). Returns, per rank, the contacts checked and the rebuilds.
-fn assert_every_contact_is_listed(case: &Case, adjust: impl Fn(&mut dea_core::Nodes) + Sync, steps: usize) -> Vec<(usize, u64)> {
+fn assert_every_contact_is_listed(ranks: usize, case: &Case, adjust: impl Fn(&mut dea_core::Nodes) + Sync, steps: usize) -> Vec<(usize, u64)> {
     const WORDS: usize = 6;
-    run_local(3, |comm| {
+    run_local(ranks, |comm| {
         let mut state = build_adjusted(case, comm, Method::KWay, None, &adjust).unwrap();
         let section = state.domain.sections[0].clone();
         let (cutoff, exclusion) = (section.contact_diameter, dea_core::neighbour::chain_exclusion(&section));
@@ -471,9 +471,12 @@ fn assert_every_contact_is_listed(case: &Case, adjust: impl Fn(&mut dea_core::No
 
 #[test]
 fn every_rank_lists_every_pair_in_contact_at_every_step() {
-    // the sphere strikes the panel
-    let struck = assert_every_contact_is_listed(&panel_case(), |_| {}, 400);
-    assert!(struck.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 2), "{struck:?}");
+    // the sphere strikes the panel; one rank rebuilds only around the nodes that moved
+    // (`Domain::rebuild_neighbours_around_moved`), three rebuild whole lists
+    for ranks in [1, 3] {
+        let struck = assert_every_contact_is_listed(ranks, &panel_case(), |_| {}, 400);
+        assert!(struck.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 2), "{ranks} ranks: {struck:?}");
+    }
     // the panel, unclamped and without the projectile, squeezed through its thickness: the
     // layers close on each other by several skins, the nodes of a layer moving together
     let mut case = stretched_case();
@@ -486,8 +489,10 @@ fn every_rank_lists_every_pair_in_contact_at_every_step() {
             v.z = -rate * x.z;
         }
     };
-    let squeezed = assert_every_contact_is_listed(&case, squeeze, 400);
-    assert!(squeezed.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 1), "{squeezed:?}");
+    for ranks in [1, 3] {
+        let squeezed = assert_every_contact_is_listed(ranks, &case, squeeze.clone(), 400);
+        assert!(squeezed.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 1), "{ranks} ranks: {squeezed:?}");
+    }
 }
 
 /// Displaces every other node of each fibre by 1 mm across it: every element is stretched to
