@@ -714,7 +714,8 @@ impl Domain {
     fn projectile_contact_geometry(&self, projectile: &RigidProjectile, i: usize) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
         let section = &self.sections[self.nodes.section[i] as usize];
         let body = projectile.to_body(&self.nodes.position[i]);
-        let point = projectile.shape.contact_point(&body);
+        // the triangle it was last in contact with: the same answer, often without a search
+        let point = projectile.shape.contact_point(&body, self.projectile_contacts.triangle[i]);
         let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
         (0.5 * section.contact_diameter - point.distance, point, body, geometry)
     }

@@ -115,16 +115,18 @@ impl RigidShape {
     /// A mesh answers within its reach only; farther points get an infinite distance.
     #[inline]
     pub fn distance_and_normal(&self, p: &Vec3) -> (f64, Vec3) {
-        let contact = self.contact_point(p);
+        let contact = self.contact_point(p, crate::NONE);
         (contact.distance, contact.normal)
     }
 
     /// [`Self::distance_and_normal`] with the closest point, and a mesh's triangle and
-    /// weights there (an analytic surface has triangle [`crate::NONE`]).
+    /// weights there (an analytic surface has triangle [`crate::NONE`]). `hint`, a mesh
+    /// triangle the point was last found over or [`crate::NONE`], may spare the search; the
+    /// answer does not depend on it ([`TriangleSurface::closest_near`]).
     #[inline]
-    pub fn contact_point(&self, p: &Vec3) -> SurfacePoint {
+    pub fn contact_point(&self, p: &Vec3, hint: u32) -> SurfacePoint {
         if let RigidShape::Mesh(mesh) = self {
-            return mesh.surface.closest(p).unwrap_or(SurfacePoint { distance: f64::INFINITY, normal: Vec3::z(), point: *p, triangle: crate::NONE, weights: [0.0; 3] });
+            return mesh.surface.closest_near(p, hint).unwrap_or(SurfacePoint { distance: f64::INFINITY, normal: Vec3::z(), point: *p, triangle: crate::NONE, weights: [0.0; 3] });
         }
         let (distance, normal) = self.analytic_distance_and_normal(p);
         SurfacePoint { distance, normal, point: p - normal * distance, triangle: crate::NONE, weights: [0.0; 3] }

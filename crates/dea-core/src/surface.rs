@@ -98,6 +98,15 @@ pub struct TriangleSurface {
     vertex_normals: Vec<Vec3>,
     /// the triangle across each edge k (from vertex k to k + 1)
     across: Vec<[u32; 3]>,
+    /// shortest height of each triangle (twice its area over its longest edge) [m]: a point
+    /// of the triangle with every barycentric weight `w` is `w` times this from its edges
+    shortest_height: Vec<f64>,
+    /// the rivals of each triangle ([`Self::find_rivals`]), by `rival_start[t]..rival_start[t + 1]`
+    rivals: Vec<u32>,
+    rival_start: Vec<u32>,
+    /// how far inside a face, and over it, a point must lie for [`Self::closest_near`] to
+    /// answer from that face and its rivals alone [m]
+    face_margin: f64,
     /// largest distance at which a query finds the surface [m]
     reach: f64,
     /// how far vertices may move from `grid_vertices` before the cubes are rebuilt [m]
@@ -270,11 +279,98 @@ impl TriangleSurface {
             edge_normals: vec![[Vec3::zeros(); 3]; n],
             vertex_normals: Vec::new(),
             across,
+            shortest_height: vec![0.0; n],
+            rivals: Vec::new(),
+            rival_start: Vec::new(),
+            face_margin: 0.0,
             reach,
             margin: 0.0,
         };
         surface.update_geometry();
+        let (low, high) = surface.vertices.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), v| (l.inf(v), h.sup(v)));
+        let extent = (high - low).norm();
+        surface.find_rivals(PLANE_TOLERANCE * extent);
+        // a triangle that is no rival is farther by at least the margin squared in squared
+        // distance, which dwarfs what the tolerance and rounding can take off
+        surface.face_margin = FACE_MARGIN * (reach * extent).sqrt();
         Ok(surface)
+    }
+
+    /// Lists, for each triangle `t`, its rivals: the triangles within [`RIVAL_REACH`] reaches
+    /// of it that could be nearer than `t` to a point over `t`'s face. Any other triangle `u`
+    /// lies under `t`'s plane and beyond the line of one of `t`'s edges (each to `tolerance`
+    /// [m]); then for a point `p` at height `h` over a point `q` of `t` at least `e` inside
+    /// its edges, `|p - x|^2 >= h^2 + e^2` (less terms of the tolerance) for every point `x`
+    /// of `u`, while `t` is at `h` (theory P5). On a convex surface no triangle has rivals.
+    fn find_rivals(&mut self, tolerance: f64) {
+        let n = self.triangles.len();
+        let corners: Vec<[Vec3; 3]> = self.triangles.iter().map(|t| t.map(|v| self.vertices[v as usize])).collect();
+        // u is no rival of t when it lies under t's plane and a line in that plane has t on
+        // one side and u's shadow on the other: one of the six edge lines of the two, if any
+        // (two convex polygons apart are parted by an edge line of one of them)
+        let no_rival = |t: usize, u: usize| {
+            let (own, others, normal) = (&corners[t], &corners[u], self.face_normals[t]);
+            let parted = |from: &Vec3, to: &Vec3| {
+                let across = (to - from).cross(&normal);
+                let length = across.norm();
+                if length == 0.0 {
+                    return false;
+                }
+                let side = |x: &Vec3| (x - from).dot(&across) / length;
+                let (mine, theirs) = (own.map(|x| side(&x)), others.map(|x| side(&x)));
+                (mine.iter().all(|&d| d >= -tolerance) && theirs.iter().all(|&d| d <= tolerance)) || (mine.iter().all(|&d| d <= tolerance) && theirs.iter().all(|&d| d >= -tolerance))
+            };
+            others.iter().all(|x| (x - own[0]).dot(&normal) <= tolerance) && (0..3).any(|e| parted(&own[e], &own[(e + 1) % 3]) || parted(&others[e], &others[(e + 1) % 3]))
+        };
+        // pairs whose bounding boxes come within the rival reach: boxes binned in cubes of
+        // that edge, each triangle meeting those in the cubes its box, one cube wider, meets
+        let cell = RIVAL_REACH * self.reach;
+        let key = |x: &Vec3| [x.x, x.y, x.z].map(|v| crate::floor_index(v / cell).clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+        let boxes: Vec<(Vec3, Vec3)> = corners.iter().map(|c| (c[0].inf(&c[1]).inf(&c[2]), c[0].sup(&c[1]).sup(&c[2]))).collect();
+        let mut binned: Vec<([i32; 3], u32)> = Vec::new();
+        for (t, (low, high)) in boxes.iter().enumerate() {
+            let (low, high) = (key(low), key(high));
+            for i in low[0]..=high[0] {
+                for j in low[1]..=high[1] {
+                    for k in low[2]..=high[2] {
+                        binned.push(([i, j, k], t as u32));
+                    }
+                }
+            }
+        }
+        binned.sort_unstable();
+        let mut met = vec![u32::MAX; n];
+        let mut rivals: Vec<(u32, u32)> = Vec::new();
+        for (t, (low, high)) in boxes.iter().enumerate() {
+            let (first, last) = (key(low), key(high));
+            let (first, last) = (first.map(|c| c.saturating_sub(1)), last.map(|c| c.saturating_add(1)));
+            for i in first[0]..=last[0] {
+                for j in first[1]..=last[1] {
+                    for k in first[2]..=last[2] {
+                        let from = binned.partition_point(|(c, _)| *c < [i, j, k]);
+                        for &(_, u) in binned[from..].iter().take_while(|(c, _)| *c == [i, j, k]) {
+                            let u = u as usize;
+                            if u == t || std::mem::replace(&mut met[u], t as u32) == t as u32 {
+                                continue;
+                            }
+                            let gap = (boxes[u].0 - high).sup(&(low - boxes[u].1)).sup(&Vec3::zeros()).norm();
+                            if gap <= cell && !no_rival(t, u) {
+                                rivals.push((t as u32, u as u32));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        rivals.sort_unstable();
+        self.rival_start = vec![0; n + 1];
+        for &(t, _) in &rivals {
+            self.rival_start[t as usize + 1] += 1;
+        }
+        for t in 0..n {
+            self.rival_start[t + 1] += self.rival_start[t];
+        }
+        self.rivals = rivals.into_iter().map(|(_, u)| u).collect();
     }
 
     /// Normals, pseudonormals and bounding spheres of the current vertices. A triangle that
@@ -302,6 +398,8 @@ impl TriangleSurface {
             let corners = t.map(|v| vertices[v as usize]);
             let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
             self.bounds[k] = (centre, corners.iter().map(|c| (c - centre).norm()).fold(0.0, f64::max));
+            let longest = (0..3).map(|e| (corners[(e + 1) % 3] - corners[e]).norm()).fold(0.0, f64::max);
+            self.shortest_height[k] = (corners[1] - corners[0]).cross(&(corners[2] - corners[0])).norm() / longest;
         }
     }
 
@@ -309,6 +407,8 @@ impl TriangleSurface {
     /// body): the cubes then list triangles within the reach plus the margin.
     pub fn set_margin(&mut self, margin: f64) {
         self.margin = margin;
+        // a deforming surface answers by search only
+        (self.rivals, self.rival_start) = (Vec::new(), Vec::new());
         self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + margin, self.grid.cell);
         self.grid_vertices.clone_from(&self.vertices);
     }
@@ -356,6 +456,61 @@ impl TriangleSurface {
             }
         }
         let (squared, t, point, weights, feature) = best?;
+        Some(self.surface_point(p, squared, t, point, weights, feature))
+    }
+
+    /// [`Self::closest`], the same answer, found without a search when `p` lies over the
+    /// interior of triangle `hint` (say the triangle it was found over a step before) of a
+    /// rigid surface ([`Self::over_face`]). Any `hint` gives the same answer;
+    /// [`crate::NONE`] searches.
+    #[inline]
+    pub fn closest_near(&self, p: &Vec3, hint: u32) -> Option<SurfacePoint> {
+        self.over_face(p, hint).unwrap_or_else(|| self.closest(p))
+    }
+
+    /// The answer of [`Self::closest`] when `p` lies at least the face margin over the face
+    /// of triangle `hint` and inside its edges, and within twice the reach, on a rigid
+    /// surface: only that triangle and its rivals can then be nearest, as every other
+    /// triangle is farther by the square of the margin or more in squared distance (theory
+    /// P5). `None` when `p` is not so placed, or lies within rounding of the reach.
+    #[inline]
+    fn over_face(&self, p: &Vec3, hint: u32) -> Option<Option<SurfacePoint>> {
+        if self.deforms() || hint as usize >= self.triangles.len() {
+            return None;
+        }
+        let t = hint as usize;
+        let [a, b, c] = self.triangles[t].map(|v| self.vertices[v as usize]);
+        let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
+        let inside_edges = weights.iter().fold(f64::INFINITY, |m, &w| m.min(w)) * self.shortest_height[t] >= self.face_margin;
+        let height = (p - a).dot(&self.face_normals[t]);
+        if feature != Feature::Face || !inside_edges || height < self.face_margin || height > 2.0 * self.reach {
+            return None;
+        }
+        let mut best = ((p - q).norm_squared(), hint, q, weights, feature);
+        for &u in &self.rivals[self.rival_start[t] as usize..self.rival_start[t + 1] as usize] {
+            let [a, b, c] = self.triangles[u as usize].map(|v| self.vertices[v as usize]);
+            let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
+            let squared = (p - q).norm_squared();
+            if squared < best.0 || (squared == best.0 && u < best.1) {
+                best = (squared, u, q, weights, feature);
+            }
+        }
+        let (squared, u, q, weights, feature) = best;
+        let reach_squared = self.reach * self.reach;
+        // at the reach itself the search decides (its cubes list by a rounded test)
+        if squared < reach_squared * (1.0 - REACH_ROUNDING) {
+            Some(Some(self.surface_point(p, squared, u, q, weights, feature)))
+        } else if squared > reach_squared * (1.0 + REACH_ROUNDING) {
+            Some(None)
+        } else {
+            None
+        }
+    }
+
+    /// The answer for `p` whose closest point, at `squared` distance, is `point` of triangle
+    /// `t` at `weights` on `feature`: signed by the feature's pseudonormal.
+    #[inline]
+    fn surface_point(&self, p: &Vec3, squared: f64, t: u32, point: Vec3, weights: [f64; 3], feature: Feature) -> SurfacePoint {
         let pseudonormal = match feature {
             Feature::Face => self.face_normals[t as usize],
             Feature::Edge(k) => self.edge_normals[t as usize][k as usize],
@@ -369,16 +524,31 @@ impl TriangleSurface {
         } else {
             pseudonormal.normalize()
         };
-        Some(SurfacePoint { distance: if outside { distance } else { -distance }, normal, point, triangle: t, weights })
+        SurfacePoint { distance: if outside { distance } else { -distance }, normal, point, triangle: t, weights }
     }
 }
+
+/// How far (relative to the surface's extent) a triangle may lie above another's plane, or
+/// inside one of its edge lines, and be no rival of it: coplanar triangles, to rounding.
+const PLANE_TOLERANCE: f64 = 1e-12;
+/// The face margin of [`TriangleSurface::closest_near`] relative to the geometric mean of the
+/// reach and the surface's extent: its square is 10^3 times the squared-distance error that
+/// [`PLANE_TOLERANCE`] allows (`2 (2 reach + margin) tolerance` at heights up to twice the
+/// reach) and 10^7 times the rounding of a squared distance.
+const FACE_MARGIN: f64 = 1e-4;
+/// How many reaches apart two triangles may be and still be rivals: a point within twice
+/// the reach of one triangle, and nearer to another, is within three reaches of both.
+const RIVAL_REACH: f64 = 3.0;
+/// Relative band around the squared reach in which [`TriangleSurface::closest_near`] leaves
+/// the answer to the search.
+const REACH_ROUNDING: f64 = 1e-9;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
-    fn random_vector(rng: &mut impl Rng, scale: f64) -> Vec3 {
+    pub(super) fn random_vector(rng: &mut impl Rng, scale: f64) -> Vec3 {
         Vec3::new(rng.random_range(-scale..scale), rng.random_range(-scale..scale), rng.random_range(-scale..scale))
     }
 
@@ -444,7 +614,9 @@ pub(crate) fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 #[cfg(test)]
 mod surface_tests {
+    use super::tests::random_vector;
     use super::*;
+    use crate::NONE;
     use rand::{Rng, SeedableRng};
 
     #[test]
@@ -477,6 +649,72 @@ mod surface_tests {
             }
         }
         assert!(inside > 100 && outside > 100 && missed > 100, "{inside} {outside} {missed}");
+    }
+
+    /// An octahedron subdivided `levels` times onto the unit sphere, each vertex's radius
+    /// scaled by `1 + bump` times a random number in [-1, 1]: a closed surface with concave
+    /// edges wherever a vertex sits lower than its neighbours.
+    fn bumpy_sphere(levels: usize, bump: f64, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut vertices = vec![Vec3::x(), -Vec3::x(), Vec3::y(), -Vec3::y(), Vec3::z(), -Vec3::z()];
+        let mut triangles: Vec<[u32; 3]> = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+        for _ in 0..levels {
+            let mut middle: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut split = |a: u32, b: u32, vertices: &mut Vec<Vec3>| {
+                *middle.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    vertices.push(((vertices[a as usize] + vertices[b as usize]) * 0.5).normalize());
+                    (vertices.len() - 1) as u32
+                })
+            };
+            triangles = triangles
+                .iter()
+                .flat_map(|&[a, b, c]| {
+                    let (ab, bc, ca) = (split(a, b, &mut vertices), split(b, c, &mut vertices), split(c, a, &mut vertices));
+                    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+                })
+                .collect();
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        for v in &mut vertices {
+            *v *= 1.0 + bump * rng.random_range(-1.0..1.0);
+        }
+        (vertices, triangles)
+    }
+
+    #[test]
+    fn an_answer_over_a_face_is_the_searched_answer_on_convex_and_bumpy_surfaces() {
+        let reach = 0.12;
+        let (box_vertices, box_triangles) = boxed(1.0, 0.6, 0.3);
+        let meshes = [("box", box_vertices, box_triangles), ("sphere", bumpy_sphere(3, 0.0, 1).0, bumpy_sphere(3, 0.0, 1).1), ("bumpy sphere", bumpy_sphere(3, 0.04, 2).0, bumpy_sphere(3, 0.04, 2).1)];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for (name, vertices, triangles) in meshes {
+            let surface = TriangleSurface::new(vertices, triangles, reach, 0.05).unwrap();
+            let n = surface.triangles.len() as u32;
+            // a convex surface has no rivals; the bumpy one has, and needs them
+            assert_eq!(surface.rivals.is_empty(), name != "bumpy sphere", "{name}: {} rivals", surface.rivals.len());
+            let (mut found, mut beyond, mut rival_won) = (0, 0, 0);
+            for _ in 0..40_000 {
+                // near a random vertex, inside or out, up to three reaches away
+                let v = surface.vertices[rng.random_range(0..surface.vertices.len())];
+                let p = v + random_vector(&mut rng, 3.0 * reach);
+                let searched = surface.closest(&p);
+                // hints: the answer, the answer for a point nearby (a node a step later), any
+                // triangle, none
+                let nearby = surface.closest(&(p + random_vector(&mut rng, 0.1 * reach))).map_or(NONE, |s| s.triangle);
+                for hint in [searched.map_or(NONE, |s| s.triangle), nearby, rng.random_range(0..n), NONE] {
+                    assert_eq!(surface.closest_near(&p, hint), searched, "{name}: {p:?}, hint {hint}");
+                    match surface.over_face(&p, hint) {
+                        Some(Some(answer)) => {
+                            found += 1;
+                            rival_won += (answer.triangle != hint) as usize;
+                        }
+                        Some(None) => beyond += 1,
+                        None => {}
+                    }
+                }
+            }
+            assert!(found > 5_000 && beyond > 100, "{name}: {found} answered over a face, {beyond} beyond the reach");
+            assert_eq!(rival_won > 50, name == "bumpy sphere", "{name}: a rival was nearest {rival_won} times");
+        }
     }
 
     #[test]
