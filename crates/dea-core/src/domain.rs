@@ -613,7 +613,7 @@ impl Domain {
         contacts.candidates.clear();
         for i in 0..self.nodes.n_owned {
             let x = self.nodes.position[i];
-            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.distance_and_normal(&projectile.to_body(&x)).0 < reach {
+            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach {
                 contacts.candidates.push(i as u32);
             } else {
                 // a node leaving the candidate set is out of contact

@@ -126,7 +126,16 @@ struct CellGrid {
     cells: FxHashMap<[i32; 3], (u32, u32)>,
     /// triangle indices, nearest the cube's centre first
     entries: Vec<u32>,
+    /// one bit per cube of the box of the listed cubes, set for a listed one: most queries
+    /// of nodes beyond the reach end here without hashing. The box's lowest cube and its
+    /// cubes along each axis; no bits when it holds more than [`MOST_OCCUPANCY_CUBES`].
+    occupancy_low: [i32; 3],
+    occupancy_size: [u32; 3],
+    occupancy: Vec<u64>,
 }
+
+/// The most cubes a grid's occupancy bits cover (2 MiB of bits).
+const MOST_OCCUPANCY_CUBES: u64 = 1 << 24;
 
 impl CellGrid {
     fn key(&self, p: &Vec3) -> [i32; 3] {
@@ -134,7 +143,7 @@ impl CellGrid {
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
-        let mut grid = Self { cell, cells: FxHashMap::default(), entries: Vec::new() };
+        let mut grid = Self { cell, cells: FxHashMap::default(), entries: Vec::new(), occupancy_low: [0; 3], occupancy_size: [0; 3], occupancy: Vec::new() };
         // (cube, distance of the triangle from the cube's centre, triangle): each cube's list
         // runs nearest first, so a query soon has a close triangle to prune the others with
         let mut listed: Vec<([i32; 3], u64, u32)> = Vec::new();
@@ -168,11 +177,42 @@ impl CellGrid {
             grid.entries.extend(listed[start..end].iter().map(|&(.., t)| t));
             start = end;
         }
+        let keys = || grid.cells.keys();
+        let low = [0, 1, 2].map(|k| keys().map(|c| c[k]).min().unwrap_or(0));
+        let size = [0, 1, 2].map(|k| keys().map(|c| (c[k] as i64 - low[k] as i64 + 1) as u64).max().unwrap_or(0));
+        if size.iter().product::<u64>() <= MOST_OCCUPANCY_CUBES {
+            grid.occupancy_low = low;
+            grid.occupancy_size = size.map(|n| n as u32);
+            grid.occupancy = vec![0; (size.iter().product::<u64>() as usize).div_ceil(64)];
+            for key in grid.cells.keys().copied().collect::<Vec<_>>() {
+                let bit = grid.occupancy_bit(key).expect("a listed cube lies in the box");
+                grid.occupancy[bit / 64] |= 1 << (bit % 64);
+            }
+        }
         grid
     }
 
+    /// The bit of cube `key` in the occupancy bits, if it lies in their box.
+    #[inline]
+    fn occupancy_bit(&self, key: [i32; 3]) -> Option<usize> {
+        let mut bit = 0usize;
+        for k in (0..3).rev() {
+            let offset = (key[k] as i64 - self.occupancy_low[k] as i64) as u64;
+            if offset >= self.occupancy_size[k] as u64 {
+                return None;
+            }
+            bit = bit * self.occupancy_size[k] as usize + offset as usize;
+        }
+        Some(bit)
+    }
+
+    #[inline]
     fn near(&self, p: &Vec3) -> &[u32] {
-        self.cells.get(&self.key(p)).map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
+        let key = self.key(p);
+        if !self.occupancy.is_empty() && self.occupancy_bit(key).is_none_or(|bit| self.occupancy[bit / 64] & (1 << (bit % 64)) == 0) {
+            return &[];
+        }
+        self.cells.get(&key).map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
     }
 }
 
@@ -301,7 +341,7 @@ impl TriangleSurface {
     /// lies under `t`'s plane and beyond the line of one of `t`'s edges (each to `tolerance`
     /// [m]); then for a point `p` at height `h` over a point `q` of `t` at least `e` inside
     /// its edges, `|p - x|^2 >= h^2 + e^2` (less terms of the tolerance) for every point `x`
-    /// of `u`, while `t` is at `h` (theory P5). On a convex surface no triangle has rivals.
+    /// of `u`, while `t` is at `h` (theory P10). On a convex surface no triangle has rivals.
     fn find_rivals(&mut self, tolerance: f64) {
         let n = self.triangles.len();
         let corners: Vec<[Vec3; 3]> = self.triangles.iter().map(|t| t.map(|v| self.vertices[v as usize])).collect();
@@ -472,7 +512,7 @@ impl TriangleSurface {
     /// of triangle `hint` and inside its edges, and within twice the reach, on a rigid
     /// surface: only that triangle and its rivals can then be nearest, as every other
     /// triangle is farther by the square of the margin or more in squared distance (theory
-    /// P5). `None` when `p` is not so placed, or lies within rounding of the reach.
+    /// P10). `None` when `p` is not so placed, or lies within rounding of the reach.
     #[inline]
     fn over_face(&self, p: &Vec3, hint: u32) -> Option<Option<SurfacePoint>> {
         if self.deforms() || hint as usize >= self.triangles.len() {
