@@ -137,9 +137,14 @@ struct CellGrid {
 /// The most cubes a grid's occupancy bits cover (2 MiB of bits).
 const MOST_OCCUPANCY_CUBES: u64 = 1 << 24;
 
+/// The cube of edge `cell` [m] that holds `p`.
+fn cube_of(p: &Vec3, cell: f64) -> [i32; 3] {
+    [p.x, p.y, p.z].map(|v| crate::floor_index(v / cell).clamp(i32::MIN.into(), i32::MAX.into()) as i32)
+}
+
 impl CellGrid {
     fn key(&self, p: &Vec3) -> [i32; 3] {
-        [p.x, p.y, p.z].map(|v| crate::floor_index(v / self.cell).clamp(i32::MIN.into(), i32::MAX.into()) as i32)
+        cube_of(p, self.cell)
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
@@ -338,10 +343,11 @@ impl TriangleSurface {
 
     /// Lists, for each triangle `t`, its rivals: the triangles within [`RIVAL_REACH`] reaches
     /// of it that could be nearer than `t` to a point over `t`'s face. Any other triangle `u`
-    /// lies under `t`'s plane and beyond the line of one of `t`'s edges (each to `tolerance`
-    /// [m]); then for a point `p` at height `h` over a point `q` of `t` at least `e` inside
-    /// its edges, `|p - x|^2 >= h^2 + e^2` (less terms of the tolerance) for every point `x`
-    /// of `u`, while `t` is at `h` (theory P10). On a convex surface no triangle has rivals.
+    /// lies under `t`'s plane, and a line in that plane parts its shadow from `t` (each to
+    /// `tolerance` [m]); then for a point `p` at height `h` over a point `q` of `t` at least
+    /// `e` inside its edges, `|p - x|^2 >= h^2 + e^2` (less terms of the tolerance) for every
+    /// point `x` of `u`, while `t` is at `h` (theory P10). On a convex surface no triangle
+    /// has rivals.
     fn find_rivals(&mut self, tolerance: f64) {
         let n = self.triangles.len();
         let corners: Vec<[Vec3; 3]> = self.triangles.iter().map(|t| t.map(|v| self.vertices[v as usize])).collect();
@@ -365,7 +371,7 @@ impl TriangleSurface {
         // pairs whose bounding boxes come within the rival reach: boxes binned in cubes of
         // that edge, each triangle meeting those in the cubes its box, one cube wider, meets
         let cell = RIVAL_REACH * self.reach;
-        let key = |x: &Vec3| [x.x, x.y, x.z].map(|v| crate::floor_index(v / cell).clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+        let key = |x: &Vec3| cube_of(x, cell);
         let boxes: Vec<(Vec3, Vec3)> = corners.iter().map(|c| (c[0].inf(&c[1]).inf(&c[2]), c[0].sup(&c[1]).sup(&c[2]))).collect();
         let mut binned: Vec<([i32; 3], u32)> = Vec::new();
         for (t, (low, high)) in boxes.iter().enumerate() {
