@@ -124,14 +124,7 @@ impl BuildScratch {
         let grid = HashedGrid::new(positions.len(), low, high, reach);
         self.cell_of.clear();
         self.cell_of.extend(positions.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
-        self.cell_start.clear();
-        self.cell_start.resize(grid.slots() + 1, 0);
-        for &c in &self.cell_of {
-            self.cell_start[c as usize + 1] += 1;
-        }
-        for c in 0..grid.slots() {
-            self.cell_start[c + 1] += self.cell_start[c];
-        }
+        count_rows(grid.slots(), self.cell_of.iter().map(|&c| c as usize), &mut self.cell_start);
         // nodes and what the scan reads of them in cell order: it streams through memory
         self.cells.fill(nodes, positions, &self.cell_start, &self.cell_of, &mut self.cell_fill);
         self.stencil.cell = None;
@@ -149,6 +142,16 @@ impl BuildScratch {
         }
         let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
         self.stencil.within(&self.cells, &x, chain_place(nodes.fibre[i], nodes.along[i]), exclusion, reach * reach, &mut self.hits);
+    }
+
+    /// Starts writing new lists here, the old ones and their histories still in place.
+    fn start_rows(&mut self) -> Placement {
+        self.start.clear();
+        self.partner.clear();
+        self.retired_start.clear();
+        self.start.push(0);
+        self.retired_start.push(0);
+        Placement::default()
     }
 
     /// Sorts the new row by partner gid and appends its partners to the lists being built.
@@ -365,6 +368,19 @@ fn same_partners(mark: &mut [u32], stamp: u32, old: &[u32], hits: &[u32], cell_n
     met == old.len()
 }
 
+/// Sets `starts` to the starts of `rows` compressed rows holding one entry in row `r` for
+/// each `r` of `row_of`: row `r` is `starts[r]..starts[r + 1]` once they are placed in order.
+pub(crate) fn count_rows(rows: usize, row_of: impl IntoIterator<Item = usize>, starts: &mut Vec<u32>) {
+    starts.clear();
+    starts.resize(rows + 1, 0);
+    for r in row_of {
+        starts[r + 1] += 1;
+    }
+    for r in 0..rows {
+        starts[r + 1] += starts[r];
+    }
+}
+
 /// Row `i` of compressed rows with starts `starts` (empty while no row is built).
 #[inline]
 fn compressed_row(starts: &[u32], i: usize) -> std::ops::Range<usize> {
@@ -446,7 +462,6 @@ impl NeighbourList {
         let references = std::mem::take(&mut self.reference_position);
         let mut scratch = std::mem::take(&mut self.scratch);
         let grid = scratch.bin(nodes, &references, coarse_reach);
-        let single_section = sections.len() == 1;
         let has_history = self.start.len() == nodes.n_owned + 1;
         if !has_history {
             // histories of other rows, if any: none carries over
@@ -459,12 +474,10 @@ impl NeighbourList {
             scratch.mark.clear();
             scratch.mark.resize(n, 0);
         }
-        let mut placement = self.start_placing(&mut scratch);
+        let mut placement = scratch.start_rows();
         for i in 0..nodes.n_owned {
-            let xi = references[i];
             scratch.search(&grid, nodes, sections, &references, i, coarse_reach);
-            // one section: the coarse test was the pair's own
-            let within = |j: usize| single_section || (references[j] - xi).norm_squared() < self.pair_reach_squared(sections, nodes, i, j);
+            let within = |j: usize| self.pair_in_reach(sections, nodes, &references, i, j);
             let old = if has_history { compressed_row(&self.start, i) } else { 0..0 };
             // most rows are what they were (the skin is there for that): such a row needs no
             // sorting, and its histories are copied a run of rows at a time, or not at all
@@ -517,7 +530,6 @@ impl NeighbourList {
             references[i] = nodes.position[i];
         }
         let grid = scratch.bin(nodes, &references, coarse_reach);
-        let single_section = sections.len() == 1;
         // the moved nodes' surroundings: their own rows, and what the others gain
         scratch.fresh_start.clear();
         scratch.fresh_start.push(0);
@@ -530,7 +542,7 @@ impl NeighbourList {
             scratch.search(&grid, nodes, sections, &references, j, coarse_reach);
             for &k in &scratch.hits {
                 let i = scratch.cells.node[k as usize] as usize;
-                if !(single_section || (references[i] - references[j]).norm_squared() < self.pair_reach_squared(sections, nodes, i, j)) {
+                if !self.pair_in_reach(sections, nodes, &references, i, j) {
                     continue;
                 }
                 if j < nodes.n_owned {
@@ -545,14 +557,7 @@ impl NeighbourList {
             }
         }
         // the gained partners by row
-        scratch.gained_start.clear();
-        scratch.gained_start.resize(nodes.n_owned + 1, 0);
-        for &(i, _, _) in &scratch.gained {
-            scratch.gained_start[i as usize + 1] += 1;
-        }
-        for i in 0..nodes.n_owned {
-            scratch.gained_start[i + 1] += scratch.gained_start[i];
-        }
+        count_rows(nodes.n_owned, scratch.gained.iter().map(|&(i, _, _)| i as usize), &mut scratch.gained_start);
         scratch.gained_sorted.clear();
         scratch.gained_sorted.resize(scratch.gained.len(), (GlobalNodeId(0), 0));
         scratch.cell_fill.clear();
@@ -561,7 +566,7 @@ impl NeighbourList {
             scratch.gained_sorted[scratch.cell_fill[i as usize] as usize] = (gid, j);
             scratch.cell_fill[i as usize] += 1;
         }
-        let mut placement = self.start_placing(&mut scratch);
+        let mut placement = scratch.start_rows();
         let mut fresh_row = 0;
         for i in 0..nodes.n_owned {
             let old = compressed_row(&self.start, i);
@@ -578,7 +583,7 @@ impl NeighbourList {
                 true
             } else {
                 // the partners that did not move stay, the moved ones are met again as gained
-                let listed = if placement.moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
+                let listed = self.old_partner_gids(&scratch.old, &placement, old.clone());
                 scratch.row.clear();
                 scratch.row.extend(self.partner[old.clone()].iter().zip(listed).filter(|(&j, _)| !scratch.moved[j as usize]).map(|(&j, &gid)| (gid, j)));
                 scratch.row.extend_from_slice(&scratch.gained_sorted[gained]);
@@ -597,29 +602,29 @@ impl NeighbourList {
         (max_cutoff, max_cutoff + self.skin)
     }
 
-    /// Square of the reach of the pair of local nodes `i` and `j`: their contact distance plus
-    /// the skin [m^2].
+    /// Whether local nodes `i` and `j`, met by the search, are within their own reach (contact
+    /// distance plus skin) at `positions`: with one section the search's reach was theirs.
     #[inline]
-    fn pair_reach_squared(&self, sections: &[FibreSection], nodes: &Nodes, i: usize, j: usize) -> f64 {
-        let reach = contact_distance(sections, nodes, i, j) + self.skin;
-        reach * reach
+    fn pair_in_reach(&self, sections: &[FibreSection], nodes: &Nodes, positions: &[Vec3], i: usize, j: usize) -> bool {
+        sections.len() == 1 || {
+            let reach = contact_distance(sections, nodes, i, j) + self.skin;
+            (positions[j] - positions[i]).norm_squared() < reach * reach
+        }
     }
 
-    /// Starts writing new lists into `scratch`, the old ones and their histories still in place.
-    fn start_placing(&self, scratch: &mut BuildScratch) -> Placement {
-        scratch.start.clear();
-        scratch.partner.clear();
-        scratch.retired_start.clear();
-        scratch.start.push(0);
-        scratch.retired_start.push(0);
-        Placement::default()
+    /// The partner gids of old row `old`, wherever the build has put the old histories.
+    fn old_partner_gids<'a>(&'a self, histories: &'a OldHistories, placement: &Placement, old: std::ops::Range<usize>) -> &'a [GlobalNodeId] {
+        if placement.moved {
+            histories.listed(old)
+        } else {
+            &self.partner_gid[old]
+        }
     }
 
     /// True when the new row of owned node `i` in `scratch.row` has the partners of its old row.
     fn row_is_old(&self, scratch: &BuildScratch, placement: &Placement, i: usize) -> bool {
         let old = compressed_row(&self.start, i);
-        let listed = if placement.moved { scratch.old.listed(old.clone()) } else { &self.partner_gid[old.clone()] };
-        old.len() == scratch.row.len() && scratch.row.iter().zip(listed).all(|(&(gid, _), &listed)| gid == listed)
+        old.len() == scratch.row.len() && scratch.row.iter().zip(self.old_partner_gids(&scratch.old, placement, old)).all(|(&(gid, _), &listed)| gid == listed)
     }
 
     /// Places the histories of owned node `i`, whose partners were just appended to
@@ -958,14 +963,9 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
     }
     let (low, high) = bounding_box(targets);
     let grid = HashedGrid::new(targets.len(), low, high, reach);
-    let mut start = vec![0u32; grid.slots() + 1];
     let slot_of: Vec<usize> = targets.iter().map(|x| grid.slot(grid.coordinates(x))).collect();
-    for &c in &slot_of {
-        start[c + 1] += 1;
-    }
-    for c in 0..grid.slots() {
-        start[c + 1] += start[c];
-    }
+    let mut start = Vec::new();
+    count_rows(grid.slots(), slot_of.iter().copied(), &mut start);
     let mut fill = start.clone();
     let mut sorted = vec![Vec3::zeros(); targets.len()];
     for (x, &c) in targets.iter().zip(&slot_of) {

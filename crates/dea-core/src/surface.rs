@@ -188,11 +188,12 @@ impl CellGrid {
         if size.iter().product::<u64>() <= MOST_OCCUPANCY_CUBES {
             grid.occupancy_low = low;
             grid.occupancy_size = size.map(|n| n as u32);
-            grid.occupancy = vec![0; (size.iter().product::<u64>() as usize).div_ceil(64)];
-            for key in grid.cells.keys().copied().collect::<Vec<_>>() {
+            let mut bits = vec![0u64; (size.iter().product::<u64>() as usize).div_ceil(64)];
+            for &key in grid.cells.keys() {
                 let bit = grid.occupancy_bit(key).expect("a listed cube lies in the box");
-                grid.occupancy[bit / 64] |= 1 << (bit % 64);
+                bits[bit / 64] |= 1 << (bit % 64);
             }
+            grid.occupancy = bits;
         }
         grid
     }
@@ -409,13 +410,7 @@ impl TriangleSurface {
             }
         }
         rivals.sort_unstable();
-        self.rival_start = vec![0; n + 1];
-        for &(t, _) in &rivals {
-            self.rival_start[t as usize + 1] += 1;
-        }
-        for t in 0..n {
-            self.rival_start[t + 1] += self.rival_start[t];
-        }
+        crate::neighbour::count_rows(n, rivals.iter().map(|&(t, _)| t as usize), &mut self.rival_start);
         self.rivals = rivals.into_iter().map(|(_, u)| u).collect();
     }
 
