@@ -164,6 +164,28 @@ pub fn coarse_cell(case: &Case, material: &FibreMaterial, fine: &UnitCell) -> Re
     Ok(Some((cell, report)))
 }
 
+/// The most nodes a case may have: about 1.9 PB at the 1.7 kB per node measured
+/// (performance.md), beyond any machine, while every rank holds the target's description
+/// whole and would run out of memory making it before a single node.
+const MOST_NODES: f64 = (1u64 << 40) as f64;
+
+/// Refuses a target too large to number or to hold (`field` names its size): `fibres`
+/// fibres of at most `nodes_per_fibre` nodes, counted before anything is made. Node and fibre
+/// ids are 32-bit.
+fn target_fits(field: &str, fibres: f64, nodes_per_fibre: f64) -> Result<(), SetupError> {
+    let most_ids = u32::MAX as f64;
+    let reason = if !(nodes_per_fibre < most_ids) {
+        format!("a fibre would have {nodes_per_fibre:.3e} nodes, more than its 32-bit node numbering holds ({most_ids:.3e})")
+    } else if !(fibres < most_ids) {
+        format!("the target would have {fibres:.3e} fibres, more than the 32-bit fibre ids hold ({most_ids:.3e})")
+    } else if !(fibres * nodes_per_fibre <= MOST_NODES) {
+        format!("the target would have {:.3e} nodes, more than the {MOST_NODES:.3e} a case may have (about 1.9 PB at 1.7 kB per node)", fibres * nodes_per_fibre)
+    } else {
+        return Ok(());
+    };
+    Err(SetupError::Case(format!("{field}: {reason}; a smaller target, or longer elements")))
+}
+
 /// Resolves a validated case (reading or generating the projectile's mesh).
 pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let material = case.material().expect("validated case");
@@ -222,7 +244,12 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                 }
                 None => None,
             };
-            let cells = ((side_m / cell.period()).round() as u32).max(1);
+            let cells = (side_m / cell.period()).round().max(1.0);
+            let kinds = std::iter::once(&cell).chain(coarse.as_ref().map(|c| &*c.cell));
+            let (fibres_per_yarn, nodes_per_period) = kinds.fold((0, 0), |(f, n), c| (f.max(c.fibres_per_yarn), n.max(c.nodes_per_period)));
+            // two warp and two weft yarns per cell and layer
+            target_fits("target.side_m", 4.0 * cells * *layers as f64 * fibres_per_yarn as f64, cells * nodes_per_period as f64 + 1.0)?;
+            let cells = cells as u32;
             Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
         TargetSpec::ThreeDWeaveCell { .. } => {
@@ -231,10 +258,18 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         TargetSpec::ThreeDWovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
             let (cell, report) = three_d_cell(case, &material)?.expect("a 3-D woven target");
             relaxation = report;
-            let tiles = cell.period.map(|p| ((side_m / p).round() as u32).max(1));
+            let tiles = cell.period.map(|p| (side_m / p).round().max(1.0));
+            let most_tiles = tiles[0].max(tiles[1]);
+            let nodes_per_period = cell.yarns.iter().map(|y| y.nodes_per_period).max().unwrap_or(0);
+            let fibres_per_tile: usize = cell.yarns.iter().map(|y| y.fibres).sum();
+            target_fits("target.side_m", fibres_per_tile as f64 * most_tiles * *layers as f64, most_tiles * nodes_per_period as f64 + 1.0)?;
+            let tiles = tiles.map(|t| t as u32);
             Fabric::Tiled(TiledPanel::new(Arc::new(cell), tiles, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
         }
     };
+    if let Fabric::Straight(straight) = &fabric {
+        target_fits("target.length_m", straight.fibre_total() as f64, straight.fibre_length_in_elements().round() + 1.0)?;
+    }
     let sections = fabric.sections(&material);
     // the fine section: the one the projectile meets
     let section = &sections[0];
@@ -623,5 +658,28 @@ mod tests {
         // the body axis (nose at body -z) is the yaw away from the line of flight
         let nose = projectile.orientation * Vec3::new(0.0, 0.0, -1.0);
         assert!((nose.dot(&direction).acos() - yaw).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_target_too_large_to_number_or_hold_is_refused_naming_its_size() {
+        let refusal = |case: &Case| problem(case).err().expect("refused").to_string();
+        // a 1 km panel: 6.9e14 nodes, refused before its description is made
+        let mut panel = dea_io::case::default_case();
+        let TargetSpec::WovenPanel { side_m, .. } = &mut panel.target else { unreachable!("the default is woven") };
+        *side_m = 1e3;
+        let error = refusal(&panel);
+        assert!(error.contains("target.side_m") && error.contains("6.881e14 nodes"), "{error}");
+        // a 10 m one is still a case (its nodes are made only rank by rank)
+        let TargetSpec::WovenPanel { side_m, .. } = &mut panel.target else { unreachable!() };
+        *side_m = 10.0;
+        assert_eq!(problem(&panel).expect("a 10 m panel").fabric.node_count(), 68_807_466_816);
+        // a 1000 km fibre: more nodes than its 32-bit numbering holds (they wrapped to a
+        // shorter fibre before)
+        let mut fibre = dea_io::case::default_case();
+        fibre.target = TargetSpec::SingleFibre { length_m: 1e6, diameter_m: 50e-6, element_length_ratio: 0.5 };
+        let error = refusal(&fibre);
+        assert!(error.contains("target.length_m") && error.contains("32-bit node numbering"), "{error}");
+        fibre.target = TargetSpec::SingleFibre { length_m: 1e3, diameter_m: 50e-6, element_length_ratio: 0.5 };
+        assert_eq!(problem(&fibre).expect("a 1 km fibre").fabric.node_count(), 40_000_001);
     }
 }

@@ -130,8 +130,19 @@ impl StraightFabric {
 
     /// Elements per fibre.
     pub fn elements_per_fibre(&self) -> usize {
+        (self.fibre_length_in_elements().round() as usize).max(1)
+    }
+
+    /// The fibre length over the element length the ratio asks for (unrounded; a size check
+    /// reads it before anything is numbered).
+    pub fn fibre_length_in_elements(&self) -> f64 {
         let diameter = (4.0 * self.fibre_area / std::f64::consts::PI).sqrt();
-        ((self.length / (self.element_length_ratio * diameter)).round() as usize).max(1)
+        self.length / (self.element_length_ratio * diameter)
+    }
+
+    /// Fibres of every yarn.
+    pub fn fibre_total(&self) -> usize {
+        self.yarns.iter().map(|y| y.fibres).sum()
     }
 
     /// Nodes per fibre (the same on every fibre).
