@@ -191,6 +191,8 @@ pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: 
     let started = Instant::now();
     let problem = setup::problem(case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
+    // this process holds one rank's share
+    setup::shares_fit(problem.fabric.node_count(), ranks, 1, setup::memory_limit())?;
     let Fabric::Woven(panel) = &problem.fabric else { unreachable!("a woven target builds a woven panel") };
     let started = Instant::now();
     let graph = setup::segment_graph(&problem, ranks, None);

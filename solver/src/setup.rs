@@ -169,6 +169,9 @@ pub fn coarse_cell(case: &Case, material: &FibreMaterial, fine: &UnitCell) -> Re
 /// whole and would run out of memory making it before a single node.
 const MOST_NODES: f64 = (1u64 << 40) as f64;
 
+/// The longest Verlet skin a case may ask for, in contact diameters of the fine section.
+const MOST_SKIN_IN_DIAMETERS: f64 = 4.0;
+
 /// Refuses a target too large to number or to hold (`field` names its size): `fibres`
 /// fibres of at most `nodes_per_fibre` nodes, counted before anything is made. Node and fibre
 /// ids are 32-bit.
@@ -280,6 +283,16 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         projectile_friction_coefficient: case.contact.projectile_friction_coefficient,
         skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };
+    // the lists hold every pair within a contact diameter plus the skin, and the projectile's
+    // search grid reaches the skin beyond its surface: a skin of metres would never finish
+    // (a whole diameter is already slower than the default quarter, performance.md)
+    if contact.skin > MOST_SKIN_IN_DIAMETERS * section.contact_diameter {
+        return Err(SetupError::Case(format!(
+            "contact.skin_m: must be at most {MOST_SKIN_IN_DIAMETERS} contact diameters ({:.3e} m), got {:.3e} m",
+            MOST_SKIN_IN_DIAMETERS * section.contact_diameter,
+            contact.skin
+        )));
+    }
     let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
     let resolved = case.projectile().expect("validated case");
     // a node overlaps the surface closer than its contact radius, and is a candidate within
@@ -445,8 +458,39 @@ pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<
     dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
 }
 
-/// Rank 0 partitions, every rank receives the result (or the same error).
+/// Bytes a rank holds per node of its share: the peak resident set of the 300,010-node
+/// bench over its nodes (performance.md, `scripts/cost-model.py`).
+pub const BYTES_PER_NODE: f64 = 1730.0;
+
+/// The memory this process may use [bytes]: the host's, or its control group's limit when
+/// that is lower (SLURM and containers set one); `None` when neither can be read.
+pub fn memory_limit() -> Option<f64> {
+    let host = std::fs::read_to_string("/proc/meminfo").ok()?.lines().find_map(|line| line.strip_prefix("MemTotal:")?.trim().strip_suffix("kB")?.trim().parse::<f64>().ok()).map(|kb| 1024.0 * kb)?;
+    let group = std::fs::read_to_string("/sys/fs/cgroup/memory.max").ok().and_then(|text| text.trim().parse::<f64>().ok());
+    Some(group.map_or(host, |g| g.min(host)))
+}
+
+/// Refuses a job whose `ranks_here` ranks on this host could not hold their shares of a
+/// target of `nodes` nodes split over `ranks` ranks within `limit` bytes, before the
+/// partition and the nodes are made (either would exhaust the memory on the way).
+pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64>) -> Result<(), SetupError> {
+    let Some(limit) = limit else { return Ok(()) };
+    let per_rank = nodes as f64 / ranks as f64 * BYTES_PER_NODE;
+    if per_rank * ranks_here as f64 <= limit {
+        return Ok(());
+    }
+    Err(SetupError::Case(format!(
+        "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks ({BYTES_PER_NODE} bytes per node, measured), and the {ranks_here} on this host have {:.1} GB between them: run on more hosts or ranks, or strike a smaller target",
+        per_rank / 1e9,
+        limit / 1e9
+    )))
+}
+
+/// Rank 0 partitions, every rank receives the result (or the same error). First every rank
+/// checks that its host holds its ranks' shares.
 fn shared_partition<C: Comm>(comm: &C, problem: &Problem, method: Method, segment_positions: Option<u32>) -> Result<Partition, SetupError> {
+    let fits = shares_fit(problem.fabric.node_count(), comm.size(), comm.ranks_on_host(), memory_limit());
+    agree_on(comm, fits, || SetupError::Case("target: another host cannot hold its ranks' shares of it (its rank 0 says how much they need)".into()))?;
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
         let graph = segment_graph(problem, comm.size(), segment_positions);
@@ -661,7 +705,7 @@ mod tests {
     }
 
     #[test]
-    fn a_target_too_large_to_number_or_hold_is_refused_naming_its_size() {
+    fn a_target_too_large_to_number_or_hold_or_a_skin_of_metres_is_refused_naming_its_field() {
         let refusal = |case: &Case| problem(case).err().expect("refused").to_string();
         // a 1 km panel: 6.9e14 nodes, refused before its description is made
         let mut panel = dea_io::case::default_case();
@@ -681,5 +725,23 @@ mod tests {
         assert!(error.contains("target.length_m") && error.contains("32-bit node numbering"), "{error}");
         fibre.target = TargetSpec::SingleFibre { length_m: 1e3, diameter_m: 50e-6, element_length_ratio: 0.5 };
         assert_eq!(problem(&fibre).expect("a 1 km fibre").fabric.node_count(), 40_000_001);
+        // a skin of metres: the lists and the projectile's search grid would never be made
+        fibre.contact.skin_m = Some(5.0);
+        let error = refusal(&fibre);
+        assert!(error.contains("contact.skin_m: must be at most 4 contact diameters"), "{error}");
+        fibre.contact.skin_m = Some(100e-6);
+        assert!(problem(&fibre).is_ok(), "two contact diameters");
+    }
+
+    #[test]
+    fn a_host_that_cannot_hold_its_ranks_shares_refuses_the_job() {
+        // 1e9 nodes over 64 ranks: 27 GB each; eight of them on a 24 GB host cannot be
+        let error = shares_fit(1_000_000_000, 64, 8, Some(24e9)).err().expect("refused").to_string();
+        assert!(error.contains("27.0 GB on each of the 64 ranks") && error.contains("the 8 on this host have 24.0 GB"), "{error}");
+        // over 512 ranks, four to a host: 3.4 GB each, 13.5 GB together
+        assert!(shares_fit(1_000_000_000, 512, 4, Some(24e9)).is_ok());
+        // no limit known: no refusal
+        assert!(shares_fit(1_000_000_000, 1, 1, None).is_ok());
+        assert!(memory_limit().is_some_and(|bytes| bytes > 1e9), "this host's memory is read");
     }
 }

@@ -37,6 +37,26 @@ fn bad_case_names_the_field_and_exits_3() {
 }
 
 #[test]
+fn a_target_too_large_for_the_host_exits_3_before_it_is_made() {
+    let dir = scratch("huge");
+    let mut case = case_file("default.json");
+    // 6.9e10 nodes: a case, but not one for this machine
+    case["target"]["side_m"] = 10.0.into();
+    let path = dir.join("huge.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("target: its 68807466816 nodes need about") && stderr.contains("GB between them"), "{stderr}");
+    // past the 32-bit numbering of a fibre's nodes, even a check refuses it
+    case["target"]["side_m"] = 1e300.into();
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("target.side_m: a fibre would have"));
+}
+
+#[test]
 fn missing_file_exits_4_and_usage_errors_exit_2() {
     let out = dea(&["check", "/nonexistent/case.json"]);
     assert_eq!(out.status.code(), Some(4));

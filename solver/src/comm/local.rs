@@ -167,6 +167,11 @@ impl Comm for LocalComm {
         self.shared.size
     }
 
+    /// Every rank is a thread of this process.
+    fn ranks_on_host(&self) -> usize {
+        self.shared.size
+    }
+
     fn max_f64(&self, values: &mut [f64]) {
         let all = self.collective(bits(values));
         for (k, v) in values.iter_mut().enumerate() {

@@ -86,6 +86,10 @@ impl Comm for MpiComm {
         self.world.size() as usize
     }
 
+    fn ranks_on_host(&self) -> usize {
+        self.world.split_shared(0).size() as usize
+    }
+
     fn max_f64(&self, values: &mut [f64]) {
         self.all_reduce(values, SystemOperation::max());
     }
