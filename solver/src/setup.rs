@@ -22,7 +22,7 @@ use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec};
+use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, PROJECTILE_SIZE_M, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec};
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
@@ -351,6 +351,7 @@ fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio
         ProjectileBody::File { path, scale } => {
             let mut mesh = read_mesh(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
             mesh.nodes.iter_mut().for_each(|x| *x *= *scale);
+            projectile_spans(path, &mesh.nodes)?;
             (mesh, path.display().to_string())
         }
         ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
@@ -383,6 +384,19 @@ fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved
 
 /// The projectile's surface: closed form, generated or read from a file (scaled to metres),
 /// queried within `reach` through cubes of edge `cell` [m].
+/// Refuses a projectile mesh read from `path` (scaled) whose largest extent lies outside
+/// the sizes a projectile may have (`dea_io::case::PROJECTILE_SIZE_M`): a mesh in the wrong
+/// unit, whose search grid would not fit in memory.
+fn projectile_spans(path: &Path, vertices: &[Vec3]) -> Result<(), SetupError> {
+    let (low, high) = dea_core::bounding_box(vertices.iter().copied());
+    let extent = (high - low).max();
+    let (least, most) = PROJECTILE_SIZE_M;
+    if (least..=most).contains(&extent) {
+        return Ok(());
+    }
+    Err(SetupError::Case(format!("projectile.mesh_scale: the scaled mesh {} spans {extent:?} m, and a projectile spans {least:?} to {most:?} m (is the scale the mesh's unit in metres?)", path.display())))
+}
+
 fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShape, SetupError> {
     let (vertices, triangles, source) = match body {
         ProjectileBody::Analytic(shape) => return Ok(shape.clone()),
@@ -392,7 +406,9 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
         }
         ProjectileBody::File { path, scale } => {
             let (vertices, triangles) = read_surface(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
-            (vertices.iter().map(|v| v * *scale).collect(), triangles, path.display().to_string())
+            let vertices: Vec<Vec3> = vertices.iter().map(|v| v * *scale).collect();
+            projectile_spans(path, &vertices)?;
+            (vertices, triangles, path.display().to_string())
         }
     };
     let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;

@@ -818,10 +818,12 @@ impl Case {
         };
         let fsp = |dimensions: FspDimensions| {
             dimensions.check().map_err(|e| invalid("projectile", e))?;
+            finer_than_mesh_allows("projectile.flat_edge_radius_m", dimensions.flat_edge_radius, dimensions.diameter)?;
+            finer_than_mesh_allows("projectile.edge_radius_m", dimensions.rim_edge_radius, dimensions.diameter)?;
             Ok(ProjectileBody::Generated { solid: Solid::Fsp(dimensions), divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS) })
         };
         let mass = |default: Option<f64>| match (p.mass_kg, default) {
-            (Some(m), _) => positive("projectile.mass_kg", m),
+            (Some(m), _) => ranged("projectile.mass_kg", m, PROJECTILE_MASS_KG.0, PROJECTILE_MASS_KG.1),
             (None, Some(m)) => Ok(m),
             (None, None) => required("projectile.mass_kg", None),
         };
@@ -844,8 +846,8 @@ impl Case {
                 other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; {PRESETS}"))),
             },
             (None, Some(kind)) => {
-                let diameter = || positive("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
-                let height = || positive("projectile.height_m", required("projectile.height_m", p.height_m)?);
+                let diameter = || projectile_size("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
+                let height = || projectile_size("projectile.height_m", required("projectile.height_m", p.height_m)?);
                 let body = match kind.as_str() {
                     "sphere" => {
                         let radius = 0.5 * diameter()?;
@@ -853,23 +855,24 @@ impl Case {
                     }
                     "cylinder" => {
                         let (diameter, height) = (diameter()?, height()?);
-                        let edge = positive("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
+                        let edge = edge_radius("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
                         if edge > 0.5 * diameter.min(height) {
                             return Err(invalid("projectile.edge_radius_m", format!("must not exceed half the diameter and half the height, got {edge}")));
                         }
+                        finer_than_mesh_allows("projectile.edge_radius_m", edge, diameter)?;
                         let radius = 0.5 * diameter;
                         mesh_or(RigidShape::Cylinder { radius, height, edge_radius: edge }, Solid::Cylinder { radius, height, edge_radius: edge })
                     }
                     "fsp" => {
                         let standard = FspDimensions::SEVENTEEN_GRAIN;
-                        let or = |path: &str, value: Option<f64>, default: f64| value.map_or(Ok(default), |v| positive(path, v));
+                        let or = |path: &str, value: Option<f64>, default: f64, check: fn(&str, f64) -> Result<f64, CaseError>| value.map_or(Ok(default), |v| check(path, v));
                         fsp(FspDimensions {
-                            diameter: or("projectile.diameter_m", p.diameter_m, standard.diameter)?,
-                            length: or("projectile.height_m", p.height_m, standard.length)?,
-                            flat_width: or("projectile.flat_width_m", p.flat_width_m, standard.flat_width)?,
-                            bevel_angle: or("projectile.bevel_angle_deg", p.bevel_angle_deg, standard.bevel_angle.to_degrees())?.to_radians(),
-                            flat_edge_radius: or("projectile.flat_edge_radius_m", p.flat_edge_radius_m, standard.flat_edge_radius)?,
-                            rim_edge_radius: or("projectile.edge_radius_m", p.edge_radius_m, standard.rim_edge_radius)?,
+                            diameter: or("projectile.diameter_m", p.diameter_m, standard.diameter, projectile_size)?,
+                            length: or("projectile.height_m", p.height_m, standard.length, projectile_size)?,
+                            flat_width: or("projectile.flat_width_m", p.flat_width_m, standard.flat_width, projectile_size)?,
+                            bevel_angle: or("projectile.bevel_angle_deg", p.bevel_angle_deg, standard.bevel_angle.to_degrees(), positive)?.to_radians(),
+                            flat_edge_radius: or("projectile.flat_edge_radius_m", p.flat_edge_radius_m, standard.flat_edge_radius, edge_radius)?,
+                            rim_edge_radius: or("projectile.edge_radius_m", p.edge_radius_m, standard.rim_edge_radius, edge_radius)?,
                         })?
                     }
                     "file" => {
@@ -1097,7 +1100,38 @@ fn ranged(path: &str, value: f64, low: f64, high: f64) -> Result<f64, CaseError>
     if value.is_finite() && value >= low && value <= high {
         Ok(value)
     } else {
-        Err(invalid(path, format!("must be in [{low}, {high}], got {value}")))
+        Err(invalid(path, format!("must be in [{low:?}, {high:?}], got {value:?}")))
+    }
+}
+
+/// The sizes a projectile's diameter, height and flat may have [m]: from a fibre's
+/// diameter to 100 mm, beyond the largest fragment-simulating projectile (20 mm) and
+/// small-arms bullet. Outside them a projectile is a typing error, and its mesh and search
+/// grid would not fit in memory.
+pub const PROJECTILE_SIZE_M: (f64, f64) = (10e-6, 0.1);
+/// The edge radii a projectile may have [m]: from 1 µm (well below the 10–50 µm measured on
+/// FSPs, docs/theory.md) up; generated meshes resolve them, so a vanishing one has no end.
+pub const EDGE_RADIUS_M: (f64, f64) = (1e-6, 0.05);
+/// The masses a projectile may have [kg]: 1 µg to 10 kg (a 17-grain FSP is 1.1 g); a
+/// vanishing mass leaves a body whose inertia cannot be inverted.
+pub const PROJECTILE_MASS_KG: (f64, f64) = (1e-9, 10.0);
+
+fn projectile_size(path: &str, value: f64) -> Result<f64, CaseError> {
+    ranged(path, value, PROJECTILE_SIZE_M.0, PROJECTILE_SIZE_M.1)
+}
+
+fn edge_radius(path: &str, value: f64) -> Result<f64, CaseError> {
+    ranged(path, value, EDGE_RADIUS_M.0, EDGE_RADIUS_M.1)
+}
+
+/// The generated meshes resolve an edge's rounding with facets of its own size: an edge
+/// radius under a thousandth of the diameter would take millions of them (a 100 mm FSP with
+/// 1 µm edges took 94 s and 4 GB to mesh).
+fn finer_than_mesh_allows(path: &str, radius: f64, diameter: f64) -> Result<(), CaseError> {
+    if radius >= 1e-3 * diameter {
+        Ok(())
+    } else {
+        Err(invalid(path, format!("must be at least a thousandth of the diameter ({:?} m), got {radius:?}", 1e-3 * diameter)))
     }
 }
 

@@ -13,7 +13,8 @@ use dea_core::Rank;
 pub trait Comm {
     fn rank(&self) -> Rank;
     fn size(&self) -> usize;
-    /// Ranks of the job on this rank's host (sharing its memory), this one included.
+    /// Ranks of this communicator on this rank's host (sharing its memory), this one
+    /// included.
     fn ranks_on_host(&self) -> usize;
     /// Element-wise maximum over ranks, in place.
     fn max_f64(&self, values: &mut [f64]);
