@@ -272,8 +272,8 @@ impl Weave3dSpec {
         let mut weave = ThreeDWeave {
             filler_layers: layers,
             columns,
-            pick_spacing: positive("target.weave.pick_spacing_m", self.pick_spacing_m)?,
-            end_spacing: positive("target.weave.end_spacing_m", self.end_spacing_m)?,
+            pick_spacing: yarn_spacing("target.weave.pick_spacing_m", self.pick_spacing_m)?,
+            end_spacing: yarn_spacing("target.weave.end_spacing_m", self.end_spacing_m)?,
             filler,
             filler_fibres: fibre_count_at("target.weave.filler_fibres", self.filler_fibres)?,
             stuffer: kind("target.weave.stuffer", self.stuffer.as_ref().unwrap_or(&filler))?,
@@ -449,7 +449,7 @@ impl WeaveSpec {
         weave.inertia = bending;
         weave.friction_coefficient = friction_coefficient;
         if let Some(v) = self.yarn_spacing_m {
-            weave.yarn_spacing = positive("target.weave.yarn_spacing_m", v)?;
+            weave.yarn_spacing = yarn_spacing("target.weave.yarn_spacing_m", v)?;
         }
         if let Some(v) = self.section_aspect {
             weave.section_aspect = ranged("target.weave.section_aspect", v, 1.0, 50.0)?;
@@ -1116,6 +1116,20 @@ pub const EDGE_RADIUS_M: (f64, f64) = (1e-6, 0.05);
 /// vanishing mass leaves a body whose inertia cannot be inverted.
 pub const PROJECTILE_MASS_KG: (f64, f64) = (1e-9, 10.0);
 
+/// The widest yarn spacing a weave may have [m]: 20 mm, over twenty times that of the
+/// fabrics modelled here (style 706: 0.75 mm); a unit cell is meshed at a fibre's scale, so
+/// one of metres would not fit in memory.
+pub const MOST_YARN_SPACING_M: f64 = 0.02;
+
+fn yarn_spacing(path: &str, value: f64) -> Result<f64, CaseError> {
+    let value = positive(path, value)?;
+    if value <= MOST_YARN_SPACING_M {
+        Ok(value)
+    } else {
+        Err(invalid(path, format!("must be at most {MOST_YARN_SPACING_M:?} m, got {value:?}")))
+    }
+}
+
 fn projectile_size(path: &str, value: f64) -> Result<f64, CaseError> {
     ranged(path, value, PROJECTILE_SIZE_M.0, PROJECTILE_SIZE_M.1)
 }
@@ -1227,6 +1241,24 @@ mod tests {
     fn default_case_round_trips_and_validates() {
         let text = serde_json::to_string_pretty(&default_case()).unwrap();
         assert_eq!(parse_case(&text, "x").unwrap(), default_case());
+    }
+
+    #[test]
+    fn sizes_beyond_any_projectile_or_fabric_are_refused_with_brief_numbers() {
+        let e = error_for(|v| {
+            v["projectile"] = serde_json::json!({ "shape": "fsp", "height_m": 1e300, "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
+        });
+        assert_eq!((e.path.as_str(), e.to_string().contains("got 1e300")), ("projectile.height_m", true), "{e}");
+        let e = error_for(|v| {
+            v["projectile"] = serde_json::json!({ "shape": "fsp", "flat_edge_radius_m": 1e-6, "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
+        });
+        assert_eq!(e.path, "projectile.flat_edge_radius_m", "a thousandth of the 5.46 mm diameter at least: {e}");
+        let e = error_for(|v| {
+            v["projectile"] = serde_json::json!({ "shape": "sphere", "diameter_m": 1e-3, "mass_kg": 1e-300, "velocity_m_s": 50.0 });
+        });
+        assert_eq!(e.path, "projectile.mass_kg");
+        let e = error_for(|v| v["target"]["weave"]["yarn_spacing_m"] = 1.0.into());
+        assert_eq!(e.path, "target.weave.yarn_spacing_m");
     }
 
     #[test]
