@@ -120,10 +120,11 @@ enum Command {
         #[arg(long)]
         shots_per_group: Option<usize>,
     },
-    /// Validate a case and print it resolved, without running.
-    #[command(after_help = "Example:\n  dea-mpi check cases/default.json")]
+    /// Validate a case, or a V50 campaign and its shot's case, and print it resolved, without
+    /// running.
+    #[command(after_help = "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json")]
     Check {
-        /// case file (JSON, SI units)
+        /// case or campaign file (JSON, SI units)
         case: PathBuf,
     },
     /// Partition a case over N ranks with METIS and report its quality, without running.
@@ -190,6 +191,18 @@ fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
             }
             load_case(path).map_err(|e| (Exit::BadCase, e.to_string()))
         }
+    }
+}
+
+/// A case file, or a campaign file (one naming its shot's `case` or `case_file`) with its
+/// shot's case.
+fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case), (Exit, String)> {
+    let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+    let campaign = serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|value| value.get("case").is_some() || value.get("case_file").is_some());
+    if campaign {
+        load_campaign(path).map(|(campaign, case)| (Some(campaign), case)).map_err(|e| (Exit::BadCase, e.to_string()))
+    } else {
+        load(Some(path)).map(|case| (None, case))
     }
 }
 
@@ -270,9 +283,9 @@ fn main() -> ExitCode {
     };
     let cli = Cli::parse();
     match cli.command {
-        Command::Check { case } => {
-            let case = match load(Some(&case)) {
-                Ok(case) => case,
+        Command::Check { case: path } => {
+            let (campaign, case) = match load_case_or_campaign(&path) {
+                Ok(loaded) => loaded,
                 Err((code, message)) => return fail(code, message),
             };
             if let dea_io::case::TargetSpec::ThreeDWeaveCell { weave, .. } = &case.target {
@@ -295,7 +308,7 @@ fn main() -> ExitCode {
             };
             let projectile = &problem.projectile;
             let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
-            let resolved = serde_json::json!({
+            let mut resolved = serde_json::json!({
                 "case": case,
                 "resolved": {
                     "material": problem.material,
@@ -319,6 +332,9 @@ fn main() -> ExitCode {
                     },
                 }
             });
+            if let Some(campaign) = campaign {
+                resolved["campaign"] = serde_json::json!(campaign);
+            }
             println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
             ExitCode::SUCCESS
         }

@@ -37,6 +37,28 @@ fn bad_case_names_the_field_and_exits_3() {
 }
 
 #[test]
+fn check_resolves_a_campaign_and_its_shot_case_and_names_a_bad_design_field() {
+    let out = dea(&["check", "../cases/v50_tiny_bisection.json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(printed["campaign"]["design"]["kind"], "bisection");
+    assert_eq!(printed["case"]["name"], "v50-tiny-shot");
+    assert!(printed["resolved"]["nodes"].as_u64().unwrap() > 0);
+    // a case is printed without a campaign
+    let case: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
+    assert!(case.get("campaign").is_none());
+    let dir = scratch("campaign");
+    let mut campaign = case_file("v50_tiny_monte_carlo.json");
+    campaign["case_file"] = std::fs::canonicalize("../cases/v50_tiny_shot.json").unwrap().to_str().unwrap().into();
+    campaign["design"]["kind"] = "sideways".into();
+    let path = dir.join("bad.json");
+    std::fs::write(&path, campaign.to_string()).unwrap();
+    let out = dea(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("design"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
 fn a_target_too_large_for_the_host_exits_3_before_it_is_made() {
     let dir = scratch("huge");
     let mut case = case_file("default.json");
