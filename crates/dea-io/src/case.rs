@@ -1109,8 +1109,9 @@ fn ranged(path: &str, value: f64, low: f64, high: f64) -> Result<f64, CaseError>
 /// small-arms bullet. Outside them a projectile is a typing error, and its mesh and search
 /// grid would not fit in memory.
 pub const PROJECTILE_SIZE_M: (f64, f64) = (10e-6, 0.1);
-/// The edge radii a projectile may have [m]: from 1 µm (well below the 10–50 µm measured on
-/// FSPs, docs/theory.md) up; generated meshes resolve them, so a vanishing one has no end.
+/// The edge radii a projectile may have [m]: from 1 µm (the 17-grain FSP's are 50 and
+/// 150 µm, `FspDimensions::SEVENTEEN_GRAIN`) up; generated meshes resolve them, so a
+/// vanishing one has no end.
 pub const EDGE_RADIUS_M: (f64, f64) = (1e-6, 0.05);
 /// The masses a projectile may have [kg]: 1 µg to 10 kg (a 17-grain FSP is 1.1 g); a
 /// vanishing mass leaves a body whose inertia cannot be inverted.
