@@ -124,7 +124,7 @@ impl NormalLaw {
 
     /// Evaluates the law at `overlap` (> 0) given the largest overlap reached so far;
     /// returns the response and the updated largest overlap (the pair's history).
-    #[inline]
+    #[inline(always)]
     pub fn evaluate(&self, geometry: &ContactGeometry, overlap: f64, max_overlap: f64) -> (NormalResponse, f64) {
         match self {
             NormalLaw::Elastic { .. } => (self.loading(geometry, overlap, overlap.sqrt()), max_overlap.max(overlap)),

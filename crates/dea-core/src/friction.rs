@@ -32,7 +32,7 @@ pub struct FrictionResponse {
 /// direction, `anchor` the stored `v0` (updated on slip), `normal_force` F_n >= 0 and
 /// `normal_stiffness` k_n the contact's tangent stiffness; `spring_stiffness` holds the
 /// `k_s` of the previous evaluation (set it to `mu k_n` at first touch) and is updated.
-#[inline]
+#[inline(always)]
 pub fn stick_slip(relative: Vec3, normal: Vec3, anchor: &mut Vec3, spring_stiffness: &mut f64, normal_force: f64, normal_stiffness: f64, coefficient: f64) -> FrictionResponse {
     let displacement = relative - *anchor; // (4-13)
     let mut tangential = displacement - normal * displacement.dot(&normal); // (4-14), (4-15)
