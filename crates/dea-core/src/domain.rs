@@ -746,7 +746,9 @@ impl Domain {
     }
 
     /// [`Self::add_fibre_contacts`] by the sweep compiled for AVX2 or for the baseline
-    /// processor (`avx2` only where the processor runs AVX2).
+    /// processor (`avx2` only where the processor runs AVX2). Never inlined (one call a
+    /// step), so profilers and `scripts/count-instructions.sh` see the sweep by this name.
+    #[inline(never)]
     fn add_fibre_contacts_compiled_for(&mut self, avx2: bool) {
         let n_sections = self.sections.len();
         let (law, mu) = (self.contact.law, self.contact.friction_coefficient);

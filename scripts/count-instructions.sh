@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Counts the instructions the fibre-contact sweep retires on the bench yarn, under callgrind:
+# exact and repeatable on this host, where timings vary by ±15 % and there are no cycle
+# counters, so two builds compare to the instruction (docs/performance.md, session 19).
+# The bench runs at 30,000 nodes for one step: 20 sweeps of the still squeezed yarn, and
+# the step's, which meet the same contacts. Usage: scripts/count-instructions.sh [BINARY]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+binary="${1:-target/release/dea-mpi}"
+source scripts/packages.sh
+ensure_packages count-instructions valgrind
+[ -x "$binary" ] || { echo "count-instructions: no binary at $binary (build it: cargo build --release)" >&2; exit 2; }
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+sweep='*add_fibre_contacts_compiled_for*'
+report=$(valgrind --tool=callgrind --toggle-collect="$sweep" --callgrind-out-file="$work/out" "$binary" bench --json --nodes 30000 --steps 1 2>"$work/log") || { cat "$work/log" >&2; exit 1; }
+field() { sed -E "s/.*\"$1\":([-0-9.eE+]+).*/\1/" <<<"$report"; }
+instructions=$(sed -n 's/^summary: //p' "$work/out")
+# the sweep's calls: the calls= line after each call to it
+sweeps=$(awk '/^cfn=.*add_fibre_contacts_compiled_for/ {getline; split($1, c, "="); n += c[2]} END {print n}' "$work/out")
+[ "${sweeps:-0}" -gt 0 ] || { echo "count-instructions: callgrind saw no call to the sweep in $binary" >&2; exit 1; }
+awk -v i="$instructions" -v s="$sweeps" -v n="$(field nodes)" -v t="$(field static_contacts_per_node)" -v l="$(field listed_pairs_per_node)" 'BEGIN {
+    printf "fibre-contact sweep: %d instructions in %d sweeps of %d nodes\n", i, s, n
+    printf "  %.1f per node, %.1f per touching entry (%.2f touching and %.2f listed entries per node)\n", i / s / n, i / s / (n * t), t, l
+}'
