@@ -16,8 +16,10 @@ sweep='*add_fibre_contacts_compiled_for*'
 report=$(valgrind --tool=callgrind --toggle-collect="$sweep" --callgrind-out-file="$work/out" "$binary" bench --json --nodes 30000 --steps 1 2>"$work/log") || { cat "$work/log" >&2; exit 1; }
 field() { sed -E "s/.*\"$1\":([-0-9.eE+]+).*/\1/" <<<"$report"; }
 instructions=$(sed -n 's/^summary: //p' "$work/out")
-# the sweep's calls: the calls= line after each call to it
-sweeps=$(awk '/^cfn=.*add_fibre_contacts_compiled_for/ {getline; split($1, c, "="); n += c[2]} END {print n}' "$work/out")
+# the sweep's calls: the calls= line after each call to it (callgrind names a function
+# once, by "(id) name", and by "(id)" alone after that)
+sweeps=$(awk '/^c?fn=\([0-9]+\) .*add_fibre_contacts_compiled_for/ {match($0, /\([0-9]+\)/); id = substr($0, RSTART, RLENGTH)}
+    id != "" && index($0, "cfn=" id) == 1 {getline; split($1, c, "="); n += c[2]} END {print n + 0}' "$work/out")
 [ "${sweeps:-0}" -gt 0 ] || { echo "count-instructions: callgrind saw no call to the sweep in $binary" >&2; exit 1; }
 awk -v i="$instructions" -v s="$sweeps" -v n="$(field nodes)" -v t="$(field static_contacts_per_node)" -v l="$(field listed_pairs_per_node)" 'BEGIN {
     printf "fibre-contact sweep: %d instructions in %d sweeps of %d nodes\n", i, s, n

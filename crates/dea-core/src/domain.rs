@@ -213,9 +213,12 @@ fn dispatch_fibre_contacts(avx2: bool, law: NormalLaw, mu: f64, positions: &[Vec
 /// (docs/performance.md, session 19).
 #[inline(always)]
 fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
-    for i in 0..owned {
-        let xi = positions[i];
-        let row = pairs.row(i);
+    // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
+    let (owned_positions, starts) = (&positions[..owned], &pairs.start[..=owned]);
+    let (forces, plastic_sums, friction_sums, stiffnesses) =
+        (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned]);
+    for (i, &xi) in owned_positions.iter().enumerate() {
+        let row = starts[i] as usize..starts[i + 1] as usize;
         let partners = &pairs.partner[row.clone()];
         let history = pairs.touching[row.clone()].iter_mut().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
         let mut force = Vec3::zeros();
@@ -253,10 +256,10 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
                 friction_loss += 0.5 * friction.dissipated;
             }
         }
-        sums.force[i] += force;
-        sums.ledger.plastic_dissipated[i] += plastic;
-        sums.ledger.friction_dissipated[i] += friction_loss;
-        sums.contact_stiffness[i] = stiffness;
+        forces[i] += force;
+        plastic_sums[i] += plastic;
+        friction_sums[i] += friction_loss;
+        stiffnesses[i] = stiffness;
     }
 }
 
