@@ -95,6 +95,11 @@ check v50-groups-give-the-same-shots bash -c 'mpi 1 v50 cases/v50_tiny_monte_car
     && for shot in $work/mc1/shots/*/; do $bin compare $shot/results.h5 $work/mc2/shots/$(basename $shot)/results.h5 >/dev/null || exit 1; done \
     && test $(ls $work/mc2/shots/*.json | wc -l) -eq 12 && grep -q git_commit $work/mc2/provenance.json'
 check v50-bisection-two-ranks-per-shot bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/bisection --ranks-per-shot 2 | tee $work/bisection.log && grep -q "bisection 0: between" $work/bisection.log'
+# two groups of one rank on this host shoot at once: the host must hold both shots' targets
+/usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/v50_tiny_shot.json")); c["target"]["side_m"] = 10.0; json.dump(c, sys.stdout)' >"$work/v50_huge_shot.json"
+/usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/v50_tiny_monte_carlo.json")); c["case_file"] = "v50_huge_shot.json"; json.dump(c, sys.stdout)' >"$work/v50_huge.json"
+check v50-groups-share-the-host-memory bash -c 'mpi 2 v50 $work/v50_huge.json --out $work/huge --ranks-per-shot 1 2>$work/huge.err; code=$?; cat $work/huge.err; \
+    test $code -eq 3 && grep -q "on each of the 1 ranks they are split over" $work/huge.err && grep -q "the job.s 2 ranks on this host" $work/huge.err'
 check v50-ranks-per-shot-must-divide bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/nodiv --ranks-per-shot 3; test $? -eq 2'
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
     && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do

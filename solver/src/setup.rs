@@ -496,7 +496,7 @@ pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64
         return Ok(());
     }
     Err(SetupError::Case(format!(
-        "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks ({BYTES_PER_NODE} bytes per node, measured), and the {ranks_here} on this host have {:.1} GB between them: run on more hosts or ranks, or strike a smaller target",
+        "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks they are split over ({BYTES_PER_NODE} bytes per node, measured), and the job's {ranks_here} ranks on this host have {:.1} GB between them: run on more hosts or ranks, or strike a smaller target",
         per_rank / 1e9,
         limit / 1e9
     )))
@@ -753,7 +753,7 @@ mod tests {
     fn a_host_that_cannot_hold_its_ranks_shares_refuses_the_job() {
         // 1e9 nodes over 64 ranks: 27 GB each; eight of them on a 24 GB host cannot be
         let error = shares_fit(1_000_000_000, 64, 8, Some(24e9)).err().expect("refused").to_string();
-        assert!(error.contains("27.0 GB on each of the 64 ranks") && error.contains("the 8 on this host have 24.0 GB"), "{error}");
+        assert!(error.contains("27.0 GB on each of the 64 ranks") && error.contains("the job's 8 ranks on this host have 24.0 GB"), "{error}");
         // over 512 ranks, four to a host: 3.4 GB each, 13.5 GB together
         assert!(shares_fit(1_000_000_000, 512, 4, Some(24e9)).is_ok());
         // no limit known: no refusal

@@ -13,8 +13,10 @@ use dea_core::Rank;
 pub trait Comm {
     fn rank(&self) -> Rank;
     fn size(&self) -> usize;
-    /// Ranks of this communicator on this rank's host (sharing its memory), this one
-    /// included.
+    /// Ranks on this rank's host (sharing its memory) that run this job, this one included:
+    /// this communicator's, or, for a group split from a larger one, the larger one's,
+    /// because its other groups run their shots of the same target at the same time.
+    /// Collective.
     fn ranks_on_host(&self) -> usize;
     /// Element-wise maximum over ranks, in place.
     fn max_f64(&self, values: &mut [f64]);

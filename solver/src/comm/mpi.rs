@@ -9,9 +9,13 @@ use mpi::Count;
 
 use super::Comm;
 
-/// The world communicator of an MPI job (a singleton when started without mpirun).
+/// The world communicator of an MPI job (a singleton when started without mpirun), or a
+/// group split from it.
 pub struct MpiComm {
     world: SimpleCommunicator,
+    /// for a group split from a larger communicator: the larger one's ranks on this host,
+    /// whose groups fire their shots at the same time
+    host_ranks_of_parent: Option<usize>,
 }
 
 /// MPI itself: initialised by [`MpiComm::initialize`], finalised when dropped. It outlives
@@ -46,16 +50,17 @@ impl MpiComm {
                 SimpleCommunicator::world().abort(70);
             }));
         }
-        Ok((MpiSession { _universe: universe }, Self { world }))
+        Ok((MpiSession { _universe: universe }, Self { world, host_ranks_of_parent: None }))
     }
 }
 
 impl MpiComm {
     /// The ranks of this communicator that give the same `color`, in rank order
-    /// (`MPI_Comm_split`): a campaign's groups of ranks, one per concurrent shot.
+    /// (`MPI_Comm_split`): a campaign's groups of ranks, one per concurrent shot. Collective.
     pub fn split(&self, color: u32) -> Self {
+        let host_ranks = self.ranks_on_host();
         let group = self.world.split_by_color(mpi::topology::Color::with_value(color as i32)).expect("every rank names a group");
-        Self { world: group }
+        Self { world: group, host_ranks_of_parent: Some(host_ranks) }
     }
 }
 
@@ -87,7 +92,7 @@ impl Comm for MpiComm {
     }
 
     fn ranks_on_host(&self) -> usize {
-        self.world.split_shared(0).size() as usize
+        self.host_ranks_of_parent.unwrap_or_else(|| self.world.split_shared(0).size() as usize)
     }
 
     fn max_f64(&self, values: &mut [f64]) {
