@@ -182,8 +182,11 @@ fn prefetch(positions: &[Vec3], index: Option<&u32>) {
 
 /// Where the fibre-contact sweep adds its per-node sums.
 struct FibreContactSums<'a> {
+    /// force on each node [N]
     force: &'a mut [Vec3],
+    /// plastic and friction dissipation of each owned node [J]
     ledger: &'a mut NodeLedger,
+    /// contact stiffness of each owned node, set [N/m]
     contact_stiffness: &'a mut [f64],
 }
 
