@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use dea_core::Rank;
-use dea_io::campaign::{load_campaign, Campaign};
+use dea_io::campaign::{is_campaign, load_campaign, Campaign};
 use dea_io::case::{default_case, load_case, Case};
 use dea_mpi::campaign::{CampaignError, Group, Progress};
 use dea_mpi::comm::mpi::{MpiComm, MpiSession};
@@ -198,7 +198,7 @@ fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
 /// shot's case.
 fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case), (Exit, String)> {
     let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
-    let campaign = serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|value| value.get("case").is_some() || value.get("case_file").is_some());
+    let campaign = serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|document| is_campaign(&document));
     if campaign {
         load_campaign(path).map(|(campaign, case)| (Some(campaign), case)).map_err(|e| (Exit::BadCase, e.to_string()))
     } else {

@@ -22,7 +22,7 @@ use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, PROJECTILE_SIZE_M, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec};
+use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec, PROJECTILE_SIZE_M};
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
@@ -177,12 +177,14 @@ const MOST_SKIN_IN_DIAMETERS: f64 = 4.0;
 /// ids are 32-bit.
 fn target_fits(field: &str, fibres: f64, nodes_per_fibre: f64) -> Result<(), SetupError> {
     let most_ids = u32::MAX as f64;
-    let reason = if !(nodes_per_fibre < most_ids) {
+    // a NaN count (from an infinite or NaN size) is refused with the rest
+    let nodes = fibres * nodes_per_fibre;
+    let reason = if nodes_per_fibre.is_nan() || nodes_per_fibre >= most_ids {
         format!("a fibre would have {nodes_per_fibre:.3e} nodes, more than its 32-bit node numbering holds ({most_ids:.3e})")
-    } else if !(fibres < most_ids) {
+    } else if fibres.is_nan() || fibres >= most_ids {
         format!("the target would have {fibres:.3e} fibres, more than the 32-bit fibre ids hold ({most_ids:.3e})")
-    } else if !(fibres * nodes_per_fibre <= MOST_NODES) {
-        format!("the target would have {:.3e} nodes, more than the {MOST_NODES:.3e} a case may have (about 1.9 PB at 1.7 kB per node)", fibres * nodes_per_fibre)
+    } else if nodes.is_nan() || nodes > MOST_NODES {
+        format!("the target would have {nodes:.3e} nodes, more than the {MOST_NODES:.3e} a case may have (about 1.9 PB at 1.7 kB per node)")
     } else {
         return Ok(());
     };
@@ -382,8 +384,6 @@ fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved
     (projectile, aim, body)
 }
 
-/// The projectile's surface: closed form, generated or read from a file (scaled to metres),
-/// queried within `reach` through cubes of edge `cell` [m].
 /// Refuses a projectile mesh read from `path` (scaled) whose largest extent lies outside
 /// the sizes a projectile may have (`dea_io::case::PROJECTILE_SIZE_M`): a mesh in the wrong
 /// unit, whose search grid would not fit in memory.
@@ -394,9 +394,14 @@ fn projectile_spans(path: &Path, vertices: &[Vec3]) -> Result<(), SetupError> {
     if (least..=most).contains(&extent) {
         return Ok(());
     }
-    Err(SetupError::Case(format!("projectile.mesh_scale: the scaled mesh {} spans {extent:?} m, and a projectile spans {least:?} to {most:?} m (is the scale the mesh's unit in metres?)", path.display())))
+    Err(SetupError::Case(format!(
+        "projectile.mesh_scale: the scaled mesh {} spans {extent:?} m, and a projectile spans {least:?} to {most:?} m (is the scale the mesh's unit in metres?)",
+        path.display()
+    )))
 }
 
+/// The projectile's surface: closed form, generated or read from a file (scaled to metres),
+/// queried within `reach` through cubes of edge `cell` [m].
 fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShape, SetupError> {
     let (vertices, triangles, source) = match body {
         ProjectileBody::Analytic(shape) => return Ok(shape.clone()),

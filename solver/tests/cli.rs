@@ -12,6 +12,14 @@ fn case_file(name: &str) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(format!("../cases/{name}")).unwrap()).unwrap()
 }
 
+/// Runs dea-mpi, checks that it exits with `code`, and gives what it wrote to stderr.
+fn stderr_of_exit(code: i32, args: &[&str]) -> String {
+    let out = dea(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(code), "{stderr}");
+    stderr
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -26,14 +34,11 @@ fn bad_case_names_the_field_and_exits_3() {
     case["target"]["element_length_ratio"] = (-1.0).into();
     let path = dir.join("bad.json");
     std::fs::write(&path, case.to_string()).unwrap();
-    let out = dea(&["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
     assert!(stderr.contains("target.element_length_ratio") && stderr.contains("bad.json"), "{stderr}");
     std::fs::write(&path, "{\"name\": 3}").unwrap();
-    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("name"));
+    let stderr = stderr_of_exit(3, &["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert!(stderr.contains("name"));
 }
 
 #[test]
@@ -53,9 +58,8 @@ fn check_resolves_a_campaign_and_its_shot_case_and_names_a_bad_design_field() {
     campaign["design"]["kind"] = "sideways".into();
     let path = dir.join("bad.json");
     std::fs::write(&path, campaign.to_string()).unwrap();
-    let out = dea(&["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("design"), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
+    assert!(stderr.contains("design"), "{stderr}");
 }
 
 #[test]
@@ -66,23 +70,19 @@ fn a_target_too_large_for_the_host_exits_3_before_it_is_made() {
     case["target"]["side_m"] = 10.0.into();
     let path = dir.join("huge.json");
     std::fs::write(&path, case.to_string()).unwrap();
-    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr_of_exit(3, &["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
     assert!(stderr.contains("target: its 68807466816 nodes need about") && stderr.contains("GB between them"), "{stderr}");
     // past the 32-bit numbering of a fibre's nodes, even a check refuses it
     case["target"]["side_m"] = 1e300.into();
     std::fs::write(&path, case.to_string()).unwrap();
-    let out = dea(&["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("target.side_m: a fibre would have"));
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
+    assert!(stderr.contains("target.side_m: a fibre would have"));
 }
 
 #[test]
 fn missing_file_exits_4_and_usage_errors_exit_2() {
-    let out = dea(&["check", "/nonexistent/case.json"]);
-    assert_eq!(out.status.code(), Some(4));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/case.json"));
+    let stderr = stderr_of_exit(4, &["check", "/nonexistent/case.json"]);
+    assert!(stderr.contains("/nonexistent/case.json"));
     assert_eq!(dea(&["frobnicate"]).status.code(), Some(2));
     assert_eq!(dea(&["run", "--bogus"]).status.code(), Some(2));
     let help = dea(&["run", "--help"]);
@@ -194,9 +194,7 @@ fn a_fine_disc_without_a_crossing_exits_3_naming_its_radius() {
     case["target"]["hybrid"]["fine_radius_m"] = 0.3e-3.into();
     let path = dir.join("case.json");
     std::fs::write(&path, case.to_string()).unwrap();
-    let out = dea(&["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
     assert!(stderr.contains("target.hybrid.fine_radius_m") && stderr.contains("no crossing"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -241,15 +239,12 @@ fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     assert!(compared.status.success(), "{}", String::from_utf8_lossy(&compared.stdout));
     // a damaged file: exit 4, naming the file and the line
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles).replacen("vertex", "vertex nan-ish", 1)).unwrap();
-    let out = dea(&["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(4));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr_of_exit(4, &["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()]);
     assert!(stderr.contains("rcc.stl:4:"), "{stderr}");
     // an open surface is refused by name too
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles[1..])).unwrap();
-    let out = dea(&["check", dir.join("file.json").to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(4));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("not closed"), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = stderr_of_exit(4, &["check", dir.join("file.json").to_str().unwrap()]);
+    assert!(stderr.contains("not closed"), "{stderr}");
 }
 
 #[test]
@@ -261,16 +256,13 @@ fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
     case["projectile"]["velocity_m_s"] = 50.0.into();
     case["run"]["end_time_s"] = 1.2e-5.into();
     std::fs::write(dir.join("soft.json"), case.to_string()).unwrap();
-    let out = dea(&["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(5));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr_of_exit(5, &["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
     assert!(stderr.contains("deformable projectile is inverted"), "{stderr}");
     // a deformable body needs hexahedra: an analytic sphere is refused by field
     case["projectile"].as_object_mut().unwrap().remove("mesh_divisions");
     std::fs::write(dir.join("analytic.json"), case.to_string()).unwrap();
-    let out = dea(&["check", dir.join("analytic.json").to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(3));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("projectile.deformable"));
+    let stderr = stderr_of_exit(3, &["check", dir.join("analytic.json").to_str().unwrap()]);
+    assert!(stderr.contains("projectile.deformable"));
 }
 
 #[test]

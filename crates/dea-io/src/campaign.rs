@@ -56,6 +56,12 @@ fn invalid(path: &str, message: impl Into<String>) -> CaseError {
     CaseError { path: path.to_string(), message: message.into() }
 }
 
+/// Whether a JSON document is a campaign: one naming its shot's `case` or `case_file` (a
+/// case names neither).
+pub fn is_campaign(document: &serde_json::Value) -> bool {
+    document.get("case").is_some() || document.get("case_file").is_some()
+}
+
 /// Reads and validates a campaign and its shot case; errors name the campaign file, or the
 /// case file and its field.
 pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {

@@ -3,17 +3,15 @@
 
 use std::path::{Path, PathBuf};
 
-use dea_io::campaign::load_campaign;
+use dea_io::campaign::{is_campaign, load_campaign};
 use dea_io::case::{default_case, load_case};
 
 fn cases() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases")
 }
 
-/// A campaign names its case (`case` or `case_file`); anything else is a case.
-fn is_campaign(path: &Path) -> bool {
-    let value: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    value.get("case").is_some() || value.get("case_file").is_some()
+fn is_campaign_file(path: &Path) -> bool {
+    is_campaign(&serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
 }
 
 #[test]
@@ -23,7 +21,7 @@ fn every_shipped_case_and_campaign_loads() {
     assert!(files.len() >= 20, "cases/ holds {} files", files.len());
     let mut campaigns = 0;
     for path in &files {
-        if is_campaign(path) {
+        if is_campaign_file(path) {
             load_campaign(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             campaigns += 1;
         } else {
