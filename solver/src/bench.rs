@@ -136,7 +136,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     for _ in 0..statics {
         run.domain.compute_forces()?;
     }
-    let static_touching = run.domain.pairs.touching.iter().filter(|&&t| t).count() as f64;
+    let static_touching = run.domain.pairs.touching_entries() as f64;
     let static_seconds = run.domain.times.fibre_contacts;
     run.domain.times = Default::default();
     run.times = Default::default();
@@ -148,7 +148,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     for step in 0..steps {
         run.step()?;
         if step % 10 == 0 {
-            touching += run.domain.pairs.touching.iter().filter(|&&t| t).count();
+            touching += run.domain.pairs.touching_entries();
             listed += run.domain.pairs.len();
             sampled += 1;
         }

@@ -811,6 +811,9 @@ impl<C: Comm> Distributed<C> {
         let n = d.nodes.n_owned;
         let contacts = &d.projectile_contacts;
         let pairs = &d.pairs;
+        // every entry's history as its node sees it (a pair of two owned nodes keeps one)
+        let histories: Vec<_> = (0..n).flat_map(|i| pairs.row(i).map(move |k| pairs.history(i, k))).collect();
+        let (retired_length, retired_gid, retired_max_overlap) = pairs.retired_as_full_rows();
         NodeState {
             gid: d.nodes.gid[..n].iter().map(|g| g.0).collect(),
             position: d.nodes.position[..n].to_vec(),
@@ -830,13 +833,13 @@ impl<C: Comm> Distributed<C> {
             projectile_anchor_weights: contacts.anchor_weights.iter().map(|&w| Vec3::from(w)).collect(),
             row_length: (0..n).map(|i| pairs.row(i).len() as u32).collect(),
             partner_gid: pairs.partner_gid.iter().map(|g| g.0).collect(),
-            anchor: pairs.anchor.clone(),
-            spring_stiffness: pairs.spring_stiffness.clone(),
-            touching: pairs.touching.iter().map(|&t| t as u8).collect(),
-            max_overlap: pairs.max_overlap.clone(),
-            retired_length: (0..n).map(|i| pairs.retired_row(i).len() as u32).collect(),
-            retired_gid: pairs.retired_gid.iter().map(|g| g.0).collect(),
-            retired_max_overlap: pairs.retired_max_overlap.clone(),
+            anchor: histories.iter().map(|h| h.anchor).collect(),
+            spring_stiffness: histories.iter().map(|h| h.spring_stiffness).collect(),
+            touching: histories.iter().map(|h| h.touching as u8).collect(),
+            max_overlap: histories.iter().map(|h| h.max_overlap).collect(),
+            retired_length,
+            retired_gid: retired_gid.iter().map(|g| g.0).collect(),
+            retired_max_overlap,
         }
     }
 

@@ -12,7 +12,7 @@ use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{combined_criterion, FailureParameters};
 use crate::friction::stick_slip;
 use crate::integrate;
-use crate::neighbour::NeighbourList;
+use crate::neighbour::{LowerGhostEntry, NeighbourList};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::projectile::{RigidProjectile, RigidShape};
 use crate::rod::{axial_energy, compute_element_tension, element_strain_energy, set_chain_forces};
@@ -169,15 +169,16 @@ pub struct NodeLedger {
 /// in other fibres' stretches of memory, and in a woven panel their loads missed the cache.
 const PREFETCH_AHEAD: usize = 8;
 
-/// Asks the memory system for `positions[index]` (a hint: no effect on any result).
+/// Asks the memory system for the value at `index` of the array at `base` (a hint: no
+/// effect on any result).
 #[inline(always)]
-fn prefetch(positions: &[Vec3], index: Option<&u32>) {
+fn prefetch<T>(base: *const T, index: usize) {
+    // SAFETY: a prefetch reads nothing and cannot fault at any address, so the index is not
+    // checked against the array here (the value's load, if any, is)
     #[cfg(target_arch = "x86_64")]
-    if let Some(&j) = index {
-        // SAFETY: a prefetch reads nothing and cannot fault at any address, so the partner
-        // index is not checked against the positions here (its load in the sweep is)
-        unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(positions.as_ptr().wrapping_add(j as usize).cast()) };
-    }
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(base.wrapping_add(index).cast())
+    };
 }
 
 /// Where the fibre-contact sweep adds its per-node sums.
@@ -188,6 +189,68 @@ struct FibreContactSums<'a> {
     ledger: &'a mut NodeLedger,
     /// contact stiffness of each owned node, set [N/m]
     contact_stiffness: &'a mut [f64],
+    /// each owned node's running sums while the sweep runs: zero between sweeps
+    running: &'a mut [RunningSums],
+}
+
+/// One owned node's fibre-contact sums while the sweep runs: the terms its partners of lower
+/// gid handed it (in their order), then those of its own row's upper part, so the terms come
+/// in partner-gid order, as each node's full row would add them.
+#[derive(Clone, Copy, Debug, Default)]
+struct RunningSums {
+    /// [N]
+    force: Vec3,
+    /// [N/m]
+    stiffness: f64,
+    /// plastic dissipation [J]
+    plastic: f64,
+    /// friction dissipation [J]
+    friction: f64,
+}
+
+/// What the evaluation of a touching pair at one of its nodes gives that node. The laws are
+/// odd in the relative position (the friction anchor too), so the partner's terms are exactly
+/// the forces negated and the rest equal (docs/theory.md D13).
+#[derive(Clone, Copy, Debug)]
+struct PairTerms {
+    /// the normal unit vector times the normal force: subtracted from the node's force [N]
+    normal_force: Vec3,
+    stiffness: f64,
+    /// half the plastic dissipation, when the largest overlap grew [J]
+    plastic: Option<f64>,
+    /// the friction force on the node and half the friction dissipation, once the pair was
+    /// touching before [N], [J]
+    friction: Option<(Vec3, f64)>,
+}
+
+impl RunningSums {
+    /// Adds the terms of an evaluation at this node, in the order of the full-row sweep.
+    #[inline(always)]
+    fn add(&mut self, terms: &PairTerms) {
+        self.force -= terms.normal_force;
+        self.stiffness += terms.stiffness;
+        if let Some(plastic) = terms.plastic {
+            self.plastic += plastic;
+        }
+        if let Some((force, loss)) = terms.friction {
+            self.force += force;
+            self.friction += loss;
+        }
+    }
+
+    /// Adds the terms of an evaluation at the partner: `x - (-y)` is `x + y` exactly.
+    #[inline(always)]
+    fn add_mirrored(&mut self, terms: &PairTerms) {
+        self.force += terms.normal_force;
+        self.stiffness += terms.stiffness;
+        if let Some(plastic) = terms.plastic {
+            self.plastic += plastic;
+        }
+        if let Some((force, loss)) = terms.friction {
+            self.force -= force;
+            self.friction += loss;
+        }
+    }
 }
 
 /// [`sweep_fibre_contacts`], compiled for AVX2 when `avx2` (the processor runs it): the same
@@ -213,59 +276,94 @@ fn dispatch_fibre_contacts(avx2: bool, law: NormalLaw, mu: f64, positions: &[Vec
     sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
 }
 
+/// Evaluates the pair of a list entry at its node, `relative` being the partner's position
+/// relative to the node, and updates the pair's history: its terms for the node, or none
+/// when the pair does not touch.
+#[inline(always)]
+fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touching: &mut bool, max_overlap_reached: &mut f64, anchor: &mut Vec3, spring_stiffness: &mut f64) -> Option<PairTerms> {
+    let distance_squared = relative.norm_squared();
+    if distance_squared >= data.reach * data.reach {
+        *touching = false;
+        return None;
+    }
+    let distance = distance_squared.sqrt();
+    let normal = relative * (1.0 / distance);
+    let overlap = data.reach - distance;
+    let previous_max = *max_overlap_reached;
+    let (response, max_overlap) = law.evaluate(&data.geometry, overlap, previous_max);
+    let mut plastic = None;
+    if max_overlap > previous_max {
+        // the pair's dissipation goes half to each node
+        plastic = Some(0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max)));
+        *max_overlap_reached = max_overlap;
+    }
+    let mut friction = None;
+    if !*touching {
+        *touching = true;
+        *anchor = relative;
+        *spring_stiffness = mu * response.stiffness;
+    } else if mu > 0.0 {
+        let response = stick_slip(relative, normal, anchor, spring_stiffness, response.force, response.stiffness, mu);
+        friction = Some((response.force, 0.5 * response.dissipated));
+    }
+    Some(PairTerms { normal_force: normal * response.force, stiffness: response.stiffness, plastic, friction })
+}
+
 /// The fibre-contact sweep over the rows of the `owned` nodes, with `data_of(i, j)` the
-/// contact data of the pair's sections. Every row's history is sliced once, so the entries
-/// are read without bounds checks: the sweep is bound by the instructions it retires
-/// (docs/performance.md, session 19).
+/// contact data of the pair's sections. The rows go in ascending gid (the owned nodes' order);
+/// each evaluates the upper part of its row and hands each owned partner its terms, so every
+/// pair of owned nodes is evaluated once and each node's terms still come in partner-gid
+/// order: the bits of evaluating every entry of every row (docs/theory.md D13). A pair with a
+/// ghost of lower gid is evaluated where the ghost's row would come. Every row's history is
+/// sliced once, so the entries are read without bounds checks: the sweep is bound by the
+/// instructions it retires (docs/performance.md, session 19).
 #[inline(always)]
 fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
     // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
-    let (owned_positions, starts) = (&positions[..owned], &pairs.start[..=owned]);
-    let (forces, plastic_sums, friction_sums, stiffnesses) =
-        (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned]);
+    let (owned_positions, starts, uppers) = (&positions[..owned], &pairs.start[..=owned], &pairs.upper_start[..owned]);
+    let (forces, plastic_sums, friction_sums, stiffnesses, running) = (
+        &mut sums.force[..owned],
+        &mut sums.ledger.plastic_dissipated[..owned],
+        &mut sums.ledger.friction_dissipated[..owned],
+        &mut sums.contact_stiffness[..owned],
+        &mut sums.running[..owned],
+    );
+    let mut lower_ghosts = pairs.lower_ghosts.iter().peekable();
+    let (anchors, max_overlaps) = (pairs.anchor.as_ptr(), pairs.max_overlap.as_ptr());
     for (i, &xi) in owned_positions.iter().enumerate() {
-        let row = starts[i] as usize..starts[i + 1] as usize;
-        let partners = &pairs.partner[row.clone()];
-        let history = pairs.touching[row.clone()].iter_mut().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
-        let mut force = Vec3::zeros();
-        let mut stiffness = 0.0;
-        let (mut plastic, mut friction_loss) = (0.0, 0.0);
-        for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
-            let j = j as usize;
-            prefetch(positions, pairs.partner.get(row.start + e + PREFETCH_AHEAD));
-            let data = data_of(i, j);
-            let relative = positions[j] - xi;
-            let distance_squared = relative.norm_squared();
-            if distance_squared >= data.reach * data.reach {
-                *touching = false;
-                continue;
-            }
-            let distance = distance_squared.sqrt();
-            let normal = relative * (1.0 / distance);
-            let overlap = data.reach - distance;
-            let previous_max = *max_overlap_reached;
-            let (response, max_overlap) = law.evaluate(&data.geometry, overlap, previous_max);
-            if max_overlap > previous_max {
-                // each pair is evaluated by both of its nodes: half the dissipation each
-                plastic += 0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max));
-                *max_overlap_reached = max_overlap;
-            }
-            force -= normal * response.force;
-            stiffness += response.stiffness;
-            if !*touching {
-                *touching = true;
-                *anchor = relative;
-                *spring_stiffness = mu * response.stiffness;
-            } else if mu > 0.0 {
-                let friction = stick_slip(relative, normal, anchor, spring_stiffness, response.force, response.stiffness, mu);
-                force += friction.force;
-                friction_loss += 0.5 * friction.dissipated;
+        while let Some(&LowerGhostEntry { row, entry, .. }) = lower_ghosts.next_if(|e| e.before_row as usize <= i) {
+            let (row, k) = (row as usize, entry as usize);
+            let j = pairs.partner[k] as usize;
+            let history = (&mut pairs.touching[k], &mut pairs.max_overlap[k], &mut pairs.anchor[k], &mut pairs.spring_stiffness[k]);
+            if let Some(terms) = evaluate_pair(law, mu, positions[j] - positions[row], data_of(row, j), history.0, history.1, history.2, history.3) {
+                running[row].add(&terms);
             }
         }
-        forces[i] += force;
-        plastic_sums[i] += plastic;
-        friction_sums[i] += friction_loss;
-        stiffnesses[i] = stiffness;
+        let row = uppers[i] as usize..starts[i + 1] as usize;
+        let partners = &pairs.partner[row.clone()];
+        let history = pairs.touching[row.clone()].iter_mut().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
+        // taken, so every node's sums are zero again for the next sweep
+        let mut sum = std::mem::take(&mut running[i]);
+        for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
+            let j = j as usize;
+            if let Some(&ahead) = pairs.partner.get(row.start + e + PREFETCH_AHEAD) {
+                prefetch(positions.as_ptr(), ahead as usize);
+            }
+            prefetch(anchors, row.start + e + PREFETCH_AHEAD);
+            prefetch(max_overlaps, row.start + e + PREFETCH_AHEAD);
+            if let Some(terms) = evaluate_pair(law, mu, positions[j] - xi, data_of(i, j), touching, max_overlap_reached, anchor, spring_stiffness) {
+                sum.add(&terms);
+                // an owned partner (of higher gid, so its row is still to come); a ghost's
+                // owner evaluates the pair for it
+                if let Some(partner) = running.get_mut(j) {
+                    partner.add_mirrored(&terms);
+                }
+            }
+        }
+        forces[i] += sum.force;
+        plastic_sums[i] += sum.plastic;
+        friction_sums[i] += sum.friction;
+        stiffnesses[i] = sum.stiffness;
     }
 }
 
@@ -379,6 +477,8 @@ pub struct Domain {
     tie_stiffness: Vec<f64>,
     /// contact stiffness summed over each owned node's touching contacts this step [N/m]
     contact_stiffness: Vec<f64>,
+    /// the fibre-contact sweep's running sums of each owned node
+    running_contact_sums: Vec<RunningSums>,
     newly_broken: Vec<(u32, FailureMode)>,
     /// the last step's closing kick of the owned nodes, left for the next step's opening one
     /// to apply in the same pass ([`Self::defer_kick`]): its half step [s]. While it waits,
@@ -461,6 +561,7 @@ impl Domain {
             chain_stiffness,
             tie_stiffness: vec![0.0; n_owned],
             contact_stiffness: vec![0.0; n_owned],
+            running_contact_sums: vec![RunningSums::default(); n_owned],
             newly_broken: Vec::new(),
             deferred_kick: None,
         }
@@ -761,7 +862,8 @@ impl Domain {
     fn add_fibre_contacts_compiled_for(&mut self, avx2: bool) {
         let n_sections = self.sections.len();
         let (law, mu) = (self.contact.law, self.contact.friction_coefficient);
-        let sums = FibreContactSums { force: &mut self.nodes.force, ledger: &mut self.ledger, contact_stiffness: &mut self.contact_stiffness };
+        self.running_contact_sums.resize(self.nodes.n_owned, RunningSums::default());
+        let sums = FibreContactSums { force: &mut self.nodes.force, ledger: &mut self.ledger, contact_stiffness: &mut self.contact_stiffness, running: &mut self.running_contact_sums };
         let (positions, section) = (&self.nodes.position[..], &self.nodes.section[..]);
         let (pairs, owned) = (&mut self.pairs, self.nodes.n_owned);
         if n_sections == 1 {
@@ -1026,18 +1128,31 @@ impl Domain {
             report.fracture_released.add(self.ledger.fracture_released[i]);
             for k in self.pairs.row(i) {
                 let j = self.pairs.partner[k] as usize;
+                // a pair of owned nodes at its node of lower gid, which keeps its history
+                // (D13), for both; a pair with a ghost here for the owned node. Each node takes
+                // half of what the pair stores: exactly what it took at each of its entries, as
+                // the sums are exact and the energies even in the relative position.
+                let owned_partner = j < nodes.n_owned;
+                if owned_partner && k < self.pairs.upper_start[i] as usize {
+                    continue;
+                }
                 let data = &self.pair_data[nodes.section[i] as usize * n_sections + nodes.section[j] as usize];
                 let relative = nodes.position[j] - nodes.position[i];
                 let overlap = data.reach - relative.norm();
                 if overlap <= 0.0 {
                     continue;
                 }
-                let (response, _) = law.evaluate(&data.geometry, overlap, self.pairs.max_overlap[k]);
-                report.contact.add(0.5 * law.stored_energy(&data.geometry, overlap, self.pairs.max_overlap[k]));
+                let max_overlap = self.pairs.max_overlap[k];
+                let contact = law.stored_energy(&data.geometry, overlap, max_overlap);
+                let mut friction_stored = 0.0;
                 if self.contact.friction_coefficient > 0.0 && self.pairs.touching[k] {
+                    let (response, _) = law.evaluate(&data.geometry, overlap, max_overlap);
                     let (mut anchor, mut spring) = (self.pairs.anchor[k], self.pairs.spring_stiffness[k]);
-                    let friction = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, self.contact.friction_coefficient);
-                    report.friction_stored.add(0.5 * friction.stored);
+                    friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, self.contact.friction_coefficient).stored;
+                }
+                for node in std::iter::once(i).chain(owned_partner.then_some(j)) {
+                    sums[group(node)].contact.add(0.5 * contact);
+                    sums[group(node)].friction_stored.add(0.5 * friction_stored);
                 }
             }
         }
@@ -1083,10 +1198,12 @@ mod tests {
     use super::*;
     use crate::material::InertiaModel;
 
-    /// A 7-fibre yarn squeezed below its contact diameter and shaken for 60 sweeps, so that
-    /// pairs touch first, stick, slip, unload, part and touch again; `sections` fibre
-    /// sections (one, or two alternating: the sweep's two ways to its pair data).
-    fn shaken_yarn(sections: usize) -> Domain {
+    /// A 7-fibre yarn squeezed below its contact diameter, to be shaken so that pairs touch
+    /// first, stick, slip, unload, part and touch again; `sections` fibre sections (one, or
+    /// two alternating: the sweep's two ways to its pair data). With `ghosts`, fibres 1, 3
+    /// and 5 are ghosts, their gids interleaved with the owned ones' (as on a rank of a
+    /// partitioned yarn).
+    fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
         let material = FibreMaterial::kevlar_km2();
         let l0 = 9e-6;
         let sections: Vec<_> = (0..sections).map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None, 0.3)).collect();
@@ -1094,7 +1211,10 @@ mod tests {
         let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
         let centres = [(0.0, 0.0), (1.0, 0.0), (0.5, 0.866), (-0.5, 0.866), (-1.0, 0.0), (-0.5, -0.866), (0.5, -0.866)];
         let per_fibre = 40;
-        for (fibre, (y, z)) in centres.iter().enumerate() {
+        let is_ghost = |fibre: usize| ghosts && fibre % 2 == 1;
+        // owned fibres first, then the ghosts
+        for fibre in (0..centres.len()).filter(|&f| !is_ghost(f)).chain((0..centres.len()).filter(|&f| is_ghost(f))) {
+            let (y, z) = centres[fibre];
             for along in 0..per_fibre {
                 let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
                 let position = Vec3::new(along as f64 * l0, y * pitch, z * pitch);
@@ -1102,7 +1222,7 @@ mod tests {
                 elements.push(l0, 3.4e9, FailureMode::Intact);
             }
         }
-        nodes.n_owned = nodes.len();
+        nodes.n_owned = (0..centres.len()).filter(|&f| !is_ghost(f)).count() * per_fibre;
         nodes.link_chains();
         let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.0, skin: 0.5 * sections[0].contact_diameter };
         let failure = FailureParameters { shear_strength: 0.7672e9, enabled: false };
@@ -1111,56 +1231,103 @@ mod tests {
         domain
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn the_contact_sweep_compiled_for_avx2_gives_the_bits_of_the_baseline_one() {
-        if !crate::lanes::available() {
-            return;
+    /// The sweep the half rows replace, kept as the reference: every entry of every owned
+    /// row evaluated at its node with its own copy of the pair's history, summed in the row's
+    /// partner-gid order.
+    struct FullRowSweep {
+        histories: Vec<crate::neighbour::PairHistory>,
+        force: Vec<Vec3>,
+        stiffness: Vec<f64>,
+        plastic: Vec<f64>,
+        friction: Vec<f64>,
+    }
+
+    impl FullRowSweep {
+        fn new(domain: &Domain) -> Self {
+            let owned = domain.nodes.n_owned;
+            let histories = (0..owned).flat_map(|i| domain.pairs.row(i).map(move |k| domain.pairs.history(i, k))).collect();
+            Self { histories, force: vec![Vec3::zeros(); owned], stiffness: vec![0.0; owned], plastic: vec![0.0; owned], friction: vec![0.0; owned] }
         }
+
+        fn sweep(&mut self, domain: &Domain) {
+            let n_sections = domain.sections.len();
+            for i in 0..domain.nodes.n_owned {
+                let mut sum = RunningSums::default();
+                for k in domain.pairs.row(i) {
+                    let j = domain.pairs.partner[k] as usize;
+                    let data = domain.pair_data[domain.nodes.section[i] as usize * n_sections + domain.nodes.section[j] as usize];
+                    let h = &mut self.histories[k];
+                    let relative = domain.nodes.position[j] - domain.nodes.position[i];
+                    if let Some(terms) = evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, &mut h.touching, &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness) {
+                        sum.add(&terms);
+                    }
+                }
+                self.force[i] = sum.force;
+                self.stiffness[i] = sum.stiffness;
+                self.plastic[i] += sum.plastic;
+                self.friction[i] += sum.friction;
+            }
+        }
+    }
+
+    /// Each pair of owned nodes is evaluated once, at its node of lower gid, which hands the
+    /// partner its terms; a pair with a ghost of lower gid is evaluated where the ghost's row
+    /// would come. Every force, stiffness, ledger and history has the bits of every row
+    /// evaluating all its entries, with ghosts or without, one section or two, compiled for
+    /// AVX2 or not.
+    #[test]
+    fn the_half_row_sweep_gives_the_bits_of_full_rows() {
         let bits = |values: &[f64]| values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         let vector_bits = |values: &[Vec3]| values.iter().flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>();
-        for sections in [1, 2] {
-            let (mut baseline, mut avx2) = (shaken_yarn(sections), shaken_yarn(sections));
+        let history_bits = |h: &crate::neighbour::PairHistory| (vector_bits(&[h.anchor]), h.spring_stiffness.to_bits(), h.touching, h.max_overlap.to_bits());
+        // the first word that differs, if any (the vectors are long)
+        let first_difference = |a: Vec<u64>, b: Vec<u64>| if a.len() != b.len() { Some(a.len().min(b.len())) } else { a.iter().zip(&b).position(|(x, y)| x != y) };
+        #[cfg(target_arch = "x86_64")]
+        let compilations = if crate::lanes::available() { vec![false, true] } else { vec![false] };
+        #[cfg(not(target_arch = "x86_64"))]
+        let compilations = vec![false];
+        let cases: Vec<_> = [1, 2].into_iter().flat_map(|s| [false, true].map(|g| (s, g))).flat_map(|(s, g)| compilations.iter().map(move |&a| (s, g, a))).collect();
+        for (sections, ghosts, avx2) in cases {
+            let case = format!("sections {sections}, ghosts {ghosts}, avx2 {avx2}");
+            let mut domain = squeezed_yarn(sections, ghosts);
+            let owned = domain.nodes.n_owned;
+            assert_eq!(domain.pairs.lower_ghosts.is_empty(), !ghosts, "{case}");
+            let mut reference = FullRowSweep::new(&domain);
             let mut state = 11u64;
             let mut uniform = move || {
                 state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                 (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             };
-            let shake = 0.04 * baseline.sections[0].contact_diameter;
+            let shake = 0.04 * domain.sections[0].contact_diameter;
             let (mut first_touches, mut slipped, mut unloading) = (0, false, false);
             for sweep in 0..60 {
-                for i in 0..baseline.nodes.len() {
-                    let step = Vec3::new(uniform(), uniform(), uniform()) * shake;
-                    baseline.nodes.position[i] += step;
-                    avx2.nodes.position[i] += step;
+                for i in 0..domain.nodes.len() {
+                    domain.nodes.position[i] += Vec3::new(uniform(), uniform(), uniform()) * shake;
                 }
-                for domain in [&mut baseline, &mut avx2] {
-                    domain.nodes.force.iter_mut().for_each(|f| *f = Vec3::zeros());
+                domain.nodes.force.iter_mut().for_each(|f| *f = Vec3::zeros());
+                let touching_before: Vec<bool> = reference.histories.iter().map(|h| h.touching).collect();
+                domain.add_fibre_contacts_compiled_for(avx2);
+                reference.sweep(&domain);
+                first_touches += reference.histories.iter().zip(&touching_before).filter(|(now, before)| now.touching && !**before).count();
+                assert_eq!(first_difference(vector_bits(&domain.nodes.force[..owned]), vector_bits(&reference.force)), None, "forces, {case}, sweep {sweep}");
+                assert_eq!(first_difference(bits(&domain.contact_stiffness), bits(&reference.stiffness)), None, "stiffness, {case}, sweep {sweep}");
+                assert_eq!(first_difference(bits(&domain.ledger.plastic_dissipated), bits(&reference.plastic)), None, "plastic work, {case}, sweep {sweep}");
+                assert_eq!(first_difference(bits(&domain.ledger.friction_dissipated), bits(&reference.friction)), None, "friction work, {case}, sweep {sweep}");
+                for i in 0..owned {
+                    for k in domain.pairs.row(i) {
+                        assert_eq!(history_bits(&domain.pairs.history(i, k)), history_bits(&reference.histories[k]), "history of entry {k}, {case}, sweep {sweep}");
+                    }
                 }
-                let touching_before = baseline.pairs.touching.clone();
-                baseline.add_fibre_contacts_compiled_for(false);
-                avx2.add_fibre_contacts_compiled_for(true);
-                first_touches += baseline.pairs.touching.iter().zip(&touching_before).filter(|(now, before)| **now && !**before).count();
-                assert_eq!(vector_bits(&baseline.nodes.force), vector_bits(&avx2.nodes.force), "forces, sweep {sweep}");
-                assert_eq!(bits(&baseline.contact_stiffness), bits(&avx2.contact_stiffness), "stiffness, sweep {sweep}");
-                assert_eq!(bits(&baseline.ledger.plastic_dissipated), bits(&avx2.ledger.plastic_dissipated), "plastic work, sweep {sweep}");
-                assert_eq!(bits(&baseline.ledger.friction_dissipated), bits(&avx2.ledger.friction_dissipated), "friction work, sweep {sweep}");
-                assert_eq!(vector_bits(&baseline.pairs.anchor), vector_bits(&avx2.pairs.anchor), "anchors, sweep {sweep}");
-                assert_eq!(bits(&baseline.pairs.spring_stiffness), bits(&avx2.pairs.spring_stiffness), "friction springs, sweep {sweep}");
-                assert_eq!(bits(&baseline.pairs.max_overlap), bits(&avx2.pairs.max_overlap), "largest overlaps, sweep {sweep}");
-                assert_eq!(baseline.pairs.touching, avx2.pairs.touching, "touching, sweep {sweep}");
-                slipped |= baseline.ledger.friction_dissipated.iter().any(|&w| w > 0.0);
-                unloading |= (0..baseline.nodes.n_owned).any(|i| baseline.pairs.row(i).any(|k| baseline.pairs.touching[k] && baseline.pairs.max_overlap[k] > contact_overlap(&baseline, i, k)));
+                assert_eq!(domain.pairs.touching_entries(), reference.histories.iter().filter(|h| h.touching).count(), "{case}");
+                slipped |= reference.friction.iter().any(|&w| w > 0.0);
+                unloading |= (0..owned).any(|i| domain.pairs.row(i).any(|k| reference.histories[k].touching && reference.histories[k].max_overlap > contact_overlap(&domain, i, k)));
             }
             // every path of the sweep was taken: first touches after partings, slip, unloading
-            assert!(
-                first_touches > baseline.pairs.touching.iter().filter(|&&t| t).count() && slipped && unloading,
-                "sections {sections}: {first_touches} first touches, slip {slipped}, unloading {unloading}"
-            );
+            let touching = reference.histories.iter().filter(|h| h.touching).count();
+            assert!(first_touches > touching && slipped && unloading, "{case}: {first_touches} first touches, slip {slipped}, unloading {unloading}");
         }
     }
 
-    /// The overlap of pair entry `k` of node `i` now [m].
     fn contact_overlap(domain: &Domain, i: usize, k: usize) -> f64 {
         let j = domain.pairs.partner[k] as usize;
         crate::neighbour::contact_distance(&domain.sections, &domain.nodes, i, j) - (domain.nodes.position[j] - domain.nodes.position[i]).norm()

@@ -1,10 +1,17 @@
 //! Contact candidates: a cell list with a Verlet skin and full neighbour lists whose pair
 //! histories survive rebuilds.
 //!
-//! Each owned node keeps every partner within `cutoff + skin` (full lists: both nodes of a
-//! pair evaluate it, so no force is ever sent back to a partner's owner). A list is sorted by
-//! the partner's global id, which fixes the summation order of contact forces and lets a
-//! rebuild carry histories over by a sorted merge.
+//! Each owned node keeps every partner within `cutoff + skin` (full lists, so no force is
+//! ever sent back to a partner's owner). A list is sorted by the partner's global id, which
+//! fixes the summation order of contact forces and lets a rebuild carry histories over by a
+//! sorted merge.
+//!
+//! A pair of two owned nodes is evaluated once, at the node of lower gid, which hands its
+//! partner the terms (docs/theory.md D13): the pair's history lives in that node's entry, the
+//! *upper* part of its row ([`NeighbourList::upper_start`]). Its mirror entry, in the lower
+//! part of the partner's row, keeps no history of its own; [`NeighbourList::history`] reads
+//! a pair's history from either entry. A pair with a ghost is evaluated at the owned node,
+//! from its own entry.
 
 use crate::ids::{FibreId, GlobalNodeId};
 use crate::nodes::Nodes;
@@ -38,6 +45,12 @@ pub struct NeighbourList {
     pub retired_start: Vec<u32>,
     pub retired_gid: Vec<GlobalNodeId>,
     pub retired_max_overlap: Vec<f64>,
+    /// per owned row, its first entry whose partner has a higher gid than the node: the
+    /// entries from there on are the pairs this row evaluates
+    pub upper_start: Vec<u32>,
+    /// the entries of owned rows whose partner is a ghost of lower gid, in ascending gid of
+    /// the ghost: evaluated where the ghost's row would be in gid order
+    pub lower_ghosts: Vec<LowerGhostEntry>,
     /// reference positions of the local nodes (owned, then ghosts): where each was when the
     /// lists were last built around it; the lists hold every pair within reach plus skin at
     /// these positions [m]
@@ -51,6 +64,30 @@ pub struct NeighbourList {
     pub builds: u64,
     scratch: BuildScratch,
     motion: RelativeMotion,
+}
+
+/// An entry of an owned row whose partner is a ghost of lower gid than the row's node.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LowerGhostEntry {
+    /// the owned row before which it is evaluated: the first whose node's gid is above the
+    /// ghost's
+    pub before_row: u32,
+    /// its owned row
+    pub row: u32,
+    /// the entry
+    pub entry: u32,
+}
+
+/// A pair's contact history, as seen from one of its nodes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairHistory {
+    /// friction anchor v0 (partner minus node at first touch, 4-13) [m]
+    pub anchor: Vec3,
+    /// stiffness k_s of the friction spring at its last evaluation [N/m]
+    pub spring_stiffness: f64,
+    pub touching: bool,
+    /// largest overlap reached [m]
+    pub max_overlap: f64,
 }
 
 /// Displacements since the last build, boxed by cells twice the list's cell size (of the
@@ -669,7 +706,107 @@ impl NeighbourList {
         self.reference_position = references;
         self.reference_gid.clear();
         self.reference_gid.extend_from_slice(&nodes.gid);
+        self.split_rows(nodes);
         self.builds += 1;
+    }
+
+    /// Finds each owned row's upper part and the entries with ghosts of lower gid.
+    fn split_rows(&mut self, nodes: &Nodes) {
+        let owned = nodes.n_owned;
+        self.upper_start.clear();
+        self.lower_ghosts.clear();
+        for i in 0..owned {
+            let row = self.row(i);
+            let gid = nodes.gid[i];
+            let lower = self.partner_gid[row.clone()].partition_point(|&g| g < gid);
+            self.upper_start.push((row.start + lower) as u32);
+            for k in row.start..row.start + lower {
+                let j = self.partner[k] as usize;
+                if j >= owned {
+                    // owned nodes are stored in ascending gid
+                    let before_row = nodes.gid[..owned].partition_point(|&g| g < nodes.gid[j]);
+                    self.lower_ghosts.push(LowerGhostEntry { before_row: before_row as u32, row: i as u32, entry: k as u32 });
+                }
+            }
+        }
+        let partner_gid = |e: &LowerGhostEntry| self.partner_gid[e.entry as usize];
+        self.lower_ghosts.sort_unstable_by(|a, b| partner_gid(a).cmp(&partner_gid(b)).then(a.row.cmp(&b.row)));
+    }
+
+    /// Where the history of entry `k` of owned row `i` is kept: in the entry itself, or, for a
+    /// partner owned here with a lower gid, at the mirror entry in the partner's row (then
+    /// `true`: seen from the partner).
+    pub fn history_entry(&self, i: usize, k: usize) -> (usize, bool) {
+        let j = self.partner[k] as usize;
+        let owned = self.upper_start.len();
+        if j >= owned || k >= self.upper_start[i] as usize {
+            return (k, false);
+        }
+        let upper = self.upper_start[j] as usize..self.start[j + 1] as usize;
+        let gid = self.reference_gid[i];
+        match self.partner_gid[upper.clone()].binary_search(&gid) {
+            Ok(m) => (upper.start + m, true),
+            Err(_) => unreachable!("the lists are symmetric: node {} lists {} and is not listed back", gid.0, self.partner_gid[k].0),
+        }
+    }
+
+    /// The contact history of entry `k` of owned row `i`, seen from node `i`.
+    pub fn history(&self, i: usize, k: usize) -> PairHistory {
+        let (at, mirrored) = self.history_entry(i, k);
+        let anchor = self.anchor[at];
+        PairHistory { anchor: if mirrored { -anchor } else { anchor }, spring_stiffness: self.spring_stiffness[at], touching: self.touching[at], max_overlap: self.max_overlap[at] }
+    }
+
+    /// The retired pairs of every owned row as rows that each evaluated all their pairs would
+    /// hold them: row lengths, partner gids and largest overlaps. A pair of two owned nodes
+    /// is retired by its node of lower gid, the one that evaluates it; the partner's record
+    /// is that one's. So a checkpoint holds the same tables on any rank count.
+    pub fn retired_as_full_rows(&self) -> (Vec<u32>, Vec<GlobalNodeId>, Vec<f64>) {
+        let owned = self.upper_start.len();
+        let gids = &self.reference_gid[..owned];
+        let owned_here = |gid: GlobalNodeId| gids.binary_search(&gid).ok();
+        // each owned pair's record, handed to the node of higher gid: (row, partner, overlap)
+        let mut handed: Vec<(usize, GlobalNodeId, f64)> = (0..owned)
+            .flat_map(|j| self.retired_row(j).map(move |r| (j, r)))
+            .filter(|&(j, r)| self.retired_gid[r] > gids[j])
+            .filter_map(|(j, r)| owned_here(self.retired_gid[r]).map(|i| (i, gids[j], self.retired_max_overlap[r])))
+            .collect();
+        handed.sort_unstable_by_key(|&(i, gid, _)| (i, gid));
+        let (mut lengths, mut partners, mut overlaps) = (Vec::with_capacity(owned), Vec::new(), Vec::new());
+        let mut handed = handed.into_iter().peekable();
+        for i in 0..owned {
+            let start = partners.len();
+            // the row's own records, but those of owned partners of lower gid (not kept here)
+            let mut own = self.retired_row(i).filter(|&r| self.retired_gid[r] > gids[i] || owned_here(self.retired_gid[r]).is_none()).peekable();
+            loop {
+                let next_handed = handed.peek().filter(|h| h.0 == i).map(|h| h.1);
+                let next_own = own.peek().map(|&r| self.retired_gid[r]);
+                let take_own = match (next_own, next_handed) {
+                    (Some(a), Some(b)) => a < b,
+                    (Some(_), None) => true,
+                    (None, Some(_)) => false,
+                    (None, None) => break,
+                };
+                let (gid, overlap) = if take_own {
+                    let r = own.next().expect("peeked");
+                    (self.retired_gid[r], self.retired_max_overlap[r])
+                } else {
+                    let (_, gid, overlap) = handed.next().expect("peeked");
+                    (gid, overlap)
+                };
+                partners.push(gid);
+                overlaps.push(overlap);
+            }
+            lengths.push((partners.len() - start) as u32);
+        }
+        (lengths, partners, overlaps)
+    }
+
+    /// Entries of owned rows whose pair touches (a pair of two owned nodes counts twice).
+    pub fn touching_entries(&self) -> usize {
+        let owned = self.upper_start.len();
+        let upper: usize = (0..owned).flat_map(|i| self.upper_start[i] as usize..self.start[i + 1] as usize).filter(|&k| self.touching[k]).map(|k| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum();
+        upper + self.lower_ghosts.iter().filter(|e| self.touching[e.entry as usize]).count()
     }
 
     /// Appends to the lists being built the history of a row that changed, `old` and `retired`
@@ -1082,6 +1219,47 @@ mod tests {
         assert!(!same_fibre_within(chain_place(FibreId(4), far), chain_place(FibreId(5), 0), far));
         assert!(!same_fibre_within(chain_place(FibreId(u32::MAX), 0), chain_place(FibreId(0), far), far));
         assert!(!same_fibre_within(chain_place(FibreId(4), 10), chain_place(FibreId(4), 14), 3));
+    }
+
+    #[test]
+    fn retired_tables_are_checkpointed_as_full_rows_hold_them() {
+        // gids 0, 3, …, 87, all owned; gids 1 and 100 are nodes elsewhere
+        let (nodes, sections) = random_cloud(30, 4);
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        let g = |k: u64| GlobalNodeId(k);
+        // row by row: a pair of owned nodes keeps its record at its node of lower gid; the
+        // partner's record, if any, is stale (this sweep never reads it)
+        let rows: Vec<Vec<(GlobalNodeId, f64)>> = (0..30)
+            .map(|i| match i {
+                2 => vec![(g(15), 1e-7)],
+                3 => vec![(g(100), 4e-7)],
+                4 => vec![(g(21), 2e-7)],
+                7 => vec![(g(1), 3e-7), (g(12), 5e-8)],
+                9 => vec![(g(24), 6e-8)],
+                _ => vec![],
+            })
+            .collect();
+        list.retired_start = std::iter::once(0).chain(rows.iter().scan(0, |total, row| {
+            *total += row.len() as u32;
+            Some(*total)
+        })).collect();
+        list.retired_gid = rows.iter().flatten().map(|r| r.0).collect();
+        list.retired_max_overlap = rows.iter().flatten().map(|r| r.1).collect();
+        let (lengths, partners, overlaps) = list.retired_as_full_rows();
+        let mut expected: Vec<Vec<(GlobalNodeId, f64)>> = vec![vec![]; 30];
+        expected[2] = vec![(g(15), 1e-7)];
+        expected[5] = vec![(g(6), 1e-7)];
+        expected[3] = vec![(g(100), 4e-7)];
+        expected[4] = vec![(g(21), 2e-7)];
+        expected[7] = vec![(g(1), 3e-7), (g(12), 2e-7)];
+        let mut at = 0;
+        for (i, &length) in lengths.iter().enumerate() {
+            let row: Vec<_> = (at..at + length as usize).map(|r| (partners[r], overlaps[r])).collect();
+            assert_eq!(row, expected[i], "row {i}");
+            at += length as usize;
+        }
+        assert_eq!(at, partners.len());
     }
 
     #[test]
