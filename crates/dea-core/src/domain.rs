@@ -321,13 +321,8 @@ fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touchi
 fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
     // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
     let (owned_positions, starts, uppers) = (&positions[..owned], &pairs.start[..=owned], &pairs.upper_start[..owned]);
-    let (forces, plastic_sums, friction_sums, stiffnesses, running) = (
-        &mut sums.force[..owned],
-        &mut sums.ledger.plastic_dissipated[..owned],
-        &mut sums.ledger.friction_dissipated[..owned],
-        &mut sums.contact_stiffness[..owned],
-        &mut sums.running[..owned],
-    );
+    let (forces, plastic_sums, friction_sums, stiffnesses, running) =
+        (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned], &mut sums.running[..owned]);
     let mut lower_ghosts = pairs.lower_ghosts.iter().peekable();
     let (anchors, max_overlaps) = (pairs.anchor.as_ptr(), pairs.max_overlap.as_ptr());
     for (i, &xi) in owned_positions.iter().enumerate() {
@@ -1258,7 +1253,9 @@ mod tests {
                     let data = domain.pair_data[domain.nodes.section[i] as usize * n_sections + domain.nodes.section[j] as usize];
                     let h = &mut self.histories[k];
                     let relative = domain.nodes.position[j] - domain.nodes.position[i];
-                    if let Some(terms) = evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, &mut h.touching, &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness) {
+                    if let Some(terms) =
+                        evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, &mut h.touching, &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness)
+                    {
                         sum.add(&terms);
                     }
                 }

@@ -805,7 +805,8 @@ impl NeighbourList {
     /// Entries of owned rows whose pair touches (a pair of two owned nodes counts twice).
     pub fn touching_entries(&self) -> usize {
         let owned = self.upper_start.len();
-        let upper: usize = (0..owned).flat_map(|i| self.upper_start[i] as usize..self.start[i + 1] as usize).filter(|&k| self.touching[k]).map(|k| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum();
+        let upper: usize =
+            (0..owned).flat_map(|i| self.upper_start[i] as usize..self.start[i + 1] as usize).filter(|&k| self.touching[k]).map(|k| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum();
         upper + self.lower_ghosts.iter().filter(|e| self.touching[e.entry as usize]).count()
     }
 
@@ -1240,10 +1241,12 @@ mod tests {
                 _ => vec![],
             })
             .collect();
-        list.retired_start = std::iter::once(0).chain(rows.iter().scan(0, |total, row| {
-            *total += row.len() as u32;
-            Some(*total)
-        })).collect();
+        list.retired_start = std::iter::once(0)
+            .chain(rows.iter().scan(0, |total, row| {
+                *total += row.len() as u32;
+                Some(*total)
+            }))
+            .collect();
         list.retired_gid = rows.iter().flatten().map(|r| r.0).collect();
         list.retired_max_overlap = rows.iter().flatten().map(|r| r.1).collect();
         let (lengths, partners, overlaps) = list.retired_as_full_rows();
