@@ -3,7 +3,8 @@
 # exact and repeatable on this host, where timings vary by ±15 % and there are no cycle
 # counters, so two builds compare to the instruction (docs/performance.md, session 19).
 # The bench runs at 30,000 nodes for one step: 20 sweeps of the still squeezed yarn, and
-# the step's, which meet the same contacts. Usage: scripts/count-instructions.sh [BINARY]
+# the step's, which meet the same contacts. Valgrind hides AVX-512 from the program, so
+# it counts the sweep's AVX2 compilation. Usage: scripts/count-instructions.sh [BINARY]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 binary="${1:-target/release/dea-mpi}"

@@ -169,6 +169,9 @@ pub struct NodeLedger {
 /// in other fibres' stretches of memory, and in a woven panel their loads missed the cache.
 const PREFETCH_AHEAD: usize = 8;
 
+/// The widest compilation of the fibre-contact sweep this processor runs, found once.
+static SWEEP_COMPILATION: std::sync::OnceLock<SweepCompilation> = std::sync::OnceLock::new();
+
 /// Asks the memory system for the value at `index` of the array at `base` (a hint: no
 /// effect on any result).
 #[inline(always)]
@@ -253,26 +256,62 @@ impl RunningSums {
     }
 }
 
-/// [`sweep_fibre_contacts`], compiled for AVX2 when `avx2` (the processor runs it): the same
-/// operations in the same order (Rust never fuses a multiply–add), so the same bits, in 11 %
-/// fewer instructions on the bench yarn, as VEX's three operands spare SSE's register copies.
-/// The positions and lists are separate arguments, not fields of one struct with the sums:
-/// so LLVM knows they do not alias and keeps their pointers in registers (one struct cost
-/// 2 % more instructions).
+/// The instruction sets the fibre-contact sweep is compiled for. Each runs the same source,
+/// so the same operations in the same order (Rust never fuses a multiply–add): the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum SweepCompilation {
+    Baseline,
+    /// VEX's three operands spare SSE's register copies: 11 % fewer instructions on the bench
+    /// yarn (docs/performance.md, session 19)
+    Avx2,
+    /// AVX-512's 32 vector registers spare most of the sweep's spills: about 5 % less time
+    /// on the bench yarn (session 20)
+    Avx512,
+}
+
+impl SweepCompilation {
+    /// Every compilation this processor runs, the widest last.
+    fn available() -> Vec<Self> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx2 = crate::lanes::available();
+            let avx512 = avx2 && is_x86_feature_detected!("avx512f");
+            [(Self::Baseline, true), (Self::Avx2, avx2), (Self::Avx512, avx512)].into_iter().filter(|&(_, runs)| runs).map(|(compilation, _)| compilation).collect()
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        vec![Self::Baseline]
+    }
+}
+
+/// [`sweep_fibre_contacts`] in `compilation`, which the processor must run. The positions
+/// and lists are separate arguments, not fields of one struct with the sums: so LLVM knows
+/// they do not alias and keeps their pointers in registers (one struct cost 2 % more
+/// instructions).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn dispatch_fibre_contacts(avx2: bool, law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
+fn dispatch_fibre_contacts(compilation: SweepCompilation, law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        #[target_feature(enable = "avx2")]
-        fn sweep_avx2(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
-            sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+    match compilation {
+        SweepCompilation::Avx2 => {
+            #[target_feature(enable = "avx2")]
+            fn sweep_avx2(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
+                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+            }
+            // SAFETY: the caller has checked that the processor runs AVX2
+            return unsafe { sweep_avx2(law, mu, positions, pairs, sums, owned, data_of) };
         }
-        // SAFETY: the caller has checked that the processor runs AVX2
-        return unsafe { sweep_avx2(law, mu, positions, pairs, sums, owned, data_of) };
+        SweepCompilation::Avx512 => {
+            #[target_feature(enable = "avx2,avx512f")]
+            fn sweep_avx512(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
+                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+            }
+            // SAFETY: the caller has checked that the processor runs AVX2 and AVX-512F
+            return unsafe { sweep_avx512(law, mu, positions, pairs, sums, owned, data_of) };
+        }
+        SweepCompilation::Baseline => {}
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = avx2;
+    let _ = compilation;
     sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
 }
 
@@ -843,18 +882,15 @@ impl Domain {
     /// Fibre–fibre contact and friction on owned nodes (seed 3-1…3-3, 4-4…4-15), summed per
     /// node in partner-gid order.
     fn add_fibre_contacts(&mut self) {
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = crate::lanes::available();
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = false;
-        self.add_fibre_contacts_compiled_for(avx2);
+        let widest = *SWEEP_COMPILATION.get_or_init(|| *SweepCompilation::available().last().expect("the baseline runs anywhere"));
+        self.add_fibre_contacts_compiled_for(widest);
     }
 
-    /// [`Self::add_fibre_contacts`] by the sweep compiled for AVX2 or for the baseline
-    /// processor (`avx2` only where the processor runs AVX2). Never inlined (one call a
-    /// step), so profilers and `scripts/count-instructions.sh` see the sweep by this name.
+    /// [`Self::add_fibre_contacts`] by the sweep in `compilation`, which the processor must
+    /// run. Never inlined (one call a step), so profilers and `scripts/count-instructions.sh`
+    /// see the sweep by this name.
     #[inline(never)]
-    fn add_fibre_contacts_compiled_for(&mut self, avx2: bool) {
+    fn add_fibre_contacts_compiled_for(&mut self, compilation: SweepCompilation) {
         let n_sections = self.sections.len();
         let (law, mu) = (self.contact.law, self.contact.friction_coefficient);
         self.running_contact_sums.resize(self.nodes.n_owned, RunningSums::default());
@@ -864,10 +900,10 @@ impl Domain {
         if n_sections == 1 {
             // most cases: one pair of sections, its data held in registers for the sweep
             let data = self.pair_data[0];
-            dispatch_fibre_contacts(avx2, law, mu, positions, pairs, sums, owned, |_, _| data);
+            dispatch_fibre_contacts(compilation, law, mu, positions, pairs, sums, owned, |_, _| data);
         } else {
             let pair_data = &self.pair_data[..];
-            dispatch_fibre_contacts(avx2, law, mu, positions, pairs, sums, owned, |i, j| pair_data[section[i] as usize * n_sections + section[j] as usize]);
+            dispatch_fibre_contacts(compilation, law, mu, positions, pairs, sums, owned, |i, j| pair_data[section[i] as usize * n_sections + section[j] as usize]);
         }
     }
 
@@ -1270,8 +1306,8 @@ mod tests {
     /// Each pair of owned nodes is evaluated once, at its node of lower gid, which hands the
     /// partner its terms; a pair with a ghost of lower gid is evaluated where the ghost's row
     /// would come. Every force, stiffness, ledger and history has the bits of every row
-    /// evaluating all its entries, with ghosts or without, one section or two, compiled for
-    /// AVX2 or not.
+    /// evaluating all its entries, with ghosts or without, one section or two, in every
+    /// compilation the processor runs.
     #[test]
     fn the_half_row_sweep_gives_the_bits_of_full_rows() {
         let bits = |values: &[f64]| values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
@@ -1279,13 +1315,10 @@ mod tests {
         let history_bits = |h: &crate::neighbour::PairHistory| (vector_bits(&[h.anchor]), h.spring_stiffness.to_bits(), h.touching, h.max_overlap.to_bits());
         // the first word that differs, if any (the vectors are long)
         let first_difference = |a: Vec<u64>, b: Vec<u64>| if a.len() != b.len() { Some(a.len().min(b.len())) } else { a.iter().zip(&b).position(|(x, y)| x != y) };
-        #[cfg(target_arch = "x86_64")]
-        let compilations = if crate::lanes::available() { vec![false, true] } else { vec![false] };
-        #[cfg(not(target_arch = "x86_64"))]
-        let compilations = vec![false];
-        let cases: Vec<_> = [1, 2].into_iter().flat_map(|s| [false, true].map(|g| (s, g))).flat_map(|(s, g)| compilations.iter().map(move |&a| (s, g, a))).collect();
-        for (sections, ghosts, avx2) in cases {
-            let case = format!("sections {sections}, ghosts {ghosts}, avx2 {avx2}");
+        let compilations = SweepCompilation::available();
+        let cases: Vec<_> = [1, 2].into_iter().flat_map(|s| [false, true].map(|g| (s, g))).flat_map(|(s, g)| compilations.iter().map(move |&c| (s, g, c))).collect();
+        for (sections, ghosts, compilation) in cases {
+            let case = format!("sections {sections}, ghosts {ghosts}, compiled for {compilation:?}");
             let mut domain = squeezed_yarn(sections, ghosts);
             let owned = domain.nodes.n_owned;
             assert_eq!(domain.pairs.lower_ghosts.is_empty(), !ghosts, "{case}");
@@ -1303,7 +1336,7 @@ mod tests {
                 }
                 domain.nodes.force.iter_mut().for_each(|f| *f = Vec3::zeros());
                 let touching_before: Vec<bool> = reference.histories.iter().map(|h| h.touching).collect();
-                domain.add_fibre_contacts_compiled_for(avx2);
+                domain.add_fibre_contacts_compiled_for(compilation);
                 reference.sweep(&domain);
                 first_touches += reference.histories.iter().zip(&touching_before).filter(|(now, before)| now.touching && !**before).count();
                 assert_eq!(first_difference(vector_bits(&domain.nodes.force[..owned]), vector_bits(&reference.force)), None, "forces, {case}, sweep {sweep}");
