@@ -289,7 +289,16 @@ impl SweepCompilation {
 /// instructions).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn dispatch_fibre_contacts(compilation: SweepCompilation, law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
+fn dispatch_fibre_contacts(
+    compilation: SweepCompilation,
+    law: NormalLaw,
+    mu: f64,
+    positions: &[Vec3],
+    pairs: &mut NeighbourList,
+    sums: FibreContactSums,
+    owned: usize,
+    data_of: impl Fn(usize, usize) -> PairData,
+) {
     #[cfg(target_arch = "x86_64")]
     match compilation {
         SweepCompilation::Avx2 => {
@@ -318,6 +327,7 @@ fn dispatch_fibre_contacts(compilation: SweepCompilation, law: NormalLaw, mu: f6
 /// Evaluates the pair of a list entry at its node, `relative` being the partner's position
 /// relative to the node, and updates the pair's history: its terms for the node, or none
 /// when the pair does not touch.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touching: &mut bool, max_overlap_reached: &mut f64, anchor: &mut Vec3, spring_stiffness: &mut f64) -> Option<PairTerms> {
     let distance_squared = relative.norm_squared();

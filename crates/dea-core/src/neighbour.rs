@@ -774,10 +774,10 @@ impl NeighbourList {
         handed.sort_unstable_by_key(|&(i, gid, _)| (i, gid));
         let (mut lengths, mut partners, mut overlaps) = (Vec::with_capacity(owned), Vec::new(), Vec::new());
         let mut handed = handed.into_iter().peekable();
-        for i in 0..owned {
+        for (i, &gid) in gids.iter().enumerate() {
             let start = partners.len();
             // the row's own records, but those of owned partners of lower gid (not kept here)
-            let mut own = self.retired_row(i).filter(|&r| self.retired_gid[r] > gids[i] || owned_here(self.retired_gid[r]).is_none()).peekable();
+            let mut own = self.retired_row(i).filter(|&r| self.retired_gid[r] > gid || owned_here(self.retired_gid[r]).is_none()).peekable();
             loop {
                 let next_handed = handed.peek().filter(|h| h.0 == i).map(|h| h.1);
                 let next_own = own.peek().map(|&r| self.retired_gid[r]);
