@@ -26,10 +26,11 @@ pub struct BenchReport {
     /// core time per node-step: wall x ranks / node-steps [ns]
     pub ns_per_node_step: f64,
     /// fibre-contact stage time per touching pair, on the squeezed yarn held still (every
-    /// pair in reach touches; friction evaluated, sticking). The full lists evaluate a pair
-    /// at both of its nodes, so this is twice the time per entry.
+    /// pair in reach touches; friction evaluated, sticking). A pair has an entry at each of
+    /// its nodes, so this is twice the time per entry.
     pub ns_per_contact_pair: f64,
-    /// the same per touching entry (one node's evaluation of a pair)
+    /// the same per touching entry: half a pair (a pair of two owned nodes is evaluated
+    /// once, for both entries)
     pub ns_per_contact_entry: f64,
     /// touching pair entries per node in that static measurement
     pub static_contacts_per_node: f64,

@@ -736,7 +736,7 @@ impl NeighbourList {
     /// Where the history of entry `k` of owned row `i` is kept: in the entry itself, or, for a
     /// partner owned here with a lower gid, at the mirror entry in the partner's row (then
     /// `true`: seen from the partner).
-    pub fn history_entry(&self, i: usize, k: usize) -> (usize, bool) {
+    fn history_entry(&self, i: usize, k: usize) -> (usize, bool) {
         let j = self.partner[k] as usize;
         let owned = self.upper_start.len();
         if j >= owned || k >= self.upper_start[i] as usize {
