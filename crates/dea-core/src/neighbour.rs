@@ -713,6 +713,8 @@ impl NeighbourList {
     /// Finds each owned row's upper part and the entries with ghosts of lower gid.
     fn split_rows(&mut self, nodes: &Nodes) {
         let owned = nodes.n_owned;
+        // the sweep's order of terms is the gid order only if the rows come in it (D13)
+        assert!(nodes.gid[..owned].windows(2).all(|pair| pair[0] < pair[1]), "owned nodes must be stored in ascending gid");
         self.upper_start.clear();
         self.lower_ghosts.clear();
         for i in 0..owned {
@@ -723,7 +725,6 @@ impl NeighbourList {
             for k in row.start..row.start + lower {
                 let j = self.partner[k] as usize;
                 if j >= owned {
-                    // owned nodes are stored in ascending gid
                     let before_row = nodes.gid[..owned].partition_point(|&g| g < nodes.gid[j]);
                     self.lower_ghosts.push(LowerGhostEntry { before_row: before_row as u32, row: i as u32, entry: k as u32 });
                 }
