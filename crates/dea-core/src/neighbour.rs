@@ -734,15 +734,21 @@ impl NeighbourList {
         self.lower_ghosts.sort_unstable_by(|a, b| partner_gid(a).cmp(&partner_gid(b)).then(a.row.cmp(&b.row)));
     }
 
+    /// Whether entry `k` of owned row `i` is where its pair is evaluated and its history
+    /// kept: not when the partner is owned here with a lower gid (D13).
+    #[inline]
+    pub fn evaluates(&self, i: usize, k: usize) -> bool {
+        (self.partner[k] as usize) >= self.upper_start.len() || k >= self.upper_start[i] as usize
+    }
+
     /// Where the history of entry `k` of owned row `i` is kept: in the entry itself, or, for a
     /// partner owned here with a lower gid, at the mirror entry in the partner's row (then
     /// `true`: seen from the partner).
     fn history_entry(&self, i: usize, k: usize) -> (usize, bool) {
-        let j = self.partner[k] as usize;
-        let owned = self.upper_start.len();
-        if j >= owned || k >= self.upper_start[i] as usize {
+        if self.evaluates(i, k) {
             return (k, false);
         }
+        let j = self.partner[k] as usize;
         let upper = self.upper_start[j] as usize..self.start[j + 1] as usize;
         let gid = self.reference_gid[i];
         match self.partner_gid[upper.clone()].binary_search(&gid) {
@@ -806,9 +812,7 @@ impl NeighbourList {
     /// Entries of owned rows whose pair touches (a pair of two owned nodes counts twice).
     pub fn touching_entries(&self) -> usize {
         let owned = self.upper_start.len();
-        let upper: usize =
-            (0..owned).flat_map(|i| self.upper_start[i] as usize..self.start[i + 1] as usize).filter(|&k| self.touching[k]).map(|k| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum();
-        upper + self.lower_ghosts.iter().filter(|e| self.touching[e.entry as usize]).count()
+        (0..owned).flat_map(|i| self.row(i).map(move |k| (i, k))).filter(|&(i, k)| self.evaluates(i, k) && self.touching[k]).map(|(_, k)| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum()
     }
 
     /// Appends to the lists being built the history of a row that changed, `old` and `retired`
