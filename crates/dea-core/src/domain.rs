@@ -165,8 +165,9 @@ pub struct NodeLedger {
     pub fracture_released: Vec<f64>,
 }
 
-/// How many list entries ahead the contact sweep asks for a partner's position: partners lie
-/// in other fibres' stretches of memory, and in a woven panel their loads missed the cache.
+/// How many list entries ahead the contact sweep asks for a partner's position and running
+/// sums: partners lie in other fibres' stretches of memory, and in a woven panel their loads
+/// missed the cache.
 const PREFETCH_AHEAD: usize = 8;
 
 /// Asks the memory system for the value at `index` of the array at `base` (a hint: no
@@ -395,6 +396,9 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
             let j = j as usize;
             if let Some(&ahead) = pairs.partner.get(row.start + e + PREFETCH_AHEAD) {
                 prefetch(positions.as_ptr(), ahead as usize);
+                // the sums an owned partner is handed (a ghost's index is past them: a hint
+                // cannot fault)
+                prefetch(running.as_ptr(), ahead as usize);
             }
             prefetch(anchors, row.start + e + PREFETCH_AHEAD);
             prefetch(max_overlaps, row.start + e + PREFETCH_AHEAD);
