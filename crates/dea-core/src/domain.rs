@@ -165,9 +165,9 @@ pub struct NodeLedger {
     pub fracture_released: Vec<f64>,
 }
 
-/// How many list entries ahead the contact sweep asks for a partner's position and running
-/// sums: partners lie in other fibres' stretches of memory, and in a woven panel their loads
-/// missed the cache.
+/// How many list entries ahead the contact sweep asks for a partner's position and, from a
+/// touching pair, its running sums: partners lie in other fibres' stretches of memory, and
+/// in a woven panel their loads missed the cache.
 const PREFETCH_AHEAD: usize = 8;
 
 /// Asks the memory system for the value at `index` of the array at `base` (a hint: no
@@ -394,15 +394,19 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
         let mut sum = std::mem::take(&mut running[i]);
         for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
             let j = j as usize;
-            if let Some(&ahead) = pairs.partner.get(row.start + e + PREFETCH_AHEAD) {
-                prefetch(positions.as_ptr(), ahead as usize);
-                // the sums an owned partner is handed (a ghost's index is past them: a hint
-                // cannot fault)
-                prefetch(running.as_ptr(), ahead as usize);
+            let ahead = pairs.partner.get(row.start + e + PREFETCH_AHEAD).map(|&a| a as usize);
+            if let Some(ahead) = ahead {
+                prefetch(positions.as_ptr(), ahead);
             }
             prefetch(anchors, row.start + e + PREFETCH_AHEAD);
             prefetch(max_overlaps, row.start + e + PREFETCH_AHEAD);
             if let Some(terms) = evaluate_pair(law, mu, positions[j] - xi, data_of(i, j), touching, max_overlap_reached, anchor, spring_stiffness) {
+                // touching pairs come in runs: the sums the pair ahead will hand its partner
+                // (only from here, so entries apart do not pay for it; a ghost's index is past
+                // the sums, and a hint cannot fault)
+                if let Some(ahead) = ahead {
+                    prefetch(running.as_ptr(), ahead);
+                }
                 sum.add(&terms);
                 // an owned partner (of higher gid, so its row is still to come); a ghost's
                 // owner evaluates the pair for it
