@@ -4,6 +4,7 @@
 //! the projectile. Its stages are the step of DESIGN.md §4 without communication; a driver
 //! (the solver's step loop) calls them in order and inserts halo exchange and reductions.
 
+use std::cell::Cell;
 use std::time::Instant;
 
 use crate::bending::{compute_bending, element_shear_force, max_shear_stress, BendingScratch};
@@ -165,10 +166,11 @@ pub struct NodeLedger {
     pub fracture_released: Vec<f64>,
 }
 
-/// How many list entries ahead the contact sweep asks for a partner's position and, from a
-/// touching pair, its running sums: partners lie in other fibres' stretches of memory, and
-/// in a woven panel their loads missed the cache.
-const PREFETCH_AHEAD: usize = 8;
+/// How many list entries ahead the contact sweep asks for a partner's position and, when the
+/// entry touched at the last sweep, its running sums: partners lie in other fibres' stretches
+/// of memory, and in a woven panel their loads missed the cache. Sixteen beat eight in paired
+/// runs of the default case (docs/performance.md, session 22).
+const PREFETCH_AHEAD: usize = 16;
 
 /// Asks the memory system for the value at `index` of the array at `base` (a hint: no
 /// effect on any result).
@@ -333,10 +335,10 @@ fn dispatch_fibre_contacts(
 /// when the pair does not touch.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touching: &mut bool, max_overlap_reached: &mut f64, anchor: &mut Vec3, spring_stiffness: &mut f64) -> Option<PairTerms> {
+fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touching: &Cell<bool>, max_overlap_reached: &mut f64, anchor: &mut Vec3, spring_stiffness: &mut f64) -> Option<PairTerms> {
     let distance_squared = relative.norm_squared();
     if distance_squared >= data.reach * data.reach {
-        *touching = false;
+        touching.set(false);
         return None;
     }
     let distance = distance_squared.sqrt();
@@ -351,8 +353,8 @@ fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touchi
         *max_overlap_reached = max_overlap;
     }
     let mut friction = None;
-    if !*touching {
-        *touching = true;
+    if !touching.get() {
+        touching.set(true);
         *anchor = relative;
         *spring_stiffness = mu * response.stiffness;
     } else if mu > 0.0 {
@@ -378,35 +380,36 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
         (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned], &mut sums.running[..owned]);
     let mut lower_ghosts = pairs.lower_ghosts.iter().peekable();
     let (anchors, max_overlaps) = (pairs.anchor.as_ptr(), pairs.max_overlap.as_ptr());
+    // shared, so the flag of the entry ahead can be read while the present one is written
+    let touching_flags = Cell::from_mut(&mut pairs.touching[..]).as_slice_of_cells();
     for (i, &xi) in owned_positions.iter().enumerate() {
         while let Some(&LowerGhostEntry { row, entry, .. }) = lower_ghosts.next_if(|e| e.before_row as usize <= i) {
             let (row, k) = (row as usize, entry as usize);
             let j = pairs.partner[k] as usize;
             let relative = positions[j] - positions[row];
-            if let Some(terms) = evaluate_pair(law, mu, relative, data_of(row, j), &mut pairs.touching[k], &mut pairs.max_overlap[k], &mut pairs.anchor[k], &mut pairs.spring_stiffness[k]) {
+            if let Some(terms) = evaluate_pair(law, mu, relative, data_of(row, j), &touching_flags[k], &mut pairs.max_overlap[k], &mut pairs.anchor[k], &mut pairs.spring_stiffness[k]) {
                 running[row].add(&terms);
             }
         }
         let row = uppers[i] as usize..starts[i + 1] as usize;
         let partners = &pairs.partner[row.clone()];
-        let history = pairs.touching[row.clone()].iter_mut().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
+        let history = touching_flags[row.clone()].iter().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
         // taken, so every node's sums are zero again for the next sweep
         let mut sum = std::mem::take(&mut running[i]);
         for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
             let j = j as usize;
-            let ahead = pairs.partner.get(row.start + e + PREFETCH_AHEAD).map(|&a| a as usize);
-            if let Some(ahead) = ahead {
+            let k_ahead = row.start + e + PREFETCH_AHEAD;
+            if let Some(&ahead) = pairs.partner.get(k_ahead) {
+                let ahead = ahead as usize;
                 prefetch(positions.as_ptr(), ahead);
+                // the sums the pair ahead will hand its partner if it touches, as it mostly
+                // did at the last sweep (entries apart do not pay for it); without a branch, the
+                // node's own sums else. A ghost's index is past the sums: a hint cannot fault.
+                prefetch(running.as_ptr(), if touching_flags[k_ahead].get() { ahead } else { i });
             }
-            prefetch(anchors, row.start + e + PREFETCH_AHEAD);
-            prefetch(max_overlaps, row.start + e + PREFETCH_AHEAD);
+            prefetch(anchors, k_ahead);
+            prefetch(max_overlaps, k_ahead);
             if let Some(terms) = evaluate_pair(law, mu, positions[j] - xi, data_of(i, j), touching, max_overlap_reached, anchor, spring_stiffness) {
-                // touching pairs come in runs: the sums the pair ahead will hand its partner
-                // (only from here, so entries apart do not pay for it; a ghost's index is past
-                // the sums, and a hint cannot fault)
-                if let Some(ahead) = ahead {
-                    prefetch(running.as_ptr(), ahead);
-                }
                 sum.add(&terms);
                 // an owned partner (of higher gid, so its row is still to come); a ghost's
                 // owner evaluates the pair for it
@@ -1309,7 +1312,7 @@ mod tests {
                     let h = &mut self.histories[k];
                     let relative = domain.nodes.position[j] - domain.nodes.position[i];
                     if let Some(terms) =
-                        evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, &mut h.touching, &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness)
+                        evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, Cell::from_mut(&mut h.touching), &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness)
                     {
                         sum.add(&terms);
                     }
