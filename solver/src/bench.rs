@@ -29,6 +29,10 @@ pub struct BenchReport {
     /// pair in reach touches; friction evaluated, sticking). A pair has an entry at each of
     /// its nodes, so this is twice the time per entry.
     pub ns_per_contact_pair: f64,
+    /// the law and friction alone on the same touching pairs, packed in contiguous arrays:
+    /// what `ns_per_contact_pair` would be if the neighbour lists were free (no list, no pair
+    /// apart, no partner gathered), the floor it stands on
+    pub ns_per_contact_pair_packed: f64,
     /// the same per touching entry: half a pair (a pair of two owned nodes is evaluated
     /// once, for both entries)
     pub ns_per_contact_entry: f64,
@@ -139,6 +143,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     }
     let static_touching = run.domain.pairs.touching_entries() as f64;
     let static_seconds = run.domain.times.fibre_contacts;
+    let (_, packed_seconds, _) = run.domain.time_packed_contact_law(statics);
     run.domain.times = Default::default();
     run.times = Default::default();
     let (halo_bytes_before, halo_steps_before, rebuilds_before) = (run.halo_bytes, run.halo_steps, run.rebuilds);
@@ -173,6 +178,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
             rebuild_seconds,
             static_seconds,
             static_touching,
+            packed_seconds,
             touching as f64 / sampled.max(1) as f64,
             listed as f64 / sampled.max(1) as f64,
             t.fibre_contacts,
@@ -187,7 +193,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     if run.comm.rank() != Rank(0) {
         return Ok(None);
     }
-    let [nodes, rebuild_seconds, static_seconds, static_touching, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts, run_rebuild_seconds] = totals[..] else { unreachable!("twelve totals") };
+    let [nodes, rebuild_seconds, static_seconds, static_touching, packed_seconds, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts, run_rebuild_seconds] = totals[..] else { unreachable!("thirteen totals") };
     let ranks = run.comm.size();
     let node_steps = nodes * steps as f64;
     let section = &run.domain.sections[0];
@@ -201,6 +207,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
         ns_per_node_step: wall * ranks as f64 * 1e9 / node_steps,
         // every touching pair has an entry at each of its nodes, on whichever ranks
         ns_per_contact_pair: 2.0 * ns_per_contact_entry,
+        // over the same pairs: the ghosts' evaluated on both their ranks in each
+        ns_per_contact_pair_packed: packed_seconds * 1e9 / (0.5 * static_touching * statics as f64),
         ns_per_contact_entry,
         static_contacts_per_node: static_touching / nodes,
         ns_per_listed_pair: fibre_contacts * 1e9 / (mean_listed * steps as f64),

@@ -141,7 +141,7 @@ fn bench_json_has_the_documented_keys() {
     let out = dea(&["bench", "--json", "--nodes", "4000", "--steps", "20"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for key in ["nodes", "steps", "ranks", "wall_s", "ns_per_node_step", "ns_per_contact_pair", "ns_per_contact_entry", "ns_per_node_rods", "ns_per_node_rebuild", "ns_per_node_rebuild_in_run", "contacts_per_node"] {
+    for key in ["nodes", "steps", "ranks", "wall_s", "ns_per_node_step", "ns_per_contact_pair", "ns_per_contact_pair_packed", "ns_per_contact_entry", "ns_per_node_rods", "ns_per_node_rebuild", "ns_per_node_rebuild_in_run", "contacts_per_node"] {
         assert!(report.get(key).is_some(), "bench lacks {key}");
     }
     assert!(report["nodes"].as_u64().unwrap() >= 4000);

@@ -289,45 +289,36 @@ impl SweepCompilation {
     }
 }
 
-/// [`sweep_fibre_contacts`] in `compilation`, which the processor must run. The positions
-/// and lists are separate arguments, not fields of one struct with the sums: so LLVM knows
-/// they do not alias and keeps their pointers in registers (one struct cost 2 % more
-/// instructions).
-#[allow(clippy::too_many_arguments)]
+/// Runs `kernel` compiled for `compilation`, which the processor must run: the kernel is
+/// inlined into a function of that compilation's target features (the fibre-contact sweep is
+/// `#[inline(always)]` for it). The sweep's positions and lists are captured as separate
+/// references, not fields of one struct with the sums, so LLVM knows they do not alias and
+/// keeps their pointers in registers (one struct cost 2 % more instructions).
 #[inline(always)]
-fn dispatch_fibre_contacts(
-    compilation: SweepCompilation,
-    law: NormalLaw,
-    mu: f64,
-    positions: &[Vec3],
-    pairs: &mut NeighbourList,
-    sums: FibreContactSums,
-    owned: usize,
-    data_of: impl Fn(usize, usize) -> PairData,
-) {
+fn in_compilation<R>(compilation: SweepCompilation, kernel: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     match compilation {
         SweepCompilation::Avx2 => {
             #[target_feature(enable = "avx2")]
-            fn sweep_avx2(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
-                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+            fn avx2<R>(kernel: impl FnOnce() -> R) -> R {
+                kernel()
             }
             // SAFETY: the caller has checked that the processor runs AVX2
-            return unsafe { sweep_avx2(law, mu, positions, pairs, sums, owned, data_of) };
+            return unsafe { avx2(kernel) };
         }
         SweepCompilation::Avx512 => {
             #[target_feature(enable = "avx2,avx512f")]
-            fn sweep_avx512(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
-                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+            fn avx512<R>(kernel: impl FnOnce() -> R) -> R {
+                kernel()
             }
             // SAFETY: the caller has checked that the processor runs AVX2 and AVX-512F
-            return unsafe { sweep_avx512(law, mu, positions, pairs, sums, owned, data_of) };
+            return unsafe { avx512(kernel) };
         }
         SweepCompilation::Baseline => {}
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = compilation;
-    sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, data_of)
+    kernel()
 }
 
 /// Evaluates the pair of a list entry at its node, `relative` being the partner's position
@@ -378,28 +369,30 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
     let (owned_positions, starts, uppers) = (&positions[..owned], &pairs.start[..=owned], &pairs.upper_start[..owned]);
     let (forces, plastic_sums, friction_sums, stiffnesses, running) =
         (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned], &mut sums.running[..owned]);
-    let mut lower_ghosts = pairs.lower_ghosts.iter().peekable();
-    let (anchors, max_overlaps) = (pairs.anchor.as_ptr(), pairs.max_overlap.as_ptr());
+    let NeighbourList { lower_ghosts, partner: partners_all, touching, max_overlap: max_overlaps_all, anchor: anchors_all, spring_stiffness: springs_all, .. } = pairs;
+    let (partners_all, max_overlaps_all, anchors_all, springs_all) = (&partners_all[..], &mut max_overlaps_all[..], &mut anchors_all[..], &mut springs_all[..]);
+    let mut lower_ghosts = lower_ghosts.iter().peekable();
+    let (anchors, max_overlaps) = (anchors_all.as_ptr(), max_overlaps_all.as_ptr());
     // shared, so the flag of the entry ahead can be read while the present one is written
-    let touching_flags = Cell::from_mut(&mut pairs.touching[..]).as_slice_of_cells();
+    let touching_flags = Cell::from_mut(&mut touching[..]).as_slice_of_cells();
     for (i, &xi) in owned_positions.iter().enumerate() {
         while let Some(&LowerGhostEntry { row, entry, .. }) = lower_ghosts.next_if(|e| e.before_row as usize <= i) {
             let (row, k) = (row as usize, entry as usize);
-            let j = pairs.partner[k] as usize;
+            let j = partners_all[k] as usize;
             let relative = positions[j] - positions[row];
-            if let Some(terms) = evaluate_pair(law, mu, relative, data_of(row, j), &touching_flags[k], &mut pairs.max_overlap[k], &mut pairs.anchor[k], &mut pairs.spring_stiffness[k]) {
+            if let Some(terms) = evaluate_pair(law, mu, relative, data_of(row, j), &touching_flags[k], &mut max_overlaps_all[k], &mut anchors_all[k], &mut springs_all[k]) {
                 running[row].add(&terms);
             }
         }
         let row = uppers[i] as usize..starts[i + 1] as usize;
-        let partners = &pairs.partner[row.clone()];
-        let history = touching_flags[row.clone()].iter().zip(&mut pairs.max_overlap[row.clone()]).zip(&mut pairs.anchor[row.clone()]).zip(&mut pairs.spring_stiffness[row.clone()]);
+        let partners = &partners_all[row.clone()];
+        let history = touching_flags[row.clone()].iter().zip(&mut max_overlaps_all[row.clone()]).zip(&mut anchors_all[row.clone()]).zip(&mut springs_all[row.clone()]);
         // taken, so every node's sums are zero again for the next sweep
         let mut sum = std::mem::take(&mut running[i]);
         for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
             let j = j as usize;
             let k_ahead = row.start + e + PREFETCH_AHEAD;
-            if let Some(&ahead) = pairs.partner.get(k_ahead) {
+            if let Some(&ahead) = partners_all.get(k_ahead) {
                 let ahead = ahead as usize;
                 prefetch(positions.as_ptr(), ahead);
                 // the sums the pair ahead will hand its partner if it touches, as it mostly
@@ -423,6 +416,37 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
         friction_sums[i] += sum.friction;
         stiffnesses[i] = sum.stiffness;
     }
+}
+
+/// The law and friction of [`sweep_fibre_contacts`] on touching pairs packed in contiguous
+/// arrays, `relative` their partners' positions relative to their nodes and `data_of(k)` the
+/// data of pair `k`: each pair's terms added to one running sum and handed to the next slot
+/// of `handed`, with no list, no pair apart and no partner gathered. What the sweep would
+/// cost if its lists were free (`dea-mpi bench`). Returns the sum and the pairs' stiffnesses
+/// summed [N/m].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sweep_packed_pairs(
+    law: NormalLaw,
+    mu: f64,
+    relative: &[Vec3],
+    touching: &[Cell<bool>],
+    max_overlap: &mut [f64],
+    anchor: &mut [Vec3],
+    spring_stiffness: &mut [f64],
+    handed: &mut [RunningSums],
+    data_of: impl Fn(usize) -> PairData,
+) -> RunningSums {
+    let n = relative.len();
+    let (touching, max_overlap, anchor, spring_stiffness, handed) = (&touching[..n], &mut max_overlap[..n], &mut anchor[..n], &mut spring_stiffness[..n], &mut handed[..n]);
+    let mut sum = RunningSums::default();
+    for k in 0..n {
+        if let Some(terms) = evaluate_pair(law, mu, relative[k], data_of(k), &touching[k], &mut max_overlap[k], &mut anchor[k], &mut spring_stiffness[k]) {
+            sum.add(&terms);
+            handed[k].add_mirrored(&terms);
+        }
+    }
+    sum
 }
 
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
@@ -923,11 +947,69 @@ impl Domain {
         if n_sections == 1 {
             // most cases: one pair of sections, its data held in registers for the sweep
             let data = self.pair_data[0];
-            dispatch_fibre_contacts(compilation, law, mu, positions, pairs, sums, owned, |_, _| data);
+            in_compilation(
+                compilation,
+                #[inline(always)]
+                move || sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |_, _| data),
+            );
         } else {
             let pair_data = &self.pair_data[..];
-            dispatch_fibre_contacts(compilation, law, mu, positions, pairs, sums, owned, |i, j| pair_data[section[i] as usize * n_sections + section[j] as usize]);
+            in_compilation(
+                compilation,
+                #[inline(always)]
+                move || sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |i, j| pair_data[section[i] as usize * n_sections + section[j] as usize]),
+            );
         }
+    }
+
+    /// The contact data of the pair of owned or ghost nodes `i` and `j`.
+    fn pair_data_of(&self, i: usize, j: usize) -> PairData {
+        self.pair_data[self.nodes.section[i] as usize * self.sections.len() + self.nodes.section[j] as usize]
+    }
+
+    /// Times `sweeps` evaluations of the fibre-contact law and friction on this domain's
+    /// touching pairs, packed in contiguous arrays in the widest compilation the processor
+    /// runs ([`sweep_packed_pairs`]): the floor the sweep stands on, without its lists. The
+    /// pairs are those the sweep evaluates here (a pair with a ghost on both its ranks), with
+    /// copies of their histories; the domain is not changed. Returns the pairs, the seconds,
+    /// and the pairs' stiffnesses summed at the last evaluation [N/m].
+    pub fn time_packed_contact_law(&self, sweeps: usize) -> (usize, f64, f64) {
+        let pairs = &self.pairs;
+        let evaluated: Vec<(usize, usize)> = (0..self.nodes.n_owned).flat_map(|i| pairs.row(i).map(move |k| (i, k))).filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k]).collect();
+        let partner = |k: usize| pairs.partner[k] as usize;
+        let relative: Vec<Vec3> = evaluated.iter().map(|&(i, k)| self.nodes.position[partner(k)] - self.nodes.position[i]).collect();
+        let data: Vec<PairData> = evaluated.iter().map(|&(i, k)| self.pair_data_of(i, partner(k))).collect();
+        let mut touching = vec![true; evaluated.len()];
+        let touching = Cell::from_mut(&mut touching[..]).as_slice_of_cells();
+        let mut max_overlap: Vec<f64> = evaluated.iter().map(|&(_, k)| pairs.max_overlap[k]).collect();
+        let mut anchor: Vec<Vec3> = evaluated.iter().map(|&(_, k)| pairs.anchor[k]).collect();
+        let mut spring_stiffness: Vec<f64> = evaluated.iter().map(|&(_, k)| pairs.spring_stiffness[k]).collect();
+        let mut handed = vec![RunningSums::default(); evaluated.len()];
+        let (law, mu, compilation) = (self.contact.law, self.contact.friction_coefficient, SweepCompilation::widest());
+        let mut stiffness = 0.0;
+        let clock = Instant::now();
+        // the handed terms add up over the sweeps, as the sweep's do over a step's
+        for _ in 0..sweeps {
+            let (relative, max_overlap, anchor, spring_stiffness, handed) = (&relative[..], &mut max_overlap[..], &mut anchor[..], &mut spring_stiffness[..], &mut handed[..]);
+            let sum = if self.sections.len() == 1 {
+                let data = self.pair_data[0];
+                in_compilation(
+                    compilation,
+                    #[inline(always)]
+                    move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |_| data),
+                )
+            } else {
+                let data = &data[..];
+                in_compilation(
+                    compilation,
+                    #[inline(always)]
+                    move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |k| data[k]),
+                )
+            };
+            // every term is used, as the sweep's are
+            stiffness = std::hint::black_box(sum).stiffness;
+        }
+        (evaluated.len(), clock.elapsed().as_secs_f64(), stiffness)
     }
 
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
@@ -1377,6 +1459,31 @@ mod tests {
             // every path of the sweep was taken: first touches after partings, slip, unloading
             let touching = reference.histories.iter().filter(|h| h.touching).count();
             assert!(first_touches > touching && slipped && unloading, "{case}: {first_touches} first touches, slip {slipped}, unloading {unloading}");
+        }
+    }
+
+    /// The bench's floor measurement evaluates the pairs the sweep evaluates, with their
+    /// histories and data: its stiffnesses add up to the law's at every touching pair the
+    /// sweep evaluates here (a pair with a ghost at its owned node), with one section or two.
+    #[test]
+    fn the_packed_law_evaluates_the_pairs_the_sweep_does() {
+        for (sections, ghosts) in [(1, false), (2, true)] {
+            let mut domain = squeezed_yarn(sections, ghosts);
+            // the first sweep touches, the second sticks: friction is evaluated
+            for _ in 0..2 {
+                domain.add_fibre_contacts();
+            }
+            let (law, pairs) = (domain.contact.law, &domain.pairs);
+            let evaluated: Vec<(usize, usize)> = (0..domain.nodes.n_owned).flat_map(|i| pairs.row(i).map(move |k| (i, k))).filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k]).collect();
+            let expected: f64 =
+                evaluated.iter().map(|&(i, k)| law.evaluate(&domain.pair_data_of(i, pairs.partner[k] as usize).geometry, contact_overlap(&domain, i, k), pairs.max_overlap[k]).0.stiffness).sum();
+            let (count, seconds, stiffness) = domain.time_packed_contact_law(3);
+            assert_eq!(count, evaluated.len(), "sections {sections}, ghosts {ghosts}");
+            assert!(count > 100 && seconds > 0.0);
+            assert!((stiffness - expected).abs() <= 1e-12 * expected, "sections {sections}, ghosts {ghosts}: {stiffness} against {expected}");
+            if !ghosts {
+                assert_eq!(2 * count, pairs.touching_entries(), "each pair of owned nodes once");
+            }
         }
     }
 
