@@ -449,6 +449,58 @@ fn sweep_packed_pairs(
     sum
 }
 
+/// Touching pairs packed in contiguous arrays, one slot a pair, for [`sweep_packed_pairs`].
+struct PackedPairs {
+    /// the partner's position relative to the node [m]
+    relative: Vec<Vec3>,
+    data: Vec<PairData>,
+    touching: Vec<bool>,
+    /// [m]
+    max_overlap: Vec<f64>,
+    /// [m]
+    anchor: Vec<Vec3>,
+    /// [N/m]
+    spring_stiffness: Vec<f64>,
+    /// the terms handed to each pair's partner, added up over the sweeps
+    handed: Vec<RunningSums>,
+}
+
+impl PackedPairs {
+    /// Times `sweeps` sweeps, with `one_section` the data of every pair when the domain has
+    /// one section: the seconds and the pairs' stiffnesses summed at the last sweep [N/m].
+    fn time(&mut self, law: NormalLaw, mu: f64, one_section: Option<PairData>, sweeps: usize) -> (f64, f64) {
+        let compilation = SweepCompilation::widest();
+        let mut stiffness = 0.0;
+        let clock = Instant::now();
+        for _ in 0..sweeps {
+            // every term is used, as the sweep's are
+            stiffness = std::hint::black_box(self.sweep(compilation, law, mu, one_section)).stiffness;
+        }
+        (clock.elapsed().as_secs_f64(), stiffness)
+    }
+
+    /// One sweep in `compilation`, which the processor must run. Never inlined, so that
+    /// `scripts/count-instructions.sh` counts it by this name.
+    #[inline(never)]
+    fn sweep(&mut self, compilation: SweepCompilation, law: NormalLaw, mu: f64, one_section: Option<PairData>) -> RunningSums {
+        let touching = Cell::from_mut(&mut self.touching[..]).as_slice_of_cells();
+        let (relative, data, max_overlap, anchor, spring_stiffness, handed) =
+            (&self.relative[..], &self.data[..], &mut self.max_overlap[..], &mut self.anchor[..], &mut self.spring_stiffness[..], &mut self.handed[..]);
+        match one_section {
+            Some(data) => in_compilation(
+                compilation,
+                #[inline(always)]
+                move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |_| data),
+            ),
+            None => in_compilation(
+                compilation,
+                #[inline(always)]
+                move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |k| data[k]),
+            ),
+        }
+    }
+}
+
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
 /// shear stress of its shear force (5-4, 5-5), against its strengths [Pa].
 fn element_breaks(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> Option<FailureMode> {
@@ -968,48 +1020,27 @@ impl Domain {
     }
 
     /// Times `sweeps` evaluations of the fibre-contact law and friction on this domain's
-    /// touching pairs, packed in contiguous arrays in the widest compilation the processor
-    /// runs ([`sweep_packed_pairs`]): the floor the sweep stands on, without its lists. The
-    /// pairs are those the sweep evaluates here (a pair with a ghost on both its ranks), with
-    /// copies of their histories; the domain is not changed. Returns the pairs, the seconds,
-    /// and the pairs' stiffnesses summed at the last evaluation [N/m].
+    /// touching pairs, packed in contiguous arrays ([`PackedPairs`]): the floor the sweep
+    /// stands on, without its lists. The pairs are those the sweep evaluates here (a pair with
+    /// a ghost on both its ranks), with copies of their histories; the domain is not changed.
+    /// Returns the pairs, the seconds, and the pairs' stiffnesses summed at the last
+    /// evaluation [N/m].
     pub fn time_packed_contact_law(&self, sweeps: usize) -> (usize, f64, f64) {
         let pairs = &self.pairs;
         let evaluated: Vec<(usize, usize)> = (0..self.nodes.n_owned).flat_map(|i| pairs.row(i).map(move |k| (i, k))).filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k]).collect();
         let partner = |k: usize| pairs.partner[k] as usize;
-        let relative: Vec<Vec3> = evaluated.iter().map(|&(i, k)| self.nodes.position[partner(k)] - self.nodes.position[i]).collect();
-        let data: Vec<PairData> = evaluated.iter().map(|&(i, k)| self.pair_data_of(i, partner(k))).collect();
-        let mut touching = vec![true; evaluated.len()];
-        let touching = Cell::from_mut(&mut touching[..]).as_slice_of_cells();
-        let mut max_overlap: Vec<f64> = evaluated.iter().map(|&(_, k)| pairs.max_overlap[k]).collect();
-        let mut anchor: Vec<Vec3> = evaluated.iter().map(|&(_, k)| pairs.anchor[k]).collect();
-        let mut spring_stiffness: Vec<f64> = evaluated.iter().map(|&(_, k)| pairs.spring_stiffness[k]).collect();
-        let mut handed = vec![RunningSums::default(); evaluated.len()];
-        let (law, mu, compilation) = (self.contact.law, self.contact.friction_coefficient, SweepCompilation::widest());
-        let mut stiffness = 0.0;
-        let clock = Instant::now();
-        // the handed terms add up over the sweeps, as the sweep's do over a step's
-        for _ in 0..sweeps {
-            let (relative, max_overlap, anchor, spring_stiffness, handed) = (&relative[..], &mut max_overlap[..], &mut anchor[..], &mut spring_stiffness[..], &mut handed[..]);
-            let sum = if self.sections.len() == 1 {
-                let data = self.pair_data[0];
-                in_compilation(
-                    compilation,
-                    #[inline(always)]
-                    move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |_| data),
-                )
-            } else {
-                let data = &data[..];
-                in_compilation(
-                    compilation,
-                    #[inline(always)]
-                    move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |k| data[k]),
-                )
-            };
-            // every term is used, as the sweep's are
-            stiffness = std::hint::black_box(sum).stiffness;
-        }
-        (evaluated.len(), clock.elapsed().as_secs_f64(), stiffness)
+        let mut packed = PackedPairs {
+            relative: evaluated.iter().map(|&(i, k)| self.nodes.position[partner(k)] - self.nodes.position[i]).collect(),
+            data: evaluated.iter().map(|&(i, k)| self.pair_data_of(i, partner(k))).collect(),
+            touching: vec![true; evaluated.len()],
+            max_overlap: evaluated.iter().map(|&(_, k)| pairs.max_overlap[k]).collect(),
+            anchor: evaluated.iter().map(|&(_, k)| pairs.anchor[k]).collect(),
+            spring_stiffness: evaluated.iter().map(|&(_, k)| pairs.spring_stiffness[k]).collect(),
+            handed: vec![RunningSums::default(); evaluated.len()],
+        };
+        let one_section = (self.sections.len() == 1).then(|| self.pair_data[0]);
+        let (seconds, stiffness) = packed.time(self.contact.law, self.contact.friction_coefficient, one_section, sweeps);
+        (evaluated.len(), seconds, stiffness)
     }
 
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
