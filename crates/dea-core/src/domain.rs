@@ -986,8 +986,10 @@ impl Domain {
     }
 
     /// [`Self::add_fibre_contacts`] by the sweep in `compilation`, which the processor must
-    /// run. Never inlined (one call a step), so profilers and `scripts/count-instructions.sh`
-    /// see the sweep by this name.
+    /// run. Never inlined (one call a step), so `scripts/count-instructions.sh` counts the
+    /// sweep, with its callees, by this name; a flat profile of a run shows the sweep as the
+    /// compilation's function, `in_compilation::avx512` (or `::avx2`), which only it calls
+    /// there.
     #[inline(never)]
     fn add_fibre_contacts_compiled_for(&mut self, compilation: SweepCompilation) {
         let n_sections = self.sections.len();
