@@ -102,7 +102,7 @@ check v50-groups-share-the-host-memory bash -c 'mpi 2 v50 $work/v50_huge.json --
     test $code -eq 3 && grep -q "on each of the 1 ranks they are split over" $work/huge.err && grep -q "the job.s 2 ranks on this host" $work/huge.err'
 check v50-ranks-per-shot-must-divide bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/nodiv --ranks-per-shot 3; test $? -eq 2'
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
-    && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
+    && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_contact_pair_packed ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
            grep -q "\"$key\"" $work/bench.json || { echo "bench lacks $key"; exit 1; }; done && grep -q "\"ranks\":2" $work/bench.json'
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
