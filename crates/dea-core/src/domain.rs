@@ -1029,7 +1029,7 @@ impl Domain {
     /// evaluation [N/m].
     pub fn time_packed_contact_law(&self, sweeps: usize) -> (usize, f64, f64) {
         let pairs = &self.pairs;
-        let evaluated: Vec<(usize, usize)> = (0..self.nodes.n_owned).flat_map(|i| pairs.row(i).map(move |k| (i, k))).filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k]).collect();
+        let evaluated: Vec<(usize, usize)> = pairs.evaluated_touching().collect();
         let partner = |k: usize| pairs.partner[k] as usize;
         let mut packed = PackedPairs {
             relative: evaluated.iter().map(|&(i, k)| self.nodes.position[partner(k)] - self.nodes.position[i]).collect(),

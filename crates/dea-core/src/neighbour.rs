@@ -809,10 +809,16 @@ impl NeighbourList {
         (lengths, partners, overlaps)
     }
 
+    /// The entries `(row, entry)` of owned rows where a touching pair is evaluated: each pair
+    /// of owned nodes once, each pair with a ghost once here.
+    pub fn evaluated_touching(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.upper_start.len()).flat_map(move |i| self.row(i).map(move |k| (i, k))).filter(|&(i, k)| self.evaluates(i, k) && self.touching[k])
+    }
+
     /// Entries of owned rows whose pair touches (a pair of two owned nodes counts twice).
     pub fn touching_entries(&self) -> usize {
         let owned = self.upper_start.len();
-        (0..owned).flat_map(|i| self.row(i).map(move |k| (i, k))).filter(|&(i, k)| self.evaluates(i, k) && self.touching[k]).map(|(_, k)| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum()
+        self.evaluated_touching().map(|(_, k)| if (self.partner[k] as usize) < owned { 2 } else { 1 }).sum()
     }
 
     /// Appends to the lists being built the history of a row that changed, `old` and `retired`
