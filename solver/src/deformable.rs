@@ -7,7 +7,7 @@
 //! nodes, fills the proxy with the centre of mass and mean velocity, and shares each
 //! reaction over the three vertices of its triangle by the barycentric weights (seed 4-1).
 
-use dea_core::domain::Reaction;
+use dea_core::projectile_contact::Reaction;
 use dea_core::projectile::RigidProjectile;
 use dea_core::{Vec3, NONE};
 use dea_projectile::elastic::{ElasticBody, ElasticError, ElasticMaterial, ElasticModel};

@@ -14,7 +14,7 @@
 
 use std::time::Instant;
 
-use dea_core::domain::BrokenCount;
+use dea_core::failure::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
 use dea_core::projectile::{RigidProjectile, RigidShape};
@@ -476,7 +476,7 @@ impl<C: Comm> Distributed<C> {
             self.reactions.clear();
             self.reactions.extend(all.iter().flat_map(|words| words.chunks_exact(REACTION_WORDS)).map(reaction_from_words));
             self.reactions.sort_unstable_by_key(|r| r.gid);
-            let load = dea_core::domain::sum_reactions(self.reactions.iter().copied());
+            let load = dea_core::projectile_contact::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
             if let Some(body) = &mut self.deformable {
                 body.forces(&self.reactions);

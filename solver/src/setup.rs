@@ -14,7 +14,7 @@ use dea_core::weibull::element_strength;
 use std::path::Path;
 use std::sync::Arc;
 
-use dea_core::domain::BrokenCount;
+use dea_core::failure::BrokenCount;
 use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
 use dea_fabric::cell::PeriodicCell;
 use dea_fabric::panel::{transition_nodes, CoarseYarns, FineRegion, WovenPanel};

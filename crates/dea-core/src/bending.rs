@@ -236,6 +236,15 @@ pub fn max_shear_stress(shear_force: f64, area: f64) -> f64 {
     4.0 * shear_force / (3.0 * area)
 }
 
+/// Energy `K_t (theta - theta_0)^2 / 2` of the spring at node `i` as computed this step
+/// (seed 5-1) [J].
+#[inline]
+pub fn spring_energy(nodes: &Nodes, scratch: &BendingScratch, sections: &[FibreSection], i: usize) -> f64 {
+    let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
+    let bent = scratch.angle[i] - nodes.rest_angle[i];
+    0.5 * k_t * bent * bent
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,12 @@
 //! Combined tension–shear failure of rod elements, seed eq. (5-6):
-//! `(sigma/sigma_u)^2 + (tau/tau_u)^2 > 1`, with `sigma = E eps` (4-16) and `tau = 4Q/(3A)` (5-5).
+//! `(sigma/sigma_u)^2 + (tau/tau_u)^2 > 1`, with `sigma = E eps` (4-16) and `tau = 4Q/(3A)` (5-5),
+//! and the failure stage of a step: which owned elements break now, and the strain and bending
+//! energy they release.
 
-use crate::nodes::FailureMode;
+use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
+use crate::nodes::{Elements, FailureMode, Nodes};
+use crate::rod::axial_energy;
+use crate::{FibreMaterial, FibreSection};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +36,130 @@ pub fn combined_criterion(sigma: f64, sigma_u: f64, tau: f64, tau_u: f64) -> Opt
     })
 }
 
+/// Broken elements by mode, cumulative.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BrokenCount {
+    pub tension: u64,
+    pub shear: u64,
+    pub combined: u64,
+}
+
+impl BrokenCount {
+    pub fn total(&self) -> u64 {
+        self.tension + self.shear + self.combined
+    }
+
+    fn book(&mut self, mode: FailureMode) {
+        match mode {
+            FailureMode::Tension => self.tension += 1,
+            FailureMode::Shear => self.shear += 1,
+            _ => self.combined += 1,
+        }
+    }
+}
+
+/// The failure stage: applies the combined criterion (5-6) to the owned elements with this
+/// step's strains (`elements`) and moments (`bending`), counts the broken ones in `broken`,
+/// books the strain and bending energy each releases in `fracture_released` [J] at its first
+/// node, and then marks them broken. `newly_broken` is scratch. The decisions read only this
+/// step's state, so every rank that holds an element's stencil decides it alike.
+#[allow(clippy::too_many_arguments)]
+pub fn break_elements(
+    nodes: &Nodes,
+    elements: &mut Elements,
+    bending: &BendingScratch,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+    parameters: &FailureParameters,
+    fracture_released: &mut [f64],
+    broken: &mut BrokenCount,
+    newly_broken: &mut Vec<(u32, FailureMode)>,
+) {
+    if !parameters.enabled {
+        return;
+    }
+    newly_broken.clear();
+    let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
+    let breaks_now = |elements: &Elements, i: usize| element_breaks(nodes, elements, bending, sections, modulus, shear_strength, i);
+    let n_owned = nodes.n_owned;
+    let mut i = 0;
+    let mut book_if_broken = |i: usize| {
+        if let Some(mode) = breaks_now(elements, i) {
+            newly_broken.push((i as u32, mode));
+            broken.book(mode);
+        }
+    };
+    // almost no element is near breaking: four at a time are told so in lanes
+    #[cfg(target_arch = "x86_64")]
+    if crate::lanes::available() {
+        // a group reads the moment after its last element
+        while i + 4 <= n_owned && i + 5 <= bending.moment.len() {
+            // SAFETY: the processor runs AVX2
+            let candidates = unsafe { may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i) };
+            for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
+                book_if_broken(k);
+            }
+            i += 4;
+        }
+    }
+    for i in i..n_owned {
+        book_if_broken(i);
+    }
+    for &(i, _) in newly_broken.iter() {
+        let i = i as usize;
+        let next = nodes.next[i] as usize;
+        // strain energy of the element itself (evaluated as if intact)
+        let area = sections[nodes.section[i] as usize].area;
+        let mut released = axial_energy(material, area, elements.rest_length[i], elements.strain[i]);
+        // the spring at the first node, and the one at the second unless the element
+        // after it also breaks now (then that element books it). Failure states are
+        // applied after this loop, so for an owned or a ghost next element alike the
+        // criterion answers from this step's state, as its owner decides it.
+        released += spring_energy(nodes, bending, sections, i);
+        if breaks_now(elements, next).is_none() {
+            released += spring_energy(nodes, bending, sections, next);
+        }
+        fracture_released[i] += released;
+    }
+    for &(i, mode) in newly_broken.iter() {
+        elements.failure[i as usize] = mode;
+    }
+}
+
+/// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
+/// shear stress of its shear force (5-4, 5-5), against its strengths [Pa].
+pub fn element_breaks(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> Option<FailureMode> {
+    if !elements.is_intact(nodes, i) {
+        return None;
+    }
+    let sigma = longitudinal_modulus * elements.strain[i]; // (4-16)
+    let area = sections[nodes.section[i] as usize].area;
+    let tau = max_shear_stress(element_shear_force(nodes, elements, bending, i), area);
+    combined_criterion(sigma, elements.tensile_strength[i], tau, shear_strength)
+}
+
+/// Which of elements `i..i + 4` may break now (bit `l` for element `i + l`): the criterion
+/// (5-6) of [`element_breaks`] in four lanes, leaving to that scalar test every element
+/// within a margin of the boundary far wider than the lanes' rounding, every NaN, and every
+/// element not intact between consecutive nodes. So the elements it leaves out are ones the
+/// scalar test keeps, and the same elements break.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn may_break_in_lanes(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> u32 {
+    use crate::lanes::{F4, V4};
+    let plain = (0..4).filter(|&l| nodes.next[i + l] == (i + l) as u32 + 1 && elements.failure[i + l] == FailureMode::Intact).fold(0, |bits, l| bits | 1 << l);
+    let sigma = F4::splat(longitudinal_modulus).mul(F4::load(&elements.strain, i));
+    let tension = sigma.max_with(F4::splat(0.0)).div(F4::load(&elements.tensile_strength, i));
+    // (5-4), (5-5): the shear force from the jump of the moment along the element
+    let jump = V4::load(&bending.moment, i).sub(V4::load(&bending.moment, i + 1));
+    let shear_force = jump.dot(jump).sqrt().div(F4::load(&elements.rest_length, i));
+    let area = F4::gather(i, |k| sections[nodes.section[k] as usize].area);
+    let shear = F4::splat(4.0).mul(shear_force).div(F4::splat(3.0).mul(area)).div(F4::splat(shear_strength));
+    let total = tension.mul(tension).add(shear.mul(shear));
+    let clear = total.lt(F4::splat(1.0 - 1e-9)).bits();
+    !(clear & plain) & 0b1111
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -48,5 +177,64 @@ mod tests {
         assert_eq!(combined_criterion(0.0, su, tu * 1.01, tu), Some(FailureMode::Shear));
         assert_eq!(combined_criterion(su * 0.8, su, tu * 0.8, tu), Some(FailureMode::Combined));
         assert_eq!(combined_criterion(-10.0 * su, su, 0.0, tu), None, "compression does not break");
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_lanes_leave_out_only_elements_the_scalar_test_keeps() {
+        if !crate::lanes::available() {
+            return;
+        }
+        use crate::material::InertiaModel;
+        use crate::{FibreId, GlobalNodeId, Vec3};
+        let material = FibreMaterial::kevlar_km2();
+        let l0 = 25e-6;
+        let sections = vec![FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3), FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None, 0.3)];
+        let (shear_strength, strength) = (0.7672e9, 3.4e9);
+        let mut state = 5u64;
+        let mut uniform = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut nodes, mut elements, mut bending) = (Nodes::default(), Elements::default(), BendingScratch::default());
+        let per_fibre = 203;
+        for fibre in 0..5u32 {
+            for along in 0..per_fibre {
+                let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
+                nodes.push(gid, Vec3::new(along as f64 * l0, fibre as f64 * 1e-4, 0.0), Vec3::zeros(), 1e-12, FibreId(fibre), along, (fibre % 2) as u16, false, along + 1 == per_fibre);
+                let failure = if along % 37 == 5 { FailureMode::Tension } else { FailureMode::Intact };
+                elements.push(l0, strength * (0.9 + 0.2 * uniform()), failure);
+            }
+        }
+        nodes.link_chains();
+        let n = nodes.len();
+        let area = |k: usize| sections[nodes.section[k] as usize].area;
+        // the moment jumps by the drawn shear force along each element (5-4)
+        let mut moment = Vec3::zeros();
+        for k in 0..n {
+            // states spread over the criterion, a quarter within rounding of its boundary, some NaN
+            let (tension, shear) = (uniform(), uniform());
+            let scale = match k % 4 {
+                0 => 1.0 + (uniform() - 0.5) * 1e-13,
+                _ => 2.0 * uniform(),
+            } / (tension * tension + shear * shear).sqrt();
+            let sigma = tension * scale * elements.tensile_strength[k];
+            elements.strain[k] = if k % 53 == 7 { f64::NAN } else { sigma / material.longitudinal_modulus };
+            let shear_force = shear * scale * shear_strength * 3.0 * area(k) / 4.0;
+            bending.moment.push(moment);
+            moment -= Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize() * shear_force * l0;
+        }
+        let (mut breaking, mut candidates) = (0, 0);
+        for i in (0..n - 4).step_by(4) {
+            // SAFETY: AVX2 is present (checked above)
+            let bits = unsafe { may_break_in_lanes(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, i) };
+            for k in i..i + 4 {
+                let breaks = element_breaks(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, k).is_some();
+                assert!(!breaks || bits & (1 << (k - i)) != 0, "element {k} breaks but the lanes left it out");
+                breaking += breaks as usize;
+                candidates += (bits & (1 << (k - i)) != 0) as usize;
+            }
+        }
+        assert!(breaking > n / 4 && candidates < 3 * n / 4, "{breaking} break, {candidates} of {n} left to the scalar test");
     }
 }

@@ -7,10 +7,14 @@
 
 pub mod bending;
 pub mod contact;
+pub mod dispatch;
 pub mod domain;
 pub mod energy;
 pub mod exact;
 pub mod failure;
+pub mod fibre_contact;
+#[doc(hidden)]
+pub mod fixtures;
 pub mod friction;
 pub mod ids;
 pub mod integrate;
@@ -19,14 +23,17 @@ pub mod lanes;
 pub mod material;
 pub mod neighbour;
 pub mod nodes;
+pub mod pair_data;
 pub mod projectile;
+pub mod projectile_contact;
 pub mod rod;
 pub mod stability;
 pub mod surface;
 pub mod tie;
 pub mod weibull;
 
-pub use domain::{Domain, DomainError, GhostRecord, NodeMotion, Reaction, CHAIN_STENCIL};
+pub use domain::{Domain, DomainError, GhostRecord, NodeMotion, CHAIN_STENCIL};
+pub use projectile_contact::Reaction;
 pub use ids::{FibreId, GlobalNodeId, Rank, NONE};
 pub use material::{FibreMaterial, FibreSection};
 pub use nodes::{Elements, Nodes};

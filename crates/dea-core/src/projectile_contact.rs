@@ -1,0 +1,286 @@
+//! Fibre–projectile contact: which owned nodes may touch the projectile (its candidates,
+//! refreshed when node and surface together moved a skin), the contact law and friction at
+//! each (seed 4-1, 4-4…4-15, the partner a point of the body, or a material point of a
+//! deforming surface), and the reactions the projectile feels, summed in gid order.
+
+use nalgebra::UnitQuaternion;
+
+use crate::contact::{ContactGeometry, NormalLaw};
+use crate::domain::NodeLedger;
+use crate::friction::stick_slip;
+use crate::nodes::Nodes;
+use crate::projectile::{RigidProjectile, RigidShape};
+use crate::surface::SurfacePoint;
+use crate::{FibreSection, GlobalNodeId, Vec3, NONE};
+
+/// Contact history of every node with the projectile (one body, so one entry per node).
+#[derive(Clone, Debug, Default)]
+pub struct ProjectileContacts {
+    /// owned nodes within reach of the projectile at the last build, ascending
+    pub candidates: Vec<u32>,
+    /// friction anchor: the partner point relative to the node at first touch, body frame:
+    /// the body origin on a rigid body, the touched material point of a deforming surface [m]
+    pub anchor: Vec<Vec3>,
+    /// a deforming surface's material point the friction is anchored to: the triangle and
+    /// barycentric weights of the contact point at first touch (docs/theory.md I6)
+    pub anchor_triangle: Vec<u32>,
+    pub anchor_weights: Vec<[f64; 3]>,
+    /// stiffness of the friction spring at its last evaluation [N/m]
+    pub spring_stiffness: Vec<f64>,
+    /// node overlaps the projectile
+    pub touching: Vec<bool>,
+    /// largest overlap reached [m]
+    pub max_overlap: Vec<f64>,
+    /// contact force on the node in this step [N]
+    pub force_on_node: Vec<Vec3>,
+    /// torque of the reaction about the projectile's centre in this step [N m]
+    pub torque_on_projectile: Vec<Vec3>,
+    /// triangle and barycentric weights of the contact point on a meshed surface
+    /// ([`NONE`] on an analytic one): where a deformable body takes the reaction
+    pub triangle: Vec<u32>,
+    pub weights: Vec<[f64; 3]>,
+    /// surface vertices (body frame) at the last refresh: a deformable body's surface moves
+    pub reference_vertices: Vec<Vec3>,
+    /// owned node positions at the last refresh of the candidates [m]
+    pub node_reference: Vec<Vec3>,
+    /// projectile position at the last refresh [m]
+    pub reference_position: Vec3,
+    /// projectile orientation at the last refresh
+    pub reference_orientation: UnitQuaternion<f64>,
+    /// per owned node, the last query of a rigid mesh that found it clear of the surface:
+    /// how far clear (distance less contact radius; -inf: no such query) [m], the node's
+    /// position then [m] and the surface's travel then [m]. While the node and the surface
+    /// have moved less than that since, the query cannot find it touching and is skipped.
+    clearance: Vec<f64>,
+    clearance_position: Vec<Vec3>,
+    clearance_travel: Vec<f64>,
+    /// how far any point of the projectile's surface has moved since the set-up, summed over
+    /// the steps (centre plus bounding radius times the turn) [m], and the projectile's pose
+    /// at the last step
+    surface_travel: f64,
+    travel_pose: Option<(Vec3, UnitQuaternion<f64>)>,
+    /// queries skipped so far for nodes known to be clear
+    pub skipped_queries: u64,
+}
+
+impl ProjectileContacts {
+    /// Owned node `i` is out of contact with the projectile this step.
+    pub fn release(&mut self, i: usize) {
+        self.touching[i] = false;
+        self.force_on_node[i].fill(0.0);
+        self.torque_on_projectile[i].fill(0.0);
+    }
+
+    /// True when an owned node may have come within contact of the projectile without being
+    /// a candidate: node and projectile surface together moved more than the skin since the
+    /// last refresh. The surface moved no more than the centre plus the turn times the
+    /// shape's reach.
+    pub fn refresh_due(&self, projectile: Option<&RigidProjectile>, nodes: &Nodes, skin: f64) -> bool {
+        let Some(projectile) = projectile else { return false };
+        let contacts = self;
+        if contacts.node_reference.len() != nodes.n_owned {
+            return true;
+        }
+        let mut surface = projectile.surface_moved_since(&contacts.reference_position, &contacts.reference_orientation);
+        if let Some(mesh) = projectile.shape.deforming_mesh() {
+            // a deformable body's surface also moves against its frame
+            surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
+        }
+        let node = contacts.node_reference.iter().zip(&nodes.position).map(|(r, x)| (x - r).norm_squared()).fold(0.0, f64::max).sqrt();
+        node + surface > skin
+    }
+
+    /// Chooses the owned nodes within the skin of touching the projectile's surface (a mesh
+    /// finds them through its cubes, whose reach covers the contact radius plus the skin).
+    /// A node that is not a candidate cannot touch, so the choice and its timing never
+    /// change a result: each rank refreshes on its own.
+    pub fn refresh_candidates(&mut self, projectile: Option<&RigidProjectile>, nodes: &Nodes, sections: &[FibreSection], skin: f64) {
+        let Some(projectile) = projectile else { return };
+        let contacts = self;
+        let max_contact_radius = sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
+        let reach = max_contact_radius + skin;
+        let bounding = projectile.shape.bounding_radius() + reach;
+        contacts.candidates.clear();
+        for i in 0..nodes.n_owned {
+            let x = nodes.position[i];
+            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach {
+                contacts.candidates.push(i as u32);
+            } else {
+                // a node leaving the candidate set is out of contact
+                contacts.release(i);
+            }
+        }
+        contacts.node_reference.clear();
+        contacts.node_reference.extend_from_slice(&nodes.position[..nodes.n_owned]);
+        contacts.reference_position = projectile.position;
+        contacts.reference_orientation = projectile.orientation;
+        contacts.reference_vertices.clear();
+        if let Some(mesh) = projectile.shape.deforming_mesh() {
+            contacts.reference_vertices.extend_from_slice(&mesh.surface.vertices);
+        }
+    }
+
+    /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
+    /// normal (body frame), body-frame position, and the contact geometry of the law.
+    #[inline]
+    pub fn geometry(&self, projectile: &RigidProjectile, nodes: &Nodes, sections: &[FibreSection], i: usize) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
+        let section = &sections[nodes.section[i] as usize];
+        let body = projectile.to_body(&nodes.position[i]);
+        // the triangle it was last in contact with: the same answer, often without a search
+        let point = projectile.shape.contact_point(&body, self.triangle[i]);
+        let geometry = ContactGeometry::new(0.5 * section.diameter, section.element_length, section.diameter);
+        (0.5 * section.contact_diameter - point.distance, point, body, geometry)
+    }
+
+    /// Fibre–projectile contact and friction (seed 4-1, 4-4…4-15) on the candidate nodes,
+    /// with the normal `law` and the fibre–projectile friction coefficient `mu` [-]: adds each
+    /// node's force to `nodes.force`, its contact stiffness to `contact_stiffness` [N/m] and
+    /// its dissipation to `ledger`, and keeps the force and the reaction's torque for
+    /// [`Self::reactions`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_forces(&mut self, projectile: &RigidProjectile, nodes: &mut Nodes, sections: &[FibreSection], law: NormalLaw, mu: f64, ledger: &mut NodeLedger, contact_stiffness: &mut [f64]) {
+        // a rigid mesh's query is costly: it is skipped for a node known to be clear
+        let skips = matches!(projectile.shape, RigidShape::Mesh(_)) && projectile.shape.deforming_mesh().is_none();
+        let contacts = &mut *self;
+        if skips {
+            if let Some((position, orientation)) = contacts.travel_pose {
+                contacts.surface_travel += projectile.surface_moved_since(&position, &orientation);
+            }
+            contacts.travel_pose = Some((projectile.position, projectile.orientation));
+        }
+        for c in 0..self.candidates.len() {
+            let i = self.candidates[c] as usize;
+            let contacts = &mut *self;
+            // the signed distance moves no faster than the node and the surface together
+            if skips && contacts.clearance[i] - (nodes.position[i] - contacts.clearance_position[i]).norm() - (contacts.surface_travel - contacts.clearance_travel[i]) > CLEARANCE_MARGIN {
+                contacts.release(i);
+                contacts.skipped_queries += 1;
+                continue;
+            }
+            let (overlap, point, body, geometry) = self.geometry(projectile, nodes, sections, i);
+            let normal = point.normal;
+            let contacts = &mut *self;
+            if overlap <= 0.0 {
+                if skips {
+                    // a node beyond the mesh's reach may be deep inside: it is not known clear
+                    contacts.clearance[i] = if overlap.is_finite() { -overlap } else { f64::NEG_INFINITY };
+                    contacts.clearance_position[i] = nodes.position[i];
+                    contacts.clearance_travel[i] = contacts.surface_travel;
+                }
+                contacts.release(i);
+                continue;
+            }
+            let previous_max = contacts.max_overlap[i];
+            let (response, max_overlap) = law.evaluate(&geometry, overlap, previous_max);
+            if max_overlap > previous_max {
+                ledger.plastic_dissipated[i] += law.dissipated(&geometry, max_overlap) - law.dissipated(&geometry, previous_max);
+                contacts.max_overlap[i] = max_overlap;
+            }
+            // the partner of the fibre pairs: the body origin of a rigid body (its frame turns
+            // with it); on a deforming surface, which moves against that frame, the material
+            // point touched first, found again by its triangle and weights
+            let deforming = projectile.shape.deforming_mesh();
+            if !contacts.touching[i] && deforming.is_some() {
+                contacts.anchor_triangle[i] = point.triangle;
+                contacts.anchor_weights[i] = point.weights;
+            }
+            let relative = match deforming {
+                Some(mesh) => mesh.surface.point_at(contacts.anchor_triangle[i], contacts.anchor_weights[i]) - body,
+                None => -body,
+            };
+            let mut force_body = normal * response.force;
+            if !contacts.touching[i] {
+                contacts.touching[i] = true;
+                contacts.anchor[i] = relative;
+                contacts.spring_stiffness[i] = mu * response.stiffness;
+            } else if mu > 0.0 {
+                let friction = stick_slip(relative, normal, &mut contacts.anchor[i], &mut contacts.spring_stiffness[i], response.force, response.stiffness, mu);
+                force_body += friction.force;
+                ledger.friction_dissipated[i] += friction.dissipated;
+                if let (Some(mesh), true) = (deforming, friction.dissipated > 0.0) {
+                    // after a slip, anchor to the material point under the node now (where
+                    // the reaction acts), keeping the spring's elastic stretch
+                    let under = mesh.surface.point_at(point.triangle, point.weights) - body;
+                    contacts.anchor[i] += under - relative;
+                    contacts.anchor_triangle[i] = point.triangle;
+                    contacts.anchor_weights[i] = point.weights;
+                }
+            }
+            let force = projectile.to_world_vector(&force_body);
+            let surface_point = nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * sections[nodes.section[i] as usize].contact_diameter - overlap);
+            contacts.force_on_node[i] = force;
+            contacts.triangle[i] = point.triangle;
+            contacts.weights[i] = point.weights;
+            contact_stiffness[i] += response.stiffness;
+            contacts.torque_on_projectile[i] = (surface_point - projectile.position).cross(&(-force));
+            nodes.force[i] += force;
+        }
+    }
+
+    /// Reaction records of the owned nodes touching the projectile, ascending global id
+    /// (candidates are owned nodes, whose local order is gid order): the force on the
+    /// projectile and its torque about the projectile's centre [N], [N m].
+    pub fn reactions<'a>(&'a self, nodes: &'a Nodes) -> impl Iterator<Item = Reaction> + 'a {
+        let contacts = self;
+        contacts.candidates.iter().filter(|&&i| contacts.touching[i as usize]).map(|&i| Reaction {
+            gid: nodes.gid[i as usize],
+            force: -contacts.force_on_node[i as usize],
+            torque: contacts.torque_on_projectile[i as usize],
+            triangle: contacts.triangle[i as usize],
+            weights: contacts.weights[i as usize],
+        })
+    }
+}
+
+/// The margin by which a skipped query's node must be clear of the surface [m], far above
+/// the rounding of a distance and far below any contact's overlap.
+const CLEARANCE_MARGIN: f64 = 1e-12;
+
+/// The reaction of one fibre node on the projectile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reaction {
+    pub gid: GlobalNodeId,
+    /// contact force on the projectile [N]
+    pub force: Vec3,
+    /// its torque about the projectile's centre [N m]
+    pub torque: Vec3,
+    /// triangle of a meshed surface the force acts on ([`NONE`]: analytic) and the
+    /// barycentric weights that share it over the triangle's vertices (seed 4-1)
+    pub triangle: u32,
+    pub weights: [f64; 3],
+}
+
+/// Sum of reactions given in ascending global id: the order that makes the projectile's
+/// load independent of the partition (each rank's records are merged by gid first).
+pub fn sum_reactions(reactions: impl Iterator<Item = Reaction>) -> (Vec3, Vec3) {
+    reactions.fold((Vec3::zeros(), Vec3::zeros()), |(f, t), r| (f + r.force, t + r.torque))
+}
+
+impl ProjectileContacts {
+    /// The history of `owned` nodes, none in contact.
+    pub fn new(owned: usize) -> Self {
+        Self {
+            anchor: vec![Vec3::zeros(); owned],
+            spring_stiffness: vec![0.0; owned],
+            touching: vec![false; owned],
+            max_overlap: vec![0.0; owned],
+            force_on_node: vec![Vec3::zeros(); owned],
+            torque_on_projectile: vec![Vec3::zeros(); owned],
+            triangle: vec![NONE; owned],
+            weights: vec![[0.0; 3]; owned],
+            anchor_triangle: vec![NONE; owned],
+            anchor_weights: vec![[0.0; 3]; owned],
+            clearance: vec![f64::NEG_INFINITY; owned],
+            clearance_position: vec![Vec3::zeros(); owned],
+            clearance_travel: vec![0.0; owned],
+            ..Default::default()
+        }
+    }
+
+    /// Forgets every contact (a shot starting afresh): the candidates are due for a refresh.
+    pub fn forget(&mut self) {
+        self.touching.fill(false);
+        self.max_overlap.fill(0.0);
+        self.node_reference.clear();
+    }
+}
