@@ -214,6 +214,12 @@ pub struct Partition {
 }
 
 impl Partition {
+    /// Every node on rank 0: the partition of a run on one rank that was not partitioned
+    /// (a test's hand-made domain), with every fibre in one yarn of one segment.
+    pub fn one_rank() -> Self {
+        Self { rank_of_segment: vec![Rank(0)], ranks: 1, edge_cut: 0, segment_positions: u32::MAX, first_segment: vec![0], first_fibre: vec![0] }
+    }
+
     /// Yarn of a fibre.
     pub fn yarn_of(&self, fibre: FibreId) -> usize {
         self.first_fibre.partition_point(|&f| f <= fibre.0) - 1

@@ -14,6 +14,8 @@
 
 use std::time::Instant;
 
+use crate::step::{compute_forces, Stage, StageTimer};
+
 use dea_core::failure::BrokenCount;
 use dea_core::energy::EnergySums;
 use dea_core::nodes::FailureMode;
@@ -26,6 +28,7 @@ use dea_partition::Partition;
 use nalgebra::{Quaternion, UnitQuaternion};
 use serde::Serialize;
 
+use crate::comm::local::LocalComm;
 use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
 
@@ -88,19 +91,6 @@ fn integer(word: f64) -> u64 {
     word.to_bits()
 }
 
-/// Wall time of the communication stages of one rank [s].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct CommTimes {
-    /// per-step forward halo
-    pub halo: f64,
-    /// ghost exchange at rebuilds (the neighbour-list build itself is in `rebuild`)
-    pub ghost_exchange: f64,
-    /// projectile broadcast and reaction gather
-    pub projectile: f64,
-    /// rebuild decision and error agreement
-    pub reductions: f64,
-}
-
 /// Who sends what to whom each step.
 #[derive(Debug, Default)]
 struct HaloPlan {
@@ -124,7 +114,8 @@ pub struct Distributed<C: Comm> {
     /// never changes), ascending rank
     chain_send: Vec<(Rank, Vec<u32>)>,
     halo: HaloPlan,
-    pub times: CommTimes,
+    /// the one timer of this rank's stages
+    pub timer: StageTimer,
     /// bytes of forward halo received so far
     pub halo_bytes: u64,
     /// steps that sent the forward halo (every step: the rebuild check reads the ghosts)
@@ -148,6 +139,16 @@ pub struct Distributed<C: Comm> {
     surface: Vec<Vec3>,
     /// how the target settled before the shot (none: no settle, or a restart)
     pub settled: Option<SettleReport>,
+}
+
+impl Distributed<LocalComm> {
+    /// A whole domain of owned nodes (ascending gid) on one rank in the calling thread, its
+    /// lists built and its initial forces computed: how the physics tests run the production
+    /// step on hand-made targets.
+    pub fn whole(domain: Domain) -> Result<Self, DomainError> {
+        let reach = domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max) + domain.pairs.skin;
+        Self::new(LocalComm::alone(), domain, Partition::one_rank(), &[u32::MAX], reach, None)
+    }
 }
 
 /// What a settle before the shot did (every value agreed over the ranks).
@@ -219,7 +220,7 @@ impl<C: Comm> Distributed<C> {
             reach,
             chain_send: chain.into_iter().collect(),
             halo: HaloPlan::default(),
-            times: CommTimes::default(),
+            timer: StageTimer::default(),
             halo_bytes: 0,
             halo_steps: 0,
             rebuilds: 0,
@@ -241,7 +242,7 @@ impl<C: Comm> Distributed<C> {
     /// [`Self::assemble`], then the initial forces: a fresh run.
     pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
         let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
-        let forces = distributed.domain.compute_forces();
+        let forces = compute_forces(&mut distributed.domain, &mut distributed.timer);
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
         Ok(distributed)
@@ -291,7 +292,7 @@ impl<C: Comm> Distributed<C> {
             body.body.position.iter_mut().for_each(|x| x.z += rise);
         }
         self.domain.start_afresh();
-        let forces = self.domain.compute_forces();
+        let forces = compute_forces(&mut self.domain, &mut self.timer);
         self.agree(forces)?;
         self.gather_projectile_load();
         let report = SettleReport {
@@ -309,72 +310,66 @@ impl<C: Comm> Distributed<C> {
         Ok(report)
     }
 
-    /// One explicit step on every rank.
-    pub fn step(&mut self) -> Result<(), DomainError> {
-        let time_step = self.domain.time_step;
-        let half = 0.5 * time_step;
-        let clock = Instant::now();
-        let motion = self.domain.kick_drift(half, time_step);
-        if let Some(body) = &mut self.deformable {
-            // subcycles: the body's own elements, with the fibres' last reactions held, then
-            // the last one's first half; the fibres meet its surface once per step
-            let substep = time_step / body.substeps as f64;
-            for _ in 1..body.substeps {
-                body.body.kick(0.5 * substep);
-                body.body.drift(substep);
-                body.forces(&self.reactions);
-                body.body.kick(0.5 * substep);
-            }
+    /// A deformable projectile's substeps of this step (rank 0): the body's own elements,
+    /// with the fibres' last reactions held, then the last substep's first half; the fibres
+    /// meet its surface once per step.
+    pub(crate) fn subcycle_deformable(&mut self) {
+        let Some(body) = &mut self.deformable else { return };
+        let substep = self.domain.time_step / body.substeps as f64;
+        for _ in 1..body.substeps {
             body.body.kick(0.5 * substep);
             body.body.drift(substep);
+            body.forces(&self.reactions);
+            body.body.kick(0.5 * substep);
         }
-        self.domain.times.integrate += clock.elapsed().as_secs_f64();
-        self.broadcast_projectile()?;
-        let clock = Instant::now();
-        // the run loop's requests ride on the same reduction
+        body.body.kick(0.5 * substep);
+        body.body.drift(substep);
+    }
+
+    /// The last half kick of a deformable projectile's last substep.
+    pub(crate) fn kick_deformable(&mut self) {
+        if let Some(body) = &mut self.deformable {
+            body.body.kick(0.5 * self.domain.time_step / body.substeps as f64);
+        }
+    }
+
+    /// The largest motions of a node over every rank; the run loop's requests ride on the
+    /// same reduction and are agreed in [`Self::agreed`].
+    pub(crate) fn agree_on_motion(&mut self, motion: NodeMotion) -> NodeMotion {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         let mut largest = [motion.since_build, motion.step, flag(self.requests[0]), flag(self.requests[1])];
         self.comm.max_f64(&mut largest);
         self.agreed = [largest[2] > 0.0, largest[3] > 0.0];
-        self.times.reductions += clock.elapsed().as_secs_f64();
-        // the ghosts' present positions, which the check for missed pairs reads
-        self.forward_halo();
-        let clock = Instant::now();
+        NodeMotion { since_build: largest[0], step: largest[1] }
+    }
+
+    /// Rebuilds the ghosts and lists when some rank's lists may miss a pair, given the
+    /// `largest` motions over every rank: on one rank only the rows around the nodes that
+    /// moved (no ghosts to choose again). Stamps the ghost exchange and the list build.
+    pub(crate) fn rebuild_if_due(&mut self, largest: NodeMotion) -> Result<(), DomainError> {
         let alone = self.comm.size() == 1;
-        let verdict = self.domain.lists_may_miss_a_pair(NodeMotion { since_build: largest[0], step: largest[1] }, (!alone).then(|| self.ghost_margin()));
-        self.domain.times.rebuild += clock.elapsed().as_secs_f64();
+        let verdict = self.domain.lists_may_miss_a_pair(largest, (!alone).then(|| self.ghost_margin()));
         let rebuild = match verdict {
             None => false,
             Some(local) if alone => local,
             Some(local) => self.any(local),
         };
+        self.timer.stamp(Stage::GhostExchange);
         if rebuild && alone {
-            // no ghosts to choose again: only the rows around the nodes that moved
             let built = self.domain.rebuild_neighbours_around_moved();
             self.rebuilds += 1;
+            self.timer.stamp(Stage::NeighbourRebuild);
             self.agree(built)?;
         } else if rebuild {
             self.rebuild()?;
         }
-        let forces = self.domain.compute_forces();
-        self.agree(forces)?;
-        self.gather_projectile_load();
-        let clock = Instant::now();
-        // the nodes' part of the closing kick rides on the next step's first pass
-        self.domain.defer_kick(half);
-        if let Some(body) = &mut self.deformable {
-            body.body.kick(0.5 * time_step / body.substeps as f64);
-        }
-        self.domain.time += time_step;
-        self.domain.step += 1;
-        self.domain.times.integrate += clock.elapsed().as_secs_f64();
+        self.timer.stamp(Stage::ErrorAgreement);
         Ok(())
     }
 
     /// Makes a rank's error everyone's: every rank returns the error of the lowest node id
     /// any rank reported, with the same message.
-    fn agree(&mut self, local: Result<(), DomainError>) -> Result<(), DomainError> {
-        let clock = Instant::now();
+    pub(crate) fn agree(&mut self, local: Result<(), DomainError>) -> Result<(), DomainError> {
         let code = match &local {
             Ok(()) => u64::MAX,
             Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
@@ -406,15 +401,13 @@ impl<C: Comm> Distributed<C> {
                 _ => Err(DomainError::TimeStep { step: self.domain.step, gid, time_step: self.domain.time_step, limit: f64::from_bits(detail[0]) }),
             }
         };
-        self.times.reductions += clock.elapsed().as_secs_f64();
         result
     }
 
     /// Rank 0's projectile state on every rank; for a deformable body also its surface
     /// (relative to its centre of mass), which every rank's meshed proxy then takes, and
     /// whether an element has inverted (then every rank stops here).
-    fn broadcast_projectile(&mut self) -> Result<(), DomainError> {
-        let clock = Instant::now();
+    pub(crate) fn broadcast_projectile(&mut self) -> Result<(), DomainError> {
         let Some(projectile) = self.domain.projectile.as_mut() else { return Ok(()) };
         let vertices = projectile.shape.deforming_mesh().map(|mesh| mesh.surface.vertices.len());
         let surface = &mut self.surface;
@@ -448,7 +441,6 @@ impl<C: Comm> Distributed<C> {
                 std::sync::Arc::make_mut(mesh).set_vertices(surface);
             }
         }
-        self.times.projectile += clock.elapsed().as_secs_f64();
         Ok(())
     }
 
@@ -465,11 +457,10 @@ impl<C: Comm> Distributed<C> {
     }
 
     /// Every rank's reactions to rank 0, merged by global id and summed in that order.
-    fn gather_projectile_load(&mut self) {
+    pub(crate) fn gather_projectile_load(&mut self) {
         if self.domain.projectile.is_none() {
             return;
         }
-        let clock = Instant::now();
         self.reaction_words.clear();
         self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| reaction_words(&r)));
         if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
@@ -482,12 +473,10 @@ impl<C: Comm> Distributed<C> {
                 body.forces(&self.reactions);
             }
         }
-        self.times.projectile += clock.elapsed().as_secs_f64();
     }
 
     /// Sends position and failure state of every ghost to the ranks that hold it.
-    fn forward_halo(&mut self) {
-        let clock = Instant::now();
+    pub(crate) fn forward_halo(&mut self) {
         let nodes = &self.domain.nodes;
         let failure = &self.domain.elements.failure;
         let halo = &mut self.halo;
@@ -509,12 +498,10 @@ impl<C: Comm> Distributed<C> {
             self.halo_bytes += (buffer.len() * std::mem::size_of::<f64>()) as u64;
         }
         self.halo_steps += 1;
-        self.times.halo += clock.elapsed().as_secs_f64();
     }
 
     /// Collective rebuild of ghosts, halo plan and neighbour lists.
     pub fn rebuild(&mut self) -> Result<(), DomainError> {
-        let clock = Instant::now();
         let me = self.comm.rank();
         let reach = self.reach + self.ghost_margin();
         let nodes = &self.domain.nodes;
@@ -629,9 +616,10 @@ impl<C: Comm> Distributed<C> {
             send_nodes,
         };
         self.domain.set_ghosts(&ghosts);
-        self.times.ghost_exchange += clock.elapsed().as_secs_f64();
+        self.timer.stamp(Stage::GhostExchange);
         let built = self.domain.rebuild_neighbours();
         self.rebuilds += 1;
+        self.timer.stamp(Stage::NeighbourRebuild);
         self.agree(built)
     }
 

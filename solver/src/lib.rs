@@ -11,3 +11,4 @@ pub mod fabric;
 pub mod progress;
 pub mod run;
 pub mod setup;
+pub mod step;

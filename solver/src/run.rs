@@ -5,13 +5,13 @@ use dea_projectile::generate::Solid;
 use std::path::Path;
 use std::time::Instant;
 
-use dea_core::domain::StageTimes;
 use dea_core::{Rank, Vec3};
 use dea_io::results::{write_histories_csv, write_results, Histories};
 use serde::Serialize;
 
 use crate::comm::Comm;
-use crate::distributed::{CommTimes, Distributed};
+use crate::distributed::Distributed;
+use crate::step::{Stage, StageSeconds};
 use crate::progress::Progress;
 use crate::setup::{projectile_bottom, projectile_top};
 
@@ -55,39 +55,6 @@ pub struct Summary {
     pub stopped_by: String,
     /// the settle before the shot, when the case asks for one (not known after a restart)
     pub settle: Option<crate::distributed::SettleReport>,
-}
-
-/// Stage times of the step, of the communication and of output [s].
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct StageSeconds {
-    #[serde(flatten)]
-    pub step: StageTimes,
-    #[serde(flatten)]
-    pub comm: CommTimes,
-    pub output: f64,
-}
-
-impl StageSeconds {
-    pub const COUNT: usize = 11;
-
-    pub fn to_array(self) -> [f64; Self::COUNT] {
-        let (s, c) = (self.step, self.comm);
-        [s.integrate, s.rebuild, s.rods, s.fibre_contacts, s.projectile_contacts, s.failure, c.halo, c.ghost_exchange, c.projectile, c.reductions, self.output]
-    }
-
-    pub fn from_array(a: &[f64]) -> Self {
-        Self {
-            step: StageTimes { integrate: a[0], rebuild: a[1], rods: a[2], fibre_contacts: a[3], projectile_contacts: a[4], failure: a[5] },
-            comm: CommTimes { halo: a[6], ghost_exchange: a[7], projectile: a[8], reductions: a[9] },
-            output: a[10],
-        }
-    }
-
-    /// Integration, forces, failure and the neighbour-list build: the work a rank does alone.
-    fn compute(&self) -> f64 {
-        let s = self.step;
-        s.integrate + s.rebuild + s.rods + s.fibre_contacts + s.projectile_contacts + s.failure
-    }
 }
 
 /// Below this fraction of the peak contact force, what still touches a projectile past the
@@ -253,7 +220,6 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
 /// results on rank 0, which returns the summary.
 pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Option<Summary>, RunError> {
     let is_root = run.comm.rank() == Rank(0);
-    let mut output_seconds = 0.0;
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
     let (mut histories, mut max_force, initial_energy, back_face) = match &options.resume {
@@ -280,16 +246,14 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
+        run.timer.start();
         if options.snapshot_interval.is_some_and(|n| run.domain.step.is_multiple_of(n)) {
-            let clock = Instant::now();
             write_snapshot(run, options).map_err(RunError::Output)?;
-            output_seconds += clock.elapsed().as_secs_f64();
         }
         if run.domain.step.is_multiple_of(options.history_interval) {
-            let clock = Instant::now();
             sample(run, &mut histories, options.layers);
             decided = judge.outcome(run, max_force);
-            output_seconds += clock.elapsed().as_secs_f64();
+            run.timer.stamp(Stage::Output);
             if options.stop_when_decided && decided != Outcome::Undecided {
                 stopped_by = format!("{decided:?}").to_lowercase();
                 break;
@@ -298,11 +262,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         let [stop, due_by_time] = run.agreed;
         let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if stop || due_by_time || due_by_steps {
-            let clock = Instant::now();
             let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };
             let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
             last_checkpoint = Instant::now();
-            output_seconds += clock.elapsed().as_secs_f64();
             if stop {
                 return Err(RunError::Interrupted(directory));
             }
@@ -310,6 +272,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         if let Some(progress) = &mut progress {
             progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories));
         }
+        run.timer.stamp(Stage::Output);
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {
         sample(run, &mut histories, options.layers);
@@ -325,7 +288,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);
     let wall = start.elapsed().as_secs_f64();
-    let clock = Instant::now();
+    run.timer.start();
     let mut written = [1.0];
     let mut write_error = None;
     if is_root {
@@ -343,20 +306,18 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     if run.from_rank0(written)[0] == 0.0 {
         return Err(RunError::Output(write_error.unwrap_or_else(|| "rank 0 could not write the results".into())));
     }
-    output_seconds += clock.elapsed().as_secs_f64();
+    run.timer.stamp(Stage::Output);
     let mut n = [run.domain.nodes.n_owned as i64, run.ghosts() as i64];
     run.comm.sum_i64(&mut n);
     let (nodes, ghosts) = (n[0] as u64, n[1] as u64);
     let mut halo = [run.halo_bytes as i64];
     run.comm.sum_i64(&mut halo);
     let broken = run.broken();
-    let stages = StageSeconds { step: run.domain.times, comm: run.times, output: output_seconds };
-    let all_stages = run.comm.gather_f64(&stages.to_array());
+    let all_stages = run.comm.gather_f64(&run.timer.seconds.0);
     let Some(all_stages) = all_stages else { return Ok(None) };
     let ranks = run.comm.size();
-    let mean: Vec<f64> = (0..StageSeconds::COUNT).map(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64).collect();
-    let mean = StageSeconds::from_array(&mean);
-    let slowest = all_stages.iter().map(|s| StageSeconds::from_array(s).compute()).fold(0.0, f64::max);
+    let mean = StageSeconds(std::array::from_fn(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64));
+    let slowest = all_stages.iter().map(|s| StageSeconds(std::array::from_fn(|k| s[k])).computation()).fold(0.0, f64::max);
     let projectile = run.domain.projectile.as_ref().expect("runs have a projectile");
     let final_energy = histories.energy.last().map_or(initial_energy, |e| e.total());
     let summary = Summary {
@@ -378,7 +339,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         stage_seconds: mean,
         halo_bytes_per_step: halo[0] as f64 / run.halo_steps.max(1) as f64,
         ghost_fraction: ghosts as f64 / nodes as f64,
-        load_imbalance: if mean.compute() > 0.0 { slowest / mean.compute() } else { 1.0 },
+        load_imbalance: if mean.computation() > 0.0 { slowest / mean.computation() } else { 1.0 },
         neighbour_rebuilds: run.rebuilds,
         energy_absorbed_by_layer_j: energy_by_layer,
         broken_elements_by_layer: broken_by_layer,

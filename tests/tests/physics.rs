@@ -1,4 +1,5 @@
-//! Physics validation of the core against closed forms and seed §6.1.
+//! Physics validation of the core against closed forms and seed §6.1, stepped by the
+//! production step on one rank ([`Distributed::whole`]).
 
 use dea_core::contact::NormalLaw;
 use dea_core::domain::ContactParameters;
@@ -8,6 +9,8 @@ use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::stability::stable_time_step;
 use dea_core::{Domain, FibreMaterial, Vec3};
 use dea_fabric::StraightFabric;
+use dea_mpi::comm::local::LocalComm;
+use dea_mpi::distributed::Distributed;
 use nalgebra::{Rotation3, UnitQuaternion};
 
 const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false };
@@ -23,7 +26,7 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
 
 /// The seed §6.1 fibre: 0.1016 m KM2, 50 µm, ends fixed, optionally struck at its centre by
 /// the 5.56 mm, 5e-6 kg sphere at 100 m/s.
-fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaModel) -> Domain {
+fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaModel) -> Distributed<LocalComm> {
     let material = FibreMaterial::kevlar_km2();
     let diameter: f64 = 50e-6;
     let bundle = StraightFabric::single_yarn(0.1016, 1, std::f64::consts::PI * diameter * diameter / 4.0, element_length_ratio, inertia, 0.3, 3.8e9);
@@ -35,7 +38,12 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
         let start = radius + 0.5 * built.sections[0].contact_diameter + 1e-7;
         RigidProjectile::new(RigidShape::Sphere { radius }, 5e-6, Vec3::new(0.0, 0.0, start), Vec3::new(0.0, 0.0, -100.0), UnitQuaternion::identity())
     });
-    Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt).initialize().unwrap()
+    whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt))
+}
+
+/// A whole domain on one rank, its lists and initial forces made.
+fn whole(domain: Domain) -> Distributed<LocalComm> {
+    Distributed::whole(domain).unwrap()
 }
 
 /// Time at which `signal` first crosses `level`, linearly interpolated between steps.
@@ -47,7 +55,8 @@ fn crossing_time(history: &[(f64, f64)], level: f64) -> f64 {
 
 #[test]
 fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
-    let mut domain = single_fibre(0.5, false, InertiaModel::None);
+    let mut run = single_fibre(0.5, false, InertiaModel::None);
+    let domain = &mut run.domain;
     let n = domain.nodes.len();
     // pull the left end at constant speed: a huge mass is a prescribed velocity
     let pull = 1.0;
@@ -61,11 +70,12 @@ fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
     let mut history_a = Vec::new();
     let mut history_b = Vec::new();
     let length = 0.1016;
-    while domain.time < 1.3 * length / c {
-        domain.step().unwrap();
-        history_a.push((domain.time, domain.elements.strain[a]));
-        history_b.push((domain.time, domain.elements.strain[b]));
+    while run.domain.time < 1.3 * length / c {
+        run.step().unwrap();
+        history_a.push((run.domain.time, run.domain.elements.strain[a]));
+        history_b.push((run.domain.time, run.domain.elements.strain[b]));
     }
+    let domain = &run.domain;
     let speed = (xb - xa) / (crossing_time(&history_b, 0.5 * incident) - crossing_time(&history_a, 0.5 * incident));
     eprintln!("wave speed {speed:.1} m/s against sqrt(E/rho) = {c:.1} m/s ({:+.3}%)", 100.0 * (speed / c - 1.0));
     assert!((speed / c - 1.0).abs() < 0.01, "wave speed {speed} vs sqrt(E/rho) = {c}");
@@ -79,21 +89,16 @@ fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
 #[test]
 fn a_deferred_closing_kick_changes_no_bit_of_the_motion_or_the_energies() {
     // the fibre struck by the sphere, stepped with its closing kicks applied at once and with
-    // them deferred to the next step's first pass
+    // them deferred to the next step's first pass (the production step's way)
     let mut at_once = single_fibre(0.5, true, InertiaModel::Locked);
+    at_once.domain.defer_closing_kick = false;
     let mut deferred = single_fibre(0.5, true, InertiaModel::Locked);
-    let half = 0.5 * deferred.time_step;
     let bits = |vectors: &mut dyn Iterator<Item = Vec3>| vectors.flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).collect::<Vec<u64>>();
     let mut lagged = 0;
     for step in 0..400 {
         at_once.step().unwrap();
-        let motion = deferred.kick_drift(half, deferred.time_step);
-        if deferred.lists_may_miss_a_pair(motion, None) == Some(true) {
-            deferred.rebuild_neighbours().unwrap();
-        }
-        deferred.compute_forces().unwrap();
-        deferred.set_projectile_load(deferred.projectile_load());
-        deferred.defer_kick(half);
+        deferred.step().unwrap();
+        let (at_once, deferred) = (&at_once.domain, &deferred.domain);
         assert_eq!(bits(&mut deferred.nodes.position.iter().copied()), bits(&mut at_once.nodes.position.iter().copied()), "step {step}");
         let n = deferred.nodes.n_owned;
         assert_eq!(bits(&mut (0..n).map(|i| deferred.velocity(i))), bits(&mut at_once.nodes.velocity[..n].iter().copied()), "step {step}");
@@ -106,15 +111,15 @@ fn a_deferred_closing_kick_changes_no_bit_of_the_motion_or_the_energies() {
 
 #[test]
 fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
-    let mut domain = single_fibre(0.5, true, InertiaModel::Locked);
-    let initial = domain.energies().total();
+    let mut run = single_fibre(0.5, true, InertiaModel::Locked);
+    let initial = run.domain.energies().total();
     let mut worst: f64 = 0.0;
     let mut worst_of_exchanged: f64 = 0.0;
     let mut peak_contact: f64 = 0.0;
     for step in 0..10_000 {
-        domain.step().unwrap();
+        run.step().unwrap();
         if step % 50 == 0 {
-            let report = domain.energies();
+            let report = run.domain.energies();
             let drift = (report.total() - initial).abs();
             worst = worst.max(drift / initial);
             // the projectile holds most of the energy: judge the drift against what it gave away too
@@ -125,7 +130,7 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
             peak_contact = peak_contact.max(report.contact);
         }
     }
-    let report = domain.energies();
+    let report = run.domain.energies();
     eprintln!("energy drift over 10^4 steps: {worst:.2e} of the total, {worst_of_exchanged:.2e} of the energy exchanged");
     assert!(peak_contact > 0.0 && report.axial > 1e-3 * initial, "the sphere really loads the fibre: {report:?}");
     assert!(report.projectile_kinetic < 0.999 * initial, "the sphere slows down");
@@ -140,19 +145,18 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
 fn section_6_1_stress_profiles_converge_in_element_length() {
     let mut coarse = single_fibre(0.5, true, InertiaModel::Effective { k1: 0.8, k2: 1.0 });
     let mut fine = single_fibre(0.125, true, InertiaModel::Effective { k1: 0.8, k2: 1.0 });
-    let ratio = (coarse.sections[0].element_length / fine.sections[0].element_length).round() as usize;
+    let ratio = (coarse.domain.sections[0].element_length / fine.domain.sections[0].element_length).round() as usize;
     assert_eq!(ratio, 4);
-    let transit = 0.5 * 0.1016 / coarse.material.wave_speed();
+    let transit = 0.5 * 0.1016 / coarse.domain.material.wave_speed();
     for output_step in [10.0, 20.0, 30.0, 40.0] {
         let instant = output_step / 35.0 * transit;
-        while coarse.time + coarse.time_step <= instant {
-            coarse.step().unwrap();
+        for run in [&mut coarse, &mut fine] {
+            while run.domain.time + run.domain.time_step <= instant {
+                run.step().unwrap();
+            }
         }
-        while fine.time + fine.time_step <= instant {
-            fine.step().unwrap();
-        }
-        let coarse_stress = coarse.element_stress();
-        let fine_stress = fine.element_stress();
+        let coarse_stress = coarse.domain.element_stress();
+        let fine_stress = fine.domain.element_stress();
         let (mut difference, mut norm) = (0.0, 0.0);
         for (e, &sigma) in coarse_stress.iter().enumerate().filter(|(_, s)| s.is_finite()) {
             let averaged: f64 = fine_stress[e * ratio..(e + 1) * ratio].iter().sum::<f64>() / ratio as f64;
@@ -179,15 +183,16 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
         *p = rotation * *p;
     }
     let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
-    let mut domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9).initialize().unwrap();
+    let mut run = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9));
+    let domain = &mut run.domain;
     // a tangential shift of every other fibre activates friction against the first anchors
     for i in 0..domain.nodes.len() {
         if domain.nodes.fibre[i].0 % 2 == 1 {
             domain.nodes.position[i] += rotation * Vec3::new(2e-7, 0.0, 0.0);
         }
     }
-    domain.compute_forces().unwrap();
-    domain
+    dea_mpi::step::compute_forces(&mut run.domain, &mut run.timer).unwrap();
+    run.domain
 }
 
 #[test]
@@ -224,7 +229,7 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let built = panel.build_all(&material);
     let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
+    let domain = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
     let nodes = &domain.nodes;
     let (centre, half) = (panel.plan_centre(), 0.5 * panel.side() - period);
     let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| (nodes.position[i].x - centre).abs() < half && (nodes.position[i].y - centre).abs() < half).collect();
@@ -255,7 +260,7 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let built = panel.build_all(&material);
     let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
+    let domain = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
     let nodes = &domain.nodes;
     let half = panel.size().map(|s| 0.5 * s);
     let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| nodes.position[i].x.abs() < half[0] - period[0] && nodes.position[i].y.abs() < half[1] - period[1]).collect();
@@ -282,7 +287,7 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
         let area = built.sections[0].area;
         let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
         let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-        let domain = Domain::assemble(material.clone(), built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt).initialize().unwrap();
+        let domain = whole(Domain::assemble(material.clone(), built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
         let nodes = &domain.nodes;
         (0..nodes.n_owned)
             .filter(|&i| nodes.prev[i] != dea_core::NONE && nodes.next[i] != dea_core::NONE && nodes.next[nodes.next[i] as usize] != dea_core::NONE)
@@ -298,7 +303,7 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
 /// (x > gap), the same yarn area, every fine fibre's last node tied to a coarse fibre's first
 /// (the nearest, as a hybrid panel ties them): the transition of docs/theory.md F12 without
 /// the weave. Nothing is clamped; contacts are elastic and frictionless.
-fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Domain {
+fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Distributed<LocalComm> {
     let material = FibreMaterial::kevlar_km2();
     let yarn_area = 4.63e-8;
     let inertia = InertiaModel::Effective { k1: 0.8, k2: 1.0 };
@@ -342,7 +347,7 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Domain {
     let dt = stable_time_step(&material, &sections, &contact.law, 0.0, dea_core::stability::DESIGN_CONTACT_STRAIN, 0.5);
     let mut domain = Domain::assemble(material, sections, nodes, elements, contact, NO_FAILURE, None, dt);
     domain.set_ties(ties);
-    domain.initialize().unwrap()
+    whole(domain)
 }
 
 #[test]
@@ -356,7 +361,8 @@ fn a_tensile_pulse_crosses_a_hybrid_transition_with_its_energy() {
     // (docs/validation.md).
     for (fine, coarse, crossing) in [(7, 1, 0.97), (19, 1, 0.97), (7, 7, 0.97), (19, 7, 0.97), (7, 4, 0.5)] {
         let length = 4e-3;
-        let mut domain = tied_yarn(fine, coarse, length);
+        let mut run = tied_yarn(fine, coarse, length);
+        let domain = &mut run.domain;
         let c = domain.material.wave_speed();
         let (centre, width, speed) = (-2.5e-3, 1e-3, 2.0);
         for i in 0..domain.nodes.len() {
@@ -370,10 +376,11 @@ fn a_tensile_pulse_crosses_a_hybrid_transition_with_its_energy() {
         // until the pulse's tail is 1 mm past the transition; its front stays in the coarse part
         let end = (-centre + 0.5 * width + 1e-3) / c;
         let mut worst: f64 = 0.0;
-        while domain.time < end {
-            domain.step().unwrap();
-            worst = worst.max((domain.energies().total() - initial).abs() / initial);
+        while run.domain.time < end {
+            run.step().unwrap();
+            worst = worst.max((run.domain.energies().total() - initial).abs() / initial);
         }
+        let domain = &run.domain;
         let coarse_nodes = |i: usize| usize::from(domain.nodes.section[i] == 1);
         let across = domain.energy_sums_by(coarse_nodes, 2)[1].report().total();
         let transmitted = across / (0.5 * initial);

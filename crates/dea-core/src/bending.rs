@@ -111,10 +111,8 @@ pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_
 /// Evaluates the torsional spring at every local node whose two elements are intact.
 /// Reads the element directions of [`crate::rod::compute_element_tension`] (run it first).
 pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::available() {
-        // SAFETY: the processor has AVX2
-        return unsafe { bending_in_lanes(nodes, elements, sections, scratch) };
+    if crate::in_avx2_lanes!(bending_in_lanes(nodes, elements, sections, scratch)).is_some() {
+        return;
     }
     for i in 0..nodes.len() {
         node_bending(nodes, elements, sections, scratch, i);

@@ -87,3 +87,24 @@ impl Compilation {
         [Self::Baseline, Self::Avx2, Self::Avx512].into_iter().filter(|c| c.runs()).collect()
     }
 }
+
+/// Runs `$kernel`, a call of a kernel in AVX2 lanes (a `#[target_feature(enable = "avx2")]`
+/// function of [`crate::lanes`]' types), when this processor runs AVX2: `Some` of what it
+/// returns, else `None`, and the caller's scalar code does the work. With [`in_compilation`],
+/// the one place a kernel compiled for the processor is entered.
+#[macro_export]
+macro_rules! in_avx2_lanes {
+    ($kernel:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        let result = if $crate::dispatch::Compilation::Avx2.runs() {
+            // SAFETY: the processor runs AVX2, the only target feature of the lanes' kernels
+            #[allow(clippy::macro_metavars_in_unsafe)]
+            Some(unsafe { $kernel })
+        } else {
+            None
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let result = None;
+        result
+    }};
+}

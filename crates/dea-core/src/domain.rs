@@ -4,22 +4,19 @@
 //! the projectile. Its stages are the step of DESIGN.md §4 without communication; a driver
 //! (the solver's step loop) calls them in order and inserts halo exchange and reductions.
 
-use std::time::Instant;
-
-use crate::bending::{compute_bending, spring_energy, BendingScratch};
+use crate::bending::{compute_bending, BendingScratch};
 use crate::contact::NormalLaw;
 use crate::dispatch::Compilation;
 use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{self, BrokenCount, FailureParameters};
 use crate::fibre_contact::{self, FibreContactSums, RunningSums};
-use crate::friction::stick_slip;
 use crate::integrate;
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::pair_data::{PairData, PairDataTable};
 use crate::projectile::RigidProjectile;
 use crate::projectile_contact::{sum_reactions, ProjectileContacts, Reaction};
-use crate::rod::{compute_element_tension, element_strain_energy, set_chain_forces};
+use crate::rod::{compute_element_tension, set_chain_forces};
 use crate::tie::{Tie, Ties};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
@@ -84,17 +81,6 @@ pub struct NodeLedger {
     pub fracture_released: Vec<f64>,
 }
 
-/// Wall time spent in each stage [s].
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct StageTimes {
-    pub integrate: f64,
-    pub rebuild: f64,
-    pub rods: f64,
-    pub fibre_contacts: f64,
-    pub projectile_contacts: f64,
-    pub failure: f64,
-}
-
 /// The largest motion of a node [m].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NodeMotion {
@@ -125,13 +111,16 @@ pub struct Domain {
     /// simulated time [s]
     pub time: f64,
     pub step: u64,
-    pub times: StageTimes,
     /// this domain integrates the projectile and counts its energy (rank 0); the others
     /// hold a copy that the driver overwrites every step
     pub owns_projectile: bool,
     /// mass-proportional damping rate of the fibre nodes: nonzero only while a target
     /// settles before the shot [1/s]
     pub damping: f64,
+    /// each step's closing kick of the owned nodes waits for the next step's opening one
+    /// ([`Self::defer_kick`]); false kicks at once, as a settle does (its damping falls
+    /// between the kicks). The deferral changes no bit, which a test checks by this switch.
+    pub defer_closing_kick: bool,
     pair_data: PairDataTable,
     /// chain stiffness of each section (stability check) [N/m]
     chain_stiffness: Vec<f64>,
@@ -150,9 +139,8 @@ pub struct Domain {
 }
 
 impl Domain {
-    /// Assembles a domain of owned nodes without computing anything: a distributed driver
-    /// adds the ghosts ([`Self::set_ghosts`]) before the first forces; a whole domain
-    /// continues with [`Self::initialize`].
+    /// Assembles a domain of owned nodes without computing anything: the distributed step
+    /// adds the ghosts ([`Self::set_ghosts`]) and lists before the first forces.
     #[allow(clippy::too_many_arguments)]
     pub fn assemble(
         material: FibreMaterial,
@@ -191,9 +179,9 @@ impl Domain {
             time_step,
             time: 0.0,
             step: 0,
-            times: StageTimes::default(),
             owns_projectile: true,
             damping: 0.0,
+            defer_closing_kick: true,
             pair_data,
             chain_stiffness,
             tie_stiffness: vec![0.0; n_owned],
@@ -211,15 +199,6 @@ impl Domain {
         self.tie_stiffness = self.ties.stiffness_on_owned(self.nodes.n_owned, &self.material);
     }
 
-    /// Lists, forces and projectile load of the initial state of a whole domain (no ghosts),
-    /// so that the first half-kick uses a(0).
-    pub fn initialize(mut self) -> Result<Self, DomainError> {
-        self.rebuild_neighbours()?;
-        self.compute_forces()?;
-        self.set_projectile_load(self.projectile_load());
-        Ok(self)
-    }
-
     /// Replaces the ghosts by `ghosts` (any order) and relinks the chains. Call
     /// [`Self::rebuild_neighbours`] next: it checks the chain stencil.
     pub fn set_ghosts(&mut self, ghosts: &[GhostRecord]) {
@@ -234,26 +213,6 @@ impl Domain {
         self.nodes.link_chains();
         self.ties.link(&self.nodes);
         self.bending.resize(self.nodes.len());
-    }
-
-    /// One explicit step on a single domain: kick–drift, rebuild when due, forces, failure,
-    /// projectile load, kick.
-    pub fn step(&mut self) -> Result<(), DomainError> {
-        let half = 0.5 * self.time_step;
-        let clock = Instant::now();
-        let motion = self.kick_drift(half, self.time_step);
-        self.times.integrate += clock.elapsed().as_secs_f64();
-        if self.lists_may_miss_a_pair(motion, None) == Some(true) {
-            self.rebuild_neighbours()?;
-        }
-        self.compute_forces()?;
-        self.set_projectile_load(self.projectile_load());
-        let clock = Instant::now();
-        self.kick(half);
-        self.time += self.time_step;
-        self.step += 1;
-        self.times.integrate += clock.elapsed().as_secs_f64();
-        Ok(())
     }
 
     /// Half-step velocity update of owned nodes and the owned projectile.
@@ -277,7 +236,7 @@ impl Domain {
     /// The projectile is kicked now. A damped settle kicks at once: its damping falls
     /// between the two kicks.
     pub fn defer_kick(&mut self, half_dt: f64) {
-        if self.damping > 0.0 {
+        if self.damping > 0.0 || !self.defer_closing_kick {
             return self.kick(half_dt);
         }
         debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
@@ -398,10 +357,8 @@ impl Domain {
         if let Some((gid, partner)) = self.ties.missing_end(self.nodes.n_owned) {
             return Err(DomainError::MissingTiePartner { gid, partner });
         }
-        let clock = Instant::now();
         build(&mut self.pairs, &self.nodes, &self.sections);
         self.refresh_projectile_candidates();
-        self.times.rebuild += clock.elapsed().as_secs_f64();
         Ok(())
     }
 
@@ -411,28 +368,17 @@ impl Domain {
         self.projectile_contacts.refresh_candidates(self.projectile.as_ref(), &self.nodes, &self.sections, self.pairs.skin);
     }
 
-    /// Forces on owned nodes, element failure and the projectile's contact load.
-    pub fn compute_forces(&mut self) -> Result<(), DomainError> {
-        let clock = Instant::now();
+    /// Axial rod forces (4-2, 4-3) and the bending springs (5-1…5-3) of every local element
+    /// and node, the chain forces set on the owned nodes (their force starts here each step).
+    pub fn add_rod_forces(&mut self) {
         compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
         compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
         set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
+    }
+
+    /// The forces of the rods tying fine fibres to coarse ones in hybrid yarns (theory F12).
+    pub fn add_tie_forces(&mut self) {
         self.ties.add_forces(&mut self.nodes, &self.material);
-        let rods_done = Instant::now();
-        self.times.rods += (rods_done - clock).as_secs_f64();
-        self.add_fibre_contacts();
-        let contacts_done = Instant::now();
-        self.times.fibre_contacts += (contacts_done - rods_done).as_secs_f64();
-        if self.projectile_contacts.refresh_due(self.projectile.as_ref(), &self.nodes, self.pairs.skin) {
-            self.refresh_projectile_candidates();
-        }
-        self.add_projectile_contacts();
-        let projectile_done = Instant::now();
-        self.times.projectile_contacts += (projectile_done - contacts_done).as_secs_f64();
-        self.break_elements();
-        let checked = self.check_state();
-        self.times.failure += projectile_done.elapsed().as_secs_f64();
-        checked
     }
 
     /// Fibre–fibre contact and friction on owned nodes (seed 3-1…3-3, 4-4…4-15), summed per
@@ -457,7 +403,11 @@ impl Domain {
 
     /// Fibre–projectile contact and friction on the candidate nodes
     /// ([`ProjectileContacts::add_forces`]).
-    fn add_projectile_contacts(&mut self) {
+    /// The candidates are refreshed first when node and surface may have moved a skin.
+    pub fn add_projectile_contacts(&mut self) {
+        if self.projectile_contacts.refresh_due(self.projectile.as_ref(), &self.nodes, self.pairs.skin) {
+            self.refresh_projectile_candidates();
+        }
         let Some(projectile) = &self.projectile else { return };
         let (law, mu) = (self.contact.law, self.contact.projectile_friction_coefficient);
         self.projectile_contacts.add_forces(projectile, &mut self.nodes, &self.sections, law, mu, &mut self.ledger, &mut self.contact_stiffness);
@@ -485,7 +435,7 @@ impl Domain {
     }
 
     /// The failure stage ([`failure::break_elements`]).
-    fn break_elements(&mut self) {
+    pub fn break_elements(&mut self) {
         failure::break_elements(
             &self.nodes,
             &mut self.elements,
@@ -501,7 +451,7 @@ impl Domain {
 
     /// Every owned node has finite force and position, and a stiffness the time step can
     /// integrate (central difference diverges once omega dt > 2).
-    fn check_state(&self) -> Result<(), DomainError> {
+    pub fn check_state(&self) -> Result<(), DomainError> {
         let mu = self.contact.friction_coefficient.max(self.contact.projectile_friction_coefficient);
         let nodes = &self.nodes;
         for i in 0..nodes.n_owned {
@@ -524,7 +474,7 @@ impl Domain {
 
     /// Every energy of the domain as exact sums over owned nodes (pairs once each; the
     /// projectile's kinetic energy on its owner only), ready to merge across ranks. Call
-    /// after [`Self::compute_forces`] so strains and angles are current.
+    /// after the forces of a step so strains and angles are current.
     pub fn energy_sums(&self) -> EnergySums {
         let mut sums = self.energy_sums_by(|_| 0, 1);
         let mut report = sums.pop().expect("one group");
@@ -536,72 +486,9 @@ impl Domain {
 
     /// The energies the fibres hold or dissipated, as exact sums per group of owned nodes
     /// (`group(i)` < `groups`; a layer, say): everything of [`Self::energy_sums`] but the
-    /// projectile's kinetic energy.
+    /// projectile's kinetic energy ([`crate::energy::fibre_energy_sums`]).
     pub fn energy_sums_by(&self, group: impl Fn(usize) -> usize, groups: usize) -> Vec<EnergySums> {
-        let nodes = &self.nodes;
-        let mut sums = vec![EnergySums::default(); groups];
-        let law = self.contact.law;
-        for i in 0..nodes.n_owned {
-            let report = &mut sums[group(i)];
-            report.fibre_kinetic.add(0.5 * nodes.mass[i] * self.velocity(i).norm_squared());
-            if nodes.next[i] != NONE {
-                report.axial.add(element_strain_energy(nodes, &self.elements, &self.sections, &self.material, i));
-            }
-            report.bending.add(spring_energy(nodes, &self.bending, &self.sections, i));
-            report.friction_dissipated.add(self.ledger.friction_dissipated[i]);
-            report.plastic_dissipated.add(self.ledger.plastic_dissipated[i]);
-            report.fracture_released.add(self.ledger.fracture_released[i]);
-            for k in self.pairs.row(i) {
-                let j = self.pairs.partner[k] as usize;
-                // a pair of owned nodes at its node of lower gid, which keeps its history
-                // (D13), for both; a pair with a ghost here for the owned node. Each node takes
-                // half of what the pair stores: exactly what it took at each of its entries, as
-                // the sums are exact and the energies even in the relative position.
-                if !self.pairs.evaluates(i, k) {
-                    continue;
-                }
-                let data = self.pair_data_of(i, j);
-                let relative = nodes.position[j] - nodes.position[i];
-                let overlap = data.reach - relative.norm();
-                if overlap <= 0.0 {
-                    continue;
-                }
-                let max_overlap = self.pairs.max_overlap[k];
-                let contact = law.stored_energy(&data.geometry, overlap, max_overlap);
-                let mut friction_stored = 0.0;
-                if self.contact.friction_coefficient > 0.0 && self.pairs.touching[k] {
-                    let (response, _) = law.evaluate(&data.geometry, overlap, max_overlap);
-                    let (mut anchor, mut spring) = (self.pairs.anchor[k], self.pairs.spring_stiffness[k]);
-                    friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, self.contact.friction_coefficient).stored;
-                }
-                for node in std::iter::once(i).chain((j < nodes.n_owned).then_some(j)) {
-                    sums[group(node)].contact.add(0.5 * contact);
-                    sums[group(node)].friction_stored.add(0.5 * friction_stored);
-                }
-            }
-        }
-        for (i, energy) in self.ties.energies(nodes, &self.material) {
-            sums[group(i)].axial.add(energy);
-        }
-        if let Some(projectile) = &self.projectile {
-            for &i in &self.projectile_contacts.candidates {
-                let i = i as usize;
-                let report = &mut sums[group(i)];
-                let (overlap, point, body, geometry) = self.projectile_contacts.geometry(projectile, nodes, &self.sections, i);
-                if overlap <= 0.0 {
-                    continue;
-                }
-                let max_overlap = self.projectile_contacts.max_overlap[i];
-                report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
-                if self.contact.projectile_friction_coefficient > 0.0 && self.projectile_contacts.touching[i] {
-                    let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
-                    let (mut anchor, mut spring) = (self.projectile_contacts.anchor[i], self.projectile_contacts.spring_stiffness[i]);
-                    let friction = stick_slip(-body, point.normal, &mut anchor, &mut spring, response.force, response.stiffness, self.contact.projectile_friction_coefficient);
-                    report.friction_stored.add(friction.stored);
-                }
-            }
-        }
-        sums
+        crate::energy::fibre_energy_sums(self, group, groups)
     }
 
     /// [`Self::energy_sums`] rounded: the energies of a whole domain [J].

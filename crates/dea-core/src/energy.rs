@@ -2,7 +2,12 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::bending::spring_energy;
+use crate::domain::Domain;
 use crate::exact::{ExactSum, LIMBS};
+use crate::friction::stick_slip;
+use crate::rod::element_strain_energy;
+use crate::NONE;
 
 /// Energies of a domain at one instant [J]. Pair energies count each physical pair once.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -99,3 +104,74 @@ impl EnergySums {
         Self { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
     }
 }
+
+/// The energies the fibres hold or dissipated, as exact sums per group of owned nodes
+/// (`group(i)` < `groups`; a layer, say): everything of [`Domain::energy_sums`] but the
+/// projectile's kinetic energy.
+pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups: usize) -> Vec<EnergySums> {
+    let nodes = &domain.nodes;
+    let mut sums = vec![EnergySums::default(); groups];
+    let law = domain.contact.law;
+    for i in 0..nodes.n_owned {
+        let report = &mut sums[group(i)];
+        report.fibre_kinetic.add(0.5 * nodes.mass[i] * domain.velocity(i).norm_squared());
+        if nodes.next[i] != NONE {
+            report.axial.add(element_strain_energy(nodes, &domain.elements, &domain.sections, &domain.material, i));
+        }
+        report.bending.add(spring_energy(nodes, &domain.bending, &domain.sections, i));
+        report.friction_dissipated.add(domain.ledger.friction_dissipated[i]);
+        report.plastic_dissipated.add(domain.ledger.plastic_dissipated[i]);
+        report.fracture_released.add(domain.ledger.fracture_released[i]);
+        for k in domain.pairs.row(i) {
+            let j = domain.pairs.partner[k] as usize;
+            // a pair of owned nodes at its node of lower gid, which keeps its history
+            // (D13), for both; a pair with a ghost here for the owned node. Each node takes
+            // half of what the pair stores: exactly what it took at each of its entries, as
+            // the sums are exact and the energies even in the relative position.
+            if !domain.pairs.evaluates(i, k) {
+                continue;
+            }
+            let data = domain.pair_data_of(i, j);
+            let relative = nodes.position[j] - nodes.position[i];
+            let overlap = data.reach - relative.norm();
+            if overlap <= 0.0 {
+                continue;
+            }
+            let max_overlap = domain.pairs.max_overlap[k];
+            let contact = law.stored_energy(&data.geometry, overlap, max_overlap);
+            let mut friction_stored = 0.0;
+            if domain.contact.friction_coefficient > 0.0 && domain.pairs.touching[k] {
+                let (response, _) = law.evaluate(&data.geometry, overlap, max_overlap);
+                let (mut anchor, mut spring) = (domain.pairs.anchor[k], domain.pairs.spring_stiffness[k]);
+                friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, domain.contact.friction_coefficient).stored;
+            }
+            for node in std::iter::once(i).chain((j < nodes.n_owned).then_some(j)) {
+                sums[group(node)].contact.add(0.5 * contact);
+                sums[group(node)].friction_stored.add(0.5 * friction_stored);
+            }
+        }
+    }
+    for (i, energy) in domain.ties.energies(nodes, &domain.material) {
+        sums[group(i)].axial.add(energy);
+    }
+    if let Some(projectile) = &domain.projectile {
+        for &i in &domain.projectile_contacts.candidates {
+            let i = i as usize;
+            let report = &mut sums[group(i)];
+            let (overlap, point, body, geometry) = domain.projectile_contacts.geometry(projectile, nodes, &domain.sections, i);
+            if overlap <= 0.0 {
+                continue;
+            }
+            let max_overlap = domain.projectile_contacts.max_overlap[i];
+            report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
+            if domain.contact.projectile_friction_coefficient > 0.0 && domain.projectile_contacts.touching[i] {
+                let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
+                let (mut anchor, mut spring) = (domain.projectile_contacts.anchor[i], domain.projectile_contacts.spring_stiffness[i]);
+                let friction = stick_slip(-body, point.normal, &mut anchor, &mut spring, response.force, response.stiffness, domain.contact.projectile_friction_coefficient);
+                report.friction_stored.add(friction.stored);
+            }
+        }
+    }
+    sums
+}
+

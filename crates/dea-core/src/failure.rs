@@ -89,18 +89,14 @@ pub fn break_elements(
             broken.book(mode);
         }
     };
-    // almost no element is near breaking: four at a time are told so in lanes
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::available() {
-        // a group reads the moment after its last element
-        while i + 4 <= n_owned && i + 5 <= bending.moment.len() {
-            // SAFETY: the processor runs AVX2
-            let candidates = unsafe { may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i) };
-            for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
-                book_if_broken(k);
-            }
-            i += 4;
+    // almost no element is near breaking: four at a time are told so in lanes; a group reads
+    // the moment after its last element
+    while i + 4 <= n_owned && i + 5 <= bending.moment.len() {
+        let Some(candidates) = crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i)) else { break };
+        for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
+            book_if_broken(k);
         }
+        i += 4;
     }
     for i in i..n_owned {
         book_if_broken(i);
@@ -182,7 +178,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_lanes_leave_out_only_elements_the_scalar_test_keeps() {
-        if !crate::lanes::available() {
+        if !crate::dispatch::Compilation::Avx2.runs() {
             return;
         }
         use crate::material::InertiaModel;
@@ -226,8 +222,7 @@ mod tests {
         }
         let (mut breaking, mut candidates) = (0, 0);
         for i in (0..n - 4).step_by(4) {
-            // SAFETY: AVX2 is present (checked above)
-            let bits = unsafe { may_break_in_lanes(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, i) };
+            let bits = crate::in_avx2_lanes!(may_break_in_lanes(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, i)).expect("AVX2 is present");
             for k in i..i + 4 {
                 let breaks = element_breaks(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, k).is_some();
                 assert!(!breaks || bits & (1 << (k - i)) != 0, "element {k} breaks but the lanes left it out");

@@ -10,12 +10,7 @@ use crate::Vec3;
 
 /// `v += F/m * h` for owned nodes (4-18, 4-19); clamped nodes keep zero velocity.
 pub fn kick(nodes: &mut Nodes, h: f64) {
-    let mut i = 0;
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::available() {
-        // SAFETY: the processor has AVX2
-        i = unsafe { kick_in_lanes(nodes, h) };
-    }
+    let i = crate::in_avx2_lanes!(kick_in_lanes(nodes, h)).unwrap_or(0);
     for i in i..nodes.n_owned {
         nodes.velocity[i] = kicked(nodes, h, i);
     }
@@ -72,10 +67,8 @@ pub fn kick_drift(nodes: &mut Nodes, deferred: Option<f64>, h: f64, dt: f64, ref
     let tracked = reference.len() == nodes.n_owned;
     let (mut fastest, mut farthest): (f64, f64) = (0.0, if tracked { 0.0 } else { f64::INFINITY });
     let mut i = 0;
-    #[cfg(target_arch = "x86_64")]
-    if tracked && crate::lanes::available() {
-        // SAFETY: the processor has AVX2
-        (i, fastest, farthest) = unsafe { kick_drift_in_lanes(nodes, deferred, h, dt, reference) };
+    if let Some(lanes) = tracked.then(|| crate::in_avx2_lanes!(kick_drift_in_lanes(nodes, deferred, h, dt, reference))).flatten() {
+        (i, fastest, farthest) = lanes;
     }
     for i in i..nodes.n_owned {
         kick_drift_node(nodes, deferred, h, dt, i, &mut fastest);

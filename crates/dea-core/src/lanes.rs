@@ -9,7 +9,8 @@
 //! scalar: the lanes give the scalar code's bits, which the kernels' tests check.
 //!
 //! Everything here needs AVX2 in its caller (`#[target_feature(enable = "avx2")]`); a kernel
-//! takes the lanes only when [`available`] says the processor has it.
+//! is entered through [`crate::in_avx2_lanes`], which calls it only when [`available`] says the
+//! processor has it.
 
 use std::arch::x86_64::*;
 

@@ -339,10 +339,8 @@ impl Stencil {
     /// NaN `x`: a NaN position, caught after the forces, pairs with nothing).
     fn within(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
         hits.clear();
-        #[cfg(target_arch = "x86_64")]
-        if crate::lanes::available() {
-            // SAFETY: the processor runs AVX2
-            return unsafe { self.within_in_lanes(cells, x, place, exclusion, reach_squared, hits) };
+        if crate::in_avx2_lanes!(self.within_in_lanes(cells, x, place, exclusion, reach_squared, hits)).is_some() {
+            return;
         }
         self.within_one_at_a_time(cells, x, place, exclusion, reach_squared, hits);
     }
@@ -1190,7 +1188,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_lanes_find_the_candidates_one_at_a_time_finds() {
-        if !crate::lanes::available() {
+        if !crate::dispatch::Compilation::Avx2.runs() {
             return;
         }
         let mut next = uniform(11);
@@ -1211,8 +1209,7 @@ mod tests {
         for x in [Vec3::new(0.5, 0.5, 0.5), Vec3::new(0.1, 0.9, 0.3), Vec3::new(f64::NAN, 0.5, 0.5)] {
             let (mut one_at_a_time, mut in_lanes) = (Vec::new(), Vec::new());
             stencil.within_one_at_a_time(&cells, &x, place, 2, 0.2, &mut one_at_a_time);
-            // SAFETY: AVX2 is present (checked above)
-            unsafe { stencil.within_in_lanes(&cells, &x, place, 2, 0.2, &mut in_lanes) };
+            crate::in_avx2_lanes!(stencil.within_in_lanes(&cells, &x, place, 2, 0.2, &mut in_lanes)).expect("AVX2 is present");
             assert_eq!(in_lanes, one_at_a_time, "from {x:?}");
             assert!(one_at_a_time.iter().all(|&k| stencil.runs.iter().any(|run| run.contains(&(k as usize)))));
             found += one_at_a_time.len();

@@ -11,10 +11,8 @@ use crate::{FibreMaterial, FibreSection};
 /// element's direction and inverse length for the bending pass and the chain forces (the
 /// force is stored as a magnitude: the step moves a third of the bytes it would as a vector).
 pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::available() {
-        // SAFETY: the processor has AVX2
-        return unsafe { tension_in_lanes(nodes, elements, sections, material) };
+    if crate::in_avx2_lanes!(tension_in_lanes(nodes, elements, sections, material)).is_some() {
+        return;
     }
     for i in 0..nodes.len() {
         element_tension(nodes, elements, sections, material, i);

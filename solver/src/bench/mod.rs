@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::comm::Comm;
 use crate::setup::{build_adjusted, SetupError};
+use crate::step::{compute_forces, Stage, StageSeconds};
 
 /// Bench results (JSON keys are part of the interface). Costs per node or per pair are
 /// core-seconds: the sum over ranks of each stage's time, so they compare across ranks.
@@ -66,7 +67,7 @@ pub struct BenchReport {
     /// slowest rank's compute time / mean [-]
     pub load_imbalance: f64,
     /// mean over ranks of each stage's wall time in the timed steps [s]
-    pub stage_seconds: crate::run::StageSeconds,
+    pub stage_seconds: StageSeconds,
     /// one contact query near the meshed 17-grain FSP (rank 0) [ns]
     pub ns_per_mesh_surface_query: f64,
     /// the same near the analytic cylinder of its diameter [ns]
@@ -139,15 +140,14 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     }
     let rebuild_seconds = clock.elapsed().as_secs_f64();
     let statics = 20;
-    run.domain.times = Default::default();
+    run.timer.reset();
     for _ in 0..statics {
-        run.domain.compute_forces()?;
+        compute_forces(&mut run.domain, &mut run.timer)?;
     }
     let static_touching = run.domain.pairs.touching_entries() as f64;
-    let static_seconds = run.domain.times.fibre_contacts;
+    let static_seconds = run.timer.seconds.get(Stage::FibreContacts);
     let (_, packed_seconds, _) = packed::time_packed_contact_law(&run.domain, statics);
-    run.domain.times = Default::default();
-    run.times = Default::default();
+    run.timer.reset();
     let (halo_bytes_before, halo_steps_before, rebuilds_before) = (run.halo_bytes, run.halo_steps, run.rebuilds);
     let (mut touching, mut listed, mut sampled) = (0usize, 0usize, 0usize);
     let mut wall = [0.0];
@@ -164,15 +164,13 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     wall[0] = start.elapsed().as_secs_f64();
     run.comm.max_f64(&mut wall);
     let wall = wall[0];
-    let t = run.domain.times;
-    let c = run.times;
-    let compute = t.integrate + t.rebuild + t.rods + t.fibre_contacts + t.projectile_contacts + t.failure;
-    let communication = c.halo + c.ghost_exchange + c.projectile + c.reductions;
-    let mut slowest = [compute, c.halo, communication];
+    let stages = run.timer.seconds;
+    let compute = stages.computation();
+    let communication = stages.total() - compute - stages.get(Stage::Output);
+    let mut slowest = [compute, stages.get(Stage::HaloForward), communication];
     run.comm.max_f64(&mut slowest);
     let halo_steps = (run.halo_steps - halo_steps_before).max(1) as f64;
-    let stages = crate::run::StageSeconds { step: t, comm: c, output: 0.0 };
-    let stage_sums = sum(&run, &stages.to_array());
+    let stage_sums = sum(&run, &stages.0);
     let totals = sum(
         &run,
         &[
@@ -183,12 +181,12 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
             packed_seconds,
             touching as f64 / sampled.max(1) as f64,
             listed as f64 / sampled.max(1) as f64,
-            t.fibre_contacts,
-            t.rods + t.integrate,
+            stages.get(Stage::FibreContacts),
+            stages.get(Stage::Rods) + stages.get(Stage::Ties) + stages.get(Stage::KickDrift) + stages.get(Stage::Kick),
             compute,
             (run.halo_bytes - halo_bytes_before) as f64 / halo_steps,
             run.ghosts() as f64,
-            t.rebuild,
+            stages.get(Stage::NeighbourRebuild),
         ],
     );
     let rebuilds = run.rebuilds - rebuilds_before;
@@ -226,7 +224,7 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
         halo_bytes_per_step: halo_bytes,
         ghost_fraction: ghosts / nodes,
         load_imbalance: slowest[0] / (compute_total / ranks as f64),
-        stage_seconds: crate::run::StageSeconds::from_array(&stage_sums.iter().map(|s| s / ranks as f64).collect::<Vec<_>>()),
+        stage_seconds: StageSeconds(std::array::from_fn(|k| stage_sums[k] / ranks as f64)),
         ns_per_mesh_surface_query: mesh_query,
         ns_per_analytic_surface_query: analytic_query,
         mesh_surface_triangles: mesh_triangles,

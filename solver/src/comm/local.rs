@@ -68,11 +68,9 @@ impl Drop for PoisonOnPanic {
     }
 }
 
-/// Runs `body` on `size` ranks, one thread each, and returns their results in rank order.
-/// A panic on any rank ends every rank and is raised again here.
-pub fn run_local<R: Send>(size: usize, body: impl Fn(LocalComm) -> R + Sync) -> Vec<R> {
-    assert!(size >= 1, "a group has at least one rank");
-    let shared = Arc::new(Shared {
+/// The shared state of a group of `size` ranks.
+fn group(size: usize) -> Arc<Shared> {
+    Arc::new(Shared {
         size,
         slots: Mutex::new(vec![Vec::new(); size]),
         barrier: Mutex::new((0, 0)),
@@ -81,7 +79,21 @@ pub fn run_local<R: Send>(size: usize, body: impl Fn(LocalComm) -> R + Sync) -> 
         mail_signal: Condvar::new(),
         mail_lock: Mutex::new(()),
         poisoned: AtomicBool::new(false),
-    });
+    })
+}
+
+impl LocalComm {
+    /// The communicator of a run on one rank, in the calling thread.
+    pub fn alone() -> Self {
+        Self { rank: 0, shared: group(1) }
+    }
+}
+
+/// Runs `body` on `size` ranks, one thread each, and returns their results in rank order.
+/// A panic on any rank ends every rank and is raised again here.
+pub fn run_local<R: Send>(size: usize, body: impl Fn(LocalComm) -> R + Sync) -> Vec<R> {
+    assert!(size >= 1, "a group has at least one rank");
+    let shared = group(size);
     let results = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..size)
             .map(|rank| {
