@@ -3,7 +3,7 @@
 # law and friction alone on the same touching pairs packed (the bench's
 # ns_per_contact_pair_packed), under callgrind: exact and repeatable on this host, where
 # timings vary by ±15 % and there are no cycle counters, so two builds compare to the
-# instruction (docs/performance.md, sessions 19 and 23).
+# instruction (design rule "count instructions", docs/performance.md).
 # The bench runs at 30,000 nodes for one step: 20 sweeps of the still squeezed yarn, and
 # the step's, which meet the same contacts. Valgrind hides AVX-512 from the program, so
 # it counts the sweep's AVX2 compilation. Usage: scripts/count-instructions.sh [BINARY]
