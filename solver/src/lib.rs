@@ -4,11 +4,15 @@
 
 pub mod bench;
 pub mod campaign;
+pub mod checkpoint;
 pub mod comm;
 pub mod deformable;
+pub mod diagnostics;
 pub mod distributed;
 pub mod fabric;
 pub mod progress;
 pub mod run;
+pub mod settle;
 pub mod setup;
+pub mod snapshot;
 pub mod step;

@@ -54,7 +54,7 @@ pub struct Summary {
     /// why the run stopped
     pub stopped_by: String,
     /// the settle before the shot, when the case asks for one (not known after a restart)
-    pub settle: Option<crate::distributed::SettleReport>,
+    pub settle: Option<crate::settle::SettleReport>,
 }
 
 /// Below this fraction of the peak contact force, what still touches a projectile past the

@@ -29,7 +29,8 @@ use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
 use crate::comm::Comm;
-use crate::distributed::{Distributed, RestoreError};
+use crate::checkpoint::RestoreError;
+use crate::distributed::Distributed;
 
 /// Gap between the projectile and the nearest fibre surface at time zero [m].
 pub const INITIAL_GAP: f64 = 1e-6;

@@ -1,8 +1,12 @@
 //! The communication layer. [`Comm`] is everything the distributed step needs from a
 //! communicator; [`mpi::MpiComm`] implements it over MPI (the only MPI code of the
 //! project), [`local::LocalComm`] over threads of one process, so multi-rank runs are plain
-//! `cargo test`s.
+//! `cargo test`s. On top of it, in LAMMPS's vocabulary: [`halo`] (the plan, `borders` and
+//! `forward`), [`codec`] (how every message is encoded) and [`agree`] (collective decisions).
 
+pub mod agree;
+pub mod codec;
+pub mod halo;
 pub mod local;
 pub mod mpi;
 

@@ -1,0 +1,56 @@
+//! Collective agreement: what every rank must decide alike. A rank's numerical failure
+//! becomes every rank's ([`agree`]), a flag any rank raises is every rank's ([`any`]), and
+//! rank 0's values are everyone's ([`from_rank0`]). No rank returns while others wait.
+
+use dea_core::{DomainError, GlobalNodeId};
+
+use super::Comm;
+
+/// Makes a rank's error everyone's: every rank returns the error of the lowest node id any
+/// rank reported (the kind first), with the same message; `step` and `time_step` [s] are the
+/// step's, which every rank knows alike.
+pub fn agree<C: Comm>(comm: &C, local: Result<(), DomainError>, step: u64, time_step: f64) -> Result<(), DomainError> {
+    let code = match &local {
+        Ok(()) => u64::MAX,
+        Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
+        Err(DomainError::MissingGhost { gid, .. }) => (2 << 60) | gid.0,
+        Err(DomainError::TimeStep { gid, .. }) => (3 << 60) | gid.0,
+        Err(DomainError::ProjectileInverted { element, .. }) => (4 << 60) | *element as u64,
+        Err(DomainError::MissingTiePartner { gid, .. }) => (5 << 60) | gid.0,
+    };
+    let mut agreed = [code];
+    comm.min_u64(&mut agreed);
+    let agreed = agreed[0];
+    if agreed == u64::MAX {
+        return Ok(());
+    }
+    let gid = GlobalNodeId(agreed & ((1 << 60) - 1));
+    // the detail only the reporting rank knows travels in a second reduction
+    let mut detail = [match &local {
+        Err(DomainError::MissingGhost { along, .. }) if code == agreed => *along as u64,
+        Err(DomainError::TimeStep { limit, .. }) if code == agreed => limit.to_bits(),
+        Err(DomainError::MissingTiePartner { partner, .. }) if code == agreed => partner.0,
+        _ => u64::MAX,
+    }];
+    comm.min_u64(&mut detail);
+    match agreed >> 60 {
+        1 => Err(DomainError::NonFinite { step, gid }),
+        2 => Err(DomainError::MissingGhost { gid, along: detail[0] as u32 }),
+        4 => Err(DomainError::ProjectileInverted { step, element: gid.0 as usize }),
+        5 => Err(DomainError::MissingTiePartner { gid, partner: GlobalNodeId(detail[0]) }),
+        _ => Err(DomainError::TimeStep { step, gid, time_step, limit: f64::from_bits(detail[0]) }),
+    }
+}
+
+/// True on every rank when any rank says so.
+pub fn any<C: Comm>(comm: &C, local: bool) -> bool {
+    let mut flag = [if local { 1.0 } else { 0.0 }];
+    comm.max_f64(&mut flag);
+    flag[0] > 0.0
+}
+
+/// Rank 0's values on every rank.
+pub fn from_rank0<C: Comm, const N: usize>(comm: &C, mut values: [f64; N]) -> [f64; N] {
+    comm.broadcast_f64(&mut values);
+    values
+}
