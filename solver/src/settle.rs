@@ -4,6 +4,7 @@
 
 use std::time::Instant;
 
+use dea_core::domain::Phase;
 use dea_core::DomainError;
 use serde::Serialize;
 
@@ -48,10 +49,7 @@ impl<C: Comm> Distributed<C> {
         let (_, top_before) = self.z_range();
         let projectile = self.domain.projectile.take();
         let body = self.deformable.take();
-        let (friction, failure) = (self.domain.contact.friction_coefficient, self.domain.failure.enabled);
-        self.domain.contact.friction_coefficient = 0.0;
-        self.domain.failure.enabled = false;
-        self.domain.damping = damping;
+        self.domain.phase = Phase::Settle { damping };
         let steps = (duration / self.domain.time_step).ceil() as u64;
         let mut result = Ok(());
         for _ in 0..steps {
@@ -60,9 +58,7 @@ impl<C: Comm> Distributed<C> {
                 break;
             }
         }
-        self.domain.damping = 0.0;
-        self.domain.contact.friction_coefficient = friction;
-        self.domain.failure.enabled = failure;
+        self.domain.phase = Phase::Shot;
         self.domain.projectile = projectile;
         self.deformable = body;
         result?;

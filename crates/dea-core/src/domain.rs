@@ -81,6 +81,27 @@ pub struct NodeLedger {
     pub fracture_released: Vec<f64>,
 }
 
+/// What the steps of a domain run: the shot, or the settle before it. The settle's
+/// differences from the shot are this one value; the case's parameters stay as they are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Phase {
+    /// the case's friction and failure, no damping
+    Shot,
+    /// dynamic relaxation before the shot (theory F9): no friction between fibres, no
+    /// failure, every fibre node damped at `damping` [1/s] (`dv/dt = F/m - c v`)
+    Settle { damping: f64 },
+}
+
+impl Phase {
+    /// The mass-proportional damping rate of the fibre nodes [1/s].
+    pub fn damping(self) -> f64 {
+        match self {
+            Phase::Shot => 0.0,
+            Phase::Settle { damping } => damping,
+        }
+    }
+}
+
 /// The largest motion of a node [m].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NodeMotion {
@@ -114,9 +135,8 @@ pub struct Domain {
     /// this domain integrates the projectile and counts its energy (rank 0); the others
     /// hold a copy that the driver overwrites every step
     pub owns_projectile: bool,
-    /// mass-proportional damping rate of the fibre nodes: nonzero only while a target
-    /// settles before the shot [1/s]
-    pub damping: f64,
+    /// the shot, or the settle before it (which turns friction and failure off and damps)
+    pub phase: Phase,
     /// each step's closing kick of the owned nodes waits for the next step's opening one
     /// ([`Self::defer_kick`]); false kicks at once, as a settle does (its damping falls
     /// between the kicks). The deferral changes no bit, which a test checks by this switch.
@@ -180,7 +200,7 @@ impl Domain {
             time: 0.0,
             step: 0,
             owns_projectile: true,
-            damping: 0.0,
+            phase: Phase::Shot,
             defer_closing_kick: true,
             pair_data,
             chain_stiffness,
@@ -236,7 +256,7 @@ impl Domain {
     /// The projectile is kicked now. A damped settle kicks at once: its damping falls
     /// between the two kicks.
     pub fn defer_kick(&mut self, half_dt: f64) {
-        if self.damping > 0.0 || !self.defer_closing_kick {
+        if self.phase.damping() > 0.0 || !self.defer_closing_kick {
             return self.kick(half_dt);
         }
         debug_assert!(self.deferred_kick.is_none(), "a kick follows a kick");
@@ -271,8 +291,9 @@ impl Domain {
 
     /// The damping of a settle over a half step (none in a shot).
     fn damp(&mut self, half_dt: f64) {
-        if self.damping > 0.0 {
-            integrate::damp(&mut self.nodes, (-self.damping * half_dt).exp());
+        let damping = self.phase.damping();
+        if damping > 0.0 {
+            integrate::damp(&mut self.nodes, (-damping * half_dt).exp());
         }
     }
 
@@ -389,11 +410,20 @@ impl Domain {
 
     /// [`Self::add_fibre_contacts`] by the sweep in `compilation`, which the processor must run.
     pub(crate) fn add_fibre_contacts_compiled_for(&mut self, compilation: Compilation) {
-        let (law, mu) = (self.contact.law, self.contact.friction_coefficient);
+        let (law, mu) = (self.contact.law, self.friction_coefficient());
         self.running_contact_sums.resize(self.nodes.n_owned, RunningSums::default());
         let sums = FibreContactSums { force: &mut self.nodes.force, ledger: &mut self.ledger, contact_stiffness: &mut self.contact_stiffness, running: &mut self.running_contact_sums };
         let owned = self.nodes.n_owned;
         fibre_contact::add_fibre_contacts_compiled_for(compilation, law, mu, &self.nodes.position, &self.nodes.section, &mut self.pairs, &self.pair_data, sums, owned);
+    }
+
+    /// The inter-fibre friction coefficient of this phase: the case's in the shot, none while
+    /// the target settles [-].
+    pub fn friction_coefficient(&self) -> f64 {
+        match self.phase {
+            Phase::Shot => self.contact.friction_coefficient,
+            Phase::Settle { .. } => 0.0,
+        }
     }
 
     /// The contact data of the pair of owned or ghost nodes `i` and `j`.
@@ -434,8 +464,11 @@ impl Domain {
         }
     }
 
-    /// The failure stage ([`failure::break_elements`]).
+    /// The failure stage ([`failure::break_elements`]); none while the target settles.
     pub fn break_elements(&mut self) {
+        if self.phase != Phase::Shot {
+            return;
+        }
         failure::break_elements(
             &self.nodes,
             &mut self.elements,
@@ -452,7 +485,7 @@ impl Domain {
     /// Every owned node has finite force and position, and a stiffness the time step can
     /// integrate (central difference diverges once omega dt > 2).
     pub fn check_state(&self) -> Result<(), DomainError> {
-        let mu = self.contact.friction_coefficient.max(self.contact.projectile_friction_coefficient);
+        let mu = self.friction_coefficient().max(self.contact.projectile_friction_coefficient);
         let nodes = &self.nodes;
         for i in 0..nodes.n_owned {
             if !(nodes.force[i].iter().all(|v| v.is_finite()) && nodes.position[i].iter().all(|v| v.is_finite())) {

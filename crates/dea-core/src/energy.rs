@@ -140,10 +140,10 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
             let max_overlap = domain.pairs.max_overlap[k];
             let contact = law.stored_energy(&data.geometry, overlap, max_overlap);
             let mut friction_stored = 0.0;
-            if domain.contact.friction_coefficient > 0.0 && domain.pairs.touching[k] {
+            if domain.friction_coefficient() > 0.0 && domain.pairs.touching[k] {
                 let (response, _) = law.evaluate(&data.geometry, overlap, max_overlap);
                 let (mut anchor, mut spring) = (domain.pairs.anchor[k], domain.pairs.spring_stiffness[k]);
-                friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, domain.contact.friction_coefficient).stored;
+                friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, domain.friction_coefficient()).stored;
             }
             for node in std::iter::once(i).chain((j < nodes.n_owned).then_some(j)) {
                 sums[group(node)].contact.add(0.5 * contact);
