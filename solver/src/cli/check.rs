@@ -1,0 +1,75 @@
+//! `dea-mpi check`: validate a case (or a campaign and its shot's case) and print it resolved.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use dea_mpi::setup;
+
+use super::{fail, load_case_or_campaign, setup_exit};
+
+pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved, without running";
+pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
+sections, projectile, nodes, time step, steps, skin), without running.";
+pub const EXAMPLES: &str = "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json";
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// case or campaign file (JSON, SI units)
+    pub case: PathBuf,
+}
+
+pub fn main(Args { case: path }: Args) -> ExitCode {
+    let (campaign, case) = match load_case_or_campaign(&path) {
+        Ok(loaded) => loaded,
+        Err((code, message)) => return fail(code, message),
+    };
+    if let dea_io::case::TargetSpec::ThreeDWeaveCell { weave, .. } = &case.target {
+        // a cell for `dea-mpi fabric`: its initial layout, not relaxed
+        let material = case.material().expect("validated case");
+        let cell = match setup::laid_out_cell(&case, weave, &material) {
+            Ok(cell) => cell,
+            Err(e) => return fail(setup_exit(&e), e),
+        };
+        let resolved = serde_json::json!({
+            "case": case,
+            "resolved": { "material": material, "section": cell.section, "period_m": cell.period, "yarns": cell.yarns, "fibres": cell.fibres(), "nodes": cell.positions.len(), "initial": cell.statistics(&material) }
+        });
+        println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+        return ExitCode::SUCCESS;
+    }
+    let problem = match setup::problem(&case) {
+        Ok(problem) => problem,
+        Err(e) => return fail(setup_exit(&e), e),
+    };
+    let projectile = &problem.projectile;
+    let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
+    let mut resolved = serde_json::json!({
+        "case": case,
+        "resolved": {
+            "material": problem.material,
+            "sections": problem.fabric.sections(&problem.material),
+            "projectile": setup::describe_projectile(projectile, &case.projectile().expect("validated case").body, problem.deformable.as_ref()),
+            "yarns": problem.fabric.yarn_count(),
+            "relaxation": problem.relaxation,
+            "fibres": fibres,
+            "nodes": problem.fabric.node_count(),
+            "time_step_s": problem.time_step,
+            "steps": (case.run.end_time_s / problem.time_step).ceil(),
+            "skin_m": problem.contact.skin,
+            "hybrid": match &problem.fabric {
+                dea_fabric::Fabric::Woven(panel) if panel.coarse.is_some() => Some(serde_json::json!({
+                    "fine_nodes": panel.fine_node_count(),
+                    "fine_yarns_per_layer": panel.fine_yarns_per_layer(),
+                    "ties": panel.ties().len(),
+                    "transitions": panel.transition_quality(),
+                })),
+                _ => None,
+            },
+        }
+    });
+    if let Some(campaign) = campaign {
+        resolved["campaign"] = serde_json::json!(campaign);
+    }
+    println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,131 @@
+//! `dea-mpi run`: a case (or a restart) on the ranks of the job.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use dea_mpi::comm::mpi::MpiComm;
+use dea_mpi::comm::Comm;
+use dea_mpi::run::{RunError, RunOptions};
+use dea_mpi::setup;
+
+use super::{fail, fail_all, load_shared, method_of, setup_exit, Exit, PartitionMethod};
+
+pub const ABOUT: &str = "Run a case (none: the built-in default case) on the ranks of the job";
+pub const LONG_ABOUT: &str = "Run a case (no file: the built-in default case) on the ranks of the job. Writes
+OUT/results.h5, OUT/summary.json, OUT/history.csv and field snapshots (docs/output.md). Checkpoints go to
+OUT/checkpoint (run.checkpoint_interval_*); SIGTERM or SIGUSR1 writes one and stops with exit code 75.";
+pub const EXAMPLES: &str = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel\n  mpirun -np 4 dea-mpi run --restart out/panel/checkpoint --out out/panel";
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// case file (JSON, SI units)
+    pub case: Option<PathBuf>,
+    /// output directory for results.h5 and summary.json
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// METIS algorithm for the partition over the job's ranks
+    #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
+    pub method: PartitionMethod,
+    /// continue from a checkpoint directory (OUT/checkpoint of an earlier run), on any
+    /// number of ranks; the case comes from the checkpoint
+    #[arg(long, conflicts_with = "case")]
+    pub restart: Option<PathBuf>,
+    /// also write every rank's log to DIR/rank-NNNNN.log
+    #[arg(long)]
+    pub log_dir: Option<PathBuf>,
+    /// fault injection for the test suite: this rank panics after set-up, to show that
+    /// the whole job then ends at once
+    #[arg(long, hide = true)]
+    pub panic_on_rank: Option<u32>,
+}
+
+pub fn main(Args { case, out, method, restart, log_dir, panic_on_rank }: Args) -> ExitCode {
+    let (session, comm) = match MpiComm::initialize() {
+        Ok(mpi) => mpi,
+        Err(e) => return fail(Exit::Usage, e),
+    };
+    let _logging = match dea_mpi::progress::init_logging(comm.rank().0, log_dir.as_deref()) {
+        Ok(span) => span,
+        Err(e) => return fail(Exit::File, format!("logging: {e}")),
+    };
+    let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
+        if let Err(e) = signal_hook::flag::register(signal, stop_signal.clone()) {
+            return fail(Exit::Usage, format!("cannot handle signal {signal}: {e}"));
+        }
+    }
+    let ranks = comm.size();
+    let (case, mut run, resume) = match restart {
+        Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
+            Ok(restored) => {
+                let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
+                if resume.is_none() {
+                    return fail_all(&session, Exit::File, format!("{}: run state of another version", directory.display()));
+                }
+                (restored.case, restored.run, resume)
+            }
+            Err(e) => return fail_all(&session, setup_exit(&e), e),
+        },
+        None => {
+            let case = match load_shared(&comm, case.as_ref()) {
+                Ok(case) => case,
+                Err((code, message)) => return fail_all(&session, code, message),
+            };
+            match setup::build(&case, comm, method_of(method), None) {
+                Ok(run) => (case, run, None),
+                Err(e) => return fail_all(&session, setup_exit(&e), e),
+            }
+        }
+    };
+    let json = serde_json::to_string(&case).expect("case serialises");
+    if panic_on_rank == Some(run.comm.rank().0) {
+        panic!("fault injection: rank {} panics on request", run.comm.rank().0);
+    }
+    tracing::info!(
+        "case {:?}: {} owned nodes and {} ghosts here, dt = {:.3e} s, end {:.3e} s, {} rank(s)",
+        case.name,
+        run.domain.nodes.n_owned,
+        run.ghosts(),
+        run.domain.time_step,
+        case.run.end_time_s,
+        ranks
+    );
+    let options = RunOptions::for_case(&case, &json, &out, &run, Some(stop_signal), resume);
+    match dea_mpi::run::run(&mut run, &options) {
+        Ok(Some(summary)) => {
+            println!(
+                "{}: {} nodes on {} rank(s), {} steps, {:.3e} s simulated in {:.1} s; perforated: {}; residual velocity {:.2} m/s; peak force {:.1} N; broken elements {}; {:.3e} node-steps/s/core; results in {}",
+                summary.case,
+                summary.nodes,
+                summary.ranks,
+                summary.steps,
+                summary.simulated_time_s,
+                summary.wall_s,
+                summary.perforated,
+                summary.residual_velocity_m_s,
+                summary.max_projectile_force_n,
+                summary.broken_elements_tension + summary.broken_elements_shear + summary.broken_elements_combined,
+                summary.node_steps_per_s_per_core,
+                out.display()
+            );
+            let stages: Vec<String> = dea_mpi::step::Stage::ALL
+                .iter()
+                .map(|&stage| (stage, summary.stage_seconds.get(stage)))
+                .filter(|&(_, seconds)| seconds >= 0.005)
+                .map(|(stage, seconds)| format!("{} {seconds:.2}", stage.name().replace('_', " ")))
+                .collect();
+            println!(
+                "stages (mean s per rank): {}; halo {:.0} bytes/step, ghost fraction {:.3}, load imbalance {:.3}",
+                stages.join(", "),
+                summary.halo_bytes_per_step,
+                summary.ghost_fraction,
+                summary.load_imbalance
+            );
+            ExitCode::SUCCESS
+        }
+        Ok(None) => ExitCode::SUCCESS,
+        Err(e @ RunError::Numerical(_)) => fail_all(&session, Exit::Numerical, e),
+        Err(e @ RunError::Output(_)) => fail_all(&session, Exit::File, e),
+        Err(e @ RunError::Interrupted(_)) => fail_all(&session, Exit::Interrupted, e),
+    }
+}
