@@ -124,9 +124,10 @@ pub fn fabric_cell<C: Comm>(case: &Case, comm: C, out: &Path) -> Result<Option<C
 }
 
 fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError> {
-    let material = case.material().expect("validated case");
+    let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
+    let material = resolved.material.clone();
     let started = Instant::now();
-    let (cell, relaxation) = setup::three_d_cell(case, &material)?.expect("a 3-D weave target");
+    let (cell, relaxation) = setup::three_d_cell(case, &resolved)?.expect("a 3-D weave target");
     let relaxation = relaxation.ok_or_else(|| SetupError::Case("target.cell_file: the cell is already relaxed; `dea-mpi fabric` generates one from target.weave".into()))?;
     let relaxation_s = started.elapsed().as_secs_f64();
     let roles = [("filler", dea_fabric::cell::YarnRole::Filler), ("stuffer", dea_fabric::cell::YarnRole::Stuffer), ("binder", dea_fabric::cell::YarnRole::Binder)];

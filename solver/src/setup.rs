@@ -22,7 +22,8 @@ use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{parse_case, yarn_area, Case, ProjectileBody, ResolvedProjectile, Strength, TargetSpec, Weave3dSpec, PROJECTILE_SIZE_M};
+use dea_io::case::{parse_case, Case, ProjectileBody, ResolvedCase, ResolvedProjectile, Strength, TargetSpec, PROJECTILE_SIZE_M};
+use dea_fabric::weave3d::ThreeDWeave;
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
@@ -98,29 +99,28 @@ pub enum SetupError {
 
 /// A relaxed cell: read from `file` (then without a report), or generated from `weave` and
 /// relaxed with the case's contact law. `field` names the case field a weave error is about.
-fn relaxed_cell(case: &Case, material: &FibreMaterial, file: Option<&Path>, weave: impl FnOnce() -> Result<PlainWeave, String>, field: &str) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
+fn relaxed_cell(case: &Case, resolved: &ResolvedCase, file: Option<&Path>, weave: Option<&PlainWeave>, field: &str) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
     let TargetSpec::WovenPanel { weave: spec, relaxation, .. } = &case.target else { unreachable!("a woven target") };
     if let Some(path) = file {
         return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh);
     }
-    let plain = weave().map_err(SetupError::Case)?;
+    let plain = weave.expect("a resolved woven target has its weave when it has no cell file");
+    let material = &resolved.material;
     let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
-    let law = case.normal_law(material).expect("validated case");
     let options = relaxation.options(spec.bending_at_rest);
-    let report = relax(&mut cell, material, &law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
+    let report = relax(&mut cell, material, &resolved.law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
     Ok((cell, Some(report)))
 }
 
 /// The 3-D cell `weave` describes, laid out and not yet relaxed.
-pub fn laid_out_cell(case: &Case, weave: &Weave3dSpec, material: &FibreMaterial) -> Result<PeriodicCell, SetupError> {
-    let spec = weave.weave(case.bending, case.contact.friction_coefficient).map_err(|e| SetupError::Case(e.to_string()))?;
-    spec.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))
+pub fn laid_out_cell(weave: &ThreeDWeave, material: &FibreMaterial) -> Result<PeriodicCell, SetupError> {
+    weave.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))
 }
 
 /// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
 /// law, or read from the panel's cell file (then without a report); `None` for other targets.
-pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
-    let (weave, relaxation) = match &case.target {
+pub fn three_d_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
+    let (spec, relaxation) = match &case.target {
         TargetSpec::ThreeDWeaveCell { weave, relaxation } => (weave, relaxation),
         TargetSpec::ThreeDWovenPanel { cell_file: Some(path), .. } => {
             return dea_io::cell::read_periodic(path).map(|(_, cell)| Some((cell, None))).map_err(SetupError::Mesh);
@@ -128,34 +128,29 @@ pub fn three_d_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(Per
         TargetSpec::ThreeDWovenPanel { weave: Some(weave), relaxation, .. } => (weave, relaxation),
         _ => return Ok(None),
     };
-    let mut cell = laid_out_cell(case, weave, material)?;
-    let law = case.normal_law(material).expect("validated case");
-    let report = relax(&mut cell, material, &law, &relaxation.options(weave.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    let weave = resolved.three_d.as_ref().expect("a resolved 3-D weave target has its weave");
+    let mut cell = laid_out_cell(weave, &resolved.material)?;
+    let report = relax(&mut cell, &resolved.material, &resolved.law, &relaxation.options(spec.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, Some(report))))
 }
 
 /// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
 /// case's contact law (or read from its cell file, then without a report); `None` for other
 /// targets.
-pub fn woven_cell(case: &Case, material: &FibreMaterial) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel { weave, cell_file, .. } = &case.target else {
+pub fn woven_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { cell_file, .. } = &case.target else {
         return Ok(None);
     };
-    let plain = || weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string());
-    relaxed_cell(case, material, cell_file.as_deref(), plain, "target.weave").map(Some)
+    relaxed_cell(case, resolved, cell_file.as_deref(), resolved.woven.as_ref(), "target.weave").map(Some)
 }
 
 /// The coarse yarns' cell of a hybrid woven target, relaxed like the fine one (or read from
 /// its file); `None` when the target is not hybrid. Its yarn spacing must be the fine cell's.
-pub fn coarse_cell(case: &Case, material: &FibreMaterial, fine: &UnitCell) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel { weave, hybrid: Some(hybrid), .. } = &case.target else {
+pub fn coarse_cell(case: &Case, resolved: &ResolvedCase, fine: &UnitCell) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let TargetSpec::WovenPanel { hybrid: Some(hybrid), .. } = &case.target else {
         return Ok(None);
     };
-    let plain = || {
-        let fine = weave.plain_weave(case.bending, case.contact.friction_coefficient).map_err(|e| e.to_string())?;
-        hybrid.coarse_weave(&fine).map_err(|e| e.to_string())
-    };
-    let (cell, report) = relaxed_cell(case, material, hybrid.cell_file.as_deref(), plain, "target.hybrid")?;
+    let (cell, report) = relaxed_cell(case, resolved, hybrid.cell_file.as_deref(), resolved.coarse.as_ref(), "target.hybrid")?;
     if cell.yarn_spacing != fine.yarn_spacing || cell.fibres_per_yarn >= fine.fibres_per_yarn {
         return Err(SetupError::Case(format!(
             "target.hybrid.cell_file: the coarse cell ({} fibres per yarn, spacing {:e} m) must have fewer fibres than the fine one ({}) and the same spacing ({:e} m)",
@@ -192,33 +187,35 @@ fn target_fits(field: &str, fibres: f64, nodes_per_fibre: f64) -> Result<(), Set
     Err(SetupError::Case(format!("{field}: {reason}; a smaller target, or longer elements")))
 }
 
-/// Resolves a validated case (reading or generating the projectile's mesh).
+/// Resolves a case ([`Case::resolve`]) and builds its description (reading or generating the
+/// projectile's mesh and the fabric's cells).
 pub fn problem(case: &Case) -> Result<Problem, SetupError> {
-    let material = case.material().expect("validated case");
-    let law = case.normal_law(&material).expect("validated case");
-    let strength = case.strength().expect("validated case");
+    let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
+    let ResolvedCase { material, law, strength, shear_strength, .. } = resolved.clone();
     let deterministic = match strength {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,
     };
-    let mu = case.contact.friction_coefficient;
+    let mu = resolved.friction_coefficient;
     let (mut relaxation, mut coarse_relaxation) = (None, None);
     let fabric = match &case.target {
         TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
             Fabric::Straight(StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic))
         }
         TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
-            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
+            let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
+            let _ = yarn;
             Fabric::Straight(StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic))
         }
         TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
-            let area = yarn_area(yarn).expect("validated case") / *fibres_per_yarn as f64;
+            let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
+            let _ = yarn;
             Fabric::Straight(StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material))
         }
         TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, hybrid, .. } => {
-            let (cell, report) = woven_cell(case, &material)?.expect("a woven target");
+            let (cell, report) = woven_cell(case, &resolved)?.expect("a woven target");
             relaxation = report;
-            let coarse = match coarse_cell(case, &material, &cell)? {
+            let coarse = match coarse_cell(case, &resolved, &cell)? {
                 Some((coarse, report)) => {
                     coarse_relaxation = report;
                     let hybrid = hybrid.as_ref().expect("a hybrid target");
@@ -262,7 +259,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; to strike it, tile it with kind three_d_woven_panel".into()));
         }
         TargetSpec::ThreeDWovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
-            let (cell, report) = three_d_cell(case, &material)?.expect("a 3-D woven target");
+            let (cell, report) = three_d_cell(case, &resolved)?.expect("a 3-D woven target");
             relaxation = report;
             let tiles = cell.period.map(|p| (side_m / p).round().max(1.0));
             let most_tiles = tiles[0].max(tiles[1]);
@@ -283,7 +280,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let contact = ContactParameters {
         law,
         friction_coefficient: mu,
-        projectile_friction_coefficient: case.contact.projectile_friction_coefficient,
+        projectile_friction_coefficient: resolved.projectile_friction_coefficient,
         skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };
     // the lists hold every pair within a contact diameter plus the skin, and the projectile's
@@ -296,8 +293,10 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             contact.skin
         )));
     }
-    let failure = FailureParameters { shear_strength: case.shear_strength().expect("validated case"), enabled: !matches!(strength, Strength::None) };
-    let resolved = case.projectile().expect("validated case");
+    let failure = FailureParameters { shear_strength, enabled: !matches!(strength, Strength::None) };
+    let resolved_projectile = resolved.projectile.clone();
+    let elastic_model = resolved.elastic_model;
+    let resolved = resolved_projectile;
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
     // diameters (§4.2.2)
@@ -309,7 +308,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             (projectile, aim, None)
         }
         Some(ref elastic) => {
-            let model = elastic.model().expect("validated case");
+            let model = elastic_model.expect("a resolved deformable projectile has its model");
             let (body, shape) = deformable_body(&resolved, (elastic.youngs_modulus_pa, elastic.poisson_ratio, model), reach, cell, contact.skin)?;
             let (projectile, aim, body) = launch_deformable(body, shape, &resolved, top);
             (projectile, aim, Some(body))

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use dea_mpi::setup;
 
-use super::{fail, load_case_or_campaign, setup_exit};
+use super::{fail, load_case_or_campaign, setup_exit, Exit};
 
 pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved, without running";
 pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
@@ -23,18 +23,22 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
         Ok(loaded) => loaded,
         Err((code, message)) => return fail(code, message),
     };
-    if let dea_io::case::TargetSpec::ThreeDWeaveCell { weave, .. } = &case.target {
+    let resolved = match case.resolve() {
+        Ok(resolved) => resolved,
+        Err(e) => return fail(Exit::BadCase, e),
+    };
+    if let (dea_io::case::TargetSpec::ThreeDWeaveCell { .. }, Some(weave)) = (&case.target, &resolved.three_d) {
         // a cell for `dea-mpi fabric`: its initial layout, not relaxed
-        let material = case.material().expect("validated case");
-        let cell = match setup::laid_out_cell(&case, weave, &material) {
+        let material = resolved.material.clone();
+        let cell = match setup::laid_out_cell(weave, &material) {
             Ok(cell) => cell,
             Err(e) => return fail(setup_exit(&e), e),
         };
-        let resolved = serde_json::json!({
+        let printed = serde_json::json!({
             "case": case,
             "resolved": { "material": material, "section": cell.section, "period_m": cell.period, "yarns": cell.yarns, "fibres": cell.fibres(), "nodes": cell.positions.len(), "initial": cell.statistics(&material) }
         });
-        println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+        println!("{}", serde_json::to_string_pretty(&printed).expect("case serialises"));
         return ExitCode::SUCCESS;
     }
     let problem = match setup::problem(&case) {
@@ -43,12 +47,12 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
     };
     let projectile = &problem.projectile;
     let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
-    let mut resolved = serde_json::json!({
+    let mut printed = serde_json::json!({
         "case": case,
         "resolved": {
             "material": problem.material,
             "sections": problem.fabric.sections(&problem.material),
-            "projectile": setup::describe_projectile(projectile, &case.projectile().expect("validated case").body, problem.deformable.as_ref()),
+            "projectile": setup::describe_projectile(projectile, &resolved.projectile.body, problem.deformable.as_ref()),
             "yarns": problem.fabric.yarn_count(),
             "relaxation": problem.relaxation,
             "fibres": fibres,
@@ -68,8 +72,8 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
         }
     });
     if let Some(campaign) = campaign {
-        resolved["campaign"] = serde_json::json!(campaign);
+        printed["campaign"] = serde_json::json!(campaign);
     }
-    println!("{}", serde_json::to_string_pretty(&resolved).expect("case serialises"));
+    println!("{}", serde_json::to_string_pretty(&printed).expect("case serialises"));
     ExitCode::SUCCESS
 }

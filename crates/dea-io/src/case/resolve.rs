@@ -1,0 +1,405 @@
+//! From a parsed case to the model it describes: every check that parsing alone cannot make,
+//! made once, in [`Case::resolve`], which returns the resolved values ([`ResolvedCase`]) that
+//! set-up builds from without checking again.
+
+use super::*;
+
+/// A case resolved: every value checked and given its default, the material's overrides
+/// applied, the weaves made. Set-up builds from this and the case's own fields, and checks
+/// only what needs the built fabric: the skin against the fine section's contact diameter, a
+/// hybrid disc's transition between two crossings, and the target's size in nodes.
+#[derive(Clone, Debug)]
+pub struct ResolvedCase {
+    pub material: FibreMaterial,
+    /// the normal contact law of fibre–fibre and fibre–projectile contact
+    pub law: NormalLaw,
+    /// inter-fibre friction coefficient mu [-]
+    pub friction_coefficient: f64,
+    /// fibre–projectile friction coefficient [-]
+    pub projectile_friction_coefficient: f64,
+    pub strength: Strength,
+    /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
+    pub shear_strength: f64,
+    pub projectile: ResolvedProjectile,
+    /// the elastic model of a deformable projectile
+    pub elastic_model: Option<ElasticModel>,
+    /// a woven panel's weave, unless its cell comes from a file
+    pub woven: Option<PlainWeave>,
+    /// a hybrid woven panel's coarse weave, unless its cell comes from a file
+    pub coarse: Option<PlainWeave>,
+    /// a 3-D weave target's weave, unless its cell comes from a file
+    pub three_d: Option<ThreeDWeave>,
+    /// a straight-yarn target's fibre cross-section area: the yarn's over its fibres [m^2]
+    pub fibre_area: Option<f64>,
+}
+
+impl Case {
+    /// Material with overrides applied.
+    pub(super) fn material(&self) -> Result<FibreMaterial, CaseError> {
+        let m = &self.material;
+        let mut material = match m.preset.as_str() {
+            "kevlar_km2" => FibreMaterial::kevlar_km2(),
+            other => return Err(invalid("material.preset", format!("unknown preset {other:?}; known: \"kevlar_km2\""))),
+        };
+        if let Some(v) = m.longitudinal_modulus_pa {
+            material.longitudinal_modulus = positive("material.longitudinal_modulus_pa", v)?;
+        }
+        if let Some(v) = m.transverse_modulus_pa {
+            material.transverse_modulus = positive("material.transverse_modulus_pa", v)?;
+        }
+        if let Some(v) = m.density_kg_m3 {
+            material.density = positive("material.density_kg_m3", v)?;
+        }
+        if let Some(v) = m.compressive_stiffness_ratio {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(invalid("material.compressive_stiffness_ratio", format!("must be in [0, 1], got {v}")));
+            }
+            material.compressive_stiffness_ratio = v;
+        }
+        if let Some(v) = m.filament_diameter_m {
+            material.filament_diameter = positive("material.filament_diameter_m", v)?;
+        }
+        Ok(material)
+    }
+
+    /// Normal contact law.
+    pub(super) fn normal_law(&self, material: &FibreMaterial) -> Result<NormalLaw, CaseError> {
+        match self.contact.law.as_str() {
+            "elastic" => Ok(NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }),
+            "elasto_plastic_km2" => Ok(NormalLaw::ElastoPlasticKm2),
+            other => Err(invalid("contact.law", format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""))),
+        }
+    }
+
+    /// Strength model.
+    pub(super) fn strength(&self) -> Result<Strength, CaseError> {
+        let f = &self.failure;
+        match f.mode.as_str() {
+            "none" => Ok(Strength::None),
+            "deterministic" => Ok(Strength::Deterministic(positive("failure.tensile_strength_pa", required("failure.tensile_strength_pa", f.tensile_strength_pa)?)?)),
+            "weibull" => {
+                let w = f.weibull.as_ref().ok_or_else(|| invalid("failure.weibull", "is required when failure.mode is \"weibull\""))?;
+                let second = match (w.shape_2, w.scale_2_pa) {
+                    (None, None) => None,
+                    (Some(shape), Some(scale)) => Some(WeibullMode { shape: positive("failure.weibull.shape_2", shape)?, scale: positive("failure.weibull.scale_2_pa", scale)? }),
+                    _ => return Err(invalid("failure.weibull", "shape_2 and scale_2_pa go together")),
+                };
+                let law = WeibullStrength {
+                    gauge_length: positive("failure.weibull.gauge_length_m", w.gauge_length_m)?,
+                    first: WeibullMode { shape: positive("failure.weibull.shape_1", w.shape_1)?, scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)? },
+                    second,
+                };
+                Ok(Strength::Weibull(law, f.seed))
+            }
+            other => Err(invalid("failure.mode", format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""))),
+        }
+    }
+
+    /// Shear strength tau_u [Pa].
+    pub(super) fn shear_strength(&self) -> Result<f64, CaseError> {
+        match self.failure.mode.as_str() {
+            "none" => Ok(self.failure.shear_strength_pa.unwrap_or(f64::INFINITY)),
+            _ => positive("failure.shear_strength_pa", required("failure.shear_strength_pa", self.failure.shear_strength_pa)?),
+        }
+    }
+
+    /// Projectile resolved from its preset or explicit shape.
+    pub(super) fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
+        let p = &self.projectile;
+        let divisions = match p.mesh_divisions {
+            Some(n) if !(2..=64).contains(&n) => return Err(invalid("projectile.mesh_divisions", format!("must lie in 2..=64, got {n}"))),
+            n => n,
+        };
+        let mesh_or = |shape: RigidShape, solid: Solid| match divisions {
+            Some(divisions) => ProjectileBody::Generated { solid, divisions },
+            None => ProjectileBody::Analytic(shape),
+        };
+        let fsp = |dimensions: FspDimensions| {
+            dimensions.check().map_err(|e| invalid("projectile", e))?;
+            finer_than_mesh_allows("projectile.flat_edge_radius_m", dimensions.flat_edge_radius, dimensions.diameter)?;
+            finer_than_mesh_allows("projectile.edge_radius_m", dimensions.rim_edge_radius, dimensions.diameter)?;
+            Ok(ProjectileBody::Generated { solid: Solid::Fsp(dimensions), divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS) })
+        };
+        let mass = |default: Option<f64>| match (p.mass_kg, default) {
+            (Some(m), _) => ranged("projectile.mass_kg", m, PROJECTILE_MASS_KG.0, PROJECTILE_MASS_KG.1),
+            (None, Some(m)) => Ok(m),
+            (None, None) => required("projectile.mass_kg", None),
+        };
+        const PRESETS: &str = "known: \"fsp_17_grain\", \"table_4_2_sphere\", \"table_4_2_rcc\"";
+        let (body, mass) = match (&p.preset, &p.shape) {
+            (Some(_), Some(_)) => return Err(invalid("projectile", "give either preset or shape, not both")),
+            (None, None) => return Err(invalid("projectile", format!("give a preset ({PRESETS}) or a shape"))),
+            (Some(name), None) => match name.as_str() {
+                "fsp_17_grain" => (fsp(FspDimensions::SEVENTEEN_GRAIN)?, mass(Some(FSP_17_GRAIN_MASS))?),
+                "table_4_2_sphere" => {
+                    let (shape, m) = table_4_2_sphere();
+                    let RigidShape::Sphere { radius } = shape else { unreachable!() };
+                    (mesh_or(shape, Solid::Sphere { radius }), mass(Some(m))?)
+                }
+                "table_4_2_rcc" => {
+                    let (shape, m) = table_4_2_rcc();
+                    let RigidShape::Cylinder { radius, height, edge_radius } = shape else { unreachable!() };
+                    (mesh_or(shape, Solid::Cylinder { radius, height, edge_radius }), mass(Some(m))?)
+                }
+                other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; {PRESETS}"))),
+            },
+            (None, Some(kind)) => {
+                let diameter = || projectile_size("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
+                let height = || projectile_size("projectile.height_m", required("projectile.height_m", p.height_m)?);
+                let body = match kind.as_str() {
+                    "sphere" => {
+                        let radius = 0.5 * diameter()?;
+                        mesh_or(RigidShape::Sphere { radius }, Solid::Sphere { radius })
+                    }
+                    "cylinder" => {
+                        let (diameter, height) = (diameter()?, height()?);
+                        let edge = edge_radius("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
+                        if edge > 0.5 * diameter.min(height) {
+                            return Err(invalid("projectile.edge_radius_m", format!("must not exceed half the diameter and half the height, got {edge}")));
+                        }
+                        finer_than_mesh_allows("projectile.edge_radius_m", edge, diameter)?;
+                        let radius = 0.5 * diameter;
+                        mesh_or(RigidShape::Cylinder { radius, height, edge_radius: edge }, Solid::Cylinder { radius, height, edge_radius: edge })
+                    }
+                    "fsp" => {
+                        let standard = FspDimensions::SEVENTEEN_GRAIN;
+                        let or = |path: &str, value: Option<f64>, default: f64, check: fn(&str, f64) -> Result<f64, CaseError>| value.map_or(Ok(default), |v| check(path, v));
+                        fsp(FspDimensions {
+                            diameter: or("projectile.diameter_m", p.diameter_m, standard.diameter, projectile_size)?,
+                            length: or("projectile.height_m", p.height_m, standard.length, projectile_size)?,
+                            flat_width: or("projectile.flat_width_m", p.flat_width_m, standard.flat_width, projectile_size)?,
+                            bevel_angle: or("projectile.bevel_angle_deg", p.bevel_angle_deg, standard.bevel_angle.to_degrees(), positive)?.to_radians(),
+                            flat_edge_radius: or("projectile.flat_edge_radius_m", p.flat_edge_radius_m, standard.flat_edge_radius, edge_radius)?,
+                            rim_edge_radius: or("projectile.edge_radius_m", p.edge_radius_m, standard.rim_edge_radius, edge_radius)?,
+                        })?
+                    }
+                    "file" => {
+                        let path = required("projectile.mesh_file", p.mesh_file.clone())?;
+                        let scale = p.mesh_scale.map_or(Ok(1.0), |s| positive("projectile.mesh_scale", s))?;
+                        ProjectileBody::File { path, scale }
+                    }
+                    other => return Err(invalid("projectile.shape", format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\", \"fsp\", \"file\""))),
+                };
+                (body, mass(None)?)
+            }
+        };
+        // a field the shape does not use is a mistake, not something to ignore
+        let kind = p.shape.as_deref().unwrap_or("preset");
+        let uses = |field: &str| match kind {
+            "sphere" => matches!(field, "diameter_m" | "mesh_divisions"),
+            "cylinder" => matches!(field, "diameter_m" | "height_m" | "edge_radius_m" | "mesh_divisions"),
+            "fsp" => !matches!(field, "mesh_file" | "mesh_scale"),
+            "file" => matches!(field, "mesh_file" | "mesh_scale"),
+            _ => field == "mesh_divisions",
+        };
+        let given = [
+            ("diameter_m", p.diameter_m.is_some()),
+            ("height_m", p.height_m.is_some()),
+            ("edge_radius_m", p.edge_radius_m.is_some()),
+            ("flat_width_m", p.flat_width_m.is_some()),
+            ("bevel_angle_deg", p.bevel_angle_deg.is_some()),
+            ("flat_edge_radius_m", p.flat_edge_radius_m.is_some()),
+            ("mesh_divisions", p.mesh_divisions.is_some()),
+            ("mesh_file", p.mesh_file.is_some()),
+            ("mesh_scale", p.mesh_scale.is_some()),
+        ];
+        if let Some((field, _)) = given.iter().find(|&&(field, set)| set && !uses(field)) {
+            return Err(invalid(&format!("projectile.{field}"), format!("does not apply to {kind} projectiles")));
+        }
+        let angle = |path: &str, degrees: f64| {
+            if degrees.is_finite() && degrees.abs() < 80.0 {
+                Ok(degrees.to_radians())
+            } else {
+                Err(invalid(path, format!("must lie within ±80 degrees, got {degrees}")))
+            }
+        };
+        if let Some(d) = &p.deformable {
+            positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
+            d.model()?;
+            if !(0.0..0.5).contains(&d.poisson_ratio) {
+                return Err(invalid("projectile.deformable.poisson_ratio", format!("must lie in [0, 0.5), got {}", d.poisson_ratio)));
+            }
+            let hexahedra = match &body {
+                ProjectileBody::Generated { .. } => true,
+                ProjectileBody::File { path, .. } => path.extension().and_then(|e| e.to_str()).is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
+                ProjectileBody::Analytic(_) => false,
+            };
+            if !hexahedra {
+                return Err(invalid("projectile.deformable", "a deformable projectile needs a hexahedral mesh: mesh_divisions, shape \"fsp\", or a .msh/.inp file"));
+            }
+        }
+        Ok(ResolvedProjectile {
+            deformable: p.deformable.clone(),
+            body,
+            mass,
+            speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,
+            offset: p.offset_m,
+            obliquity: angle("projectile.obliquity_deg", p.obliquity_deg)?,
+            yaw: angle("projectile.yaw_deg", p.yaw_deg)?,
+        })
+    }
+
+    /// Checks every field that parsing alone cannot, once, and returns what they resolve to:
+    /// the model set-up builds from, with nothing left to check or to default.
+    pub fn resolve(&self) -> Result<ResolvedCase, CaseError> {
+        let material = self.material()?;
+        let law = self.normal_law(&material)?;
+        let strength = self.strength()?;
+        let shear_strength = self.shear_strength()?;
+        let projectile = self.projectile()?;
+        let elastic_model = self.projectile.deformable.as_ref().map(DeformableSpec::model).transpose()?;
+        let (mut woven, mut coarse, mut three_d, mut fibre_area) = (None, None, None, None);
+        match &self.target {
+            TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
+                positive("target.length_m", *length_m)?;
+                positive("target.diameter_m", *diameter_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+            TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
+                fibre_area = Some(yarn_area(yarn)? / *fibres_per_yarn as f64);
+                fibre_count(*fibres_per_yarn)?;
+                positive("target.length_m", *length_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+            TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+                fibre_area = Some(yarn_area(yarn)? / *fibres_per_yarn as f64);
+                fibre_count(*fibres_per_yarn)?;
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                if *yarns_per_layer < 1 || *yarns_per_layer > 10_000 {
+                    return Err(invalid("target.yarns_per_layer", format!("must be in 1..=10000, got {yarns_per_layer}")));
+                }
+                positive("target.length_m", *length_m)?;
+                ratio("target.element_length_ratio", *element_length_ratio)?;
+            }
+            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation, hybrid } => {
+                if cell_file.is_some() && *weave != WeaveSpec::default() {
+                    return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
+                }
+                let fine = weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
+                positive("target.side_m", *side_m)?;
+                woven = cell_file.is_none().then(|| fine.clone());
+                if let Some(hybrid) = hybrid {
+                    match (hybrid.fine_half_width_m, hybrid.fine_radius_m) {
+                        (Some(half_width), None) => {
+                            positive("target.hybrid.fine_half_width_m", half_width)?;
+                            if half_width >= 0.5 * side_m {
+                                return Err(invalid("target.hybrid.fine_half_width_m", format!("must be less than half the panel (side_m = {side_m}), got {half_width}: every yarn would be fine")));
+                            }
+                        }
+                        (None, Some(radius)) => {
+                            positive("target.hybrid.fine_radius_m", radius)?;
+                            if radius >= 0.5 * std::f64::consts::SQRT_2 * side_m {
+                                return Err(invalid(
+                                    "target.hybrid.fine_radius_m",
+                                    format!("must be less than half the panel's diagonal (side_m = {side_m}), got {radius}: every crossing would be fine"),
+                                ));
+                            }
+                        }
+                        _ => return Err(invalid("target.hybrid", "give exactly one of fine_half_width_m (whole yarns fine) and fine_radius_m (yarns fine within a disc)")),
+                    }
+                    match (&hybrid.cell_file, cell_file) {
+                        (Some(_), _) if hybrid.fibres_per_yarn.is_some() || hybrid.element_length_ratio.is_some() => {
+                            return Err(invalid("target.hybrid.cell_file", "a coarse cell file carries its fibres and elements: leave target.hybrid.fibres_per_yarn and element_length_ratio out"));
+                        }
+                        (Some(_), _) => {}
+                        (None, Some(_)) => return Err(invalid("target.hybrid.cell_file", "the fine cell comes from target.cell_file, so the coarse one must come from a file too")),
+                        (None, None) => {
+                            coarse = Some(hybrid.coarse_weave(&fine)?);
+                        }
+                    }
+                }
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                stacking(*layer_gap_m, layer_shift_m)?;
+                if let BoundarySpec::Clamp { opening_m } = boundary {
+                    positive("target.boundary.opening_m", *opening_m)?;
+                    if *opening_m >= *side_m {
+                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                    }
+                }
+                relaxation.validate()?;
+            }
+            TargetSpec::ThreeDWeaveCell { weave, relaxation } => {
+                three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
+                relaxation.validate()?;
+            }
+            TargetSpec::ThreeDWovenPanel { weave, cell_file, relaxation, side_m, layers, layer_gap_m, layer_shift_m, boundary } => {
+                match (weave, cell_file) {
+                    (Some(weave), None) => {
+                        three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
+                    }
+                    (None, Some(_)) => {}
+                    (Some(_), Some(_)) => return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out")),
+                    (None, None) => return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell")),
+                }
+                relaxation.validate()?;
+                positive("target.side_m", *side_m)?;
+                stacking(*layer_gap_m, layer_shift_m)?;
+                if *layers < 1 || *layers > 100 {
+                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
+                }
+                if let BoundarySpec::Clamp { opening_m } = boundary {
+                    positive("target.boundary.opening_m", *opening_m)?;
+                    if *opening_m >= *side_m {
+                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                    }
+                }
+            }
+        }
+        match self.bending {
+            InertiaModel::Effective { k1, k2 } => {
+                positive("bending.k1", k1)?;
+                positive("bending.k2", k2)?;
+            }
+            InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
+        }
+        non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
+        non_negative("contact.projectile_friction_coefficient", self.contact.projectile_friction_coefficient)?;
+        if let Some(skin) = self.contact.skin_m {
+            positive("contact.skin_m", skin)?;
+        }
+        positive("run.end_time_s", self.run.end_time_s)?;
+        if let Some(settle) = &self.run.settle {
+            ranged("run.settle.time_s", settle.time_s, 1e-9, 1e-3)?;
+            if let Some(damping) = settle.damping_per_s {
+                positive("run.settle.damping_per_s", damping)?;
+            }
+        }
+        let safety = self.run.time_step_safety;
+        if !(safety > 0.0 && safety <= 1.0) {
+            return Err(invalid("run.time_step_safety", format!("must be in (0, 1], got {safety}")));
+        }
+        if self.run.history_interval_steps == 0 {
+            return Err(invalid("run.history_interval_steps", "must be >= 1, got 0"));
+        }
+        if self.run.snapshot_interval_steps == Some(0) {
+            return Err(invalid("run.snapshot_interval_steps", "must be >= 1, got 0"));
+        }
+        if self.run.checkpoint_interval_steps == Some(0) {
+            return Err(invalid("run.checkpoint_interval_steps", "must be >= 1, got 0"));
+        }
+        positive("run.checkpoint_interval_minutes", self.run.checkpoint_interval_minutes)?;
+        Ok(ResolvedCase {
+            material,
+            law,
+            friction_coefficient: self.contact.friction_coefficient,
+            projectile_friction_coefficient: self.contact.projectile_friction_coefficient,
+            strength,
+            shear_strength,
+            projectile,
+            elastic_model,
+            woven,
+            coarse,
+            three_d,
+            fibre_area,
+        })
+    }
+
+    /// Checks every field that parsing alone cannot ([`Self::resolve`]).
+    pub fn validate(&self) -> Result<(), CaseError> {
+        self.resolve().map(drop)
+    }
+}
