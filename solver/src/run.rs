@@ -27,8 +27,12 @@ pub struct Summary {
     pub wall_s: f64,
     /// the projectile passed the whole target and still moves on
     pub perforated: bool,
-    /// velocity component along the initial flight direction at the end (negative: rebound) [m/s]
+    /// the projectile's velocity at the end along the initial line of flight (negative:
+    /// moving back), as chronographs on the line of fire measure it [m/s]
     pub residual_velocity_m_s: f64,
+    /// the projectile's velocity at the end along the panel's inward normal (-z), the
+    /// direction the outcome is judged in; the same as the residual velocity for a normal shot [m/s]
+    pub normal_velocity_m_s: f64,
     /// largest contact force on the projectile [N]
     pub max_projectile_force_n: f64,
     pub broken_elements_tension: u64,
@@ -69,13 +73,15 @@ enum Outcome {
     Rebounded = 2,
 }
 
-/// Decides a shot: perforated once the projectile has passed the target's initial back face,
-/// still moves forward, and nothing holds it back: every fibre it touches is broken
+/// Decides a shot against the panel, along its inward normal (-z) whatever the obliquity:
+/// perforated once the projectile has passed the target's initial back face, still moves
+/// forward along the normal, and nothing holds it back: every fibre it touches is broken
 /// somewhere (what hangs on it are loose fragments), or what still touches it resists with
 /// less than [`HELD_FRACTION`] of the peak force so far (fibres pushed aside along its flank);
-/// rebounded once it moves back, clear of the target and of contact.
+/// rebounded once it moves back along the normal, clear of the target and of contact.
 /// Every rank takes part in the reductions; rank 0 decides and tells the others.
 struct Judge {
+    /// the panel's inward normal
     direction: Vec3,
     /// lowest fibre node at time zero [m]
     back_face: f64,
@@ -163,6 +169,9 @@ pub struct RunOptions<'a> {
     pub end_time: f64,
     pub history_interval: u64,
     pub stop_when_decided: bool,
+    /// the unit vector of the initial line of flight, along which the residual velocity is
+    /// measured
+    pub flight_direction: Vec3,
     pub out: &'a Path,
     /// fibres in the whole problem
     pub fibres: usize,
@@ -185,6 +194,7 @@ impl<'a> RunOptions<'a> {
             end_time: case.run.end_time_s,
             history_interval: case.run.history_interval_steps,
             stop_when_decided: case.run.stop_on_perforation,
+            flight_direction: crate::setup::flight_direction(case.projectile.obliquity_deg.to_radians()),
             out,
             fibres: run.fibres,
             layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
@@ -233,11 +243,12 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             (histories, 0.0, run.energies().total(), None)
         }
     };
-    // the flight direction is the initial velocity's (stored in the case, so a restart agrees)
-    let direction = -Vec3::z();
+    // the outcome is judged along the panel's normal; the residual velocity is measured along
+    // the line of flight (from the case, so a restart agrees)
+    let normal = -Vec3::z();
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
-    let judge = Judge::new(run, direction, options.fibres, back_face);
+    let judge = Judge::new(run, normal, options.fibres, back_face);
     let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
     let balance = |histories: &Histories| histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy);
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
@@ -329,7 +340,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         simulated_time_s: run.domain.time,
         wall_s: wall,
         perforated: decided == Outcome::Perforated,
-        residual_velocity_m_s: projectile.velocity.dot(&direction),
+        residual_velocity_m_s: projectile.velocity.dot(&options.flight_direction),
+        normal_velocity_m_s: projectile.velocity.dot(&normal),
         max_projectile_force_n: max_force,
         broken_elements_tension: broken.tension,
         broken_elements_shear: broken.shear,

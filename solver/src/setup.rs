@@ -464,12 +464,18 @@ pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, 
 fn launch(shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2]) {
     let flight = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), resolved.obliquity);
     let orientation = flight * UnitQuaternion::from_axis_angle(&Vec3::x_axis(), resolved.yaw);
-    let direction = flight * Vec3::new(0.0, 0.0, -1.0);
+    let direction = flight_direction(resolved.obliquity);
     let below_centre = shape.support(&orientation.inverse_transform_vector(&Vec3::new(0.0, 0.0, -1.0)));
     let travel = (below_centre + INITIAL_GAP) / resolved.obliquity.cos();
     let aim = Vec3::new(resolved.offset[0], resolved.offset[1], top);
     let start = aim - direction * travel;
     (RigidProjectile::new(shape, resolved.mass, start, direction * resolved.speed, orientation), resolved.offset)
+}
+
+/// The unit vector of the initial line of flight of a shot at `obliquity` [rad] from the
+/// panel's normal: down the normal (-z), turned about y.
+pub fn flight_direction(obliquity: f64) -> Vec3 {
+    UnitQuaternion::from_axis_angle(&Vec3::y_axis(), obliquity) * Vec3::new(0.0, 0.0, -1.0)
 }
 
 /// The yarn-segment graph of a problem, weighted for a shot along its projectile's line.

@@ -292,3 +292,28 @@ fn help_texts_list_subcommands_briefly_and_name_files_that_exist() {
         }
     }
 }
+
+/// An oblique shot reports its residual velocity along its line of flight, and the component
+/// along the panel's normal (the direction the outcome is judged in) under its own name.
+#[test]
+fn an_oblique_shot_reports_its_residual_velocity_along_the_line_of_flight() {
+    let dir = scratch("oblique");
+    let out = dir.join("fsp");
+    let status = dea(&["run", "../cases/four_layer_fsp.json", "--out", out.to_str().unwrap()]);
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let obliquity = case_file("four_layer_fsp.json")["projectile"]["obliquity_deg"].as_f64().unwrap().to_radians();
+    assert!(obliquity > 0.1, "the case is oblique");
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    // the last history row is the end state the summary reports
+    let csv = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let last: Vec<f64> = csv.lines().last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    let column = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
+    let velocity = [column("projectile_velocity_x_m_s"), column("projectile_velocity_y_m_s"), column("projectile_velocity_z_m_s")];
+    let flight = [-obliquity.sin(), 0.0, -obliquity.cos()];
+    let along_flight: f64 = velocity.iter().zip(flight).map(|(v, d)| v * d).sum();
+    let (residual, normal) = (summary["residual_velocity_m_s"].as_f64().unwrap(), summary["normal_velocity_m_s"].as_f64().unwrap());
+    assert!((residual - along_flight).abs() <= 1e-9 * along_flight.abs(), "residual {residual} against {along_flight} along the line of flight");
+    assert_eq!(normal, -velocity[2]);
+    assert!((residual - normal).abs() > 0.01 * residual.abs(), "an oblique shot's two components differ: {residual} and {normal}");
+}

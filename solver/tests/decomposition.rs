@@ -40,6 +40,7 @@ fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option
         end_time: case.run.end_time_s,
         history_interval: case.run.history_interval_steps,
         stop_when_decided: false,
+        flight_direction: dea_mpi::setup::flight_direction(case.projectile.obliquity_deg.to_radians()),
         out,
         fibres: fibres(case),
         layers: problem(case).unwrap().layers(),
