@@ -18,6 +18,15 @@ use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
 use crate::step::{compute_forces, Stage, StageTimer};
 
+/// What the run loop asks of every rank, carried by the step's motion agreement.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunRequests {
+    /// a signal asked the job to stop (after a checkpoint)
+    pub stop: bool,
+    /// rank 0's wall-clock checkpoint interval has passed
+    pub checkpoint: bool,
+}
+
 /// One rank of a distributed run.
 pub struct Distributed<C: Comm> {
     pub comm: C,
@@ -36,10 +45,10 @@ pub struct Distributed<C: Comm> {
     /// steps that sent the forward halo (every step: the rebuild check reads the ghosts)
     pub halo_steps: u64,
     pub rebuilds: u64,
-    /// this rank's requests for the next step's reduction: (stop on a signal, checkpoint due)
-    pub requests: [bool; 2],
+    /// this rank's requests for the next step's reduction
+    pub requests: RunRequests,
     /// the requests of any rank, agreed in the last step
-    pub agreed: [bool; 2],
+    pub agreed: RunRequests,
     /// layer of each yarn (for snapshots and per-layer diagnostics); empty: all in layer 0
     pub layer_of_yarn: Vec<u32>,
     /// fibres of the whole target
@@ -119,8 +128,8 @@ impl<C: Comm> Distributed<C> {
             halo_bytes: 0,
             halo_steps: 0,
             rebuilds: 0,
-            requests: [false; 2],
-            agreed: [false; 2],
+            requests: RunRequests::default(),
+            agreed: RunRequests::default(),
             layer_of_yarn: Vec::new(),
             fibres: 0,
             reaction_words: Vec::new(),
@@ -170,9 +179,9 @@ impl<C: Comm> Distributed<C> {
     /// same reduction and are agreed in [`Self::agreed`].
     pub(crate) fn agree_on_motion(&mut self, motion: NodeMotion) -> NodeMotion {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        let mut largest = [motion.since_build, motion.step, flag(self.requests[0]), flag(self.requests[1])];
+        let mut largest = [motion.since_build, motion.step, flag(self.requests.stop), flag(self.requests.checkpoint)];
         self.comm.max_f64(&mut largest);
-        self.agreed = [largest[2] > 0.0, largest[3] > 0.0];
+        self.agreed = RunRequests { stop: largest[2] > 0.0, checkpoint: largest[3] > 0.0 };
         NodeMotion { since_build: largest[0], step: largest[1] }
     }
 

@@ -10,7 +10,7 @@ use dea_io::results::{write_histories_csv, write_results, Histories};
 use serde::Serialize;
 
 use crate::comm::Comm;
-use crate::distributed::Distributed;
+use crate::distributed::{Distributed, RunRequests};
 use crate::step::{Stage, StageSeconds};
 use crate::progress::Progress;
 use crate::setup::{projectile_bottom, projectile_top};
@@ -102,9 +102,9 @@ impl Judge {
         let broken = run.fibres_with_broken_elements(self.fibres);
         let domain = &run.domain;
         let contacts = &domain.projectile_contacts;
-        let held_here = contacts.candidates.iter().any(|&i| {
-            let f = domain.nodes.fibre[i as usize].0 as usize;
-            contacts.touching[i as usize] && broken[f / 64] & (1 << (f % 64)) == 0
+        let held_here = contacts.candidates.iter().map(|i| i.index()).any(|i| {
+            let f = domain.nodes.fibre[i].0 as usize;
+            contacts.touching[i] && broken[f / 64] & (1 << (f % 64)) == 0
         });
         let held = run.any(held_here);
         let (_, high) = run.z_range();
@@ -254,7 +254,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
         let signalled = options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
-        run.requests = [signalled, is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds];
+        run.requests = RunRequests { stop: signalled, checkpoint: is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds };
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
         run.timer.start();
@@ -270,7 +270,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
                 break;
             }
         }
-        let [stop, due_by_time] = run.agreed;
+        let RunRequests { stop, checkpoint: due_by_time } = run.agreed;
         let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if stop || due_by_time || due_by_steps {
             let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };

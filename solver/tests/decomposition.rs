@@ -173,7 +173,7 @@ fn the_projectile_skips_only_the_queries_of_nodes_out_of_contact() {
             let d = &state.domain;
             let projectile = d.projectile.as_ref().unwrap();
             for &i in &d.projectile_contacts.candidates {
-                let i = i as usize;
+                let i = i.index();
                 let radius = 0.5 * d.sections[d.nodes.section[i] as usize].contact_diameter;
                 let distance = projectile.shape.contact_point(&projectile.to_body(&d.nodes.position[i]), dea_core::NONE).distance;
                 assert_eq!(d.projectile_contacts.touching[i], distance < radius, "step {step}, node {:?}: {distance} m from the surface", d.nodes.gid[i]);

@@ -155,8 +155,7 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
         sums[group(i)].axial.add(energy);
     }
     if let Some(projectile) = &domain.projectile {
-        for &i in &domain.projectile_contacts.candidates {
-            let i = i as usize;
+        for i in domain.projectile_contacts.candidates.iter().map(|i| i.index()) {
             let report = &mut sums[group(i)];
             let (overlap, point, body, geometry) = domain.projectile_contacts.geometry(projectile, nodes, &domain.sections, i);
             if overlap <= 0.0 {

@@ -34,7 +34,7 @@ pub mod weibull;
 
 pub use domain::{Domain, DomainError, GhostRecord, NodeMotion, CHAIN_STENCIL};
 pub use projectile_contact::Reaction;
-pub use ids::{FibreId, GlobalNodeId, Rank, NONE};
+pub use ids::{FibreId, GlobalNodeId, LocalNodeId, Rank, NONE};
 pub use material::{FibreMaterial, FibreSection};
 pub use nodes::{Elements, Nodes};
 

@@ -11,13 +11,13 @@ use crate::friction::stick_slip;
 use crate::nodes::Nodes;
 use crate::projectile::{RigidProjectile, RigidShape};
 use crate::surface::SurfacePoint;
-use crate::{FibreSection, GlobalNodeId, Vec3, NONE};
+use crate::{FibreSection, GlobalNodeId, LocalNodeId, Vec3, NONE};
 
 /// Contact history of every node with the projectile (one body, so one entry per node).
 #[derive(Clone, Debug, Default)]
 pub struct ProjectileContacts {
     /// owned nodes within reach of the projectile at the last build, ascending
-    pub candidates: Vec<u32>,
+    pub candidates: Vec<LocalNodeId>,
     /// friction anchor: the partner point relative to the node at first touch, body frame:
     /// the body origin on a rigid body, the touched material point of a deforming surface [m]
     pub anchor: Vec<Vec3>,
@@ -104,7 +104,7 @@ impl ProjectileContacts {
         for i in 0..nodes.n_owned {
             let x = nodes.position[i];
             if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach {
-                contacts.candidates.push(i as u32);
+                contacts.candidates.push(LocalNodeId::of(i));
             } else {
                 // a node leaving the candidate set is out of contact
                 contacts.release(i);
@@ -149,7 +149,7 @@ impl ProjectileContacts {
             contacts.travel_pose = Some((projectile.position, projectile.orientation));
         }
         for c in 0..self.candidates.len() {
-            let i = self.candidates[c] as usize;
+            let i = self.candidates[c].index();
             let contacts = &mut *self;
             // the signed distance moves no faster than the node and the surface together
             if skips && contacts.clearance[i] - (nodes.position[i] - contacts.clearance_position[i]).norm() - (contacts.surface_travel - contacts.clearance_travel[i]) > CLEARANCE_MARGIN {
@@ -222,12 +222,12 @@ impl ProjectileContacts {
     /// projectile and its torque about the projectile's centre [N], [N m].
     pub fn reactions<'a>(&'a self, nodes: &'a Nodes) -> impl Iterator<Item = Reaction> + 'a {
         let contacts = self;
-        contacts.candidates.iter().filter(|&&i| contacts.touching[i as usize]).map(|&i| Reaction {
-            gid: nodes.gid[i as usize],
-            force: -contacts.force_on_node[i as usize],
-            torque: contacts.torque_on_projectile[i as usize],
-            triangle: contacts.triangle[i as usize],
-            weights: contacts.weights[i as usize],
+        contacts.candidates.iter().map(|i| i.index()).filter(|&i| contacts.touching[i]).map(|i| Reaction {
+            gid: nodes.gid[i],
+            force: -contacts.force_on_node[i],
+            torque: contacts.torque_on_projectile[i],
+            triangle: contacts.triangle[i],
+            weights: contacts.weights[i],
         })
     }
 }

@@ -10,7 +10,7 @@
 
 use dea_core::neighbour::SharedCubes;
 use dea_core::nodes::FailureMode;
-use dea_core::{Domain, GhostRecord, GlobalNodeId, Nodes, Rank, Vec3};
+use dea_core::{Domain, GhostRecord, GlobalNodeId, LocalNodeId, Nodes, Rank, Vec3};
 
 use super::codec::{from_halo_words, ghost_record_from_words, ghost_record_is_chain, ghost_record_position, ghost_record_words, halo_words, integer, word, HALO_WORDS, RECORD_WORDS};
 use super::Comm;
@@ -24,7 +24,7 @@ const MOST_SHARED_CUBES: usize = 1 << 21;
 pub struct HaloPlan {
     partners: Vec<Rank>,
     /// owned local indices sent to each partner, ascending
-    send_nodes: Vec<Vec<u32>>,
+    send_nodes: Vec<Vec<LocalNodeId>>,
     send_buffers: Vec<Vec<f64>>,
     /// what each partner sends (HALO_WORDS per ghost; the ghosts are stored contiguously
     /// in partner order, so a buffer's length also counts that partner's ghosts)
@@ -115,7 +115,7 @@ impl HaloPlan {
         }
         let mut kept: Vec<Vec<f64>> = candidates.iter().map(|c| vec![0.0; c.len()]).collect();
         comm.exchange(&partners, &masks, &mut kept);
-        let send_nodes: Vec<Vec<u32>> = candidates.iter().zip(&kept).map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| i).collect()).collect();
+        let send_nodes: Vec<Vec<LocalNodeId>> = candidates.iter().zip(&kept).map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| LocalNodeId(i)).collect()).collect();
         let plan = HaloPlan {
             send_buffers: send_nodes.iter().map(|s| Vec::with_capacity(s.len() * HALO_WORDS)).collect(),
             receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
@@ -132,7 +132,7 @@ impl HaloPlan {
         for (buffer, send) in self.send_buffers.iter_mut().zip(&self.send_nodes) {
             buffer.clear();
             for &i in send {
-                buffer.extend_from_slice(&halo_words(nodes, failure, i as usize));
+                buffer.extend_from_slice(&halo_words(nodes, failure, i.index()));
             }
         }
         comm.exchange(&self.partners, &self.send_buffers, &mut self.receive_buffers);
@@ -151,7 +151,7 @@ impl HaloPlan {
     /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no force
     /// needs it).
     pub fn forward_velocities<C: Comm>(&self, comm: &C, domain: &mut Domain) {
-        let sends: Vec<Vec<f64>> = self.send_nodes.iter().map(|send| send.iter().flat_map(|&i| domain.velocity(i as usize).as_slice().to_vec()).collect()).collect();
+        let sends: Vec<Vec<f64>> = self.send_nodes.iter().map(|send| send.iter().flat_map(|&i| domain.velocity(i.index()).as_slice().to_vec()).collect()).collect();
         let mut receives: Vec<Vec<f64>> = self.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         comm.exchange(&self.partners, &sends, &mut receives);
         let mut g = domain.nodes.n_owned;
@@ -166,6 +166,6 @@ impl HaloPlan {
     /// The plan: (partner, owned global ids sent to it each step, ghosts received), with
     /// `gid` the global ids of the local nodes.
     pub fn summary(&self, gid: &[GlobalNodeId]) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
-        self.partners.iter().zip(&self.send_nodes).zip(&self.receive_buffers).map(|((&p, s), r)| (p, s.iter().map(|&i| gid[i as usize]).collect(), r.len() / HALO_WORDS)).collect()
+        self.partners.iter().zip(&self.send_nodes).zip(&self.receive_buffers).map(|((&p, s), r)| (p, s.iter().map(|&i| gid[i.index()]).collect(), r.len() / HALO_WORDS)).collect()
     }
 }
