@@ -121,7 +121,13 @@ fn overlap_volume(low_a: &Vec3, high_a: &Vec3, low_b: &Vec3, high_b: &Vec3) -> f
 
 /// Builds the segment graph. `reach` is the contact search distance (largest contact
 /// diameter plus the Verlet skin) [m].
-pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot: Option<ShotLine>, segment_positions: u32) -> SegmentGraph {
+pub fn segment_graph(
+    fabric: &Fabric,
+    material: &FibreMaterial,
+    reach: f64,
+    shot: Option<ShotLine>,
+    segment_positions: u32,
+) -> SegmentGraph {
     let segment_positions = segment_positions.max(1);
     let sections = fabric.sections(material);
     let mut segments = Vec::new();
@@ -141,8 +147,10 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
             if let Some(shot) = shot {
                 // share of the segment's plan area inside the square around the shot line
                 let r = shot.radius;
-                let (shot_low, shot_high) = (Vec3::new(shot.x - r, shot.y - r, low.z), Vec3::new(shot.x + r, shot.y + r, high.z));
-                let share = overlap_volume(&low, &high, &shot_low, &shot_high) / overlap_volume(&low, &high, &low, &high);
+                let (shot_low, shot_high) =
+                    (Vec3::new(shot.x - r, shot.y - r, low.z), Vec3::new(shot.x + r, shot.y + r, high.z));
+                let share =
+                    overlap_volume(&low, &high, &shot_low, &shot_high) / overlap_volume(&low, &high, &low, &high);
                 work += share * nodes as f64 * PROJECTILE_CANDIDATE_WORK;
             }
             segments.push(Segment { yarn: y as u32, first, last, nodes, work, low, high });
@@ -153,7 +161,8 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
     let mut adjacency: Vec<Vec<Adjacency>> = vec![Vec::new(); segments.len()];
     // consecutive segments of a yarn: the chain stencil and the in-yarn contacts across the cut
     for y in 0..fabric.yarn_count() {
-        let along_ghosts = CHAIN_STENCIL.max((reach / sections[fabric.yarn_section(y)].element_length).ceil() as u32) as f64;
+        let along_ghosts =
+            CHAIN_STENCIL.max((reach / sections[fabric.yarn_section(y)].element_length).ceil() as u32) as f64;
         for s in first_segment[y]..first_segment[y + 1] - 1 {
             let ghosts = along_ghosts * fabric.yarn_fibres(y) as f64;
             adjacency[s as usize].push(Adjacency { segment: s + 1, ghosts_needed: ghosts });
@@ -169,7 +178,8 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
     let cell_of = |s: &Segment| [0, 1, 2].map(|k| ((s.low[k] - origin[k]) / width[k]).floor() as i64);
     let mut by_cell: Vec<([i64; 3], usize)> = segments.iter().enumerate().map(|(k, s)| (cell_of(s), k)).collect();
     by_cell.sort_unstable();
-    let around: Vec<[i64; 3]> = (-1..=1).flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [x, y, z]))).collect();
+    let around: Vec<[i64; 3]> =
+        (-1..=1).flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [x, y, z]))).collect();
     for a in 0..segments.len() {
         let sa = &segments[a];
         let (grown_low, grown_high) = (sa.low.add_scalar(-reach), sa.high.add_scalar(reach));
@@ -182,9 +192,11 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
                 if sa.yarn == sb.yarn || overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) == 0.0 {
                     continue;
                 }
-                let b_near_a = sb.nodes as f64 * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high) / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
+                let b_near_a = sb.nodes as f64 * overlap_volume(&grown_low, &grown_high, &sb.low, &sb.high)
+                    / overlap_volume(&sb.low, &sb.high, &sb.low, &sb.high);
                 let (b_low, b_high) = (sb.low.add_scalar(-reach), sb.high.add_scalar(reach));
-                let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high) / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
+                let a_near_b = sa.nodes as f64 * overlap_volume(&b_low, &b_high, &sa.low, &sa.high)
+                    / overlap_volume(&sa.low, &sa.high, &sa.low, &sa.high);
                 adjacency[a].push(Adjacency { segment: b as u32, ghosts_needed: b_near_a });
                 adjacency[b].push(Adjacency { segment: a as u32, ghosts_needed: a_near_b });
             }
@@ -194,7 +206,13 @@ pub fn segment_graph(fabric: &Fabric, material: &FibreMaterial, reach: f64, shot
         list.sort_by_key(|e| e.segment);
     }
     // a contact across yarns costs about one list entry per nearby node on each side
-    let extra: Vec<f64> = adjacency.iter().enumerate().map(|(s, list)| list.iter().filter(|e| segments[e.segment as usize].yarn != segments[s].yarn).map(|e| e.ghosts_needed).sum()).collect();
+    let extra: Vec<f64> = adjacency
+        .iter()
+        .enumerate()
+        .map(|(s, list)| {
+            list.iter().filter(|e| segments[e.segment as usize].yarn != segments[s].yarn).map(|e| e.ghosts_needed).sum()
+        })
+        .collect();
     for (segment, extra) in segments.iter_mut().zip(extra) {
         segment.work += extra;
     }
@@ -217,7 +235,14 @@ impl Partition {
     /// Every node on rank 0: the partition of a run on one rank that was not partitioned
     /// (a test's hand-made domain), with every fibre in one yarn of one segment.
     pub fn one_rank() -> Self {
-        Self { rank_of_segment: vec![Rank(0)], ranks: 1, edge_cut: 0, segment_positions: u32::MAX, first_segment: vec![0], first_fibre: vec![0] }
+        Self {
+            rank_of_segment: vec![Rank(0)],
+            ranks: 1,
+            edge_cut: 0,
+            segment_positions: u32::MAX,
+            first_segment: vec![0],
+            first_fibre: vec![0],
+        }
     }
 
     /// Yarn of a fibre.
@@ -238,7 +263,13 @@ impl Partition {
 
     /// The partition as plain integers, for a broadcast.
     pub fn to_words(&self) -> Vec<u64> {
-        let mut words = vec![self.ranks as u64, self.edge_cut as u64, self.segment_positions as u64, self.first_segment.len() as u64, self.first_fibre.len() as u64];
+        let mut words = vec![
+            self.ranks as u64,
+            self.edge_cut as u64,
+            self.segment_positions as u64,
+            self.first_segment.len() as u64,
+            self.first_fibre.len() as u64,
+        ];
         words.extend(self.first_segment.iter().map(|&s| s as u64));
         words.extend(self.first_fibre.iter().map(|&f| f as u64));
         words.extend(self.rank_of_segment.iter().map(|r| r.0 as u64));
@@ -295,15 +326,22 @@ pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<P
     for (s, list) in graph.adjacency.iter().enumerate() {
         for edge in list {
             // METIS wants symmetric weights: the ghosts the cut creates on both sides
-            let back = graph.adjacency[edge.segment as usize].iter().find(|e| e.segment == s as u32).map_or(0.0, |e| e.ghosts_needed);
+            let back = graph.adjacency[edge.segment as usize]
+                .iter()
+                .find(|e| e.segment == s as u32)
+                .map_or(0.0, |e| e.ghosts_needed);
             adjncy.push(edge.segment as metis::Idx);
             adjwgt.push((((edge.ghosts_needed + back) * edge_scale).round() as metis::Idx).max(1));
         }
         xadj.push(adjncy.len() as metis::Idx);
     }
-    let vwgt: Vec<metis::Idx> = graph.segments.iter().map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1)).collect();
+    let vwgt: Vec<metis::Idx> =
+        graph.segments.iter().map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1)).collect();
     let mut part: Vec<metis::Idx> = vec![0; n];
-    let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy).map_err(|e| PartitionError::Metis(e.into()))?.set_vwgt(&vwgt).set_adjwgt(&adjwgt);
+    let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy)
+        .map_err(|e| PartitionError::Metis(e.into()))?
+        .set_vwgt(&vwgt)
+        .set_adjwgt(&adjwgt);
     // METIS draws from GKlib's one global random state, seeded per call: two partitions at
     // once in one process (threads of the test suite) would interleave their draws and give
     // different answers for the same graph
@@ -346,7 +384,9 @@ pub struct QualityReport {
 
 /// What a partition will cost.
 pub fn quality(graph: &SegmentGraph, partition: &Partition) -> QualityReport {
-    let mut ranks: Vec<RankReport> = (0..partition.ranks as u32).map(|rank| RankReport { rank, owned_nodes: 0, ghost_nodes: 0, work: 0.0, halo_bytes_per_step: 0 }).collect();
+    let mut ranks: Vec<RankReport> = (0..partition.ranks as u32)
+        .map(|rank| RankReport { rank, owned_nodes: 0, ghost_nodes: 0, work: 0.0, halo_bytes_per_step: 0 })
+        .collect();
     let mut ghosts = vec![0.0; partition.ranks];
     for (s, segment) in graph.segments.iter().enumerate() {
         let r = partition.rank_of_segment[s].0 as usize;
@@ -383,7 +423,18 @@ mod tests {
 
     fn panel(layers: usize, yarns: usize, fibres: usize, length: f64) -> (Fabric, FibreMaterial, f64) {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = dea_fabric::StraightFabric::cross_ply(layers, yarns, fibres, length, 4.63e-8 / fibres as f64, 0.5, InertiaModel::Locked, 0.3, 3.8e9, &material);
+        let fabric = dea_fabric::StraightFabric::cross_ply(
+            layers,
+            yarns,
+            fibres,
+            length,
+            4.63e-8 / fibres as f64,
+            0.5,
+            InertiaModel::Locked,
+            0.3,
+            3.8e9,
+            &material,
+        );
         let reach = 1.25 * fabric.section(&material).contact_diameter;
         (Fabric::Straight(fabric), material, reach)
     }
@@ -403,7 +454,11 @@ mod tests {
         }
         assert!(graph.segments.iter().map(|s| s.work).sum::<f64>() > 10.0 * i32::MAX as f64);
         let report = quality(&graph, &partition(&graph, 4, Method::KWay).unwrap());
-        assert!(report.load_imbalance < 1.05 && (report.load_imbalance - unscaled).abs() < 0.02, "imbalance {} (unscaled {unscaled})", report.load_imbalance);
+        assert!(
+            report.load_imbalance < 1.05 && (report.load_imbalance - unscaled).abs() < 0.02,
+            "imbalance {} (unscaled {unscaled})",
+            report.load_imbalance
+        );
     }
 
     #[test]
@@ -439,7 +494,10 @@ mod tests {
         let shot = segment_graph(&fabric, &material, reach, Some(ShotLine { x: 0.0, y: 0.0, radius: 5e-4 }), 16);
         // a yarn of layer 0 crosses both yarns of layer 1 and touches its neighbour in layer 0
         let yarn0: Vec<usize> = (plain.first_segment[0] as usize..plain.first_segment[1] as usize).collect();
-        let partners: std::collections::BTreeSet<u32> = yarn0.iter().flat_map(|&s| plain.adjacency[s].iter().map(|e| plain.segments[e.segment as usize].yarn)).collect();
+        let partners: std::collections::BTreeSet<u32> = yarn0
+            .iter()
+            .flat_map(|&s| plain.adjacency[s].iter().map(|e| plain.segments[e.segment as usize].yarn))
+            .collect();
         assert_eq!(partners, [0, 1, 2, 3].into_iter().collect());
         // segments under the shot line carry extra work, the others none
         let heavier = plain.segments.iter().zip(&shot.segments).filter(|(p, s)| s.work > p.work).count();

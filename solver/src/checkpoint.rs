@@ -6,7 +6,9 @@ use dea_core::{Domain, DomainError, GlobalNodeId, Vec3};
 use dea_io::checkpoint::NodeState;
 use dea_partition::Partition;
 
-use crate::comm::codec::{projectile_words, reaction_from_words, reaction_words, set_projectile_words, PROJECTILE_WORDS, REACTION_WORDS};
+use crate::comm::codec::{
+    projectile_words, reaction_from_words, reaction_words, set_projectile_words, PROJECTILE_WORDS, REACTION_WORDS,
+};
 use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
 use crate::distributed::Distributed;
@@ -69,14 +71,31 @@ impl<C: Comm> Distributed<C> {
     /// theory D11), then every history, position, velocity and force is put back and the
     /// ghosts are refreshed.
     #[allow(clippy::too_many_arguments)]
-    pub fn restore(comm: C, mut domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, state: &NodeState, projectile: &[f64], mut deformable: Option<DeformableProjectile>) -> Result<Self, RestoreError> {
+    pub fn restore(
+        comm: C,
+        mut domain: Domain,
+        partition: Partition,
+        nodes_per_fibre: &[u32],
+        reach: f64,
+        state: &NodeState,
+        projectile: &[f64],
+        mut deformable: Option<DeformableProjectile>,
+    ) -> Result<Self, RestoreError> {
         let mut reactions = Vec::new();
         if let Some(deformable) = &mut deformable {
             let words = projectile.get(PROJECTILE_WORDS..).unwrap_or_default();
             let (body, held) = words.split_at(deformable.body.state_words().len().min(words.len()));
-            deformable.body.set_state_words(body).ok_or_else(|| RestoreError::Mismatch(format!("the checkpoint holds {} words of the deformable projectile, not those of the case's mesh", body.len())))?;
+            deformable.body.set_state_words(body).ok_or_else(|| {
+                RestoreError::Mismatch(format!(
+                    "the checkpoint holds {} words of the deformable projectile, not those of the case's mesh",
+                    body.len()
+                ))
+            })?;
             if held.len() % REACTION_WORDS != 0 {
-                return Err(RestoreError::Mismatch(format!("the checkpoint's {} words of projectile reactions are not whole records", held.len())));
+                return Err(RestoreError::Mismatch(format!(
+                    "the checkpoint's {} words of projectile reactions are not whole records",
+                    held.len()
+                )));
             }
             reactions.extend(held.chunks_exact(REACTION_WORDS).map(reaction_from_words));
         }
@@ -86,7 +105,9 @@ impl<C: Comm> Distributed<C> {
         }
         for i in 0..n {
             domain.nodes.position[i] = state.reference_position[i];
-            domain.elements.failure[i] = FailureMode::from_code(state.failure[i]).ok_or_else(|| RestoreError::Mismatch(format!("node {}: failure code {}", state.gid[i], state.failure[i])))?;
+            domain.elements.failure[i] = FailureMode::from_code(state.failure[i]).ok_or_else(|| {
+                RestoreError::Mismatch(format!("node {}: failure code {}", state.gid[i], state.failure[i]))
+            })?;
             domain.elements.tensile_strength[i] = state.tensile_strength[i];
         }
         if let Some(p) = &mut domain.projectile {
@@ -120,10 +141,12 @@ impl<C: Comm> Distributed<C> {
         }
         let d = &mut restored.domain;
         // the retired contacts are the interrupted run's (the rebuild above knew no history)
-        d.pairs.retired_start = std::iter::once(0).chain(state.retired_length.iter().scan(0u32, |total, &l| {
-            *total += l;
-            Some(*total)
-        })).collect();
+        d.pairs.retired_start = std::iter::once(0)
+            .chain(state.retired_length.iter().scan(0u32, |total, &l| {
+                *total += l;
+                Some(*total)
+            }))
+            .collect();
         d.pairs.retired_gid = state.retired_gid.iter().map(|&g| GlobalNodeId(g)).collect();
         d.pairs.retired_max_overlap.clone_from(&state.retired_max_overlap);
         let contacts = &mut d.projectile_contacts;

@@ -7,8 +7,8 @@
 //! nodes, fills the proxy with the centre of mass and mean velocity, and shares each
 //! reaction over the three vertices of its triangle by the barycentric weights (seed 4-1).
 
-use dea_core::projectile_contact::Reaction;
 use dea_core::projectile::RigidProjectile;
+use dea_core::projectile_contact::Reaction;
 use dea_core::{Vec3, NONE};
 use dea_projectile::elastic::{ElasticBody, ElasticError, ElasticMaterial, ElasticModel};
 use dea_projectile::mesh::{compact, HexMesh};
@@ -31,11 +31,24 @@ pub struct DeformableProjectile {
 
 impl DeformableProjectile {
     /// The mesh at rest (body frame) of `mass` [kg]: its density is the mass over the volume.
-    pub fn new(mesh: HexMesh, mass: f64, youngs_modulus: f64, poisson_ratio: f64, model: ElasticModel) -> Result<Self, ElasticError> {
+    pub fn new(
+        mesh: HexMesh,
+        mass: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+        model: ElasticModel,
+    ) -> Result<Self, ElasticError> {
         let volume: f64 = mesh.volumes().iter().sum();
         let (_, node_of_vertex, triangles) = compact(&mesh.nodes, &mesh.surface().triangles);
         let material = ElasticMaterial { density: mass / volume, youngs_modulus, poisson_ratio, model };
-        Ok(Self { body: ElasticBody::new(mesh, material)?, node_of_vertex, triangles, strain_energy: 0.0, inverted: None, substeps: 1 })
+        Ok(Self {
+            body: ElasticBody::new(mesh, material)?,
+            node_of_vertex,
+            triangles,
+            strain_energy: 0.0,
+            inverted: None,
+            substeps: 1,
+        })
     }
 
     /// Stable time step of the body with fibres pressing on its surface [s]: each surface
@@ -62,7 +75,11 @@ impl DeformableProjectile {
             let third = (b - a).cross(&(c - a)).norm() / 6.0;
             t.iter().for_each(|&v| area[v as usize] += third);
         }
-        self.node_of_vertex.iter().zip(&area).map(|(&n, a)| stiffness_per_area * a / self.body.mass[n as usize]).fold(0.0, f64::max)
+        self.node_of_vertex
+            .iter()
+            .zip(&area)
+            .map(|(&n, a)| stiffness_per_area * a / self.body.mass[n as usize])
+            .fold(0.0, f64::max)
     }
 
     /// Surface vertices relative to `centre` into `surface` [m].

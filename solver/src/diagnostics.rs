@@ -56,7 +56,10 @@ impl<C: Comm> Distributed<C> {
     /// Lowest and highest owned node along z over every rank [m].
     pub fn z_range(&self) -> (f64, f64) {
         let owned = &self.domain.nodes.position[..self.domain.nodes.n_owned];
-        let mut extremes = [owned.iter().map(|p| -p.z).fold(f64::NEG_INFINITY, f64::max), owned.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)];
+        let mut extremes = [
+            owned.iter().map(|p| -p.z).fold(f64::NEG_INFINITY, f64::max),
+            owned.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max),
+        ];
         self.comm.max_f64(&mut extremes);
         (-extremes[0], extremes[1])
     }

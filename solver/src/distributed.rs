@@ -6,12 +6,14 @@
 //! state every step, and sums the reactions of every rank's nodes in global-id order.
 //! Diagnostics, snapshots, checkpoints and the settle are in modules of their own.
 
-use dea_core::{Domain, DomainError, FibreId, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_core::projectile::RigidShape;
+use dea_core::{Domain, DomainError, FibreId, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3, CHAIN_STENCIL};
 use dea_partition::Partition;
 
 use crate::comm::agree;
-use crate::comm::codec::{projectile_words, reaction_from_words, reaction_words, set_projectile_words, PROJECTILE_WORDS, REACTION_WORDS};
+use crate::comm::codec::{
+    projectile_words, reaction_from_words, reaction_words, set_projectile_words, PROJECTILE_WORDS, REACTION_WORDS,
+};
 use crate::comm::halo::HaloPlan;
 use crate::comm::local::LocalComm;
 use crate::comm::Comm;
@@ -78,7 +80,14 @@ impl Distributed<LocalComm> {
 impl<C: Comm> Distributed<C> {
     /// Takes a domain of owned nodes (ascending global id) and fetches the ghosts, on every
     /// rank together.
-    pub(crate) fn assemble(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
+    pub(crate) fn assemble(
+        comm: C,
+        domain: Domain,
+        partition: Partition,
+        nodes_per_fibre: &[u32],
+        reach: f64,
+        deformable: Option<DeformableProjectile>,
+    ) -> Result<Self, DomainError> {
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
@@ -144,7 +153,14 @@ impl<C: Comm> Distributed<C> {
     }
 
     /// [`Self::assemble`], then the initial forces: a fresh run.
-    pub fn new(comm: C, domain: Domain, partition: Partition, nodes_per_fibre: &[u32], reach: f64, deformable: Option<DeformableProjectile>) -> Result<Self, DomainError> {
+    pub fn new(
+        comm: C,
+        domain: Domain,
+        partition: Partition,
+        nodes_per_fibre: &[u32],
+        reach: f64,
+        deformable: Option<DeformableProjectile>,
+    ) -> Result<Self, DomainError> {
         let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         let forces = compute_forces(&mut distributed.domain, &mut distributed.timer);
         distributed.agree(forces)?;
@@ -243,7 +259,10 @@ impl<C: Comm> Distributed<C> {
         if vertices.is_some() {
             let (coordinates, status) = words[PROJECTILE_WORDS..].split_at(words.len() - PROJECTILE_WORDS - 1);
             if status[0] > 0.0 {
-                return Err(DomainError::ProjectileInverted { step: self.domain.step, element: status[0] as usize - 1 });
+                return Err(DomainError::ProjectileInverted {
+                    step: self.domain.step,
+                    element: status[0] as usize - 1,
+                });
             }
             surface.clear();
             surface.extend(coordinates.chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])));
@@ -263,7 +282,8 @@ impl<C: Comm> Distributed<C> {
         self.reaction_words.extend(self.domain.projectile_reactions().flat_map(|r| reaction_words(&r)));
         if let Some(all) = self.comm.gather_f64(&self.reaction_words) {
             self.reactions.clear();
-            self.reactions.extend(all.iter().flat_map(|words| words.chunks_exact(REACTION_WORDS)).map(reaction_from_words));
+            self.reactions
+                .extend(all.iter().flat_map(|words| words.chunks_exact(REACTION_WORDS)).map(reaction_from_words));
             self.reactions.sort_unstable_by_key(|r| r.gid);
             let load = dea_core::projectile_contact::sum_reactions(self.reactions.iter().copied());
             self.domain.set_projectile_load(load);
@@ -335,7 +355,4 @@ impl<C: Comm> Distributed<C> {
     pub fn layer_of(&self, fibre: FibreId) -> u32 {
         self.layer_of_yarn.get(self.partition.yarn_of(fibre)).copied().unwrap_or(0)
     }
-
-
 }
-

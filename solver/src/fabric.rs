@@ -128,16 +128,27 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     let material = resolved.material.clone();
     let started = Instant::now();
     let (cell, relaxation) = setup::three_d_cell(case, &resolved)?.expect("a 3-D weave target");
-    let relaxation = relaxation.ok_or_else(|| SetupError::Case("target.cell_file: the cell is already relaxed; `dea-mpi fabric` generates one from target.weave".into()))?;
+    let relaxation = relaxation.ok_or_else(|| {
+        SetupError::Case(
+            "target.cell_file: the cell is already relaxed; `dea-mpi fabric` generates one from target.weave".into(),
+        )
+    })?;
     let relaxation_s = started.elapsed().as_secs_f64();
-    let roles = [("filler", dea_fabric::cell::YarnRole::Filler), ("stuffer", dea_fabric::cell::YarnRole::Stuffer), ("binder", dea_fabric::cell::YarnRole::Binder)];
+    let roles = [
+        ("filler", dea_fabric::cell::YarnRole::Filler),
+        ("stuffer", dea_fabric::cell::YarnRole::Stuffer),
+        ("binder", dea_fabric::cell::YarnRole::Binder),
+    ];
     let report = CellReport {
         case: case.name.clone(),
         thickness_change: relaxation.after.thickness_m / relaxation.before.thickness_m - 1.0,
         relaxation,
         relaxation_s,
         cell: cell.statistics(&material),
-        crimp_by_role: roles.iter().filter_map(|(name, role)| Some((name.to_string(), cell.crimp_of(*role)?))).collect(),
+        crimp_by_role: roles
+            .iter()
+            .filter_map(|(name, role)| Some((name.to_string(), cell.crimp_of(*role)?)))
+            .collect(),
         period_m: cell.period,
         yarns: cell.yarns.clone(),
         fibres: cell.fibres(),
@@ -147,9 +158,11 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
     let relaxation_json = serde_json::to_string(&report.relaxation).expect("report serialises");
     let cell_json = serde_json::to_string(&report.cell).expect("statistics serialise");
-    dea_io::cell::write_periodic_cell(&out.join("cell.h5"), &cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
+    dea_io::cell::write_periodic_cell(&out.join("cell.h5"), &cell, &relaxation_json, &cell_json)
+        .map_err(|e| failed(&e))?;
     dea_io::cell::write_cell_xdmf(out, "cell", &cell).map_err(|e| failed(&e))?;
-    std::fs::write(out.join("fabric.json"), serde_json::to_string_pretty(&report).expect("report serialises")).map_err(|e| failed(&e))?;
+    std::fs::write(out.join("fabric.json"), serde_json::to_string_pretty(&report).expect("report serialises"))
+        .map_err(|e| failed(&e))?;
     Ok(report)
 }
 
@@ -187,7 +200,13 @@ pub struct ShareReport {
 /// process: what a rank of a job too large for this machine would generate and hold (its
 /// own nodes and their contact lists; its ghosts are predicted by the partition's report).
 /// Writes `out/share.json`.
-pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: &Path) -> Result<ShareReport, SetupError> {
+pub fn fabric_share(
+    case: &Case,
+    method: Method,
+    rank: Rank,
+    ranks: usize,
+    out: &Path,
+) -> Result<ShareReport, SetupError> {
     woven_target(case, "`dea-mpi fabric --share`")?;
     let started = Instant::now();
     let problem = setup::problem(case)?;
@@ -198,7 +217,8 @@ pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: 
     let started = Instant::now();
     let graph = setup::segment_graph(&problem, ranks, None);
     let segment_graph_s = started.elapsed().as_secs_f64();
-    let partition = dea_partition::partition(&graph, ranks, method).map_err(|e| SetupError::Partition(e.to_string()))?;
+    let partition =
+        dea_partition::partition(&graph, ranks, method).map_err(|e| SetupError::Partition(e.to_string()))?;
     let quality = dea_partition::quality(&graph, &partition);
     let partition_s = started.elapsed().as_secs_f64();
     drop(graph);
@@ -230,7 +250,8 @@ pub fn fabric_share(case: &Case, method: Method, rank: Rank, ranks: usize, out: 
     };
     let failed = |e: &dyn std::fmt::Display| SetupError::Mesh(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
-    std::fs::write(out.join("share.json"), serde_json::to_string_pretty(&report).expect("report serialises")).map_err(|e| failed(&e))?;
+    std::fs::write(out.join("share.json"), serde_json::to_string_pretty(&report).expect("report serialises"))
+        .map_err(|e| failed(&e))?;
     Ok(report)
 }
 
@@ -246,7 +267,12 @@ fn resident_bytes() -> f64 {
 
 /// A field of /proc/self/status in kB (0 where /proc is not there).
 fn status_kilobytes(field: &str) -> f64 {
-    std::fs::read_to_string("/proc/self/status").ok().and_then(|text| text.lines().find(|l| l.starts_with(field)).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())).unwrap_or(0.0)
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|text| {
+            text.lines().find(|l| l.starts_with(field)).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .unwrap_or(0.0)
 }
 
 /// Refuses a case whose target is not a woven panel, which `command` needs.
@@ -264,7 +290,8 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
     let problem = setup::shared_problem(&comm, case)?;
     let relaxation_s = started.elapsed().as_secs_f64();
     let Fabric::Woven(panel) = problem.fabric.clone() else { unreachable!("a woven target builds a woven panel") };
-    let (material, relaxation, coarse_relaxation) = (problem.material.clone(), problem.relaxation.clone(), problem.coarse_relaxation.clone());
+    let (material, relaxation, coarse_relaxation) =
+        (problem.material.clone(), problem.relaxation.clone(), problem.coarse_relaxation.clone());
     let (resident, started) = (resident_bytes(), Instant::now());
     let run = setup::assemble(problem, comm, method, None, |_| {})?;
     let build_s = started.elapsed().as_secs_f64();
@@ -326,11 +353,14 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
     std::fs::create_dir_all(out).map_err(|e| failed(&e))?;
     let report_json = serde_json::to_string_pretty(&report).expect("report serialises");
     // the cell file holds nothing that depends on the ranks or the clock
-    let cells = [("cell", cell, &report.relaxation, Some(report.cell))].into_iter().chain(panel.coarse.as_ref().map(|c| ("coarse_cell", &c.cell, &report.coarse_relaxation, report.coarse_cell)));
+    let cells = [("cell", cell, &report.relaxation, Some(report.cell))]
+        .into_iter()
+        .chain(panel.coarse.as_ref().map(|c| ("coarse_cell", &c.cell, &report.coarse_relaxation, report.coarse_cell)));
     for (name, cell, relaxation, statistics) in cells {
         let relaxation_json = serde_json::to_string(relaxation).expect("report serialises");
         let cell_json = serde_json::to_string(&statistics).expect("statistics serialise");
-        dea_io::cell::write_cell(&out.join(format!("{name}.h5")), cell, &relaxation_json, &cell_json).map_err(|e| failed(&e))?;
+        dea_io::cell::write_cell(&out.join(format!("{name}.h5")), cell, &relaxation_json, &cell_json)
+            .map_err(|e| failed(&e))?;
         dea_io::cell::write_cell_xdmf(out, name, cell).map_err(|e| failed(&e))?;
     }
     std::fs::write(out.join("fabric.json"), &report_json).map_err(|e| failed(&e))?;

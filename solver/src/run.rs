@@ -11,9 +11,9 @@ use serde::Serialize;
 
 use crate::comm::Comm;
 use crate::distributed::{Distributed, RunRequests};
-use crate::step::{Stage, StageSeconds};
 use crate::progress::Progress;
 use crate::setup::{projectile_bottom, projectile_top};
+use crate::step::{Stage, StageSeconds};
 
 /// What a run reports in `summary.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -95,7 +95,12 @@ impl Judge {
     fn new<C: Comm>(run: &Distributed<C>, direction: Vec3, fibres: usize, back_face: Option<f64>) -> Self {
         let domain = &run.domain;
         let back_face = back_face.unwrap_or_else(|| run.z_range().0);
-        Self { direction, back_face, margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max), fibres }
+        Self {
+            direction,
+            back_face,
+            margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max),
+            fibres,
+        }
     }
 
     fn outcome<C: Comm>(&self, run: &Distributed<C>, max_force: f64) -> Outcome {
@@ -113,9 +118,15 @@ impl Judge {
             let projectile = domain.projectile.as_ref().expect("runs have a projectile");
             let forward = projectile.velocity.dot(&self.direction);
             let resisting = -projectile.force.dot(&self.direction);
-            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && (!held || resisting <= HELD_FRACTION * max_force) {
+            if forward > 0.0
+                && projectile_top(projectile) < self.back_face - self.margin
+                && (!held || resisting <= HELD_FRACTION * max_force)
+            {
                 decision = Outcome::Perforated;
-            } else if forward < 0.0 && projectile_bottom(projectile) > high + self.margin && projectile.force.norm() == 0.0 {
+            } else if forward < 0.0
+                && projectile_bottom(projectile) > high + self.margin
+                && projectile.force.norm() == 0.0
+            {
                 decision = Outcome::Rebounded;
             }
         }
@@ -187,7 +198,14 @@ pub struct RunOptions<'a> {
 impl<'a> RunOptions<'a> {
     /// The options a case asks for (`case_json`: the case as JSON, kept in the results), for
     /// the run `run` was built for.
-    pub fn for_case<C: Comm>(case: &'a dea_io::case::Case, case_json: &'a str, out: &'a Path, run: &Distributed<C>, stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>, resume: Option<Resume>) -> Self {
+    pub fn for_case<C: Comm>(
+        case: &'a dea_io::case::Case,
+        case_json: &'a str,
+        out: &'a Path,
+        run: &Distributed<C>,
+        stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+        resume: Option<Resume>,
+    ) -> Self {
         Self {
             case_name: &case.name,
             case_json,
@@ -199,7 +217,11 @@ impl<'a> RunOptions<'a> {
             fibres: run.fibres,
             layers: run.layer_of_yarn.iter().map(|&l| l as usize + 1).max().unwrap_or(1),
             snapshot_interval: case.run.snapshot_interval_steps,
-            checkpoints: CheckpointPolicy { every_steps: case.run.checkpoint_interval_steps, every_seconds: 60.0 * case.run.checkpoint_interval_minutes, stop_signal },
+            checkpoints: CheckpointPolicy {
+                every_steps: case.run.checkpoint_interval_steps,
+                every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
+                stop_signal,
+            },
             resume,
         }
     }
@@ -250,11 +272,17 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, normal, options.fibres, back_face);
     let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
-    let balance = |histories: &Histories| histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy);
+    let balance = |histories: &Histories| {
+        histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy)
+    };
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
-        let signalled = options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
-        run.requests = RunRequests { stop: signalled, checkpoint: is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds };
+        let signalled =
+            options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
+        run.requests = RunRequests {
+            stop: signalled,
+            checkpoint: is_root && last_checkpoint.elapsed().as_secs_f64() >= options.checkpoints.every_seconds,
+        };
         run.step().map_err(RunError::Numerical)?;
         max_force = max_force.max(run.domain.projectile.as_ref().map_or(0.0, |p| p.force.norm()));
         run.timer.start();
@@ -307,7 +335,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         let csv = options.out.join("history.csv");
         let outcome = std::fs::create_dir_all(options.out)
             .map_err(|e| format!("{}: {e}", options.out.display()))
-            .and_then(|()| write_results(&path, options.case_json, &histories).map_err(|e| format!("{}: {e}", path.display())))
+            .and_then(|()| {
+                write_results(&path, options.case_json, &histories).map_err(|e| format!("{}: {e}", path.display()))
+            })
             .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())));
         if let Err(e) = outcome {
             written[0] = 0.0;
@@ -328,7 +358,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let Some(all_stages) = all_stages else { return Ok(None) };
     let ranks = run.comm.size();
     let mean = StageSeconds(std::array::from_fn(|k| all_stages.iter().map(|s| s[k]).sum::<f64>() / ranks as f64));
-    let slowest = all_stages.iter().map(|s| StageSeconds(std::array::from_fn(|k| s[k])).computation()).fold(0.0, f64::max);
+    let slowest =
+        all_stages.iter().map(|s| StageSeconds(std::array::from_fn(|k| s[k])).computation()).fold(0.0, f64::max);
     let projectile = run.domain.projectile.as_ref().expect("runs have a projectile");
     let final_energy = histories.energy.last().map_or(initial_energy, |e| e.total());
     let summary = Summary {
@@ -359,7 +390,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         settle: run.settled,
     };
     let text = serde_json::to_string_pretty(&summary).expect("summary serialises");
-    std::fs::write(options.out.join("summary.json"), text + "\n").map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
+    std::fs::write(options.out.join("summary.json"), text + "\n")
+        .map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
     Ok(Some(summary))
 }
 
@@ -368,7 +400,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
 fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<(), String> {
     let part = run.snapshot_part();
     let (ranks, rank, step, time) = (run.comm.size(), run.comm.rank().0, run.domain.step, run.domain.time);
-    let written = dea_io::snapshot::write_part(options.out, ranks, rank, step, time, &part).map_err(|e| format!("{}: {e}", dea_io::snapshot::fields_directory(options.out).display()));
+    let written = dea_io::snapshot::write_part(options.out, ranks, rank, step, time, &part)
+        .map_err(|e| format!("{}: {e}", dea_io::snapshot::fields_directory(options.out).display()));
     if run.any(written.is_err()) {
         return Err(written.err().unwrap_or_else(|| "another rank could not write its snapshot part".into()));
     }
@@ -397,14 +430,20 @@ fn projectile_surface(projectile: &RigidProjectile) -> (Vec<Vec3>, Vec<[u32; 3]>
     let (vertices, triangles) = match &projectile.shape {
         RigidShape::Mesh(mesh) => (mesh.surface.vertices.clone(), mesh.surface.triangles.clone()),
         RigidShape::Sphere { radius } => Solid::Sphere { radius: *radius }.mesh(8).boundary(),
-        RigidShape::Cylinder { radius, height, edge_radius } => Solid::Cylinder { radius: *radius, height: *height, edge_radius: *edge_radius }.mesh(8).boundary(),
+        RigidShape::Cylinder { radius, height, edge_radius } => {
+            Solid::Cylinder { radius: *radius, height: *height, edge_radius: *edge_radius }.mesh(8).boundary()
+        }
     };
     (vertices.iter().map(|v| projectile.position + projectile.orientation * v).collect(), triangles)
 }
 
 /// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest
 /// go to `OUT/checkpoint.writing`, which replaces the previous checkpoint only once complete.
-pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, resume: &Resume) -> Result<std::path::PathBuf, String> {
+pub fn write_checkpoint<C: Comm>(
+    run: &Distributed<C>,
+    options: &RunOptions,
+    resume: &Resume,
+) -> Result<std::path::PathBuf, String> {
     let target = options.out.join("checkpoint");
     let writing = options.out.join("checkpoint.writing");
     let is_root = run.comm.rank() == Rank(0);
@@ -417,7 +456,8 @@ pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, res
         return Err(prepared.err().unwrap_or_else(|| format!("{}: rank 0 could not create it", writing.display())));
     }
     let path = dea_io::checkpoint::part_path(&writing, run.comm.rank().0);
-    let part = dea_io::checkpoint::write_part(&path, &run.checkpoint_part()).map_err(|e| format!("{}: {e}", path.display()));
+    let part =
+        dea_io::checkpoint::write_part(&path, &run.checkpoint_part()).map_err(|e| format!("{}: {e}", path.display()));
     if run.any(part.is_err()) {
         return Err(part.err().unwrap_or_else(|| "another rank could not write its checkpoint part".into()));
     }
@@ -440,17 +480,19 @@ pub fn write_checkpoint<C: Comm>(run: &Distributed<C>, options: &RunOptions, res
             histories: resume.histories.clone(),
         };
         let manifest = dea_io::checkpoint::manifest_path(&writing);
-        placed = dea_io::checkpoint::write_manifest(&manifest, &global).map_err(|e| format!("{}: {e}", manifest.display())).and_then(|()| {
-            // the old checkpoint goes only once the new one is complete
-            let old = options.out.join("checkpoint.old");
-            let _ = std::fs::remove_dir_all(&old);
-            if target.exists() {
-                std::fs::rename(&target, &old).map_err(|e| format!("{}: {e}", target.display()))?;
-            }
-            std::fs::rename(&writing, &target).map_err(|e| format!("{}: {e}", target.display()))?;
-            let _ = std::fs::remove_dir_all(&old);
-            Ok(())
-        });
+        placed = dea_io::checkpoint::write_manifest(&manifest, &global)
+            .map_err(|e| format!("{}: {e}", manifest.display()))
+            .and_then(|()| {
+                // the old checkpoint goes only once the new one is complete
+                let old = options.out.join("checkpoint.old");
+                let _ = std::fs::remove_dir_all(&old);
+                if target.exists() {
+                    std::fs::rename(&target, &old).map_err(|e| format!("{}: {e}", target.display()))?;
+                }
+                std::fs::rename(&writing, &target).map_err(|e| format!("{}: {e}", target.display()))?;
+                let _ = std::fs::remove_dir_all(&old);
+                Ok(())
+            });
     }
     if run.any(placed.is_err()) {
         return Err(placed.err().unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));

@@ -45,7 +45,8 @@ impl<C: Comm> Distributed<C> {
             run.comm.max_f64(&mut values);
             values
         };
-        let [force_before, overlap_before] = agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
+        let [force_before, overlap_before] =
+            agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
         let (_, top_before) = self.z_range();
         let projectile = self.domain.projectile.take();
         let body = self.deformable.take();
@@ -62,7 +63,8 @@ impl<C: Comm> Distributed<C> {
         self.domain.projectile = projectile;
         self.deformable = body;
         result?;
-        let [force_after, overlap_after] = agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
+        let [force_after, overlap_after] =
+            agreed(self, [self.domain.largest_free_force(), self.domain.largest_overlap_ratio()]);
         let (_, top_after) = self.z_range();
         let rise = (top_after - top_before).max(0.0);
         if let Some(p) = &mut self.domain.projectile {

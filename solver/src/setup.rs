@@ -21,16 +21,18 @@ use dea_fabric::panel::{transition_nodes, CoarseYarns, FineRegion, WovenPanel};
 use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
-use dea_fabric::{Fabric, StraightFabric};
-use dea_io::case::{parse_case, Case, ProjectileBody, ResolvedCase, ResolvedProjectile, Strength, TargetSpec, PROJECTILE_SIZE_M};
 use dea_fabric::weave3d::ThreeDWeave;
+use dea_fabric::{Fabric, StraightFabric};
+use dea_io::case::{
+    parse_case, Case, ProjectileBody, ResolvedCase, ResolvedProjectile, Strength, TargetSpec, PROJECTILE_SIZE_M,
+};
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
 use dea_partition::{Method, Partition, PartitionError, SegmentGraph, ShotLine};
 use nalgebra::UnitQuaternion;
 
-use crate::comm::Comm;
 use crate::checkpoint::RestoreError;
+use crate::comm::Comm;
 use crate::distributed::Distributed;
 
 /// Gap between the projectile and the nearest fibre surface at time zero [m].
@@ -99,7 +101,13 @@ pub enum SetupError {
 
 /// A relaxed cell: read from `file` (then without a report), or generated from `weave` and
 /// relaxed with the case's contact law. `field` names the case field a weave error is about.
-fn relaxed_cell(case: &Case, resolved: &ResolvedCase, file: Option<&Path>, weave: Option<&PlainWeave>, field: &str) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
+fn relaxed_cell(
+    case: &Case,
+    resolved: &ResolvedCase,
+    file: Option<&Path>,
+    weave: Option<&PlainWeave>,
+    field: &str,
+) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
     let TargetSpec::WovenPanel { weave: spec, relaxation, .. } = &case.target else { unreachable!("a woven target") };
     if let Some(path) = file {
         return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh);
@@ -108,7 +116,8 @@ fn relaxed_cell(case: &Case, resolved: &ResolvedCase, file: Option<&Path>, weave
     let material = &resolved.material;
     let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
     let options = relaxation.options(spec.bending_at_rest);
-    let report = relax(&mut cell, material, &resolved.law, &options).map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
+    let report = relax(&mut cell, material, &resolved.law, &options)
+        .map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
     Ok((cell, Some(report)))
 }
 
@@ -119,7 +128,10 @@ pub fn laid_out_cell(weave: &ThreeDWeave, material: &FibreMaterial) -> Result<Pe
 
 /// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
 /// law, or read from the panel's cell file (then without a report); `None` for other targets.
-pub fn three_d_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
+pub fn three_d_cell(
+    case: &Case,
+    resolved: &ResolvedCase,
+) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
     let (spec, relaxation) = match &case.target {
         TargetSpec::ThreeDWeaveCell { weave, relaxation } => (weave, relaxation),
         TargetSpec::ThreeDWovenPanel { cell_file: Some(path), .. } => {
@@ -130,7 +142,8 @@ pub fn three_d_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(Peri
     };
     let weave = resolved.three_d.as_ref().expect("a resolved 3-D weave target has its weave");
     let mut cell = laid_out_cell(weave, &resolved.material)?;
-    let report = relax(&mut cell, &resolved.material, &resolved.law, &relaxation.options(spec.bending_at_rest)).map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    let report = relax(&mut cell, &resolved.material, &resolved.law, &relaxation.options(spec.bending_at_rest))
+        .map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
     Ok(Some((cell, Some(report))))
 }
 
@@ -146,11 +159,16 @@ pub fn woven_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(UnitCe
 
 /// The coarse yarns' cell of a hybrid woven target, relaxed like the fine one (or read from
 /// its file); `None` when the target is not hybrid. Its yarn spacing must be the fine cell's.
-pub fn coarse_cell(case: &Case, resolved: &ResolvedCase, fine: &UnitCell) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+pub fn coarse_cell(
+    case: &Case,
+    resolved: &ResolvedCase,
+    fine: &UnitCell,
+) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
     let TargetSpec::WovenPanel { hybrid: Some(hybrid), .. } = &case.target else {
         return Ok(None);
     };
-    let (cell, report) = relaxed_cell(case, resolved, hybrid.cell_file.as_deref(), resolved.coarse.as_ref(), "target.hybrid")?;
+    let (cell, report) =
+        relaxed_cell(case, resolved, hybrid.cell_file.as_deref(), resolved.coarse.as_ref(), "target.hybrid")?;
     if cell.yarn_spacing != fine.yarn_spacing || cell.fibres_per_yarn >= fine.fibres_per_yarn {
         return Err(SetupError::Case(format!(
             "target.hybrid.cell_file: the coarse cell ({} fibres per yarn, spacing {:e} m) must have fewer fibres than the fine one ({}) and the same spacing ({:e} m)",
@@ -200,17 +218,51 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let (mut relaxation, mut coarse_relaxation) = (None, None);
     let fabric = match &case.target {
         TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
-            Fabric::Straight(StraightFabric::single_yarn(*length_m, 1, std::f64::consts::PI * diameter_m * diameter_m / 4.0, *element_length_ratio, case.bending, mu, deterministic))
+            Fabric::Straight(StraightFabric::single_yarn(
+                *length_m,
+                1,
+                std::f64::consts::PI * diameter_m * diameter_m / 4.0,
+                *element_length_ratio,
+                case.bending,
+                mu,
+                deterministic,
+            ))
         }
         TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
             let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
             let _ = yarn;
-            Fabric::Straight(StraightFabric::single_yarn(*length_m, *fibres_per_yarn, area, *element_length_ratio, case.bending, mu, deterministic))
+            Fabric::Straight(StraightFabric::single_yarn(
+                *length_m,
+                *fibres_per_yarn,
+                area,
+                *element_length_ratio,
+                case.bending,
+                mu,
+                deterministic,
+            ))
         }
-        TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+        TargetSpec::StraightYarnLayers {
+            yarn,
+            fibres_per_yarn,
+            layers,
+            yarns_per_layer,
+            length_m,
+            element_length_ratio,
+        } => {
             let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
             let _ = yarn;
-            Fabric::Straight(StraightFabric::cross_ply(*layers, *yarns_per_layer, *fibres_per_yarn, *length_m, area, *element_length_ratio, case.bending, mu, deterministic, &material))
+            Fabric::Straight(StraightFabric::cross_ply(
+                *layers,
+                *yarns_per_layer,
+                *fibres_per_yarn,
+                *length_m,
+                area,
+                *element_length_ratio,
+                case.bending,
+                mu,
+                deterministic,
+                &material,
+            ))
         }
         TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, hybrid, .. } => {
             let (cell, report) = woven_cell(case, &resolved)?.expect("a woven target");
@@ -249,11 +301,25 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             };
             let cells = (side_m / cell.period()).round().max(1.0);
             let kinds = std::iter::once(&cell).chain(coarse.as_ref().map(|c| &*c.cell));
-            let (fibres_per_yarn, nodes_per_period) = kinds.fold((0, 0), |(f, n), c| (f.max(c.fibres_per_yarn), n.max(c.nodes_per_period)));
+            let (fibres_per_yarn, nodes_per_period) =
+                kinds.fold((0, 0), |(f, n), c| (f.max(c.fibres_per_yarn), n.max(c.nodes_per_period)));
             // two warp and two weft yarns per cell and layer
-            target_fits("target.side_m", 4.0 * cells * *layers as f64 * fibres_per_yarn as f64, cells * nodes_per_period as f64 + 1.0)?;
+            target_fits(
+                "target.side_m",
+                4.0 * cells * *layers as f64 * fibres_per_yarn as f64,
+                cells * nodes_per_period as f64 + 1.0,
+            )?;
             let cells = cells as u32;
-            Fabric::Woven(WovenPanel::new(Arc::new(cell), coarse, cells, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
+            Fabric::Woven(WovenPanel::new(
+                Arc::new(cell),
+                coarse,
+                cells,
+                *layers as u32,
+                *layer_gap_m,
+                *layer_shift_m,
+                boundary.boundary(),
+                deterministic,
+            ))
         }
         TargetSpec::ThreeDWeaveCell { .. } => {
             return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; to strike it, tile it with kind three_d_woven_panel".into()));
@@ -265,13 +331,29 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             let most_tiles = tiles[0].max(tiles[1]);
             let nodes_per_period = cell.yarns.iter().map(|y| y.nodes_per_period).max().unwrap_or(0);
             let fibres_per_tile: usize = cell.yarns.iter().map(|y| y.fibres).sum();
-            target_fits("target.side_m", fibres_per_tile as f64 * most_tiles * *layers as f64, most_tiles * nodes_per_period as f64 + 1.0)?;
+            target_fits(
+                "target.side_m",
+                fibres_per_tile as f64 * most_tiles * *layers as f64,
+                most_tiles * nodes_per_period as f64 + 1.0,
+            )?;
             let tiles = tiles.map(|t| t as u32);
-            Fabric::Tiled(TiledPanel::new(Arc::new(cell), tiles, *layers as u32, *layer_gap_m, *layer_shift_m, boundary.boundary(), deterministic))
+            Fabric::Tiled(TiledPanel::new(
+                Arc::new(cell),
+                tiles,
+                *layers as u32,
+                *layer_gap_m,
+                *layer_shift_m,
+                boundary.boundary(),
+                deterministic,
+            ))
         }
     };
     if let Fabric::Straight(straight) = &fabric {
-        target_fits("target.length_m", straight.fibre_total() as f64, straight.fibre_length_in_elements().round() + 1.0)?;
+        target_fits(
+            "target.length_m",
+            straight.fibre_total() as f64,
+            straight.fibre_length_in_elements().round() + 1.0,
+        )?;
     }
     let sections = fabric.sections(&material);
     // the fine section: the one the projectile meets
@@ -309,7 +391,13 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         }
         Some(ref elastic) => {
             let model = elastic_model.expect("a resolved deformable projectile has its model");
-            let (body, shape) = deformable_body(&resolved, (elastic.youngs_modulus_pa, elastic.poisson_ratio, model), reach, cell, contact.skin)?;
+            let (body, shape) = deformable_body(
+                &resolved,
+                (elastic.youngs_modulus_pa, elastic.poisson_ratio, model),
+                reach,
+                cell,
+                contact.skin,
+            )?;
             let (projectile, aim, body) = launch_deformable(body, shape, &resolved, top);
             (projectile, aim, Some(body))
         }
@@ -321,10 +409,19 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Fabric::Tiled(panel) => 1.25 * dea_fabric::relax::largest_overlap_ratio(&panel.cell),
         Fabric::Straight(_) => 0.0,
     };
-    let mut time_step = stable_time_step(&material, &sections, &contact.law, contact.friction_coefficient.max(contact.projectile_friction_coefficient), starting_strain, case.run.time_step_safety);
+    let mut time_step = stable_time_step(
+        &material,
+        &sections,
+        &contact.law,
+        contact.friction_coefficient.max(contact.projectile_friction_coefficient),
+        starting_strain,
+        case.run.time_step_safety,
+    );
     if let Some(body) = &mut deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
-        let per_area = (1.0 + contact.projectile_friction_coefficient) * design_contact_stiffness(section, &contact.law) / (section.contact_diameter * section.element_length);
+        let per_area = (1.0 + contact.projectile_friction_coefficient)
+            * design_contact_stiffness(section, &contact.law)
+            / (section.contact_diameter * section.element_length);
         let safety = case.run.time_step_safety;
         let whole = safety * body.stable_time_step(per_area);
         if whole < time_step {
@@ -341,15 +438,36 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         }
     }
     let reach = largest_contact_diameter + contact.skin;
-    Ok(Problem { material, fabric, relaxation, coarse_relaxation, contact, failure, strength, projectile, aim, deformable, time_step, reach })
+    Ok(Problem {
+        material,
+        fabric,
+        relaxation,
+        coarse_relaxation,
+        contact,
+        failure,
+        strength,
+        projectile,
+        aim,
+        deformable,
+        time_step,
+        reach,
+    })
 }
 
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
 /// about the body's centre of mass. The cubes follow the moving surface with a margin of
 /// one skin.
-fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio, model): (f64, f64, ElasticModel), reach: f64, cell: f64, skin: f64) -> Result<(DeformableProjectile, RigidShape), SetupError> {
+fn deformable_body(
+    resolved: &ResolvedProjectile,
+    (youngs_modulus, poisson_ratio, model): (f64, f64, ElasticModel),
+    reach: f64,
+    cell: f64,
+    skin: f64,
+) -> Result<(DeformableProjectile, RigidShape), SetupError> {
     let (mesh, source) = match &resolved.body {
-        ProjectileBody::Generated { solid, divisions } => (solid.mesh(*divisions), format!("the generated {solid:?} mesh")),
+        ProjectileBody::Generated { solid, divisions } => {
+            (solid.mesh(*divisions), format!("the generated {solid:?} mesh"))
+        }
         ProjectileBody::File { path, scale } => {
             let mut mesh = read_mesh(path).map_err(|e| SetupError::Mesh(e.to_string()))?;
             mesh.nodes.iter_mut().for_each(|x| *x *= *scale);
@@ -359,8 +477,10 @@ fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio
         ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
     };
     let (vertices, triangles) = mesh.boundary();
-    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
-    let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model)
+        .map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mut shape, _) =
+        MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     let (centre, _) = body.body.centre_of_mass();
     let mut surface = Vec::new();
     body.surface_from(&centre, &mut surface);
@@ -372,7 +492,12 @@ fn deformable_body(resolved: &ResolvedProjectile, (youngs_modulus, poisson_ratio
 /// [`launch`] for a deformable body: the body's nodes take the launch pose and velocity,
 /// and the proxy keeps an unturned frame at the centre of mass (its surface carries the
 /// turn).
-fn launch_deformable(mut body: DeformableProjectile, shape: RigidShape, resolved: &ResolvedProjectile, top: f64) -> (RigidProjectile, [f64; 2], DeformableProjectile) {
+fn launch_deformable(
+    mut body: DeformableProjectile,
+    shape: RigidShape,
+    resolved: &ResolvedProjectile,
+    top: f64,
+) -> (RigidProjectile, [f64; 2], DeformableProjectile) {
     let (mut projectile, aim) = launch(shape, resolved, top);
     body.launch(&projectile);
     projectile.orientation = UnitQuaternion::identity();
@@ -416,17 +541,24 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
             (vertices, triangles, path.display().to_string())
         }
     };
-    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mesh, _) =
+        MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
     Ok(RigidShape::Mesh(Arc::new(mesh)))
 }
 
 /// What `dea-mpi check` reports of a projectile: its shape, mass and launch state, for a
 /// meshed one the surface and the density its mass implies, and for a generated one the
 /// size of its hexahedral mesh.
-pub fn describe_projectile(projectile: &RigidProjectile, body: &ProjectileBody, deformable: Option<&DeformableProjectile>) -> serde_json::Value {
+pub fn describe_projectile(
+    projectile: &RigidProjectile,
+    body: &ProjectileBody,
+    deformable: Option<&DeformableProjectile>,
+) -> serde_json::Value {
     let shape = match &projectile.shape {
         RigidShape::Sphere { radius } => serde_json::json!({ "sphere": { "radius_m": radius } }),
-        RigidShape::Cylinder { radius, height, edge_radius } => serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } }),
+        RigidShape::Cylinder { radius, height, edge_radius } => {
+            serde_json::json!({ "cylinder": { "radius_m": radius, "height_m": height, "edge_radius_m": edge_radius } })
+        }
         RigidShape::Mesh(mesh) => serde_json::json!({ "mesh": {
             "vertices": mesh.surface.vertices.len(),
             "triangles": mesh.surface.triangles.len(),
@@ -480,8 +612,13 @@ pub fn flight_direction(obliquity: f64) -> Vec3 {
 
 /// The yarn-segment graph of a problem, weighted for a shot along its projectile's line.
 pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<u32>) -> SegmentGraph {
-    let shot = ShotLine { x: problem.aim[0], y: problem.aim[1], radius: problem.projectile.shape.bounding_radius() + problem.reach };
-    let positions = segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
+    let shot = ShotLine {
+        x: problem.aim[0],
+        y: problem.aim[1],
+        radius: problem.projectile.shape.bounding_radius() + problem.reach,
+    };
+    let positions =
+        segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
     dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
 }
 
@@ -492,8 +629,13 @@ pub const BYTES_PER_NODE: f64 = 1730.0;
 /// The memory this process may use [bytes]: the host's, or its control group's limit when
 /// that is lower (SLURM and containers set one); `None` when neither can be read.
 pub fn memory_limit() -> Option<f64> {
-    let host = std::fs::read_to_string("/proc/meminfo").ok()?.lines().find_map(|line| line.strip_prefix("MemTotal:")?.trim().strip_suffix("kB")?.trim().parse::<f64>().ok()).map(|kb| 1024.0 * kb)?;
-    let group = std::fs::read_to_string("/sys/fs/cgroup/memory.max").ok().and_then(|text| text.trim().parse::<f64>().ok());
+    let host = std::fs::read_to_string("/proc/meminfo")
+        .ok()?
+        .lines()
+        .find_map(|line| line.strip_prefix("MemTotal:")?.trim().strip_suffix("kB")?.trim().parse::<f64>().ok())
+        .map(|kb| 1024.0 * kb)?;
+    let group =
+        std::fs::read_to_string("/sys/fs/cgroup/memory.max").ok().and_then(|text| text.trim().parse::<f64>().ok());
     Some(group.map_or(host, |g| g.min(host)))
 }
 
@@ -515,9 +657,18 @@ pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64
 
 /// Rank 0 partitions, every rank receives the result (or the same error). First every rank
 /// checks that its host holds its ranks' shares.
-fn shared_partition<C: Comm>(comm: &C, problem: &Problem, method: Method, segment_positions: Option<u32>) -> Result<Partition, SetupError> {
+fn shared_partition<C: Comm>(
+    comm: &C,
+    problem: &Problem,
+    method: Method,
+    segment_positions: Option<u32>,
+) -> Result<Partition, SetupError> {
     let fits = shares_fit(problem.fabric.node_count(), comm.size(), comm.ranks_on_host(), memory_limit());
-    agree_on(comm, fits, || SetupError::Case("target: another host cannot hold its ranks' shares of it (its rank 0 says how much they need)".into()))?;
+    agree_on(comm, fits, || {
+        SetupError::Case(
+            "target: another host cannot hold its ranks' shares of it (its rank 0 says how much they need)".into(),
+        )
+    })?;
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
         let graph = segment_graph(problem, comm.size(), segment_positions);
@@ -534,20 +685,35 @@ fn shared_partition<C: Comm>(comm: &C, problem: &Problem, method: Method, segmen
     }
     comm.broadcast_bytes(&mut message);
     match message.split_first() {
-        Some((0, words)) => Ok(Partition::from_words(&words.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect::<Vec<_>>())),
+        Some((0, words)) => Ok(Partition::from_words(
+            &words.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect::<Vec<_>>(),
+        )),
         Some((_, text)) => Err(SetupError::Partition(String::from_utf8_lossy(text).into_owned())),
-        None => Err(SetupError::Partition(PartitionError::TooFewSegments { segments: 0, ranks: comm.size() }.to_string())),
+        None => {
+            Err(SetupError::Partition(PartitionError::TooFewSegments { segments: 0, ranks: comm.size() }.to_string()))
+        }
     }
 }
 
 /// Sets up this rank: partition, own nodes, Weibull strengths, ghosts, initial forces.
-pub fn build<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>) -> Result<Distributed<C>, SetupError> {
+pub fn build<C: Comm>(
+    case: &Case,
+    comm: C,
+    method: Method,
+    segment_positions: Option<u32>,
+) -> Result<Distributed<C>, SetupError> {
     build_adjusted(case, comm, method, segment_positions, |_| {})
 }
 
 /// [`build`], with `adjust` applied to the rank's own nodes before the ghosts are fetched
 /// (the benchmark squeezes its yarn this way).
-pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
+pub fn build_adjusted<C: Comm>(
+    case: &Case,
+    comm: C,
+    method: Method,
+    segment_positions: Option<u32>,
+    adjust: impl FnOnce(&mut Nodes),
+) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
     let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
     if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
@@ -585,7 +751,13 @@ pub fn build_adjusted<C: Comm>(case: &Case, comm: C, method: Method, segment_pos
 
 /// The rank of a resolved problem: partition, own nodes (`adjust` applied), Weibull
 /// strengths, ghosts, initial forces.
-pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_positions: Option<u32>, adjust: impl FnOnce(&mut Nodes)) -> Result<Distributed<C>, SetupError> {
+pub fn assemble<C: Comm>(
+    mut problem: Problem,
+    comm: C,
+    method: Method,
+    segment_positions: Option<u32>,
+    adjust: impl FnOnce(&mut Nodes),
+) -> Result<Distributed<C>, SetupError> {
     let partition = shared_partition(&comm, &problem, method, segment_positions)?;
     let mut domain = own_domain(&problem, &partition, comm.rank(), adjust);
     let body = take_body(&mut problem, comm.rank());
@@ -597,7 +769,8 @@ pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_
             }
         }
     }
-    let mut run = Distributed::new(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, body)?;
+    let mut run =
+        Distributed::new(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, body)?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
     Ok(run)
@@ -605,10 +778,24 @@ pub fn assemble<C: Comm>(mut problem: Problem, comm: C, method: Method, segment_
 
 /// This rank's nodes of `problem` as generated (`adjust` applied), in a domain without
 /// ghosts; rank 0 owns the projectile.
-pub(crate) fn own_domain(problem: &Problem, partition: &Partition, me: Rank, adjust: impl FnOnce(&mut Nodes)) -> Domain {
+pub(crate) fn own_domain(
+    problem: &Problem,
+    partition: &Partition,
+    me: Rank,
+    adjust: impl FnOnce(&mut Nodes),
+) -> Domain {
     let mut built = problem.fabric.build(&problem.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
     adjust(&mut built.nodes);
-    let mut domain = Domain::assemble(problem.material.clone(), built.sections, built.nodes, built.elements, problem.contact, problem.failure, Some(problem.projectile.clone()), problem.time_step);
+    let mut domain = Domain::assemble(
+        problem.material.clone(),
+        built.sections,
+        built.nodes,
+        built.elements,
+        problem.contact,
+        problem.failure,
+        Some(problem.projectile.clone()),
+        problem.time_step,
+    );
     domain.set_ties(built.ties);
     // a deformable body is integrated beside the domain (rank 0), not as a rigid body
     domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
@@ -629,7 +816,11 @@ pub struct Restored<C: Comm> {
 
 /// Every rank learns whether any rank failed; all return an error (their own, or
 /// `elsewhere` where another rank failed).
-fn agree_on<C: Comm, T>(comm: &C, local: Result<T, SetupError>, elsewhere: impl FnOnce() -> SetupError) -> Result<T, SetupError> {
+fn agree_on<C: Comm, T>(
+    comm: &C,
+    local: Result<T, SetupError>,
+    elsewhere: impl FnOnce() -> SetupError,
+) -> Result<T, SetupError> {
     let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
     comm.max_f64(&mut failed);
     match local {
@@ -653,7 +844,8 @@ fn unreadable_checkpoint() -> SetupError {
 pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Restored<C>, SetupError> {
     let global = read_manifest(directory).map_err(|e| SetupError::Checkpoint(e.to_string()));
     let global = agree_on(&comm, global, unreadable_checkpoint)?;
-    let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string()).map_err(|e| SetupError::Checkpoint(e.to_string()))?;
+    let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string())
+        .map_err(|e| SetupError::Checkpoint(e.to_string()))?;
     let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();
@@ -677,14 +869,30 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     let mut counts = [state.gid.len() as i64, domain.nodes.n_owned as i64];
     comm.sum_i64(&mut counts);
     if counts[0] != counts[1] || counts[0] as u64 != global.nodes {
-        return Err(SetupError::Checkpoint(format!("{}: holds {} nodes, of which {} belong to the case's {} nodes", directory.display(), global.nodes, counts[0], counts[1])));
+        return Err(SetupError::Checkpoint(format!(
+            "{}: holds {} nodes, of which {} belong to the case's {} nodes",
+            directory.display(),
+            global.nodes,
+            counts[0],
+            counts[1]
+        )));
     }
     domain.step = global.step;
     domain.time = global.time;
     if me == Rank(0) {
         domain.broken = BrokenCount { tension: global.broken[0], shear: global.broken[1], combined: global.broken[2] };
     }
-    let mut run = Distributed::restore(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, &state, &global.projectile, body).map_err(|e| match e {
+    let mut run = Distributed::restore(
+        comm,
+        domain,
+        partition,
+        &problem.fabric.nodes_per_yarn_fibre(),
+        problem.reach,
+        &state,
+        &global.projectile,
+        body,
+    )
+    .map_err(|e| match e {
         RestoreError::Numerical(e) => SetupError::Numerical(e),
         RestoreError::Mismatch(m) => SetupError::Checkpoint(format!("{}: {m}", directory.display())),
     })?;
@@ -713,12 +921,24 @@ mod tests {
     fn an_oblique_yawed_shot_starts_just_above_the_target_on_its_line_of_flight() {
         let shape = RigidShape::Cylinder { radius: 1.7e-3, height: 3.7e-3, edge_radius: 50e-6 };
         let (obliquity, yaw) = (30f64.to_radians(), 10f64.to_radians());
-        let resolved = ResolvedProjectile { body: ProjectileBody::Analytic(shape.clone()), mass: 1e-3, speed: 400.0, offset: [1e-3, -2e-3], obliquity, yaw, deformable: None };
+        let resolved = ResolvedProjectile {
+            body: ProjectileBody::Analytic(shape.clone()),
+            mass: 1e-3,
+            speed: 400.0,
+            offset: [1e-3, -2e-3],
+            obliquity,
+            yaw,
+            deformable: None,
+        };
         let top = 0.5e-3;
         let (projectile, aim) = launch(shape, &resolved, top);
         assert_eq!(aim, [1e-3, -2e-3]);
         // lowest point a gap above the top (to rounding)
-        assert!((projectile_bottom(&projectile) - (top + INITIAL_GAP)).abs() < 1e-15, "{}", projectile_bottom(&projectile));
+        assert!(
+            (projectile_bottom(&projectile) - (top + INITIAL_GAP)).abs() < 1e-15,
+            "{}",
+            projectile_bottom(&projectile)
+        );
         // flight tilted towards -x by the obliquity
         let direction = projectile.velocity / 400.0;
         assert!((direction - Vec3::new(-obliquity.sin(), 0.0, -obliquity.cos())).norm() < 1e-15);
@@ -764,7 +984,11 @@ mod tests {
     fn a_host_that_cannot_hold_its_ranks_shares_refuses_the_job() {
         // 1e9 nodes over 64 ranks: 27 GB each; eight of them on a 24 GB host cannot be
         let error = shares_fit(1_000_000_000, 64, 8, Some(24e9)).err().expect("refused").to_string();
-        assert!(error.contains("27.0 GB on each of the 64 ranks") && error.contains("the job's 8 ranks on this host have 24.0 GB"), "{error}");
+        assert!(
+            error.contains("27.0 GB on each of the 64 ranks")
+                && error.contains("the job's 8 ranks on this host have 24.0 GB"),
+            "{error}"
+        );
         // over 512 ranks, four to a host: 3.4 GB each, 13.5 GB together
         assert!(shares_fit(1_000_000_000, 512, 4, Some(24e9)).is_ok());
         // no limit known: no refusal

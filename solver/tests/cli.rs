@@ -50,7 +50,8 @@ fn check_resolves_a_campaign_and_its_shot_case_and_names_a_bad_design_field() {
     assert_eq!(printed["case"]["name"], "v50-tiny-shot");
     assert!(printed["resolved"]["nodes"].as_u64().unwrap() > 0);
     // a case is printed without a campaign
-    let case: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
+    let case: serde_json::Value =
+        serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
     assert!(case.get("campaign").is_none());
     let dir = scratch("campaign");
     let mut campaign = case_file("v50_tiny_monte_carlo.json");
@@ -71,7 +72,10 @@ fn a_target_too_large_for_the_host_exits_3_before_it_is_made() {
     let path = dir.join("huge.json");
     std::fs::write(&path, case.to_string()).unwrap();
     let stderr = stderr_of_exit(3, &["run", path.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
-    assert!(stderr.contains("target: its 68807466816 nodes need about") && stderr.contains("GB between them"), "{stderr}");
+    assert!(
+        stderr.contains("target: its 68807466816 nodes need about") && stderr.contains("GB between them"),
+        "{stderr}"
+    );
     // past the 32-bit numbering of a fibre's nodes, even a check refuses it
     case["target"]["side_m"] = 1e300.into();
     std::fs::write(&path, case.to_string()).unwrap();
@@ -105,8 +109,17 @@ fn run_writes_summary_and_hdf5_histories() {
     let dir = scratch("run");
     let out = dea(&["run", "../cases/single_fibre_short.json", "--out", dir.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    for key in ["steps", "simulated_time_s", "wall_s", "perforated", "residual_velocity_m_s", "max_projectile_force_n", "node_steps_per_s_per_core"] {
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "steps",
+        "simulated_time_s",
+        "wall_s",
+        "perforated",
+        "residual_velocity_m_s",
+        "max_projectile_force_n",
+        "node_steps_per_s_per_core",
+    ] {
         assert!(summary.get(key).is_some(), "summary lacks {key}");
     }
     assert!(summary["steps"].as_u64().unwrap() > 100);
@@ -118,7 +131,16 @@ fn run_writes_summary_and_hdf5_histories() {
     for name in ["history/projectile_position", "history/projectile_velocity", "history/projectile_force"] {
         assert_eq!(file.dataset(name).unwrap().shape(), vec![time.len(), 3], "{name}");
     }
-    for kind in ["fibre_kinetic", "projectile_kinetic", "axial", "bending", "contact", "friction_dissipated", "plastic_dissipated", "total"] {
+    for kind in [
+        "fibre_kinetic",
+        "projectile_kinetic",
+        "axial",
+        "bending",
+        "contact",
+        "friction_dissipated",
+        "plastic_dissipated",
+        "total",
+    ] {
         let values: Vec<f64> = file.dataset(&format!("history/energy/{kind}")).unwrap().read_raw().unwrap();
         assert_eq!(values.len(), time.len(), "{kind}");
     }
@@ -141,7 +163,20 @@ fn bench_json_has_the_documented_keys() {
     let out = dea(&["bench", "--json", "--nodes", "4000", "--steps", "20"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for key in ["nodes", "steps", "ranks", "wall_s", "ns_per_node_step", "ns_per_contact_pair", "ns_per_contact_pair_packed", "ns_per_contact_entry", "ns_per_node_rods", "ns_per_node_rebuild", "ns_per_node_rebuild_in_run", "contacts_per_node"] {
+    for key in [
+        "nodes",
+        "steps",
+        "ranks",
+        "wall_s",
+        "ns_per_node_step",
+        "ns_per_contact_pair",
+        "ns_per_contact_pair_packed",
+        "ns_per_contact_entry",
+        "ns_per_node_rods",
+        "ns_per_node_rebuild",
+        "ns_per_node_rebuild_in_run",
+        "contacts_per_node",
+    ] {
         assert!(report.get(key).is_some(), "bench lacks {key}");
     }
     assert!(report["nodes"].as_u64().unwrap() >= 4000);
@@ -156,7 +191,8 @@ fn partition_reports_owned_and_ghost_nodes_per_rank() {
     let ranks = report["ranks"].as_array().unwrap();
     assert_eq!(ranks.len(), 3);
     let owned: u64 = ranks.iter().map(|r| r["owned_nodes"].as_u64().unwrap()).sum();
-    let check: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
+    let check: serde_json::Value =
+        serde_json::from_slice(&dea(&["check", "../cases/single_fibre_short.json"]).stdout).unwrap();
     assert_eq!(owned, check["resolved"]["nodes"].as_u64().unwrap(), "every node owned exactly once");
     assert!(report["load_imbalance"].as_f64().unwrap() < 1.05);
     assert!(ranks.iter().all(|r| r["ghost_nodes"].as_u64().unwrap() > 0), "a cut fibre needs ghosts on both sides");
@@ -168,10 +204,19 @@ fn partition_reports_owned_and_ghost_nodes_per_rank() {
 fn fabric_share_builds_one_rank_of_a_larger_job_alone() {
     let dir = scratch("share");
     let out_dir = dir.join("share");
-    let out = dea(&["fabric", "../cases/hybrid_disc_two_layer_settle.json", "--share", "1/3", "--out", out_dir.to_str().unwrap()]);
+    let out = dea(&[
+        "fabric",
+        "../cases/hybrid_disc_two_layer_settle.json",
+        "--share",
+        "1/3",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let share: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out_dir.join("share.json")).unwrap()).unwrap();
-    let check: serde_json::Value = serde_json::from_slice(&dea(&["check", "../cases/hybrid_disc_two_layer_settle.json"]).stdout).unwrap();
+    let share: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("share.json")).unwrap()).unwrap();
+    let check: serde_json::Value =
+        serde_json::from_slice(&dea(&["check", "../cases/hybrid_disc_two_layer_settle.json"]).stdout).unwrap();
     // the rank built exactly what the partition gives it, of the whole the case describes
     assert_eq!(share["panel_nodes"], check["resolved"]["nodes"]);
     assert_eq!(share["ties"], check["resolved"]["hybrid"]["ties"]);
@@ -182,7 +227,11 @@ fn fabric_share_builds_one_rank_of_a_larger_job_alone() {
     assert!(owned > 0 && owned < share["panel_nodes"].as_u64().unwrap());
     assert!(share["contact_entries"].as_u64().unwrap() > 0);
     for bad in ["3/3", "1", "x/4", "0/0"] {
-        assert_eq!(dea(&["fabric", "../cases/hybrid_disc_two_layer_settle.json", "--share", bad]).status.code(), Some(2), "--share {bad}");
+        assert_eq!(
+            dea(&["fabric", "../cases/hybrid_disc_two_layer_settle.json", "--share", bad]).status.code(),
+            Some(2),
+            "--share {bad}"
+        );
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -217,29 +266,44 @@ fn stl(vertices: &[dea_core::Vec3], triangles: &[[u32; 3]]) -> String {
 fn an_stl_projectile_strikes_like_the_generated_mesh_it_was_written_from() {
     let dir = scratch("stl");
     let (radius, height, edge) = (1.7e-3, 3.7e-3, 0.2e-3);
-    let (vertices, triangles) = dea_projectile::generate::Solid::Cylinder { radius, height, edge_radius: edge }.mesh(4).boundary();
+    let (vertices, triangles) =
+        dea_projectile::generate::Solid::Cylinder { radius, height, edge_radius: edge }.mesh(4).boundary();
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles)).unwrap();
     let mut case = case_file("single_fibre_short.json");
     case["projectile"] = serde_json::json!({ "shape": "cylinder", "diameter_m": 2.0 * radius, "height_m": height, "edge_radius_m": edge, "mesh_divisions": 4, "mass_kg": 5e-6, "velocity_m_s": 100.0 });
     std::fs::write(dir.join("generated.json"), case.to_string()).unwrap();
     // the file's vertices are the generator's, written exactly, in the same order
-    case["projectile"] = serde_json::json!({ "shape": "file", "mesh_file": "rcc.stl", "mass_kg": 5e-6, "velocity_m_s": 100.0 });
+    case["projectile"] =
+        serde_json::json!({ "shape": "file", "mesh_file": "rcc.stl", "mass_kg": 5e-6, "velocity_m_s": 100.0 });
     std::fs::write(dir.join("file.json"), case.to_string()).unwrap();
     let checked = dea(&["check", dir.join("file.json").to_str().unwrap()]);
     assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
     let printed: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
     assert_eq!(printed["resolved"]["projectile"]["shape"]["mesh"]["triangles"], triangles.len());
     for name in ["generated", "file"] {
-        let out = dea(&["run", dir.join(format!("{name}.json")).to_str().unwrap(), "--out", dir.join(name).to_str().unwrap()]);
+        let out = dea(&[
+            "run",
+            dir.join(format!("{name}.json")).to_str().unwrap(),
+            "--out",
+            dir.join(name).to_str().unwrap(),
+        ]);
         assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
     }
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("file/summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("file/summary.json")).unwrap()).unwrap();
     assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the meshed cylinder reached the fibre");
-    let compared = dea(&["compare", dir.join("generated/results.h5").to_str().unwrap(), dir.join("file/results.h5").to_str().unwrap()]);
+    let compared = dea(&[
+        "compare",
+        dir.join("generated/results.h5").to_str().unwrap(),
+        dir.join("file/results.h5").to_str().unwrap(),
+    ]);
     assert!(compared.status.success(), "{}", String::from_utf8_lossy(&compared.stdout));
     // a damaged file: exit 4, naming the file and the line
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles).replacen("vertex", "vertex nan-ish", 1)).unwrap();
-    let stderr = stderr_of_exit(4, &["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()]);
+    let stderr = stderr_of_exit(
+        4,
+        &["run", dir.join("file.json").to_str().unwrap(), "--out", dir.join("bad").to_str().unwrap()],
+    );
     assert!(stderr.contains("rcc.stl:4:"), "{stderr}");
     // an open surface is refused by name too
     std::fs::write(dir.join("rcc.stl"), stl(&vertices, &triangles[1..])).unwrap();
@@ -256,7 +320,10 @@ fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
     case["projectile"]["velocity_m_s"] = 50.0.into();
     case["run"]["end_time_s"] = 1.2e-5.into();
     std::fs::write(dir.join("soft.json"), case.to_string()).unwrap();
-    let stderr = stderr_of_exit(5, &["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
+    let stderr = stderr_of_exit(
+        5,
+        &["run", dir.join("soft.json").to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()],
+    );
     assert!(stderr.contains("deformable projectile is inverted"), "{stderr}");
     // a deformable body needs hexahedra: an analytic sphere is refused by field
     case["projectile"].as_object_mut().unwrap().remove("mesh_divisions");
@@ -269,7 +336,13 @@ fn a_deformable_projectile_that_turns_inside_out_stops_the_run_with_exit_5() {
 fn a_closed_pipe_ends_the_output_quietly() {
     use std::process::{Command, Stdio};
     // the reader goes away before dea-mpi prints: it must stop without a panic
-    let mut child = Command::new(env!("CARGO_BIN_EXE_dea-mpi")).args(["check", "cases/km2_706_patch.json"]).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
+        .args(["check", "cases/km2_706_patch.json"])
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     drop(child.stdout.take());
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -281,14 +354,21 @@ fn a_closed_pipe_ends_the_output_quietly() {
 #[test]
 fn help_texts_list_subcommands_briefly_and_name_files_that_exist() {
     let top = String::from_utf8(dea(&["--help"]).stdout).unwrap();
-    let commands: Vec<&str> = top.lines().skip_while(|l| !l.starts_with("Commands:")).skip(1).take_while(|l| !l.is_empty()).collect();
+    let commands: Vec<&str> =
+        top.lines().skip_while(|l| !l.starts_with("Commands:")).skip(1).take_while(|l| !l.is_empty()).collect();
     assert_eq!(commands.len(), 8, "{top}");
     assert!(commands.iter().all(|l| l.len() <= 100), "{top}");
     for subcommand in ["run", "fabric", "v50", "check", "partition", "compare", "bench"] {
         let help = String::from_utf8(dea(&[subcommand, "--help"]).stdout).unwrap();
         assert!(help.contains("Example"), "{subcommand}: {help}");
-        for word in help.split_whitespace().filter(|w| (w.starts_with("cases/") || w.starts_with("jobs/")) && w.ends_with(".json")) {
-            assert!(std::path::Path::new("..").join(word).exists(), "`dea-mpi {subcommand} --help` names {word}, which does not exist");
+        for word in help
+            .split_whitespace()
+            .filter(|w| (w.starts_with("cases/") || w.starts_with("jobs/")) && w.ends_with(".json"))
+        {
+            assert!(
+                std::path::Path::new("..").join(word).exists(),
+                "`dea-mpi {subcommand} --help` names {word}, which does not exist"
+            );
         }
     }
 }
@@ -303,17 +383,27 @@ fn an_oblique_shot_reports_its_residual_velocity_along_the_line_of_flight() {
     assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
     let obliquity = case_file("four_layer_fsp.json")["projectile"]["obliquity_deg"].as_f64().unwrap().to_radians();
     assert!(obliquity > 0.1, "the case is oblique");
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     // the last history row is the end state the summary reports
     let csv = std::fs::read_to_string(out.join("history.csv")).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let last: Vec<f64> = csv.lines().last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
-    let column = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
-    let velocity = [column("projectile_velocity_x_m_s"), column("projectile_velocity_y_m_s"), column("projectile_velocity_z_m_s")];
+    let column =
+        |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
+    let velocity =
+        [column("projectile_velocity_x_m_s"), column("projectile_velocity_y_m_s"), column("projectile_velocity_z_m_s")];
     let flight = [-obliquity.sin(), 0.0, -obliquity.cos()];
     let along_flight: f64 = velocity.iter().zip(flight).map(|(v, d)| v * d).sum();
-    let (residual, normal) = (summary["residual_velocity_m_s"].as_f64().unwrap(), summary["normal_velocity_m_s"].as_f64().unwrap());
-    assert!((residual - along_flight).abs() <= 1e-9 * along_flight.abs(), "residual {residual} against {along_flight} along the line of flight");
+    let (residual, normal) =
+        (summary["residual_velocity_m_s"].as_f64().unwrap(), summary["normal_velocity_m_s"].as_f64().unwrap());
+    assert!(
+        (residual - along_flight).abs() <= 1e-9 * along_flight.abs(),
+        "residual {residual} against {along_flight} along the line of flight"
+    );
     assert_eq!(normal, -velocity[2]);
-    assert!((residual - normal).abs() > 0.01 * residual.abs(), "an oblique shot's two components differ: {residual} and {normal}");
+    assert!(
+        (residual - normal).abs() > 0.01 * residual.abs(),
+        "an oblique shot's two components differ: {residual} and {normal}"
+    );
 }

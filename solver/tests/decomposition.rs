@@ -16,7 +16,8 @@ use dea_partition::Method;
 
 /// A case of the project's `cases/` directory.
 fn case_file(name: &str) -> Case {
-    load_case(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases").join(name)).unwrap_or_else(|e| panic!("{name} loads: {e}"))
+    load_case(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases").join(name))
+        .unwrap_or_else(|e| panic!("{name} loads: {e}"))
 }
 
 fn panel_case() -> Case {
@@ -33,7 +34,13 @@ fn fibres(case: &Case) -> usize {
     problem(case).unwrap().fibres()
 }
 
-fn options<'a>(case: &'a Case, json: &'a str, out: &'a Path, every_steps: Option<u64>, resume: Option<Resume>) -> RunOptions<'a> {
+fn options<'a>(
+    case: &'a Case,
+    json: &'a str,
+    out: &'a Path,
+    every_steps: Option<u64>,
+    resume: Option<Resume>,
+) -> RunOptions<'a> {
     RunOptions {
         case_name: &case.name,
         case_json: json,
@@ -83,10 +90,16 @@ fn every_output_has_the_same_bits_on_one_two_three_and_four_ranks() {
     let dir = scratch("identity");
     let reference = run_on(&case, 1, &dir.join("1"));
     // the run exercises every history-carrying model
-    assert!(reference.broken_elements_tension + reference.broken_elements_shear + reference.broken_elements_combined > 0, "elements break");
+    assert!(
+        reference.broken_elements_tension + reference.broken_elements_shear + reference.broken_elements_combined > 0,
+        "elements break"
+    );
     let histories = dea_io::results::read_histories(&dir.join("1/results.h5")).unwrap();
     let last = histories.energy.last().unwrap();
-    assert!(last.plastic_dissipated > 0.0 && last.friction_dissipated > 0.0 && last.fracture_released > 0.0, "{last:?}");
+    assert!(
+        last.plastic_dissipated > 0.0 && last.friction_dissipated > 0.0 && last.fracture_released > 0.0,
+        "{last:?}"
+    );
     assert!(reference.neighbour_rebuilds > 1);
     // friction creates no energy (the stick spring keeps its energy when k_s changes):
     // without that rescaling this run gained 5.2 %
@@ -124,8 +137,12 @@ fn the_verlet_skin_changes_no_result() {
         other.contact.skin_m = Some(factor * skin);
         let name = format!("skin{factor}");
         let summary = run_on(&other, 2, &dir.join(&name));
-        assert_ne!(summary.neighbour_rebuilds, reference.neighbour_rebuilds, "the skin changes how often lists are built");
-        let differences = compare_results(&dir.join("default/results.h5"), &dir.join(format!("{name}/results.h5"))).unwrap();
+        assert_ne!(
+            summary.neighbour_rebuilds, reference.neighbour_rebuilds,
+            "the skin changes how often lists are built"
+        );
+        let differences =
+            compare_results(&dir.join("default/results.h5"), &dir.join(format!("{name}/results.h5"))).unwrap();
         assert!(differences.is_empty(), "skin x {factor}: {differences:#?}");
     }
     std::fs::remove_dir_all(&dir).unwrap();
@@ -139,8 +156,18 @@ fn assert_strikes_like_the_rigid_body(case: &Case, reference: &Summary, dir: &Pa
     rigid.projectile.deformable = None;
     let rigid = run_on(&rigid, 1, &dir.join("rigid"));
     let relative = |a: f64, b: f64| (a / b - 1.0).abs();
-    assert!(relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.02, "{} vs {}", reference.max_projectile_force_n, rigid.max_projectile_force_n);
-    assert!(relative(reference.residual_velocity_m_s, rigid.residual_velocity_m_s) < 0.03, "{} vs {}", reference.residual_velocity_m_s, rigid.residual_velocity_m_s);
+    assert!(
+        relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.02,
+        "{} vs {}",
+        reference.max_projectile_force_n,
+        rigid.max_projectile_force_n
+    );
+    assert!(
+        relative(reference.residual_velocity_m_s, rigid.residual_velocity_m_s) < 0.03,
+        "{} vs {}",
+        reference.residual_velocity_m_s,
+        rigid.residual_velocity_m_s
+    );
 }
 
 /// Asserts that `case`, run to `dir/1` on one rank, gives the same bits on 3 ranks
@@ -166,7 +193,8 @@ fn the_projectile_skips_only_the_queries_of_nodes_out_of_contact() {
     run_local(1, |comm| {
         let mut state = build(&case, comm, Method::KWay, None).unwrap();
         let projectile = state.domain.projectile.as_mut().unwrap();
-        projectile.angular_momentum = projectile.orientation * (projectile.inertia * dea_core::Vec3::new(5e5, 0.0, 0.0));
+        projectile.angular_momentum =
+            projectile.orientation * (projectile.inertia * dea_core::Vec3::new(5e5, 0.0, 0.0));
         let (mut touching, mut clear) = (0, 0);
         for step in 0..steps {
             state.step().unwrap();
@@ -175,8 +203,14 @@ fn the_projectile_skips_only_the_queries_of_nodes_out_of_contact() {
             for &i in &d.projectile_contacts.candidates {
                 let i = i.index();
                 let radius = 0.5 * d.sections[d.nodes.section[i] as usize].contact_diameter;
-                let distance = projectile.shape.contact_point(&projectile.to_body(&d.nodes.position[i]), dea_core::NONE).distance;
-                assert_eq!(d.projectile_contacts.touching[i], distance < radius, "step {step}, node {:?}: {distance} m from the surface", d.nodes.gid[i]);
+                let distance =
+                    projectile.shape.contact_point(&projectile.to_body(&d.nodes.position[i]), dea_core::NONE).distance;
+                assert_eq!(
+                    d.projectile_contacts.touching[i],
+                    distance < radius,
+                    "step {step}, node {:?}: {distance} m from the surface",
+                    d.nodes.gid[i]
+                );
                 touching += (distance < radius) as usize;
                 clear += (distance >= radius) as usize;
             }
@@ -250,15 +284,25 @@ fn a_hybrid_panel_with_a_fine_disc_gives_the_same_bits_on_any_ranks_and_after_a_
     let p = problem(&case).unwrap();
     let dea_fabric::Fabric::Woven(panel) = &p.fabric else { panic!("a woven panel") };
     let ties = panel.ties();
-    assert_eq!(ties.len(), 2 * 2 * 2 * 2 * 4, "two layers, two fine yarns each way, two transitions of four fibres each");
+    assert_eq!(
+        ties.len(),
+        2 * 2 * 2 * 2 * 4,
+        "two layers, two fine yarns each way, two transitions of four fibres each"
+    );
     let partition = dea_partition::partition(&dea_mpi::setup::segment_graph(&p, 3, None), 3, Method::KWay).unwrap();
-    let split = ties.iter().filter(|t| partition.rank_of(t.fine.fibre, t.fine.along) != partition.rank_of(t.coarse.fibre, t.coarse.along)).count();
+    let split = ties
+        .iter()
+        .filter(|t| partition.rank_of(t.fine.fibre, t.fine.along) != partition.rank_of(t.coarse.fibre, t.coarse.along))
+        .count();
     assert!(split > 0, "no tie crosses a rank's border on 3 ranks");
     let dir = scratch("hybrid-disc");
     let reference = run_on(&case, 1, &dir.join("1"));
     let settle = reference.settle.expect("the case settles");
     // fine meets coarse only beside the transitions: far less out of balance than a band
-    assert!(settle.largest_force_before_n < 1.0 && settle.largest_force_after_n < 0.1 * settle.largest_force_before_n, "{settle:?}");
+    assert!(
+        settle.largest_force_before_n < 1.0 && settle.largest_force_after_n < 0.1 * settle.largest_force_before_n,
+        "{settle:?}"
+    );
     assert!(reference.max_projectile_force_n > 0.0, "the sphere struck");
     assert!(reference.energy_balance_error < 0.005, "energy balance {}", reference.energy_balance_error);
     assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
@@ -266,7 +310,8 @@ fn a_hybrid_panel_with_a_fine_disc_gives_the_same_bits_on_any_ranks_and_after_a_
 }
 
 #[test]
-fn a_deformable_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_a_steel_one_strikes_like_a_rigid_one() {
+fn a_deformable_projectile_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_a_steel_one_strikes_like_a_rigid_one(
+) {
     let case = case_file("four_layer_deformable_sphere.json");
     let dir = scratch("deformable");
     let reference = run_on(&case, 1, &dir.join("1"));
@@ -347,7 +392,12 @@ fn view(state: &Distributed<LocalComm>) -> RankView {
     }
     needed.sort();
     needed.dedup();
-    RankView { owned: nodes.gid[..nodes.n_owned].to_vec(), ghosts: state.ghost_gids().to_vec(), plan: state.halo_plan(), needed }
+    RankView {
+        owned: nodes.gid[..nodes.n_owned].to_vec(),
+        ghosts: state.ghost_gids().to_vec(),
+        plan: state.halo_plan(),
+        needed,
+    }
 }
 
 #[test]
@@ -373,7 +423,8 @@ fn every_node_is_owned_once_and_halos_are_symmetric() {
         for (partner, sent, received) in &va.plan {
             // what a sends to b is exactly what b holds as ghosts from a, in the same order
             let vb = &views[partner.0 as usize];
-            let (_, back_sent, back_received) = vb.plan.iter().find(|(p, _, _)| *p == Rank(a as u32)).expect("partners list each other");
+            let (_, back_sent, back_received) =
+                vb.plan.iter().find(|(p, _, _)| *p == Rank(a as u32)).expect("partners list each other");
             assert_eq!(*back_received, sent.len());
             let offset: usize = vb.plan.iter().take_while(|(p, _, _)| *p != Rank(a as u32)).map(|(_, _, n)| n).sum();
             assert_eq!(&vb.ghosts[offset..offset + sent.len()], &sent[..], "rank {a} -> rank {}", partner.0);
@@ -421,8 +472,16 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
                 state.step().unwrap();
             }
             let nodes = &state.domain.nodes;
-            let moved = (0..nodes.n_owned).map(|i| (nodes.position[i] - state.domain.pairs.reference_position[i]).norm()).fold(0.0, f64::max);
-            assert!(moved > 0.75 * p.contact.skin, "a node moved {moved} m, skin {} m, {steps} steps of {} s, rebuilds {} {built}", p.contact.skin, p.time_step, state.rebuilds);
+            let moved = (0..nodes.n_owned)
+                .map(|i| (nodes.position[i] - state.domain.pairs.reference_position[i]).norm())
+                .fold(0.0, f64::max);
+            assert!(
+                moved > 0.75 * p.contact.skin,
+                "a node moved {moved} m, skin {} m, {steps} steps of {} s, rebuilds {} {built}",
+                p.contact.skin,
+                p.time_step,
+                state.rebuilds
+            );
             assert_eq!(state.rebuilds, built, "{ranks} ranks rebuilt their lists");
             (0..nodes.n_owned).map(|i| (nodes.gid[i], nodes.position[i].map(f64::to_bits).into())).collect::<Vec<_>>()
         });
@@ -435,7 +494,12 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
 /// every step that each owned node lists every node of any rank within contact distance of
 /// it, chain neighbours excepted: the invariant that keeping lists rests on (theory I5b,
 /// D5). Returns, per rank, the contacts checked and the rebuilds.
-fn assert_every_contact_is_listed(ranks: usize, case: &Case, adjust: impl Fn(&mut dea_core::Nodes) + Sync, steps: usize) -> Vec<(usize, u64)> {
+fn assert_every_contact_is_listed(
+    ranks: usize,
+    case: &Case,
+    adjust: impl Fn(&mut dea_core::Nodes) + Sync,
+    steps: usize,
+) -> Vec<(usize, u64)> {
     const WORDS: usize = 6;
     run_local(ranks, |comm| {
         let mut state = build_adjusted(case, comm, Method::KWay, None, &adjust).unwrap();
@@ -449,19 +513,43 @@ fn assert_every_contact_is_listed(ranks: usize, case: &Case, adjust: impl Fn(&mu
             // every node of every rank: position, gid, fibre, place along it (NaN pads the
             // shorter ranks to the longest, as the gather wants equal lengths)
             let longest = state.comm.all_gather_f64(&[n as f64]).into_iter().fold(0.0, f64::max) as usize;
-            let mut mine: Vec<f64> = (0..n).flat_map(|i| [nodes.position[i].x, nodes.position[i].y, nodes.position[i].z, nodes.gid[i].0 as f64, nodes.fibre[i].0 as f64, nodes.along[i] as f64]).collect();
+            let mut mine: Vec<f64> = (0..n)
+                .flat_map(|i| {
+                    [
+                        nodes.position[i].x,
+                        nodes.position[i].y,
+                        nodes.position[i].z,
+                        nodes.gid[i].0 as f64,
+                        nodes.fibre[i].0 as f64,
+                        nodes.along[i] as f64,
+                    ]
+                })
+                .collect();
             mine.resize(longest * WORDS, f64::NAN);
-            let mut all: Vec<[f64; WORDS]> = state.comm.all_gather_f64(&mine).chunks_exact(WORDS).map(|w| w.try_into().unwrap()).filter(|w: &[f64; WORDS]| !w[0].is_nan()).collect();
+            let mut all: Vec<[f64; WORDS]> = state
+                .comm
+                .all_gather_f64(&mine)
+                .chunks_exact(WORDS)
+                .map(|w| w.try_into().unwrap())
+                .filter(|w: &[f64; WORDS]| !w[0].is_nan())
+                .collect();
             all.sort_by(|a, b| a[0].total_cmp(&b[0]));
             for i in 0..n {
                 let x = nodes.position[i];
                 let listed = &state.domain.pairs.partner_gid[state.domain.pairs.row(i)];
                 let from = all.partition_point(|w| w[0] < x.x - cutoff);
                 for w in all[from..].iter().take_while(|w| w[0] < x.x + cutoff) {
-                    let chain = w[4] as u32 == nodes.fibre[i].0 && (w[5] - nodes.along[i] as f64).abs() <= exclusion as f64;
+                    let chain =
+                        w[4] as u32 == nodes.fibre[i].0 && (w[5] - nodes.along[i] as f64).abs() <= exclusion as f64;
                     if !chain && (dea_core::Vec3::new(w[0], w[1], w[2]) - x).norm() < cutoff {
                         touching += 1;
-                        assert!(listed.contains(&GlobalNodeId(w[3] as u64)), "step {}: node {} does not list node {} in contact", state.domain.step, nodes.gid[i].0, w[3]);
+                        assert!(
+                            listed.contains(&GlobalNodeId(w[3] as u64)),
+                            "step {}: node {} does not list node {} in contact",
+                            state.domain.step,
+                            nodes.gid[i].0,
+                            w[3]
+                        );
                     }
                 }
             }
@@ -476,7 +564,10 @@ fn every_rank_lists_every_pair_in_contact_at_every_step() {
     // (`Domain::rebuild_neighbours_around_moved`), three rebuild whole lists
     for ranks in [1, 3] {
         let struck = assert_every_contact_is_listed(ranks, &panel_case(), |_| {}, 400);
-        assert!(struck.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 2), "{ranks} ranks: {struck:?}");
+        assert!(
+            struck.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 2),
+            "{ranks} ranks: {struck:?}"
+        );
     }
     // the panel, unclamped and without the projectile, squeezed through its thickness: the
     // layers close on each other by several skins, the nodes of a layer moving together
@@ -492,7 +583,10 @@ fn every_rank_lists_every_pair_in_contact_at_every_step() {
     };
     for ranks in [1, 3] {
         let squeezed = assert_every_contact_is_listed(ranks, &case, squeeze.clone(), 400);
-        assert!(squeezed.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 1), "{ranks} ranks: {squeezed:?}");
+        assert!(
+            squeezed.iter().all(|&(touching, rebuilds)| touching > 1000 && rebuilds > 1),
+            "{ranks} ranks: {squeezed:?}"
+        );
     }
 }
 
@@ -530,8 +624,16 @@ fn elements_stretched_far_beyond_the_contact_reach_give_the_same_bits_on_any_ran
     assert!(histories.energy[0].axial > 1e-6, "{:?}", histories.energy[0]);
     for ranks in [2, 3] {
         let other = dir.join(ranks.to_string());
-        assert_eq!(compare_results(&dir.join("1/results.h5"), &other.join("results.h5")).unwrap(), Vec::<String>::new(), "1 vs {ranks} ranks");
-        assert_eq!(dea_io::snapshot::compare_snapshots(&dir.join("1"), &other).unwrap(), Vec::<String>::new(), "1 vs {ranks} ranks");
+        assert_eq!(
+            compare_results(&dir.join("1/results.h5"), &other.join("results.h5")).unwrap(),
+            Vec::<String>::new(),
+            "1 vs {ranks} ranks"
+        );
+        assert_eq!(
+            dea_io::snapshot::compare_snapshots(&dir.join("1"), &other).unwrap(),
+            Vec::<String>::new(),
+            "1 vs {ranks} ranks"
+        );
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -548,7 +650,16 @@ fn a_missing_ghost_is_reported_on_every_rank_not_computed_around() {
         let me = comm.rank();
         let mut built = p.fabric.build(&p.material, |yarn, k| partition.rank_of_position(yarn, k) == me);
         sawtooth(&mut built.nodes);
-        let domain = dea_core::Domain::assemble(p.material, built.sections, built.nodes, built.elements, p.contact, p.failure, Some(p.projectile), p.time_step);
+        let domain = dea_core::Domain::assemble(
+            p.material,
+            built.sections,
+            built.nodes,
+            built.elements,
+            p.contact,
+            p.failure,
+            Some(p.projectile),
+            p.time_step,
+        );
         // claiming one node per fibre hides every chain neighbour on another rank; the
         // sawtooth puts them all beyond contact reach, so nothing else brings them
         match Distributed::new(comm, domain, partition, &vec![1; p.fabric.yarn_count()], p.reach, None) {
@@ -632,7 +743,8 @@ fn a_restart_from_a_checkpoint_gives_the_same_bits_on_the_same_or_other_rank_cou
     run_checkpointed(&case, 1, &dir.join("checkpointed-1"), Some(500));
     let summary = restart_on(&dir.join("checkpointed-1/checkpoint"), 2, &dir.join("restarted-from-1")).unwrap();
     assert_eq!(summary.steps, 1215);
-    let differences = compare_results(&dir.join("reference/results.h5"), &dir.join("restarted-from-1/results.h5")).unwrap();
+    let differences =
+        compare_results(&dir.join("reference/results.h5"), &dir.join("restarted-from-1/results.h5")).unwrap();
     assert!(differences.is_empty(), "restart of a 1-rank checkpoint on 2 ranks: {differences:#?}");
     // a damaged part is refused on every rank, naming the file
     let part = dea_io::checkpoint::part_path(&checkpoint, 1);

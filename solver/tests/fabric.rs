@@ -24,23 +24,44 @@ fn the_relaxed_cell_has_the_same_bits_on_one_two_and_four_ranks_and_is_reusable(
     let mut reports: Vec<FabricReport> = Vec::new();
     for ranks in [1, 2, 4] {
         let out = dir.join(ranks.to_string());
-        let report = run_local(ranks, |comm| fabric(&case, comm, Method::KWay, &out).expect("fabric succeeds")).into_iter().next().flatten().expect("rank 0 reports");
+        let report = run_local(ranks, |comm| fabric(&case, comm, Method::KWay, &out).expect("fabric succeeds"))
+            .into_iter()
+            .next()
+            .flatten()
+            .expect("rank 0 reports");
         assert_eq!(report.ranks.len(), ranks);
-        assert_eq!(report.ranks.iter().map(|r| r.owned_nodes).sum::<u64>(), report.panel.nodes, "every node owned once");
+        assert_eq!(
+            report.ranks.iter().map(|r| r.owned_nodes).sum::<u64>(),
+            report.panel.nodes,
+            "every node owned once"
+        );
         reports.push(report);
     }
-    let cells: Vec<_> = [1, 2, 4].iter().map(|r| read_cell(&dir.join(r.to_string()).join("cell.h5")).unwrap()).collect();
+    let cells: Vec<_> =
+        [1, 2, 4].iter().map(|r| read_cell(&dir.join(r.to_string()).join("cell.h5")).unwrap()).collect();
     assert!(cells.iter().all(|c| *c == cells[0]), "the same relaxed cell on 1, 2 and 4 ranks");
     let relaxation = reports[0].relaxation.as_ref().expect("relaxed here");
-    assert!(reports.iter().all(|r| r.relaxation.as_ref().unwrap().final_residual_n.to_bits() == relaxation.final_residual_n.to_bits()));
+    assert!(reports
+        .iter()
+        .all(|r| r.relaxation.as_ref().unwrap().final_residual_n.to_bits() == relaxation.final_residual_n.to_bits()));
     assert!(relaxation.final_residual_n <= 1e-6 * relaxation.initial_residual_n);
     // style 706: within 2 % of 180 g/m^2; four layers of about a quarter millimetre
-    assert!(reports[0].style_706_areal_density_deviation.abs() < 0.02, "{}", reports[0].style_706_areal_density_deviation);
-    assert!(reports[0].cell.thickness_m > 1.5e-4 && reports[0].cell.thickness_m < 4e-4, "{}", reports[0].cell.thickness_m);
+    assert!(
+        reports[0].style_706_areal_density_deviation.abs() < 0.02,
+        "{}",
+        reports[0].style_706_areal_density_deviation
+    );
+    assert!(
+        reports[0].cell.thickness_m > 1.5e-4 && reports[0].cell.thickness_m < 4e-4,
+        "{}",
+        reports[0].cell.thickness_m
+    );
     assert!(dir.join("1/cell.xdmf").exists() && dir.join("1/fabric.json").exists());
     // a case naming the cell file builds the same panel without relaxing
     let mut reused = case.clone();
-    let TargetSpec::WovenPanel { weave, cell_file, .. } = &mut reused.target else { panic!("the default case is woven") };
+    let TargetSpec::WovenPanel { weave, cell_file, .. } = &mut reused.target else {
+        panic!("the default case is woven")
+    };
     *weave = Default::default();
     *cell_file = Some(dir.join("1/cell.h5"));
     let (fresh, again) = (problem(&case).unwrap(), problem(&reused).unwrap());
@@ -49,7 +70,10 @@ fn the_relaxed_cell_has_the_same_bits_on_one_two_and_four_ranks_and_is_reusable(
     assert_eq!(fresh.time_step.to_bits(), again.time_step.to_bits());
     // a file that is not a cell file: exit 4, naming the file
     std::fs::write(dir.join("bad.h5"), b"not a cell").unwrap();
-    *match &mut reused.target { TargetSpec::WovenPanel { cell_file, .. } => cell_file, _ => unreachable!() } = Some(dir.join("bad.h5"));
+    *match &mut reused.target {
+        TargetSpec::WovenPanel { cell_file, .. } => cell_file,
+        _ => unreachable!(),
+    } = Some(dir.join("bad.h5"));
     match problem(&reused) {
         Err(SetupError::Mesh(message)) => assert!(message.contains("bad.h5"), "{message}"),
         other => panic!("expected a file error, got {:?}", other.map(|_| ())),
@@ -65,7 +89,10 @@ fn orthogonal_cell_case() -> dea_io::case::Case {
     let text = r#"{"pattern": "orthogonal", "filler_layers": 2, "pick_spacing_m": 1.0e-3, "end_spacing_m": 0.8e-3,
         "filler": {"area_m2": 4.63e-8, "section_aspect": 3.0}, "filler_fibres": 4,
         "binder": {"area_m2": 2.315e-8, "section_aspect": 2.0}}"#;
-    case.target = TargetSpec::ThreeDWeaveCell { weave: serde_json::from_str(text).unwrap(), relaxation: serde_json::from_str(r#"{"tolerance": 1e-6, "max_iterations": 400000}"#).unwrap() };
+    case.target = TargetSpec::ThreeDWeaveCell {
+        weave: serde_json::from_str(text).unwrap(),
+        relaxation: serde_json::from_str(r#"{"tolerance": 1e-6, "max_iterations": 400000}"#).unwrap(),
+    };
     case.validate().unwrap();
     case
 }
@@ -111,7 +138,8 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
         panel.validate().unwrap();
         panel
     };
-    let (fresh, again) = (problem(&panel_of(Some(weave), None)).unwrap(), problem(&panel_of(None, Some(dir.join("cell.h5")))).unwrap());
+    let (fresh, again) =
+        (problem(&panel_of(Some(weave), None)).unwrap(), problem(&panel_of(None, Some(dir.join("cell.h5")))).unwrap());
     assert!(fresh.relaxation.is_some() && again.relaxation.is_none());
     assert!(fresh.fabric == again.fabric, "the panel from the file is the panel relaxed on the spot");
     assert_eq!(fresh.time_step.to_bits(), again.time_step.to_bits());

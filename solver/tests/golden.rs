@@ -13,7 +13,8 @@ use std::process::Command;
 /// and yawed FSP with tension, shear and combined breaks under Weibull strengths; a woven
 /// panel in a clamp; a hybrid disc with ties, settled before the shot; a deformable
 /// projectile that subcycles).
-const CASES: [&str; 4] = ["four_layer_fsp", "woven_two_layer_clamp", "hybrid_disc_two_layer_settle", "four_layer_deformable_sphere"];
+const CASES: [&str; 4] =
+    ["four_layer_fsp", "woven_two_layer_clamp", "hybrid_disc_two_layer_settle", "four_layer_deformable_sphere"];
 
 /// Summary fields that measure the machine, not the physics: never compared.
 const TIMING_FIELDS: [&str; 4] = ["wall_s", "node_steps_per_s_per_core", "stage_seconds", "load_imbalance"];
@@ -38,8 +39,17 @@ fn physics_of_summary(summary: &str) -> String {
 
 /// The first line where two texts differ, for the failure message.
 fn first_difference(expected: &str, found: &str) -> String {
-    let line = expected.lines().zip(found.lines()).position(|(a, b)| a != b).unwrap_or_else(|| expected.lines().count().min(found.lines().count()));
-    format!("line {}:\n  golden: {}\n  now:    {}", line + 1, expected.lines().nth(line).unwrap_or("(end)"), found.lines().nth(line).unwrap_or("(end)"))
+    let line = expected
+        .lines()
+        .zip(found.lines())
+        .position(|(a, b)| a != b)
+        .unwrap_or_else(|| expected.lines().count().min(found.lines().count()));
+    format!(
+        "line {}:\n  golden: {}\n  now:    {}",
+        line + 1,
+        expected.lines().nth(line).unwrap_or("(end)"),
+        found.lines().nth(line).unwrap_or("(end)")
+    )
 }
 
 #[test]
@@ -51,12 +61,21 @@ fn the_golden_cases_keep_their_bits() {
         let out = scratch.join(case);
         let _ = std::fs::remove_dir_all(&out);
         let case_path = repository().join("cases").join(format!("{case}.json"));
-        let run = Command::new(env!("CARGO_BIN_EXE_dea-mpi")).arg("run").arg(&case_path).arg("--out").arg(&out).output().expect("dea-mpi starts");
+        let run = Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
+            .arg("run")
+            .arg(&case_path)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("dea-mpi starts");
         assert!(run.status.success(), "{case}: {}", String::from_utf8_lossy(&run.stderr));
         let golden = repository().join("tests/golden").join(case);
         let found = [
             ("history.csv", std::fs::read_to_string(out.join("history.csv")).expect("history.csv written")),
-            ("summary.json", physics_of_summary(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json written"))),
+            (
+                "summary.json",
+                physics_of_summary(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json written")),
+            ),
         ];
         for (file, text) in found {
             if bless {
@@ -64,9 +83,11 @@ fn the_golden_cases_keep_their_bits() {
                 std::fs::write(golden.join(file), &text).unwrap();
                 continue;
             }
-            let expected = std::fs::read_to_string(golden.join(file)).unwrap_or_else(|e| panic!("{case}/{file}: {e} (bless with DEA_BLESS_GOLDEN=1)"));
+            let expected = std::fs::read_to_string(golden.join(file))
+                .unwrap_or_else(|e| panic!("{case}/{file}: {e} (bless with DEA_BLESS_GOLDEN=1)"));
             if expected != text {
-                failures.push(format!("{case}/{file} differs from tests/golden, {}", first_difference(&expected, &text)));
+                failures
+                    .push(format!("{case}/{file} differs from tests/golden, {}", first_difference(&expected, &text)));
             }
         }
     }
@@ -81,10 +102,14 @@ fn the_golden_cases_keep_their_bits() {
 /// The comparison can fail: one changed bit of a number is found and reported.
 #[test]
 fn a_changed_bit_is_a_difference() {
-    let summary = r#"{"case":"x","wall_s":1.5,"residual_velocity_m_s":253.38174755090085,"settle":{"steps":3,"wall_s":0.1}}"#;
-    let nudged = summary.replace("253.38174755090085", &f64::from_bits(253.38174755090085f64.to_bits() + 1).to_string());
+    let summary =
+        r#"{"case":"x","wall_s":1.5,"residual_velocity_m_s":253.38174755090085,"settle":{"steps":3,"wall_s":0.1}}"#;
+    let nudged =
+        summary.replace("253.38174755090085", &f64::from_bits(253.38174755090085f64.to_bits() + 1).to_string());
     assert_ne!(physics_of_summary(summary), physics_of_summary(&nudged));
     // timings are not physics
     assert_eq!(physics_of_summary(summary), physics_of_summary(&summary.replace("1.5", "9.0").replace("0.1", "0.2")));
-    assert!(first_difference(&physics_of_summary(summary), &physics_of_summary(&nudged)).contains("residual_velocity_m_s"));
+    assert!(
+        first_difference(&physics_of_summary(summary), &physics_of_summary(&nudged)).contains("residual_velocity_m_s")
+    );
 }

@@ -29,14 +29,35 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
 fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaModel) -> Distributed<LocalComm> {
     let material = FibreMaterial::kevlar_km2();
     let diameter: f64 = 50e-6;
-    let bundle = StraightFabric::single_yarn(0.1016, 1, std::f64::consts::PI * diameter * diameter / 4.0, element_length_ratio, inertia, 0.3, 3.8e9);
+    let bundle = StraightFabric::single_yarn(
+        0.1016,
+        1,
+        std::f64::consts::PI * diameter * diameter / 4.0,
+        element_length_ratio,
+        inertia,
+        0.3,
+        3.8e9,
+    );
     let built = bundle.build_all(&material);
     let contact = elastic_frictionless(&material);
-    let dt = stable_time_step(&material, &built.sections, &contact.law, 0.0, dea_core::stability::DESIGN_CONTACT_STRAIN, 0.5);
+    let dt = stable_time_step(
+        &material,
+        &built.sections,
+        &contact.law,
+        0.0,
+        dea_core::stability::DESIGN_CONTACT_STRAIN,
+        0.5,
+    );
     let projectile = with_sphere.then(|| {
         let radius = 5.56e-3 / 2.0;
         let start = radius + 0.5 * built.sections[0].contact_diameter + 1e-7;
-        RigidProjectile::new(RigidShape::Sphere { radius }, 5e-6, Vec3::new(0.0, 0.0, start), Vec3::new(0.0, 0.0, -100.0), UnitQuaternion::identity())
+        RigidProjectile::new(
+            RigidShape::Sphere { radius },
+            5e-6,
+            Vec3::new(0.0, 0.0, start),
+            Vec3::new(0.0, 0.0, -100.0),
+            UnitQuaternion::identity(),
+        )
     });
     whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, projectile, dt))
 }
@@ -93,15 +114,25 @@ fn a_deferred_closing_kick_changes_no_bit_of_the_motion_or_the_energies() {
     let mut at_once = single_fibre(0.5, true, InertiaModel::Locked);
     at_once.domain.defer_closing_kick = false;
     let mut deferred = single_fibre(0.5, true, InertiaModel::Locked);
-    let bits = |vectors: &mut dyn Iterator<Item = Vec3>| vectors.flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).collect::<Vec<u64>>();
+    let bits = |vectors: &mut dyn Iterator<Item = Vec3>| {
+        vectors.flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).collect::<Vec<u64>>()
+    };
     let mut lagged = 0;
     for step in 0..400 {
         at_once.step().unwrap();
         deferred.step().unwrap();
         let (at_once, deferred) = (&at_once.domain, &deferred.domain);
-        assert_eq!(bits(&mut deferred.nodes.position.iter().copied()), bits(&mut at_once.nodes.position.iter().copied()), "step {step}");
+        assert_eq!(
+            bits(&mut deferred.nodes.position.iter().copied()),
+            bits(&mut at_once.nodes.position.iter().copied()),
+            "step {step}"
+        );
         let n = deferred.nodes.n_owned;
-        assert_eq!(bits(&mut (0..n).map(|i| deferred.velocity(i))), bits(&mut at_once.nodes.velocity[..n].iter().copied()), "step {step}");
+        assert_eq!(
+            bits(&mut (0..n).map(|i| deferred.velocity(i))),
+            bits(&mut at_once.nodes.velocity[..n].iter().copied()),
+            "step {step}"
+        );
         assert_eq!(deferred.energies().total().to_bits(), at_once.energies().total().to_bits(), "step {step}");
         lagged += (0..n).filter(|&i| deferred.nodes.velocity[i] != at_once.nodes.velocity[i]).count();
     }
@@ -131,7 +162,9 @@ fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
         }
     }
     let report = run.domain.energies();
-    eprintln!("energy drift over 10^4 steps: {worst:.2e} of the total, {worst_of_exchanged:.2e} of the energy exchanged");
+    eprintln!(
+        "energy drift over 10^4 steps: {worst:.2e} of the total, {worst_of_exchanged:.2e} of the energy exchanged"
+    );
     assert!(peak_contact > 0.0 && report.axial > 1e-3 * initial, "the sphere really loads the fibre: {report:?}");
     assert!(report.projectile_kinetic < 0.999 * initial, "the sphere slows down");
     assert!(worst < 0.005, "energy drift {worst} of the total");
@@ -164,7 +197,10 @@ fn section_6_1_stress_profiles_converge_in_element_length() {
             norm += averaged * averaged;
         }
         let relative = (difference / norm).sqrt();
-        eprintln!("§6.1 output step {output_step}: l0/d 0.5 and 0.125 stress profiles differ by {:.2}% (relative L2)", 100.0 * relative);
+        eprintln!(
+            "§6.1 output step {output_step}: l0/d 0.5 and 0.125 stress profiles differ by {:.2}% (relative L2)",
+            100.0 * relative
+        );
         assert!(norm > 0.0);
         assert!(relative < 0.05, "output step {output_step}: profiles differ by {:.1}%", 100.0 * relative);
     }
@@ -173,7 +209,10 @@ fn section_6_1_stress_profiles_converge_in_element_length() {
 /// A 7-fibre bundle, squeezed and sheared so that contacts, friction and bending all act.
 fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     let material = FibreMaterial::kevlar_km2();
-    let bundle = StraightFabric { clamp_ends: false, ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked, 0.3, 3.8e9) };
+    let bundle = StraightFabric {
+        clamp_ends: false,
+        ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked, 0.3, 3.8e9)
+    };
     let mut built = bundle.build_all(&material);
     // squeeze the section by 3% and bend the fibres: overlaps everywhere
     for p in &mut built.nodes.position {
@@ -182,8 +221,14 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     for p in &mut built.nodes.position {
         *p = rotation * *p;
     }
-    let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
-    let mut run = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9));
+    let contact = ContactParameters {
+        law: NormalLaw::ElastoPlasticKm2,
+        friction_coefficient: 0.3,
+        projectile_friction_coefficient: 0.3,
+        skin: 5e-6,
+    };
+    let mut run =
+        whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, 1e-9));
     let domain = &mut run.domain;
     // a tangential shift of every other fibre activates friction against the first anchors
     for i in 0..domain.nodes.len() {
@@ -207,7 +252,11 @@ fn internal_forces_sum_to_zero_and_rotate_with_the_body() {
     let rotated = loaded_bundle(&rotation);
     for i in 0..reference.nodes.len() {
         let expected = rotation * reference.nodes.force[i];
-        assert!((rotated.nodes.force[i] - expected).norm() < 1e-9 * scale / reference.nodes.len() as f64 + 1e-9 * expected.norm(), "node {i}");
+        assert!(
+            (rotated.nodes.force[i] - expected).norm()
+                < 1e-9 * scale / reference.nodes.len() as f64 + 1e-9 * expected.norm(),
+            "node {i}"
+        );
     }
 }
 
@@ -223,19 +272,43 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let material = FibreMaterial::kevlar_km2();
     let law = NormalLaw::ElastoPlasticKm2;
     let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, ..Default::default() }).unwrap();
+    let report = relax(
+        &mut cell,
+        &material,
+        &law,
+        &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, ..Default::default() },
+    )
+    .unwrap();
     let period = cell.period();
-    let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 5, 2, 0.0, [0.3 * period, 0.1 * period], Boundary::FixedEdges, 3.8e9);
+    let panel = WovenPanel::new(
+        std::sync::Arc::new(cell),
+        None,
+        5,
+        2,
+        0.0,
+        [0.3 * period, 0.1 * period],
+        Boundary::FixedEdges,
+        3.8e9,
+    );
     let built = panel.build_all(&material);
-    let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let contact =
+        ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
+    let domain =
+        whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt))
+            .domain;
     let nodes = &domain.nodes;
     let (centre, half) = (panel.plan_centre(), 0.5 * panel.side() - period);
-    let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| (nodes.position[i].x - centre).abs() < half && (nodes.position[i].y - centre).abs() < half).collect();
+    let interior: Vec<usize> = (0..nodes.n_owned)
+        .filter(|&i| (nodes.position[i].x - centre).abs() < half && (nodes.position[i].y - centre).abs() < half)
+        .collect();
     assert!(interior.len() > nodes.n_owned / 5);
     let largest = interior.iter().map(|&i| nodes.force[i].norm()).fold(0.0, f64::max);
-    assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
+    assert!(
+        largest < 10.0 * report.final_residual_n,
+        "largest interior force {largest:.3e} N, relaxation left {:.3e} N",
+        report.final_residual_n
+    );
     // and the layers do touch: some node pair across them is in contact range
     assert!(report.final_residual_n < 1e-6 * report.initial_residual_n);
 }
@@ -252,21 +325,45 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let material = FibreMaterial::kevlar_km2();
     let law = NormalLaw::ElastoPlasticKm2;
     let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
-    let weave = ThreeDWeave::of_pattern(Pattern::Orthogonal, 2, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 });
+    let weave = ThreeDWeave::of_pattern(
+        Pattern::Orthogonal,
+        2,
+        1.0e-3,
+        0.8e-3,
+        yarn,
+        4,
+        yarn,
+        YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 },
+    );
     let mut cell = weave.unit_cell(&material).unwrap();
-    let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight }).unwrap();
+    let report = relax(
+        &mut cell,
+        &material,
+        &law,
+        &RelaxOptions { tolerance: 1e-7, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight },
+    )
+    .unwrap();
     let period = cell.period;
     let panel = TiledPanel::new(std::sync::Arc::new(cell), [4, 3], 2, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
-    let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let contact =
+        ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-    let domain = whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
+    let domain =
+        whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt))
+            .domain;
     let nodes = &domain.nodes;
     let half = panel.size().map(|s| 0.5 * s);
-    let interior: Vec<usize> = (0..nodes.n_owned).filter(|&i| nodes.position[i].x.abs() < half[0] - period[0] && nodes.position[i].y.abs() < half[1] - period[1]).collect();
+    let interior: Vec<usize> = (0..nodes.n_owned)
+        .filter(|&i| nodes.position[i].x.abs() < half[0] - period[0] && nodes.position[i].y.abs() < half[1] - period[1])
+        .collect();
     assert!(interior.len() > nodes.n_owned / 10);
     let largest = interior.iter().map(|&i| nodes.force[i].norm()).fold(0.0, f64::max);
-    assert!(largest < 10.0 * report.final_residual_n, "largest interior force {largest:.3e} N, relaxation left {:.3e} N", report.final_residual_n);
+    assert!(
+        largest < 10.0 * report.final_residual_n,
+        "largest interior force {largest:.3e} N, relaxation left {:.3e} N",
+        report.final_residual_n
+    );
 }
 
 /// A woven fibre's bending springs rest in its relaxed crimp: the panel starts without
@@ -281,17 +378,39 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
     let law = NormalLaw::ElastoPlasticKm2;
     let largest_shear = |bending_at_rest| {
         let mut cell = PlainWeave::km2_style_706(1).unit_cell(&material).unwrap();
-        relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, bending_at_rest }).unwrap();
-        let panel = WovenPanel::new(std::sync::Arc::new(cell), None, 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
+        relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-7, max_iterations: 100_000, bending_at_rest })
+            .unwrap();
+        let panel =
+            WovenPanel::new(std::sync::Arc::new(cell), None, 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         let built = panel.build_all(&material);
         let area = built.sections[0].area;
-        let contact = ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+        let contact =
+            ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
         let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
-        let domain = whole(Domain::assemble(material.clone(), built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt)).domain;
+        let domain = whole(Domain::assemble(
+            material.clone(),
+            built.sections,
+            built.nodes,
+            built.elements,
+            contact,
+            NO_FAILURE,
+            None,
+            dt,
+        ))
+        .domain;
         let nodes = &domain.nodes;
         (0..nodes.n_owned)
-            .filter(|&i| nodes.prev[i] != dea_core::NONE && nodes.next[i] != dea_core::NONE && nodes.next[nodes.next[i] as usize] != dea_core::NONE)
-            .map(|i| dea_core::bending::max_shear_stress(dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending, i), area))
+            .filter(|&i| {
+                nodes.prev[i] != dea_core::NONE
+                    && nodes.next[i] != dea_core::NONE
+                    && nodes.next[nodes.next[i] as usize] != dea_core::NONE
+            })
+            .map(|i| {
+                dea_core::bending::max_shear_stress(
+                    dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending, i),
+                    area,
+                )
+            })
             .fold(0.0, f64::max)
     };
     let (as_woven, straight) = (largest_shear(BendingAtRest::AsWoven), largest_shear(BendingAtRest::Straight));
@@ -317,12 +436,24 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Distributed<LocalComm> 
     let stride = fine_built.nodes.len().max(coarse_built.nodes.len()) as u64;
     let mut nodes = dea_core::Nodes::default();
     let mut elements = dea_core::Elements::default();
-    for (section, built, shift, first_fibre) in [(0u16, &fine_built, -0.5 * length, 0u32), (1, &coarse_built, 0.5 * length + 1.05 * reach, fine as u32)] {
+    for (section, built, shift, first_fibre) in
+        [(0u16, &fine_built, -0.5 * length, 0u32), (1, &coarse_built, 0.5 * length + 1.05 * reach, fine as u32)]
+    {
         let n = &built.nodes;
         for i in 0..n.len() {
             let fibre = dea_core::FibreId(first_fibre + n.fibre[i].0);
             let gid = dea_core::GlobalNodeId(fibre.0 as u64 * stride + n.along[i] as u64);
-            nodes.push(gid, n.position[i] + Vec3::new(shift, 0.0, 0.0), Vec3::zeros(), n.mass[i], fibre, n.along[i], section, false, n.last[i]);
+            nodes.push(
+                gid,
+                n.position[i] + Vec3::new(shift, 0.0, 0.0),
+                Vec3::zeros(),
+                n.mass[i],
+                fibre,
+                n.along[i],
+                section,
+                false,
+                n.last[i],
+            );
             let e = &built.elements;
             elements.push(e.rest_length[i], e.tensile_strength[i], e.failure[i]);
         }
@@ -331,9 +462,16 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Distributed<LocalComm> 
     // the fine areas shared out as a hybrid panel shares them; each tie stands for the fine
     // fibre the gap left out
     use dea_fabric::transition::{transition_ties, EndNode};
-    let at = |i: usize| EndNode { end: dea_core::tie::TieEnd { gid: nodes.gid[i], fibre: nodes.fibre[i], along: nodes.along[i] }, at: nodes.position[i] };
-    let fine_ends: Vec<(EndNode, f64)> = (0..nodes.len()).filter(|&i| nodes.section[i] == 0 && nodes.last[i]).map(|i| (at(i), 1.05 * reach)).collect();
-    let coarse_ends: Vec<(EndNode, EndNode)> = (0..nodes.len()).filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0).map(|i| (at(i), at(i + 1))).collect();
+    let at = |i: usize| EndNode {
+        end: dea_core::tie::TieEnd { gid: nodes.gid[i], fibre: nodes.fibre[i], along: nodes.along[i] },
+        at: nodes.position[i],
+    };
+    let fine_ends: Vec<(EndNode, f64)> =
+        (0..nodes.len()).filter(|&i| nodes.section[i] == 0 && nodes.last[i]).map(|i| (at(i), 1.05 * reach)).collect();
+    let coarse_ends: Vec<(EndNode, EndNode)> = (0..nodes.len())
+        .filter(|&i| nodes.section[i] == 1 && nodes.along[i] == 0)
+        .map(|i| (at(i), at(i + 1)))
+        .collect();
     let ties = transition_ties(&fine_ends, &coarse_ends, sections[0].area, 2.0 * sections[0].contact_diameter);
     for tie in &ties {
         for gid in [tie.fine.gid, tie.coarse.gid] {
@@ -384,9 +522,15 @@ fn a_tensile_pulse_crosses_a_hybrid_transition_with_its_energy() {
         let coarse_nodes = |i: usize| usize::from(domain.nodes.section[i] == 1);
         let across = domain.energy_sums_by(coarse_nodes, 2)[1].report().total();
         let transmitted = across / (0.5 * initial);
-        eprintln!("{fine} -> {coarse} fibres: {:.2} % of the incident pulse's energy crossed, energy drift {worst:.1e}", 100.0 * transmitted);
+        eprintln!(
+            "{fine} -> {coarse} fibres: {:.2} % of the incident pulse's energy crossed, energy drift {worst:.1e}",
+            100.0 * transmitted
+        );
         // the drift is the central difference's own over a pulse a few elements wide
         assert!(worst < 0.01, "{fine} -> {coarse}: energy drift {worst}");
-        assert!(transmitted >= crossing && transmitted < 1.01, "{fine} -> {coarse}: {transmitted} of the pulse crossed");
+        assert!(
+            transmitted >= crossing && transmitted < 1.01,
+            "{fine} -> {coarse}: {transmitted} of the pulse crossed"
+        );
     }
 }

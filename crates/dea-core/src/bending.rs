@@ -91,7 +91,14 @@ pub fn turning_angle(sine: f64, cosine: f64) -> (f64, f64) {
 /// so the plane's normal needs no normalisation. A spring bent at rest has no defined
 /// direction when pulled exactly straight: it pushes nowhere there.
 #[inline]
-pub fn torsional_spring(ua: Vec3, inverse_la: f64, ub: Vec3, inverse_lb: f64, k_t: f64, rest: f64) -> (Vec3, Vec3, f64, Vec3) {
+pub fn torsional_spring(
+    ua: Vec3,
+    inverse_la: f64,
+    ub: Vec3,
+    inverse_lb: f64,
+    k_t: f64,
+    rest: f64,
+) -> (Vec3, Vec3, f64, Vec3) {
     let cross = ua.cross(&ub);
     let sine = cross.norm();
     let cosine = ua.dot(&ub);
@@ -133,7 +140,14 @@ fn node_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], s
         return;
     }
     let p = p as usize;
-    let (on_prev, on_next, theta, moment) = torsional_spring(elements.direction[p], elements.inverse_length[p], elements.direction[i], elements.inverse_length[i], k_t, nodes.rest_angle[i]);
+    let (on_prev, on_next, theta, moment) = torsional_spring(
+        elements.direction[p],
+        elements.inverse_length[p],
+        elements.direction[i],
+        elements.inverse_length[i],
+        k_t,
+        nodes.rest_angle[i],
+    );
     scratch.on_prev[i] = on_prev;
     scratch.on_next[i] = on_next;
     scratch.moment[i] = moment;
@@ -165,12 +179,22 @@ fn bending_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection
 /// everywhere); false, and nothing written, otherwise.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn springs_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch, i: usize) -> bool {
+fn springs_in_lanes(
+    nodes: &Nodes,
+    elements: &Elements,
+    sections: &[FibreSection],
+    scratch: &mut BendingScratch,
+    i: usize,
+) -> bool {
     use crate::lanes::{F4, V4};
     use crate::nodes::FailureMode;
     let stiffness = |k: usize| sections[nodes.section[k] as usize].torsional_stiffness;
     let acting = |k: usize| {
-        nodes.prev[k] == k as u32 - 1 && nodes.next[k] == k as u32 + 1 && elements.failure[k - 1] == FailureMode::Intact && elements.failure[k] == FailureMode::Intact && stiffness(k) != 0.0
+        nodes.prev[k] == k as u32 - 1
+            && nodes.next[k] == k as u32 + 1
+            && elements.failure[k - 1] == FailureMode::Intact
+            && elements.failure[k] == FailureMode::Intact
+            && stiffness(k) != 0.0
     };
     // a group reads the element before its first node
     if i == 0 || !(i..i + 4).all(acting) {
@@ -188,7 +212,8 @@ fn springs_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection
         return false;
     }
     let inverse_cosine = F4::splat(1.0).div(cosine);
-    let over_sine = F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
+    let over_sine =
+        F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
     let theta = F4::select(straight, sine, sine.mul(over_sine));
     // torsional_spring's factor
     let k_t = F4::gather(i, stiffness);
@@ -260,7 +285,8 @@ mod tests {
     #[test]
     fn turning_angle_and_its_ratio_to_the_sine_match_atan2_on_both_paths() {
         let a = Vec3::x();
-        let angles = (0..=3000).map(|k| std::f64::consts::PI * k as f64 / 3000.0).chain((1..60).map(|k| 0.3f64.powi(k)));
+        let angles =
+            (0..=3000).map(|k| std::f64::consts::PI * k as f64 / 3000.0).chain((1..60).map(|k| 0.3f64.powi(k)));
         let mut polynomial = 0;
         for angle in angles {
             let b = Vec3::new(angle.cos(), 0.6 * angle.sin(), 0.8 * angle.sin());
@@ -270,7 +296,10 @@ mod tests {
             polynomial += usize::from(cosine > 0.0 && sine < ATAN_POLYNOMIAL_RANGE * cosine);
             assert!((theta - expected).abs() <= 4.0 * f64::EPSILON * expected, "{angle}: {theta} vs {expected}");
             let expected_ratio = if sine > 0.0 { expected / sine } else { 1.0 };
-            assert!((over_sine - expected_ratio).abs() <= 4.0 * f64::EPSILON * expected_ratio, "{angle}: {over_sine} vs {expected_ratio}");
+            assert!(
+                (over_sine - expected_ratio).abs() <= 4.0 * f64::EPSILON * expected_ratio,
+                "{angle}: {over_sine} vs {expected_ratio}"
+            );
         }
         // both paths were taken
         assert!(polynomial > 400 && polynomial < 3000, "{polynomial}");
@@ -279,7 +308,10 @@ mod tests {
     #[test]
     fn spring_forces_are_the_exact_gradient_of_the_bending_energy() {
         // bent by 24.7 degrees (the atan2 path) and by 5.7 degrees (the polynomial)
-        for (xp, xi, xn) in [(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2)), (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.06, 0.08))] {
+        for (xp, xi, xn) in [
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.1, -0.05), Vec3::new(1.9, 0.5, 0.2)),
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.06, 0.08)),
+        ] {
             spring_forces_are_the_gradient_at(xp, xi, xn);
         }
     }
@@ -288,7 +320,8 @@ mod tests {
         let k_t = 2.5;
         for rest in [0.0, 0.2, 0.9] {
             let (a, b) = (xi - xp, xn - xi);
-            let (on_prev, on_next, _, _) = torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest);
+            let (on_prev, on_next, _, _) =
+                torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest);
             let on_self = -(on_prev + on_next);
             let h = 1e-6;
             for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
@@ -297,8 +330,14 @@ mod tests {
                     let mut minus = [xp, xi, xn];
                     plus[node][axis] += h;
                     minus[node][axis] -= h;
-                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest) - energy(minus[0], minus[1], minus[2], k_t, rest)) / (2.0 * h);
-                    assert!((numeric - analytic[axis]).abs() < 1e-6, "rest {rest}, node {node} axis {axis}: {numeric} vs {}", analytic[axis]);
+                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest)
+                        - energy(minus[0], minus[1], minus[2], k_t, rest))
+                        / (2.0 * h);
+                    assert!(
+                        (numeric - analytic[axis]).abs() < 1e-6,
+                        "rest {rest}, node {node} axis {axis}: {numeric} vs {}",
+                        analytic[axis]
+                    );
                 }
             }
         }
@@ -360,9 +399,23 @@ mod tests {
                     3 if along % 7 == 3 => 0.6,
                     _ => 0.05,
                 } * l0;
-                let x = Vec3::new(along as f64 * l0 * (1.0 + 0.02 * next()), fibre as f64 * 1e-4 + jitter * next(), jitter * next());
+                let x = Vec3::new(
+                    along as f64 * l0 * (1.0 + 0.02 * next()),
+                    fibre as f64 * 1e-4 + jitter * next(),
+                    jitter * next(),
+                );
                 let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
-                nodes.push(gid, x, Vec3::zeros(), 1e-12, FibreId(fibre), along, (fibre % 3) as u16, along == 0, along + 1 == per_fibre);
+                nodes.push(
+                    gid,
+                    x,
+                    Vec3::zeros(),
+                    1e-12,
+                    FibreId(fibre),
+                    along,
+                    (fibre % 3) as u16,
+                    along == 0,
+                    along + 1 == per_fibre,
+                );
                 // fibre 4 bent at rest
                 *nodes.rest_angle.last_mut().unwrap() = if fibre == 4 { 0.05 + 0.05 * next() } else { 0.0 };
                 let failure = if along % 11 == 5 { FailureMode::Tension } else { FailureMode::Intact };
@@ -376,8 +429,28 @@ mod tests {
         macro_rules! permute {
             ($($field:expr),*) => { $( $field = reversed.iter().map(|&k| $field[k].clone()).collect(); )* };
         }
-        permute!(nodes.gid, nodes.position, nodes.velocity, nodes.force, nodes.mass, nodes.fibre, nodes.along, nodes.section, nodes.clamped, nodes.last, nodes.rest_angle);
-        permute!(elements.rest_length, elements.tensile_strength, elements.failure, elements.strain, elements.axial_force, elements.direction, elements.inverse_length);
+        permute!(
+            nodes.gid,
+            nodes.position,
+            nodes.velocity,
+            nodes.force,
+            nodes.mass,
+            nodes.fibre,
+            nodes.along,
+            nodes.section,
+            nodes.clamped,
+            nodes.last,
+            nodes.rest_angle
+        );
+        permute!(
+            elements.rest_length,
+            elements.tensile_strength,
+            elements.failure,
+            elements.strain,
+            elements.axial_force,
+            elements.direction,
+            elements.inverse_length
+        );
         nodes.link_chains();
         (nodes, elements, sections)
     }

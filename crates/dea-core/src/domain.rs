@@ -281,7 +281,8 @@ impl Domain {
         // the reference positions of the owned nodes, if the lists were built for these nodes
         let built = &self.pairs.reference_position;
         let reference = if built.len() == self.nodes.len() { &built[..self.nodes.n_owned] } else { &[] };
-        let (step, since_build) = integrate::kick_drift(&mut self.nodes, self.deferred_kick.take(), half_dt, dt, reference);
+        let (step, since_build) =
+            integrate::kick_drift(&mut self.nodes, self.deferred_kick.take(), half_dt, dt, reference);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
@@ -306,7 +307,11 @@ impl Domain {
         self.deferred_kick = None;
         self.pairs.forget_history();
         self.projectile_contacts.forget();
-        for ledger in [&mut self.ledger.friction_dissipated, &mut self.ledger.plastic_dissipated, &mut self.ledger.fracture_released] {
+        for ledger in [
+            &mut self.ledger.friction_dissipated,
+            &mut self.ledger.plastic_dissipated,
+            &mut self.ledger.fracture_released,
+        ] {
             ledger.fill(0.0);
         }
         self.broken = BrokenCount::default();
@@ -316,7 +321,10 @@ impl Domain {
 
     /// Largest force on an owned node that is free to move [N].
     pub fn largest_free_force(&self) -> f64 {
-        (0..self.nodes.n_owned).filter(|&i| !self.nodes.clamped[i]).map(|i| self.nodes.force[i].norm()).fold(0.0, f64::max)
+        (0..self.nodes.n_owned)
+            .filter(|&i| !self.nodes.clamped[i])
+            .map(|i| self.nodes.force[i].norm())
+            .fold(0.0, f64::max)
     }
 
     /// Largest overlap of a listed fibre pair, one of whose nodes is free to move, over its
@@ -386,7 +394,12 @@ impl Domain {
     /// Chooses the owned nodes that may touch the projectile before the next refresh
     /// ([`ProjectileContacts::refresh_candidates`]).
     fn refresh_projectile_candidates(&mut self) {
-        self.projectile_contacts.refresh_candidates(self.projectile.as_ref(), &self.nodes, &self.sections, self.pairs.skin);
+        self.projectile_contacts.refresh_candidates(
+            self.projectile.as_ref(),
+            &self.nodes,
+            &self.sections,
+            self.pairs.skin,
+        );
     }
 
     /// Axial rod forces (4-2, 4-3) and the bending springs (5-1…5-3) of every local element
@@ -412,9 +425,24 @@ impl Domain {
     pub(crate) fn add_fibre_contacts_compiled_for(&mut self, compilation: Compilation) {
         let (law, mu) = (self.contact.law, self.friction_coefficient());
         self.running_contact_sums.resize(self.nodes.n_owned, RunningSums::default());
-        let sums = FibreContactSums { force: &mut self.nodes.force, ledger: &mut self.ledger, contact_stiffness: &mut self.contact_stiffness, running: &mut self.running_contact_sums };
+        let sums = FibreContactSums {
+            force: &mut self.nodes.force,
+            ledger: &mut self.ledger,
+            contact_stiffness: &mut self.contact_stiffness,
+            running: &mut self.running_contact_sums,
+        };
         let owned = self.nodes.n_owned;
-        fibre_contact::add_fibre_contacts_compiled_for(compilation, law, mu, &self.nodes.position, &self.nodes.section, &mut self.pairs, &self.pair_data, sums, owned);
+        fibre_contact::add_fibre_contacts_compiled_for(
+            compilation,
+            law,
+            mu,
+            &self.nodes.position,
+            &self.nodes.section,
+            &mut self.pairs,
+            &self.pair_data,
+            sums,
+            owned,
+        );
     }
 
     /// The inter-fibre friction coefficient of this phase: the case's in the shot, none while
@@ -440,7 +468,15 @@ impl Domain {
         }
         let Some(projectile) = &self.projectile else { return };
         let (law, mu) = (self.contact.law, self.contact.projectile_friction_coefficient);
-        self.projectile_contacts.add_forces(projectile, &mut self.nodes, &self.sections, law, mu, &mut self.ledger, &mut self.contact_stiffness);
+        self.projectile_contacts.add_forces(
+            projectile,
+            &mut self.nodes,
+            &self.sections,
+            law,
+            mu,
+            &mut self.ledger,
+            &mut self.contact_stiffness,
+        );
     }
 
     /// Reaction records of the owned nodes touching the projectile, ascending global id
@@ -499,7 +535,12 @@ impl Domain {
             let stiffness = chain + (1.0 + mu) * self.contact_stiffness[i];
             if stiffness * self.time_step * self.time_step > 4.0 * nodes.mass[i] {
                 let limit = crate::stability::node_stability_limit(chain, self.contact_stiffness[i], mu, nodes.mass[i]);
-                return Err(DomainError::TimeStep { step: self.step, gid: nodes.gid[i], time_step: self.time_step, limit });
+                return Err(DomainError::TimeStep {
+                    step: self.step,
+                    gid: nodes.gid[i],
+                    time_step: self.time_step,
+                    limit,
+                });
             }
         }
         Ok(())
@@ -532,8 +573,15 @@ impl Domain {
     /// Axial stress E_L eps of every owned element, NaN where there is no element [Pa].
     pub fn element_stress(&self) -> Vec<f64> {
         (0..self.nodes.n_owned)
-            .map(|i| if self.nodes.next[i] == NONE { f64::NAN } else if self.elements.failure[i] == FailureMode::Intact { self.material.longitudinal_modulus * self.elements.strain[i] } else { 0.0 })
+            .map(|i| {
+                if self.nodes.next[i] == NONE {
+                    f64::NAN
+                } else if self.elements.failure[i] == FailureMode::Intact {
+                    self.material.longitudinal_modulus * self.elements.strain[i]
+                } else {
+                    0.0
+                }
+            })
             .collect()
     }
 }
-

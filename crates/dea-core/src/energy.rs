@@ -90,7 +90,18 @@ impl EnergySums {
     pub fn report(&self) -> EnergyReport {
         let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             self.kinds().map(ExactSum::value);
-        EnergyReport { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
+        EnergyReport {
+            fibre_kinetic,
+            projectile_kinetic,
+            projectile_strain,
+            axial,
+            bending,
+            contact,
+            friction_stored,
+            friction_dissipated,
+            plastic_dissipated,
+            fracture_released,
+        }
     }
 
     /// Integer words whose element-wise sum over ranks is the words of the total.
@@ -101,7 +112,18 @@ impl EnergySums {
     pub fn from_words(words: &[i64]) -> Self {
         let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             std::array::from_fn(|k| ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)]));
-        Self { fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released }
+        Self {
+            fibre_kinetic,
+            projectile_kinetic,
+            projectile_strain,
+            axial,
+            bending,
+            contact,
+            friction_stored,
+            friction_dissipated,
+            plastic_dissipated,
+            fracture_released,
+        }
     }
 }
 
@@ -143,7 +165,16 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
             if domain.friction_coefficient() > 0.0 && domain.pairs.touching[k] {
                 let (response, _) = law.evaluate(&data.geometry, overlap, max_overlap);
                 let (mut anchor, mut spring) = (domain.pairs.anchor[k], domain.pairs.spring_stiffness[k]);
-                friction_stored = stick_slip(relative, relative.normalize(), &mut anchor, &mut spring, response.force, response.stiffness, domain.friction_coefficient()).stored;
+                friction_stored = stick_slip(
+                    relative,
+                    relative.normalize(),
+                    &mut anchor,
+                    &mut spring,
+                    response.force,
+                    response.stiffness,
+                    domain.friction_coefficient(),
+                )
+                .stored;
             }
             for node in std::iter::once(i).chain((j < nodes.n_owned).then_some(j)) {
                 sums[group(node)].contact.add(0.5 * contact);
@@ -157,7 +188,8 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
     if let Some(projectile) = &domain.projectile {
         for i in domain.projectile_contacts.candidates.iter().map(|i| i.index()) {
             let report = &mut sums[group(i)];
-            let (overlap, point, body, geometry) = domain.projectile_contacts.geometry(projectile, nodes, &domain.sections, i);
+            let (overlap, point, body, geometry) =
+                domain.projectile_contacts.geometry(projectile, nodes, &domain.sections, i);
             if overlap <= 0.0 {
                 continue;
             }
@@ -165,12 +197,20 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
             report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
             if domain.contact.projectile_friction_coefficient > 0.0 && domain.projectile_contacts.touching[i] {
                 let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
-                let (mut anchor, mut spring) = (domain.projectile_contacts.anchor[i], domain.projectile_contacts.spring_stiffness[i]);
-                let friction = stick_slip(-body, point.normal, &mut anchor, &mut spring, response.force, response.stiffness, domain.contact.projectile_friction_coefficient);
+                let (mut anchor, mut spring) =
+                    (domain.projectile_contacts.anchor[i], domain.projectile_contacts.spring_stiffness[i]);
+                let friction = stick_slip(
+                    -body,
+                    point.normal,
+                    &mut anchor,
+                    &mut spring,
+                    response.force,
+                    response.stiffness,
+                    domain.contact.projectile_friction_coefficient,
+                );
                 report.friction_stored.add(friction.stored);
             }
         }
     }
     sums
 }
-

@@ -80,7 +80,8 @@ pub fn break_elements(
     }
     newly_broken.clear();
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
-    let breaks_now = |elements: &Elements, i: usize| element_breaks(nodes, elements, bending, sections, modulus, shear_strength, i);
+    let breaks_now =
+        |elements: &Elements, i: usize| element_breaks(nodes, elements, bending, sections, modulus, shear_strength, i);
     let n_owned = nodes.n_owned;
     let mut i = 0;
     let mut book_if_broken = |i: usize| {
@@ -92,7 +93,11 @@ pub fn break_elements(
     // almost no element is near breaking: four at a time are told so in lanes; a group reads
     // the moment after its last element
     while i + 4 <= n_owned && i + 5 <= bending.moment.len() {
-        let Some(candidates) = crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i)) else { break };
+        let Some(candidates) =
+            crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i))
+        else {
+            break;
+        };
         for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
             book_if_broken(k);
         }
@@ -124,7 +129,15 @@ pub fn break_elements(
 
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
 /// shear stress of its shear force (5-4, 5-5), against its strengths [Pa].
-pub fn element_breaks(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> Option<FailureMode> {
+pub fn element_breaks(
+    nodes: &Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    sections: &[FibreSection],
+    longitudinal_modulus: f64,
+    shear_strength: f64,
+    i: usize,
+) -> Option<FailureMode> {
     if !elements.is_intact(nodes, i) {
         return None;
     }
@@ -141,9 +154,19 @@ pub fn element_breaks(nodes: &Nodes, elements: &Elements, bending: &BendingScrat
 /// scalar test keeps, and the same elements break.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn may_break_in_lanes(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, sections: &[FibreSection], longitudinal_modulus: f64, shear_strength: f64, i: usize) -> u32 {
+fn may_break_in_lanes(
+    nodes: &Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    sections: &[FibreSection],
+    longitudinal_modulus: f64,
+    shear_strength: f64,
+    i: usize,
+) -> u32 {
     use crate::lanes::{F4, V4};
-    let plain = (0..4).filter(|&l| nodes.next[i + l] == (i + l) as u32 + 1 && elements.failure[i + l] == FailureMode::Intact).fold(0, |bits, l| bits | 1 << l);
+    let plain = (0..4)
+        .filter(|&l| nodes.next[i + l] == (i + l) as u32 + 1 && elements.failure[i + l] == FailureMode::Intact)
+        .fold(0, |bits, l| bits | 1 << l);
     let sigma = F4::splat(longitudinal_modulus).mul(F4::load(&elements.strain, i));
     let tension = sigma.max_with(F4::splat(0.0)).div(F4::load(&elements.tensile_strength, i));
     // (5-4), (5-5): the shear force from the jump of the moment along the element
@@ -167,7 +190,10 @@ mod tests {
         for angle in [0.0f64, 0.3, std::f64::consts::FRAC_PI_4, 1.2, std::f64::consts::FRAC_PI_2] {
             let (sigma, tau) = (su * angle.cos(), tu * angle.sin());
             assert_eq!(combined_criterion(sigma * (1.0 - 1e-9), su, tau * (1.0 - 1e-9), tu), None, "inside at {angle}");
-            assert!(combined_criterion(sigma * (1.0 + 1e-9) + 1.0, su, tau * (1.0 + 1e-9), tu).is_some(), "outside at {angle}");
+            assert!(
+                combined_criterion(sigma * (1.0 + 1e-9) + 1.0, su, tau * (1.0 + 1e-9), tu).is_some(),
+                "outside at {angle}"
+            );
         }
         assert_eq!(combined_criterion(su * 1.01, su, 0.0, tu), Some(FailureMode::Tension));
         assert_eq!(combined_criterion(0.0, su, tu * 1.01, tu), Some(FailureMode::Shear));
@@ -185,7 +211,10 @@ mod tests {
         use crate::{FibreId, GlobalNodeId, Vec3};
         let material = FibreMaterial::kevlar_km2();
         let l0 = 25e-6;
-        let sections = vec![FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3), FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None, 0.3)];
+        let sections = vec![
+            FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3),
+            FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None, 0.3),
+        ];
         let (shear_strength, strength) = (0.7672e9, 3.4e9);
         let mut state = 5u64;
         let mut uniform = move || {
@@ -197,7 +226,17 @@ mod tests {
         for fibre in 0..5u32 {
             for along in 0..per_fibre {
                 let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
-                nodes.push(gid, Vec3::new(along as f64 * l0, fibre as f64 * 1e-4, 0.0), Vec3::zeros(), 1e-12, FibreId(fibre), along, (fibre % 2) as u16, false, along + 1 == per_fibre);
+                nodes.push(
+                    gid,
+                    Vec3::new(along as f64 * l0, fibre as f64 * 1e-4, 0.0),
+                    Vec3::zeros(),
+                    1e-12,
+                    FibreId(fibre),
+                    along,
+                    (fibre % 2) as u16,
+                    false,
+                    along + 1 == per_fibre,
+                );
                 let failure = if along % 37 == 5 { FailureMode::Tension } else { FailureMode::Intact };
                 elements.push(l0, strength * (0.9 + 0.2 * uniform()), failure);
             }
@@ -222,14 +261,35 @@ mod tests {
         }
         let (mut breaking, mut candidates) = (0, 0);
         for i in (0..n - 4).step_by(4) {
-            let bits = crate::in_avx2_lanes!(may_break_in_lanes(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, i)).expect("AVX2 is present");
+            let bits = crate::in_avx2_lanes!(may_break_in_lanes(
+                &nodes,
+                &elements,
+                &bending,
+                &sections,
+                material.longitudinal_modulus,
+                shear_strength,
+                i
+            ))
+            .expect("AVX2 is present");
             for k in i..i + 4 {
-                let breaks = element_breaks(&nodes, &elements, &bending, &sections, material.longitudinal_modulus, shear_strength, k).is_some();
+                let breaks = element_breaks(
+                    &nodes,
+                    &elements,
+                    &bending,
+                    &sections,
+                    material.longitudinal_modulus,
+                    shear_strength,
+                    k,
+                )
+                .is_some();
                 assert!(!breaks || bits & (1 << (k - i)) != 0, "element {k} breaks but the lanes left it out");
                 breaking += breaks as usize;
                 candidates += (bits & (1 << (k - i)) != 0) as usize;
             }
         }
-        assert!(breaking > n / 4 && candidates < 3 * n / 4, "{breaking} break, {candidates} of {n} left to the scalar test");
+        assert!(
+            breaking > n / 4 && candidates < 3 * n / 4,
+            "{breaking} break, {candidates} of {n} left to the scalar test"
+        );
     }
 }

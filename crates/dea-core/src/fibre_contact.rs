@@ -98,7 +98,16 @@ impl RunningSums {
 /// when the pair does not touch.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, touching: &Cell<bool>, max_overlap_reached: &mut f64, anchor: &mut Vec3, spring_stiffness: &mut f64) -> Option<PairTerms> {
+pub fn evaluate_pair(
+    law: NormalLaw,
+    mu: f64,
+    relative: Vec3,
+    data: PairData,
+    touching: &Cell<bool>,
+    max_overlap_reached: &mut f64,
+    anchor: &mut Vec3,
+    spring_stiffness: &mut f64,
+) -> Option<PairTerms> {
     let distance_squared = relative.norm_squared();
     if distance_squared >= data.reach * data.reach {
         touching.set(false);
@@ -112,7 +121,8 @@ pub fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, to
     let mut plastic = None;
     if max_overlap > previous_max {
         // the pair's dissipation goes half to each node
-        plastic = Some(0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max)));
+        plastic =
+            Some(0.5 * (law.dissipated(&data.geometry, max_overlap) - law.dissipated(&data.geometry, previous_max)));
         *max_overlap_reached = max_overlap;
     }
     let mut friction = None;
@@ -136,13 +146,35 @@ pub fn evaluate_pair(law: NormalLaw, mu: f64, relative: Vec3, data: PairData, to
 /// sliced once, so the entries are read without bounds checks: the sweep is bound by the
 /// instructions it retires (design rule "count instructions", docs/performance.md).
 #[inline(always)]
-fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut NeighbourList, sums: FibreContactSums, owned: usize, data_of: impl Fn(usize, usize) -> PairData) {
+fn sweep_fibre_contacts(
+    law: NormalLaw,
+    mu: f64,
+    positions: &[Vec3],
+    pairs: &mut NeighbourList,
+    sums: FibreContactSums,
+    owned: usize,
+    data_of: impl Fn(usize, usize) -> PairData,
+) {
     // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
     let (owned_positions, starts, uppers) = (&positions[..owned], &pairs.start[..=owned], &pairs.upper_start[..owned]);
-    let (forces, plastic_sums, friction_sums, stiffnesses, running) =
-        (&mut sums.force[..owned], &mut sums.ledger.plastic_dissipated[..owned], &mut sums.ledger.friction_dissipated[..owned], &mut sums.contact_stiffness[..owned], &mut sums.running[..owned]);
-    let NeighbourList { lower_ghosts, partner: partners_all, touching, max_overlap: max_overlaps_all, anchor: anchors_all, spring_stiffness: springs_all, .. } = pairs;
-    let (partners_all, max_overlaps_all, anchors_all, springs_all) = (&partners_all[..], &mut max_overlaps_all[..], &mut anchors_all[..], &mut springs_all[..]);
+    let (forces, plastic_sums, friction_sums, stiffnesses, running) = (
+        &mut sums.force[..owned],
+        &mut sums.ledger.plastic_dissipated[..owned],
+        &mut sums.ledger.friction_dissipated[..owned],
+        &mut sums.contact_stiffness[..owned],
+        &mut sums.running[..owned],
+    );
+    let NeighbourList {
+        lower_ghosts,
+        partner: partners_all,
+        touching,
+        max_overlap: max_overlaps_all,
+        anchor: anchors_all,
+        spring_stiffness: springs_all,
+        ..
+    } = pairs;
+    let (partners_all, max_overlaps_all, anchors_all, springs_all) =
+        (&partners_all[..], &mut max_overlaps_all[..], &mut anchors_all[..], &mut springs_all[..]);
     let mut lower_ghosts = lower_ghosts.iter().peekable();
     let (anchors, max_overlaps) = (anchors_all.as_ptr(), max_overlaps_all.as_ptr());
     // shared, so the flag of the entry ahead can be read while the present one is written
@@ -152,16 +184,31 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
             let (row, k) = (row as usize, entry as usize);
             let j = partners_all[k] as usize;
             let relative = positions[j] - positions[row];
-            if let Some(terms) = evaluate_pair(law, mu, relative, data_of(row, j), &touching_flags[k], &mut max_overlaps_all[k], &mut anchors_all[k], &mut springs_all[k]) {
+            if let Some(terms) = evaluate_pair(
+                law,
+                mu,
+                relative,
+                data_of(row, j),
+                &touching_flags[k],
+                &mut max_overlaps_all[k],
+                &mut anchors_all[k],
+                &mut springs_all[k],
+            ) {
                 running[row].add(&terms);
             }
         }
         let row = uppers[i] as usize..starts[i + 1] as usize;
         let partners = &partners_all[row.clone()];
-        let history = touching_flags[row.clone()].iter().zip(&mut max_overlaps_all[row.clone()]).zip(&mut anchors_all[row.clone()]).zip(&mut springs_all[row.clone()]);
+        let history = touching_flags[row.clone()]
+            .iter()
+            .zip(&mut max_overlaps_all[row.clone()])
+            .zip(&mut anchors_all[row.clone()])
+            .zip(&mut springs_all[row.clone()]);
         // taken, so every node's sums are zero again for the next sweep
         let mut sum = std::mem::take(&mut running[i]);
-        for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in partners.iter().zip(history).enumerate() {
+        for (e, (&j, (((touching, max_overlap_reached), anchor), spring_stiffness))) in
+            partners.iter().zip(history).enumerate()
+        {
             let j = j as usize;
             let k_ahead = row.start + e + PREFETCH_AHEAD;
             if let Some(&ahead) = partners_all.get(k_ahead) {
@@ -174,7 +221,16 @@ fn sweep_fibre_contacts(law: NormalLaw, mu: f64, positions: &[Vec3], pairs: &mut
             }
             prefetch(anchors, k_ahead);
             prefetch(max_overlaps, k_ahead);
-            if let Some(terms) = evaluate_pair(law, mu, positions[j] - xi, data_of(i, j), touching, max_overlap_reached, anchor, spring_stiffness) {
+            if let Some(terms) = evaluate_pair(
+                law,
+                mu,
+                positions[j] - xi,
+                data_of(i, j),
+                touching,
+                max_overlap_reached,
+                anchor,
+                spring_stiffness,
+            ) {
                 sum.add(&terms);
                 // an owned partner (of higher gid, so its row is still to come); a ghost's
                 // owner evaluates the pair for it
@@ -220,7 +276,11 @@ pub fn add_fibre_contacts_compiled_for(
         in_compilation(
             compilation,
             #[inline(always)]
-            move || sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |i, j| pair_data.of(section[i], section[j])),
+            move || {
+                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |i, j| {
+                    pair_data.of(section[i], section[j])
+                })
+            },
         );
     }
 }
@@ -246,8 +306,15 @@ mod tests {
     impl FullRowSweep {
         fn new(domain: &Domain) -> Self {
             let owned = domain.nodes.n_owned;
-            let histories = (0..owned).flat_map(|i| domain.pairs.row(i).map(move |k| domain.pairs.history(i, k))).collect();
-            Self { histories, force: vec![Vec3::zeros(); owned], stiffness: vec![0.0; owned], plastic: vec![0.0; owned], friction: vec![0.0; owned] }
+            let histories =
+                (0..owned).flat_map(|i| domain.pairs.row(i).map(move |k| domain.pairs.history(i, k))).collect();
+            Self {
+                histories,
+                force: vec![Vec3::zeros(); owned],
+                stiffness: vec![0.0; owned],
+                plastic: vec![0.0; owned],
+                friction: vec![0.0; owned],
+            }
         }
 
         fn sweep(&mut self, domain: &Domain) {
@@ -258,9 +325,16 @@ mod tests {
                     let data = domain.pair_data_of(i, j);
                     let h = &mut self.histories[k];
                     let relative = domain.nodes.position[j] - domain.nodes.position[i];
-                    if let Some(terms) =
-                        evaluate_pair(domain.contact.law, domain.contact.friction_coefficient, relative, data, Cell::from_mut(&mut h.touching), &mut h.max_overlap, &mut h.anchor, &mut h.spring_stiffness)
-                    {
+                    if let Some(terms) = evaluate_pair(
+                        domain.contact.law,
+                        domain.contact.friction_coefficient,
+                        relative,
+                        data,
+                        Cell::from_mut(&mut h.touching),
+                        &mut h.max_overlap,
+                        &mut h.anchor,
+                        &mut h.spring_stiffness,
+                    ) {
                         sum.add(&terms);
                     }
                 }
@@ -280,12 +354,26 @@ mod tests {
     #[test]
     fn the_half_row_sweep_gives_the_bits_of_full_rows() {
         let bits = |values: &[f64]| values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        let vector_bits = |values: &[Vec3]| values.iter().flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>();
-        let history_bits = |h: &crate::neighbour::PairHistory| (vector_bits(&[h.anchor]), h.spring_stiffness.to_bits(), h.touching, h.max_overlap.to_bits());
+        let vector_bits = |values: &[Vec3]| {
+            values.iter().flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>()
+        };
+        let history_bits = |h: &crate::neighbour::PairHistory| {
+            (vector_bits(&[h.anchor]), h.spring_stiffness.to_bits(), h.touching, h.max_overlap.to_bits())
+        };
         // the first word that differs, if any (the vectors are long)
-        let first_difference = |a: Vec<u64>, b: Vec<u64>| if a.len() != b.len() { Some(a.len().min(b.len())) } else { a.iter().zip(&b).position(|(x, y)| x != y) };
+        let first_difference = |a: Vec<u64>, b: Vec<u64>| {
+            if a.len() != b.len() {
+                Some(a.len().min(b.len()))
+            } else {
+                a.iter().zip(&b).position(|(x, y)| x != y)
+            }
+        };
         let compilations = Compilation::all_that_run();
-        let cases: Vec<_> = [1, 2].into_iter().flat_map(|s| [false, true].map(|g| (s, g))).flat_map(|(s, g)| compilations.iter().map(move |&c| (s, g, c))).collect();
+        let cases: Vec<_> = [1, 2]
+            .into_iter()
+            .flat_map(|s| [false, true].map(|g| (s, g)))
+            .flat_map(|(s, g)| compilations.iter().map(move |&c| (s, g, c)))
+            .collect();
         for (sections, ghosts, compilation) in cases {
             let case = format!("sections {sections}, ghosts {ghosts}, compiled for {compilation:?}");
             let mut domain = squeezed_yarn(sections, ghosts);
@@ -307,23 +395,60 @@ mod tests {
                 let touching_before: Vec<bool> = reference.histories.iter().map(|h| h.touching).collect();
                 domain.add_fibre_contacts_compiled_for(compilation);
                 reference.sweep(&domain);
-                first_touches += reference.histories.iter().zip(&touching_before).filter(|(now, before)| now.touching && !**before).count();
-                assert_eq!(first_difference(vector_bits(&domain.nodes.force[..owned]), vector_bits(&reference.force)), None, "forces, {case}, sweep {sweep}");
-                assert_eq!(first_difference(bits(&domain.contact_stiffness), bits(&reference.stiffness)), None, "stiffness, {case}, sweep {sweep}");
-                assert_eq!(first_difference(bits(&domain.ledger.plastic_dissipated), bits(&reference.plastic)), None, "plastic work, {case}, sweep {sweep}");
-                assert_eq!(first_difference(bits(&domain.ledger.friction_dissipated), bits(&reference.friction)), None, "friction work, {case}, sweep {sweep}");
+                first_touches += reference
+                    .histories
+                    .iter()
+                    .zip(&touching_before)
+                    .filter(|(now, before)| now.touching && !**before)
+                    .count();
+                assert_eq!(
+                    first_difference(vector_bits(&domain.nodes.force[..owned]), vector_bits(&reference.force)),
+                    None,
+                    "forces, {case}, sweep {sweep}"
+                );
+                assert_eq!(
+                    first_difference(bits(&domain.contact_stiffness), bits(&reference.stiffness)),
+                    None,
+                    "stiffness, {case}, sweep {sweep}"
+                );
+                assert_eq!(
+                    first_difference(bits(&domain.ledger.plastic_dissipated), bits(&reference.plastic)),
+                    None,
+                    "plastic work, {case}, sweep {sweep}"
+                );
+                assert_eq!(
+                    first_difference(bits(&domain.ledger.friction_dissipated), bits(&reference.friction)),
+                    None,
+                    "friction work, {case}, sweep {sweep}"
+                );
                 for i in 0..owned {
                     for k in domain.pairs.row(i) {
-                        assert_eq!(history_bits(&domain.pairs.history(i, k)), history_bits(&reference.histories[k]), "history of entry {k}, {case}, sweep {sweep}");
+                        assert_eq!(
+                            history_bits(&domain.pairs.history(i, k)),
+                            history_bits(&reference.histories[k]),
+                            "history of entry {k}, {case}, sweep {sweep}"
+                        );
                     }
                 }
-                assert_eq!(domain.pairs.touching_entries(), reference.histories.iter().filter(|h| h.touching).count(), "{case}");
+                assert_eq!(
+                    domain.pairs.touching_entries(),
+                    reference.histories.iter().filter(|h| h.touching).count(),
+                    "{case}"
+                );
                 slipped |= reference.friction.iter().any(|&w| w > 0.0);
-                unloading |= (0..owned).any(|i| domain.pairs.row(i).any(|k| reference.histories[k].touching && reference.histories[k].max_overlap > contact_overlap(&domain, i, k)));
+                unloading |= (0..owned).any(|i| {
+                    domain.pairs.row(i).any(|k| {
+                        reference.histories[k].touching
+                            && reference.histories[k].max_overlap > contact_overlap(&domain, i, k)
+                    })
+                });
             }
             // every path of the sweep was taken: first touches after partings, slip, unloading
             let touching = reference.histories.iter().filter(|h| h.touching).count();
-            assert!(first_touches > touching && slipped && unloading, "{case}: {first_touches} first touches, slip {slipped}, unloading {unloading}");
+            assert!(
+                first_touches > touching && slipped && unloading,
+                "{case}: {first_touches} first touches, slip {slipped}, unloading {unloading}"
+            );
         }
     }
 }

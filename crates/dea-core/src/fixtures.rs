@@ -15,7 +15,9 @@ use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3};
 pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let l0 = 9e-6;
-    let sections: Vec<_> = (0..sections).map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None, 0.3)).collect();
+    let sections: Vec<_> = (0..sections)
+        .map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None, 0.3))
+        .collect();
     let pitch = 0.97 * sections[0].contact_diameter;
     let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
     let centres = [(0.0, 0.0), (1.0, 0.0), (0.5, 0.866), (-0.5, 0.866), (-1.0, 0.0), (-0.5, -0.866), (0.5, -0.866)];
@@ -27,13 +29,28 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
         for along in 0..per_fibre {
             let gid = GlobalNodeId((fibre * per_fibre + along) as u64);
             let position = Vec3::new(along as f64 * l0, y * pitch, z * pitch);
-            nodes.push(gid, position, Vec3::zeros(), 1e-12, FibreId(fibre as u32), along as u32, (fibre % sections.len()) as u16, false, along + 1 == per_fibre);
+            nodes.push(
+                gid,
+                position,
+                Vec3::zeros(),
+                1e-12,
+                FibreId(fibre as u32),
+                along as u32,
+                (fibre % sections.len()) as u16,
+                false,
+                along + 1 == per_fibre,
+            );
             elements.push(l0, 3.4e9, FailureMode::Intact);
         }
     }
     nodes.n_owned = (0..centres.len()).filter(|&f| !is_ghost(f)).count() * per_fibre;
     nodes.link_chains();
-    let contact = ContactParameters { law: NormalLaw::ElastoPlasticKm2, friction_coefficient: 0.3, projectile_friction_coefficient: 0.0, skin: 0.5 * sections[0].contact_diameter };
+    let contact = ContactParameters {
+        law: NormalLaw::ElastoPlasticKm2,
+        friction_coefficient: 0.3,
+        projectile_friction_coefficient: 0.0,
+        skin: 0.5 * sections[0].contact_diameter,
+    };
     let failure = FailureParameters { shear_strength: 0.7672e9, enabled: false };
     let mut domain = Domain::assemble(material, sections, nodes, elements, contact, failure, None, 1e-9);
     domain.rebuild_neighbours().unwrap();
@@ -43,5 +60,6 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
 /// The overlap of the pair of list entry `k` of node `i` [m].
 pub fn contact_overlap(domain: &Domain, i: usize, k: usize) -> f64 {
     let j = domain.pairs.partner[k] as usize;
-    crate::neighbour::contact_distance(&domain.sections, &domain.nodes, i, j) - (domain.nodes.position[j] - domain.nodes.position[i]).norm()
+    crate::neighbour::contact_distance(&domain.sections, &domain.nodes, i, j)
+        - (domain.nodes.position[j] - domain.nodes.position[i]).norm()
 }

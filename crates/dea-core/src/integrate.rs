@@ -67,7 +67,9 @@ pub fn kick_drift(nodes: &mut Nodes, deferred: Option<f64>, h: f64, dt: f64, ref
     let tracked = reference.len() == nodes.n_owned;
     let (mut fastest, mut farthest): (f64, f64) = (0.0, if tracked { 0.0 } else { f64::INFINITY });
     let mut i = 0;
-    if let Some(lanes) = tracked.then(|| crate::in_avx2_lanes!(kick_drift_in_lanes(nodes, deferred, h, dt, reference))).flatten() {
+    if let Some(lanes) =
+        tracked.then(|| crate::in_avx2_lanes!(kick_drift_in_lanes(nodes, deferred, h, dt, reference))).flatten()
+    {
         (i, fastest, farthest) = lanes;
     }
     for i in i..nodes.n_owned {
@@ -98,7 +100,13 @@ fn kick_drift_node(nodes: &mut Nodes, deferred: Option<f64>, h: f64, dt: f64, i:
 /// largest squared speed and squared distance from `reference` so far.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn kick_drift_in_lanes(nodes: &mut Nodes, deferred: Option<f64>, h: f64, dt: f64, reference: &[Vec3]) -> (usize, f64, f64) {
+fn kick_drift_in_lanes(
+    nodes: &mut Nodes,
+    deferred: Option<f64>,
+    h: f64,
+    dt: f64,
+    reference: &[Vec3],
+) -> (usize, f64, f64) {
     use crate::lanes::{F4, V4};
     let (mut fastest, mut farthest) = (F4::splat(0.0), F4::splat(0.0));
     let mut i = 0;
@@ -146,7 +154,11 @@ mod tests {
         };
         let mut nodes = Nodes::default();
         for k in 0..103u32 {
-            let (x, v, f) = (Vec3::new(next(), next(), next()), Vec3::new(next(), next(), next()), Vec3::new(next(), next(), next()) * 1e-3);
+            let (x, v, f) = (
+                Vec3::new(next(), next(), next()),
+                Vec3::new(next(), next(), next()),
+                Vec3::new(next(), next(), next()) * 1e-3,
+            );
             nodes.push(GlobalNodeId(k as u64), x, v, 1e-12 * (1.0 + next()), FibreId(0), k, 0, k % 37 == 5, false);
             *nodes.force.last_mut().unwrap() = f;
         }
@@ -156,7 +168,12 @@ mod tests {
     }
 
     fn bits(nodes: &Nodes) -> Vec<u64> {
-        nodes.position.iter().chain(&nodes.velocity).flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect()
+        nodes
+            .position
+            .iter()
+            .chain(&nodes.velocity)
+            .flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
+            .collect()
     }
 
     #[test]
@@ -171,8 +188,12 @@ mod tests {
             for i in 0..scalar.n_owned {
                 kick_drift_node(&mut scalar, deferred, h, dt, i, &mut fastest);
             }
-            let scalar_farthest = scalar.position.iter().zip(&reference).map(|(x, r)| (x - r).norm_squared()).fold(0.0, f64::max);
-            assert_eq!((moved.to_bits(), farthest.to_bits()), ((fastest.sqrt() * dt).to_bits(), scalar_farthest.sqrt().to_bits()));
+            let scalar_farthest =
+                scalar.position.iter().zip(&reference).map(|(x, r)| (x - r).norm_squared()).fold(0.0, f64::max);
+            assert_eq!(
+                (moved.to_bits(), farthest.to_bits()),
+                ((fastest.sqrt() * dt).to_bits(), scalar_farthest.sqrt().to_bits())
+            );
             kick(&mut nodes, h);
             for i in 0..scalar.n_owned {
                 scalar.velocity[i] = kicked(&scalar, h, i);
@@ -194,14 +215,27 @@ mod tests {
         assert_ne!(bits(&apart), unchanged, "the kick changed nothing: the test would prove nothing");
         let apart_motion = kick_drift(&mut apart, None, h, dt, &reference);
         assert_eq!(bits(&fused), bits(&apart));
-        assert_eq!((fused_motion.0.to_bits(), fused_motion.1.to_bits()), (apart_motion.0.to_bits(), apart_motion.1.to_bits()));
+        assert_eq!(
+            (fused_motion.0.to_bits(), fused_motion.1.to_bits()),
+            (apart_motion.0.to_bits(), apart_motion.1.to_bits())
+        );
     }
 
     #[test]
     fn the_drift_reports_the_farthest_node_from_the_reference_and_the_longest_step() {
         let mut nodes = Nodes::default();
         for k in 0..4 {
-            nodes.push(GlobalNodeId(k), Vec3::new(k as f64, 0.0, 0.0), Vec3::new(0.0, k as f64, 0.0), 2.0, FibreId(0), k as u32, 0, k == 3, k == 3);
+            nodes.push(
+                GlobalNodeId(k),
+                Vec3::new(k as f64, 0.0, 0.0),
+                Vec3::new(0.0, k as f64, 0.0),
+                2.0,
+                FibreId(0),
+                k as u32,
+                0,
+                k == 3,
+                k == 3,
+            );
         }
         nodes.n_owned = 4;
         // node 3 is clamped; its reference is off by 5, node 1's by 1

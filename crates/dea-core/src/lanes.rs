@@ -188,7 +188,8 @@ impl U4 {
     pub fn distance_within(self, other: Self, limit: Self) -> Mask {
         let difference = _mm256_sub_epi64(self.0, other.0);
         let negative_limit = _mm256_sub_epi64(_mm256_setzero_si256(), limit.0);
-        let outside = _mm256_or_si256(_mm256_cmpgt_epi64(difference, limit.0), _mm256_cmpgt_epi64(negative_limit, difference));
+        let outside =
+            _mm256_or_si256(_mm256_cmpgt_epi64(difference, limit.0), _mm256_cmpgt_epi64(negative_limit, difference));
         Mask(_mm256_castsi256_pd(_mm256_andnot_si256(outside, _mm256_set1_epi64x(-1))))
     }
 }
@@ -209,12 +210,17 @@ impl V4 {
         let four = &vectors[start..start + 4];
         let values = four.as_ptr().cast::<f64>();
         // SAFETY: four 3-vectors of f64 are twelve consecutive f64 values (size checked below)
-        let [m0, m1, m2] = unsafe { [_mm256_loadu_pd(values), _mm256_loadu_pd(values.add(4)), _mm256_loadu_pd(values.add(8))] };
+        let [m0, m1, m2] =
+            unsafe { [_mm256_loadu_pd(values), _mm256_loadu_pd(values.add(4)), _mm256_loadu_pd(values.add(8))] };
         // m0 = x0 y0 z0 x1, m1 = y1 z1 x2 y2, m2 = z2 x3 y3 z3
         let a = _mm256_blend_pd::<0b1100>(m0, m1); // x0 y0 x2 y2
         let b = _mm256_permute2f128_pd::<0x21>(m0, m2); // z0 x1 z2 x3
         let c = _mm256_blend_pd::<0b1100>(m1, m2); // y1 z1 y3 z3
-        Self { x: F4(_mm256_blend_pd::<0b1010>(a, b)), y: F4(_mm256_shuffle_pd::<0b0101>(a, c)), z: F4(_mm256_blend_pd::<0b1010>(b, c)) }
+        Self {
+            x: F4(_mm256_blend_pd::<0b1010>(a, b)),
+            y: F4(_mm256_shuffle_pd::<0b0101>(a, c)),
+            z: F4(_mm256_blend_pd::<0b1010>(b, c)),
+        }
     }
 
     /// Writes the four vectors to `vectors` from index `start` on: a transpose and three
@@ -266,7 +272,11 @@ impl V4 {
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn cross(self, other: Self) -> Self {
-        Self { x: self.y.mul(other.z).sub(self.z.mul(other.y)), y: self.z.mul(other.x).sub(self.x.mul(other.z)), z: self.x.mul(other.y).sub(self.y.mul(other.x)) }
+        Self {
+            x: self.y.mul(other.z).sub(self.z.mul(other.y)),
+            y: self.z.mul(other.x).sub(self.x.mul(other.z)),
+            z: self.x.mul(other.y).sub(self.y.mul(other.x)),
+        }
     }
 }
 
@@ -319,8 +329,18 @@ mod tests {
         if !available() {
             return;
         }
-        let a = [Vec3::new(0.3, -1.7, 2.9), Vec3::new(1e-9, 3.3, -0.1), Vec3::new(-4.0, 0.25, 7.5), Vec3::new(0.1, 0.2, 0.3)];
-        let b = [Vec3::new(-2.2, 0.6, 1.1), Vec3::new(5.0, -1e-7, 0.7), Vec3::new(0.9, 0.8, -0.7), Vec3::new(0.3, 0.2, 0.1)];
+        let a = [
+            Vec3::new(0.3, -1.7, 2.9),
+            Vec3::new(1e-9, 3.3, -0.1),
+            Vec3::new(-4.0, 0.25, 7.5),
+            Vec3::new(0.1, 0.2, 0.3),
+        ];
+        let b = [
+            Vec3::new(-2.2, 0.6, 1.1),
+            Vec3::new(5.0, -1e-7, 0.7),
+            Vec3::new(0.9, 0.8, -0.7),
+            Vec3::new(0.3, 0.2, 0.1),
+        ];
         // SAFETY: AVX2 is present (checked above)
         let (cross, dot, norm) = unsafe { check(&a, &b) };
         for k in 0..4 {

@@ -170,7 +170,15 @@ impl BuildScratch {
 
     /// Writes to `hits` the cell-ordered entries within `reach` of local node `i` at
     /// `positions[i]`, its chain neighbours left out.
-    fn search(&mut self, grid: &HashedGrid, nodes: &Nodes, sections: &[FibreSection], positions: &[Vec3], i: usize, reach: f64) {
+    fn search(
+        &mut self,
+        grid: &HashedGrid,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        positions: &[Vec3],
+        i: usize,
+        reach: f64,
+    ) {
         let x = positions[i];
         let cell = grid.coordinates(&x);
         // consecutive nodes of a fibre often share a cell, and so its candidates
@@ -178,7 +186,14 @@ impl BuildScratch {
             self.stencil.find(grid, &self.cell_start, cell);
         }
         let exclusion = chain_exclusion(&sections[nodes.section[i] as usize]);
-        self.stencil.within(&self.cells, &x, chain_place(nodes.fibre[i], nodes.along[i]), exclusion, reach * reach, &mut self.hits);
+        self.stencil.within(
+            &self.cells,
+            &x,
+            chain_place(nodes.fibre[i], nodes.along[i]),
+            exclusion,
+            reach * reach,
+            &mut self.hits,
+        );
     }
 
     /// Starts writing new lists here, the old ones and their histories still in place.
@@ -337,7 +352,15 @@ impl Stencil {
     /// Writes to `hits` the cell-ordered entries closer to `x` than the square root of
     /// `reach_squared` and not within `exclusion` places of `place` on its chain (none for a
     /// NaN `x`: a NaN position, caught after the forces, pairs with nothing).
-    fn within(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+    fn within(
+        &self,
+        cells: &CellOrdered,
+        x: &Vec3,
+        place: u64,
+        exclusion: u32,
+        reach_squared: f64,
+        hits: &mut Vec<u32>,
+    ) {
         hits.clear();
         if crate::in_avx2_lanes!(self.within_in_lanes(cells, x, place, exclusion, reach_squared, hits)).is_some() {
             return;
@@ -346,7 +369,15 @@ impl Stencil {
     }
 
     /// [`Self::within`], one entry at a time.
-    fn within_one_at_a_time(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+    fn within_one_at_a_time(
+        &self,
+        cells: &CellOrdered,
+        x: &Vec3,
+        place: u64,
+        exclusion: u32,
+        reach_squared: f64,
+        hits: &mut Vec<u32>,
+    ) {
         for k in self.runs.iter().flat_map(|run| run.clone()) {
             let (dx, dy, dz) = (cells.x[k] - x.x, cells.y[k] - x.y, cells.z[k] - x.z);
             if dx * dx + dy * dy + dz * dz < reach_squared && !same_fibre_within(place, cells.place[k], exclusion) {
@@ -359,7 +390,15 @@ impl Stencil {
     /// hits packed without a branch.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn within_in_lanes(&self, cells: &CellOrdered, x: &Vec3, place: u64, exclusion: u32, reach_squared: f64, hits: &mut Vec<u32>) {
+    fn within_in_lanes(
+        &self,
+        cells: &CellOrdered,
+        x: &Vec3,
+        place: u64,
+        exclusion: u32,
+        reach_squared: f64,
+        hits: &mut Vec<u32>,
+    ) {
         use crate::lanes::{pack_counting, F4, U4};
         let (px, py, pz, reach_squared) = (F4::splat(x.x), F4::splat(x.y), F4::splat(x.z), F4::splat(reach_squared));
         let (place, exclusion) = (U4::splat(place), U4::splat(exclusion as u64));
@@ -368,13 +407,20 @@ impl Stencil {
         let mut count = 0;
         for run in &self.runs {
             // the run and the three entries of padding after it, so that every group reads four
-            let (xs, ys, zs, places) = (&cells.x[run.start..run.end + 3], &cells.y[run.start..run.end + 3], &cells.z[run.start..run.end + 3], &cells.place[run.start..run.end + 3]);
+            let (xs, ys, zs, places) = (
+                &cells.x[run.start..run.end + 3],
+                &cells.y[run.start..run.end + 3],
+                &cells.z[run.start..run.end + 3],
+                &cells.place[run.start..run.end + 3],
+            );
             for offset in (0..run.len()).step_by(4) {
-                let (dx, dy, dz) = (F4::load(xs, offset).sub(px), F4::load(ys, offset).sub(py), F4::load(zs, offset).sub(pz));
+                let (dx, dy, dz) =
+                    (F4::load(xs, offset).sub(px), F4::load(ys, offset).sub(py), F4::load(zs, offset).sub(pz));
                 let near = dx.mul(dx).add(dy.mul(dy)).add(dz.mul(dz)).lt(reach_squared).bits();
                 let linked = U4::load(places, offset).distance_within(place, exclusion).bits();
                 let in_run = (1u32 << (run.len() - offset).min(4)) - 1;
-                count += pack_counting((run.start + offset) as u32, near & !linked & in_run, &mut hits[count..count + 4]);
+                count +=
+                    pack_counting((run.start + offset) as u32, near & !linked & in_run, &mut hits[count..count + 4]);
             }
         }
         hits.truncate(count);
@@ -384,7 +430,14 @@ impl Stencil {
 /// True when the cell-ordered entries `hits` (local indices `cell_node`) that pass `within`
 /// are the local nodes `old`, each met once: a row whose partners did not change. `stamp`
 /// is odd and above every stamp used earlier in the build, which zeroes `mark` at its start.
-fn same_partners(mark: &mut [u32], stamp: u32, old: &[u32], hits: &[u32], cell_node: &[u32], within: impl Fn(usize) -> bool) -> bool {
+fn same_partners(
+    mark: &mut [u32],
+    stamp: u32,
+    old: &[u32],
+    hits: &[u32],
+    cell_node: &[u32],
+    within: impl Fn(usize) -> bool,
+) -> bool {
     for &j in old {
         mark[j as usize] = stamp;
     }
@@ -517,7 +570,15 @@ impl NeighbourList {
             // most rows are what they were (the skin is there for that): such a row needs no
             // sorting, and its histories are copied a run of rows at a time, or not at all
             // before the first change
-            let unchanged = if !renumbered && same_partners(&mut scratch.mark, 2 * i as u32 + 1, &self.partner[old.clone()], &scratch.hits, &scratch.cells.node, within) {
+            let unchanged = if !renumbered
+                && same_partners(
+                    &mut scratch.mark,
+                    2 * i as u32 + 1,
+                    &self.partner[old.clone()],
+                    &scratch.hits,
+                    &scratch.cells.node,
+                    within,
+                ) {
                 scratch.partner.extend_from_slice(&self.partner[old.clone()]);
                 true
             } else {
@@ -620,7 +681,13 @@ impl NeighbourList {
                 // the partners that did not move stay, the moved ones are met again as gained
                 let listed = self.old_partner_gids(&scratch.old, &placement, old.clone());
                 scratch.row.clear();
-                scratch.row.extend(self.partner[old.clone()].iter().zip(listed).filter(|(&j, _)| !scratch.moved[j as usize]).map(|(&j, &gid)| (gid, j)));
+                scratch.row.extend(
+                    self.partner[old.clone()]
+                        .iter()
+                        .zip(listed)
+                        .filter(|(&j, _)| !scratch.moved[j as usize])
+                        .map(|(&j, &gid)| (gid, j)),
+                );
                 scratch.row.extend_from_slice(&scratch.gained_sorted[gained]);
                 scratch.take_row();
                 self.row_is_old(&scratch, &placement, i)
@@ -648,7 +715,12 @@ impl NeighbourList {
     }
 
     /// The partner gids of old row `old`, wherever the build has put the old histories.
-    fn old_partner_gids<'a>(&'a self, histories: &'a OldHistories, placement: &Placement, old: std::ops::Range<usize>) -> &'a [GlobalNodeId] {
+    fn old_partner_gids<'a>(
+        &'a self,
+        histories: &'a OldHistories,
+        placement: &Placement,
+        old: std::ops::Range<usize>,
+    ) -> &'a [GlobalNodeId] {
         if placement.moved {
             histories.listed(old)
         } else {
@@ -659,7 +731,12 @@ impl NeighbourList {
     /// True when the new row of owned node `i` in `scratch.row` has the partners of its old row.
     fn row_is_old(&self, scratch: &BuildScratch, placement: &Placement, i: usize) -> bool {
         let old = compressed_row(&self.start, i);
-        old.len() == scratch.row.len() && scratch.row.iter().zip(self.old_partner_gids(&scratch.old, placement, old)).all(|(&(gid, _), &listed)| gid == listed)
+        old.len() == scratch.row.len()
+            && scratch
+                .row
+                .iter()
+                .zip(self.old_partner_gids(&scratch.old, placement, old))
+                .all(|(&(gid, _), &listed)| gid == listed)
     }
 
     /// Places the histories of owned node `i`, whose partners were just appended to
@@ -684,18 +761,30 @@ impl NeighbourList {
             self.merge_changed_row(&scratch.old, &scratch.row, old, retired.clone());
         }
         // the retired pairs of a run are still gone: not copied yet, but counted
-        let retired_end = if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
+        let retired_end =
+            if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
         scratch.start.push(scratch.partner.len() as u32);
         scratch.retired_start.push(retired_end as u32);
     }
 
     /// Ends a build: the last run of unchanged rows' histories, the new rows, and the
     /// reference positions and numbering the next build and the checks start from.
-    fn finish_build(&mut self, mut scratch: BuildScratch, placement: Placement, nodes: &Nodes, references: Vec<Vec3>, max_cutoff: f64, coarse_reach: f64) {
+    fn finish_build(
+        &mut self,
+        mut scratch: BuildScratch,
+        placement: Placement,
+        nodes: &Nodes,
+        references: Vec<Vec3>,
+        max_cutoff: f64,
+        coarse_reach: f64,
+    ) {
         if let Some(from) = placement.run {
             self.copy_history(&scratch.old, from, scratch.old.end());
         }
-        debug_assert_eq!((self.partner_gid.len(), self.retired_gid.len()), (scratch.partner.len(), *scratch.retired_start.last().unwrap() as usize));
+        debug_assert_eq!(
+            (self.partner_gid.len(), self.retired_gid.len()),
+            (scratch.partner.len(), *scratch.retired_start.last().unwrap() as usize)
+        );
         std::mem::swap(&mut self.start, &mut scratch.start);
         std::mem::swap(&mut self.partner, &mut scratch.partner);
         std::mem::swap(&mut self.retired_start, &mut scratch.retired_start);
@@ -712,7 +801,10 @@ impl NeighbourList {
     fn split_rows(&mut self, nodes: &Nodes) {
         let owned = nodes.n_owned;
         // the sweep's order of terms is the gid order only if the rows come in it (D13)
-        assert!(nodes.gid[..owned].windows(2).all(|pair| pair[0] < pair[1]), "owned nodes must be stored in ascending gid");
+        assert!(
+            nodes.gid[..owned].windows(2).all(|pair| pair[0] < pair[1]),
+            "owned nodes must be stored in ascending gid"
+        );
         self.upper_start.clear();
         self.lower_ghosts.clear();
         for i in 0..owned {
@@ -724,7 +816,11 @@ impl NeighbourList {
                 let j = self.partner[k] as usize;
                 if j >= owned {
                     let before_row = nodes.gid[..owned].partition_point(|&g| g < nodes.gid[j]);
-                    self.lower_ghosts.push(LowerGhostEntry { before_row: before_row as u32, row: i as u32, entry: k as u32 });
+                    self.lower_ghosts.push(LowerGhostEntry {
+                        before_row: before_row as u32,
+                        row: i as u32,
+                        entry: k as u32,
+                    });
                 }
             }
         }
@@ -751,7 +847,10 @@ impl NeighbourList {
         let gid = self.reference_gid[i];
         match self.partner_gid[upper.clone()].binary_search(&gid) {
             Ok(m) => (upper.start + m, true),
-            Err(_) => unreachable!("the lists are symmetric: node {} lists {} and is not listed back", gid.0, self.partner_gid[k].0),
+            Err(_) => unreachable!(
+                "the lists are symmetric: node {} lists {} and is not listed back",
+                gid.0, self.partner_gid[k].0
+            ),
         }
     }
 
@@ -759,7 +858,12 @@ impl NeighbourList {
     pub fn history(&self, i: usize, k: usize) -> PairHistory {
         let (at, mirrored) = self.history_entry(i, k);
         let anchor = self.anchor[at];
-        PairHistory { anchor: if mirrored { -anchor } else { anchor }, spring_stiffness: self.spring_stiffness[at], touching: self.touching[at], max_overlap: self.max_overlap[at] }
+        PairHistory {
+            anchor: if mirrored { -anchor } else { anchor },
+            spring_stiffness: self.spring_stiffness[at],
+            touching: self.touching[at],
+            max_overlap: self.max_overlap[at],
+        }
     }
 
     /// The retired pairs of every owned row as rows that each evaluated all their pairs would
@@ -782,7 +886,10 @@ impl NeighbourList {
         for (i, &gid) in gids.iter().enumerate() {
             let start = partners.len();
             // the row's own records, but those of owned partners of lower gid (not kept here)
-            let mut own = self.retired_row(i).filter(|&r| self.retired_gid[r] > gid || owned_here(self.retired_gid[r]).is_none()).peekable();
+            let mut own = self
+                .retired_row(i)
+                .filter(|&r| self.retired_gid[r] > gid || owned_here(self.retired_gid[r]).is_none())
+                .peekable();
             loop {
                 let next_handed = handed.peek().filter(|h| h.0 == i).map(|h| h.1);
                 let next_own = own.peek().map(|&r| self.retired_gid[r]);
@@ -810,7 +917,9 @@ impl NeighbourList {
     /// The entries `(row, entry)` of owned rows where a touching pair is evaluated: each pair
     /// of owned nodes once, each pair with a ghost once here.
     pub fn evaluated_touching(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (0..self.upper_start.len()).flat_map(move |i| self.row(i).map(move |k| (i, k))).filter(|&(i, k)| self.evaluates(i, k) && self.touching[k])
+        (0..self.upper_start.len())
+            .flat_map(move |i| self.row(i).map(move |k| (i, k)))
+            .filter(|&(i, k)| self.evaluates(i, k) && self.touching[k])
     }
 
     /// Entries of owned rows whose pair touches (a pair of two owned nodes counts twice).
@@ -824,7 +933,13 @@ impl NeighbourList {
     /// other), `row` its new partners: a pair still listed carries its history, a retired one
     /// that is back its largest overlap; retired now are the old row's pairs that touched and
     /// are gone, and the retired pairs still gone.
-    fn merge_changed_row(&mut self, from: &OldHistories, row: &[(GlobalNodeId, u32)], old: std::ops::Range<usize>, retired: std::ops::Range<usize>) {
+    fn merge_changed_row(
+        &mut self,
+        from: &OldHistories,
+        row: &[(GlobalNodeId, u32)],
+        old: std::ops::Range<usize>,
+        retired: std::ops::Range<usize>,
+    ) {
         let (old, retired) = (from.listed_range(old), from.retired_range(retired));
         let (mut cursor, mut back) = (old.start, retired.start);
         for &(gid, _) in row {
@@ -905,7 +1020,9 @@ impl NeighbourList {
             return false;
         }
         if let Some((spread, largest)) = motion.passed {
-            if spread + 2.0 * motion.moved_since < self.skin && motion.cutoff + 2.0 * (largest + motion.moved_since) < motion.cell {
+            if spread + 2.0 * motion.moved_since < self.skin
+                && motion.cutoff + 2.0 * (largest + motion.moved_since) < motion.cell
+            {
                 return true;
             }
         }
@@ -1032,7 +1149,10 @@ impl HashedGrid {
 
     #[inline]
     fn slot(&self, [x, y, z]: [i64; 3]) -> usize {
-        let linear = (x as u64).wrapping_mul(self.stride_x).wrapping_add((y as u64).wrapping_mul(self.stride_y)).wrapping_add(z as u64);
+        let linear = (x as u64)
+            .wrapping_mul(self.stride_x)
+            .wrapping_add((y as u64).wrapping_mul(self.stride_y))
+            .wrapping_add(z as u64);
         linear as usize & self.mask
     }
 }
@@ -1127,7 +1247,9 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
                 (-1..=1).any(|dy| {
                     (-1..=1).any(|dz| {
                         let c = grid.slot([cx + dx, cy + dy, cz + dz]);
-                        sorted[start[c] as usize..start[c + 1] as usize].iter().any(|t| (t - x).norm_squared() < reach * reach)
+                        sorted[start[c] as usize..start[c + 1] as usize]
+                            .iter()
+                            .any(|t| (t - x).norm_squared() < reach * reach)
                     })
                 })
             })
@@ -1153,7 +1275,11 @@ fn same_fibre_within(place: u64, other: u64, exclusion: u32) -> bool {
 
 /// True when `j` is a chain neighbour of `i` that the contact search must skip.
 pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize) -> bool {
-    same_fibre_within(chain_place(nodes.fibre[i], nodes.along[i]), chain_place(nodes.fibre[j], nodes.along[j]), chain_exclusion(&sections[nodes.section[i] as usize]))
+    same_fibre_within(
+        chain_place(nodes.fibre[i], nodes.along[i]),
+        chain_place(nodes.fibre[j], nodes.along[j]),
+        chain_exclusion(&sections[nodes.section[i] as usize]),
+    )
 }
 
 #[cfg(test)]
@@ -1178,7 +1304,17 @@ mod tests {
         let mut next = uniform(seed);
         for k in 0..n {
             let x = Vec3::new(next(), next(), next()) * 4e-4;
-            nodes.push(GlobalNodeId(k as u64 * 3), x, Vec3::zeros(), 1.0, FibreId((k / 10) as u32), (k % 10) as u32, 0, false, k % 10 == 9);
+            nodes.push(
+                GlobalNodeId(k as u64 * 3),
+                x,
+                Vec3::zeros(),
+                1.0,
+                FibreId((k / 10) as u32),
+                (k % 10) as u32,
+                0,
+                false,
+                k % 10 == 9,
+            );
         }
         nodes.n_owned = n;
         nodes.link_chains();
@@ -1193,7 +1329,11 @@ mod tests {
         }
         let mut next = uniform(11);
         let n = 256;
-        let mut cells = CellOrdered { node: (0..n as u32).collect(), gid: (0..n as u64).map(GlobalNodeId).collect(), ..Default::default() };
+        let mut cells = CellOrdered {
+            node: (0..n as u32).collect(),
+            gid: (0..n as u64).map(GlobalNodeId).collect(),
+            ..Default::default()
+        };
         for _ in 0..n + 3 {
             cells.x.push(next());
             cells.y.push(next());
@@ -1209,7 +1349,8 @@ mod tests {
         for x in [Vec3::new(0.5, 0.5, 0.5), Vec3::new(0.1, 0.9, 0.3), Vec3::new(f64::NAN, 0.5, 0.5)] {
             let (mut one_at_a_time, mut in_lanes) = (Vec::new(), Vec::new());
             stencil.within_one_at_a_time(&cells, &x, place, 2, 0.2, &mut one_at_a_time);
-            crate::in_avx2_lanes!(stencil.within_in_lanes(&cells, &x, place, 2, 0.2, &mut in_lanes)).expect("AVX2 is present");
+            crate::in_avx2_lanes!(stencil.within_in_lanes(&cells, &x, place, 2, 0.2, &mut in_lanes))
+                .expect("AVX2 is present");
             assert_eq!(in_lanes, one_at_a_time, "from {x:?}");
             assert!(one_at_a_time.iter().all(|&k| stencil.runs.iter().any(|run| run.contains(&(k as usize)))));
             found += one_at_a_time.len();
@@ -1218,7 +1359,10 @@ mod tests {
         stencil.within_one_at_a_time(&cells, &Vec3::new(0.5, 0.5, 0.5), place, 0, 0.2, &mut near);
         let mut linked = Vec::new();
         stencil.within_one_at_a_time(&cells, &Vec3::new(0.5, 0.5, 0.5), place, 2, 0.2, &mut linked);
-        assert!(found > 5 && linked.len() < near.len(), "the test finds candidates ({found}) and leaves out chain neighbours");
+        assert!(
+            found > 5 && linked.len() < near.len(),
+            "the test finds candidates ({found}) and leaves out chain neighbours"
+        );
     }
 
     #[test]
@@ -1281,7 +1425,10 @@ mod tests {
         for i in 0..nodes.n_owned {
             let mut expected: Vec<GlobalNodeId> = (0..nodes.len())
                 .filter(|&j| j != i && !is_excluded(&nodes, &sections, i, j))
-                .filter(|&j| (nodes.position[j] - nodes.position[i]).norm() < contact_distance(&sections, &nodes, i, j) + list.skin)
+                .filter(|&j| {
+                    (nodes.position[j] - nodes.position[i]).norm()
+                        < contact_distance(&sections, &nodes, i, j) + list.skin
+                })
                 .map(|j| nodes.gid[j])
                 .collect();
             expected.sort();
@@ -1295,7 +1442,9 @@ mod tests {
         let (mut nodes, sections) = random_cloud(600, 5);
         let mut list = NeighbourList::new(5e-6);
         list.rebuild(&nodes, &sections);
-        let before: Vec<Vec<GlobalNodeId>> = (1..nodes.n_owned).map(|i| list.partner_gid[list.row(i)].iter().copied().filter(|&g| g != nodes.gid[0]).collect()).collect();
+        let before: Vec<Vec<GlobalNodeId>> = (1..nodes.n_owned)
+            .map(|i| list.partner_gid[list.row(i)].iter().copied().filter(|&g| g != nodes.gid[0]).collect())
+            .collect();
         nodes.position[0] = Vec3::new(1e3, -2e3, 5e2);
         list.rebuild(&nodes, &sections);
         assert_eq!(list.row(0).len(), 0);
@@ -1331,7 +1480,8 @@ mod tests {
                 let jitter = Vec3::new(next(), next(), next()) * scale;
                 *x += if x.x < cut { carried + jitter } else { jitter };
             }
-            let largest = nodes.position.iter().zip(&list.reference_position).map(|(x, r)| (x - r).norm()).fold(0.0, f64::max);
+            let largest =
+                nodes.position.iter().zip(&list.reference_position).map(|(x, r)| (x - r).norm()).fold(0.0, f64::max);
             if !list.hold_every_reachable_pair(&nodes) {
                 refused += 1;
                 continue;
@@ -1341,7 +1491,10 @@ mod tests {
                 for i in 0..nodes.n_owned {
                     for j in (0..nodes.len()).filter(|&j| j != i && !is_excluded(nodes, &sections, i, j)) {
                         if (nodes.position[j] - nodes.position[i]).norm() < contact_distance(&sections, nodes, i, j) {
-                            assert!(list.partner_gid[list.row(i)].contains(&nodes.gid[j]), "trial {trial}, {stage}: touching pair {i}-{j} not listed");
+                            assert!(
+                                list.partner_gid[list.row(i)].contains(&nodes.gid[j]),
+                                "trial {trial}, {stage}: touching pair {i}-{j} not listed"
+                            );
                         }
                     }
                 }
@@ -1362,7 +1515,10 @@ mod tests {
                 every_touching_pair_listed(&list, &nodes, &format!("step {step}"));
             }
         }
-        assert!(kept_beyond_plain_rule > 5 && refused > 5 && refused_later > 5, "kept {kept_beyond_plain_rule}, refused {refused}, refused later {refused_later}");
+        assert!(
+            kept_beyond_plain_rule > 5 && refused > 5 && refused_later > 5,
+            "kept {kept_beyond_plain_rule}, refused {refused}, refused later {refused_later}"
+        );
     }
 
     #[test]
@@ -1372,15 +1528,22 @@ mod tests {
         let (low, high) = (Vec3::new(-0.3, -0.2, 0.0), Vec3::new(0.4, 0.5, 0.25));
         let cubes = SharedCubes::new(low, high, reach, 10_000).unwrap();
         // points on both sides of the box's faces, and pairs placed just inside the reach
-        let point = |next: &mut dyn FnMut() -> f64| Vec3::new(-0.35 + 0.8 * next(), -0.25 + 0.8 * next(), -0.05 + 0.35 * next());
+        let point = |next: &mut dyn FnMut() -> f64| {
+            Vec3::new(-0.35 + 0.8 * next(), -0.25 + 0.8 * next(), -0.05 + 0.35 * next())
+        };
         let theirs: Vec<Vec3> = (0..60).map(|_| point(&mut next)).collect();
         let mut ours: Vec<Vec3> = (0..400).map(|_| point(&mut next)).collect();
-        ours.extend(theirs.iter().map(|t| t + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * (reach * (1.0 - 1e-12))));
+        ours.extend(
+            theirs
+                .iter()
+                .map(|t| t + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * (reach * (1.0 - 1e-12))),
+        );
         let near = cubes.next_to(&cubes.occupied(theirs.iter()));
         let (mut within, mut marked) = (0, 0);
         for x in &ours {
             let inside = (0..3).all(|k| x[k] >= low[k] && x[k] <= high[k]);
-            let close = theirs.iter().any(|t| (0..3).all(|k| t[k] >= low[k] && t[k] <= high[k]) && (t - x).norm() < reach);
+            let close =
+                theirs.iter().any(|t| (0..3).all(|k| t[k] >= low[k] && t[k] <= high[k]) && (t - x).norm() < reach);
             let flagged = cubes.cube(x).is_some_and(|c| near[c]);
             if inside && close {
                 within += 1;
@@ -1437,7 +1600,17 @@ mod tests {
         let local = |order: &mut dyn Iterator<Item = usize>| {
             let mut nodes = Nodes::default();
             for k in order {
-                nodes.push(cloud.gid[k], cloud.position[k], Vec3::zeros(), 1.0, cloud.fibre[k], cloud.along[k], 0, false, cloud.last[k]);
+                nodes.push(
+                    cloud.gid[k],
+                    cloud.position[k],
+                    Vec3::zeros(),
+                    1.0,
+                    cloud.fibre[k],
+                    cloud.along[k],
+                    0,
+                    false,
+                    cloud.last[k],
+                );
             }
             nodes.n_owned = 400;
             nodes.link_chains();
@@ -1451,7 +1624,16 @@ mod tests {
             list.touching[k] = k % 3 == 0;
             list.anchor[k] = Vec3::repeat(k as f64);
         }
-        let histories = |list: &NeighbourList| (list.start.clone(), list.partner_gid.clone(), list.anchor.clone(), list.touching.clone(), list.max_overlap.clone(), list.retired_gid.clone());
+        let histories = |list: &NeighbourList| {
+            (
+                list.start.clone(),
+                list.partner_gid.clone(),
+                list.anchor.clone(),
+                list.touching.clone(),
+                list.max_overlap.clone(),
+                list.retired_gid.clone(),
+            )
+        };
         let before = histories(&list);
         list.rebuild(&nodes, &sections);
         assert_eq!(histories(&list), before, "nothing moved: every row and history as it was");
@@ -1475,7 +1657,11 @@ mod tests {
             let old = before.0[i] as usize..before.0[i + 1] as usize;
             if list.partner_gid[row.clone()] == before.1[old.clone()] {
                 kept += 1;
-                assert_eq!((&list.anchor[row.clone()], &list.max_overlap[row]), (&before.2[old.clone()], &before.4[old]), "row {i}");
+                assert_eq!(
+                    (&list.anchor[row.clone()], &list.max_overlap[row]),
+                    (&before.2[old.clone()], &before.4[old]),
+                    "row {i}"
+                );
             } else {
                 changed += 1;
                 assert!(row.clone().all(|k| list.max_overlap[k] == list.partner_gid[k].0 as f64 + 0.5), "row {i}");
@@ -1491,14 +1677,26 @@ mod tests {
         // the last third are ghosts
         let mut nodes = Nodes::default();
         for k in 0..600 {
-            nodes.push(cloud.gid[k], cloud.position[k], Vec3::zeros(), 1.0, cloud.fibre[k], cloud.along[k], 0, false, cloud.last[k]);
+            nodes.push(
+                cloud.gid[k],
+                cloud.position[k],
+                Vec3::zeros(),
+                1.0,
+                cloud.fibre[k],
+                cloud.along[k],
+                0,
+                false,
+                cloud.last[k],
+            );
         }
         nodes.n_owned = 400;
         nodes.link_chains();
         let mut list = NeighbourList::new(5e-6);
         list.rebuild(&nodes, &sections);
         // each pair's history names the pair
-        let key = |list: &NeighbourList, nodes: &Nodes, i: usize, k: usize| (nodes.gid[i].0 * 1000 + list.partner_gid[k].0) as f64;
+        let key = |list: &NeighbourList, nodes: &Nodes, i: usize, k: usize| {
+            (nodes.gid[i].0 * 1000 + list.partner_gid[k].0) as f64
+        };
         let mut next = uniform(5);
         let (mut partial, mut unsearched) = (0, 0);
         for round in 0..40 {
@@ -1523,12 +1721,23 @@ mod tests {
                 partial += 1;
                 unsearched += kept;
             }
-            assert!(nodes.position.iter().zip(&list.reference_position).all(|(x, r)| (x - r).norm() <= MOVED_SHARE_OF_SKIN * list.skin), "round {round}");
+            assert!(
+                nodes
+                    .position
+                    .iter()
+                    .zip(&list.reference_position)
+                    .all(|(x, r)| (x - r).norm() <= MOVED_SHARE_OF_SKIN * list.skin),
+                "round {round}"
+            );
             let mut at_references = nodes.clone();
             at_references.position = list.reference_position.clone();
             let mut full = NeighbourList::new(list.skin);
             full.rebuild(&at_references, &sections);
-            assert_eq!((&list.start, &list.partner, &list.partner_gid), (&full.start, &full.partner, &full.partner_gid), "round {round}");
+            assert_eq!(
+                (&list.start, &list.partner, &list.partner_gid),
+                (&full.start, &full.partner, &full.partner_gid),
+                "round {round}"
+            );
             for i in 0..nodes.n_owned {
                 for k in list.row(i) {
                     let pair = (nodes.gid[i], list.partner_gid[k]);
@@ -1546,7 +1755,10 @@ mod tests {
                 }
             }
         }
-        assert!(partial > 30 && unsearched > 30 * 300, "{partial} partial rebuilds, {unsearched} nodes kept their references");
+        assert!(
+            partial > 30 && unsearched > 30 * 300,
+            "{partial} partial rebuilds, {unsearched} nodes kept their references"
+        );
     }
 
     #[test]
@@ -1581,16 +1793,25 @@ mod tests {
         for i in 0..nodes.n_owned {
             if list.partner_gid[list.row(i)] == before.partner_gid[before.row(i)] {
                 assert_eq!(list.retired_gid[list.retired_row(i)], before.retired_gid[before.retired_row(i)]);
-                assert_eq!(list.retired_max_overlap[list.retired_row(i)], before.retired_max_overlap[before.retired_row(i)]);
+                assert_eq!(
+                    list.retired_max_overlap[list.retired_row(i)],
+                    before.retired_max_overlap[before.retired_row(i)]
+                );
             } else {
                 changed += 1;
-                assert!(list.retired_row(i).len() > before.retired_row(i).len(), "row {i} retires its pair with the node that left");
+                assert!(
+                    list.retired_row(i).len() > before.retired_row(i).len(),
+                    "row {i} retires its pair with the node that left"
+                );
             }
         }
         assert!(changed > 1 && changed < 50, "{changed}");
         nodes.position[leaving] -= Vec3::new(1.0, 0.0, 0.0);
         list.rebuild(&nodes, &sections);
-        assert_eq!((&list.start, &list.partner_gid, &list.retired_start, &list.retired_gid), (&before.start, &before.partner_gid, &before.retired_start, &before.retired_gid));
+        assert_eq!(
+            (&list.start, &list.partner_gid, &list.retired_start, &list.retired_gid),
+            (&before.start, &before.partner_gid, &before.retired_start, &before.retired_gid)
+        );
         assert_eq!((&list.max_overlap, &list.retired_max_overlap), (&before.max_overlap, &before.retired_max_overlap));
         nodes.position[0] -= Vec3::new(1.0, 0.0, 0.0);
         list.rebuild(&nodes, &sections);

@@ -21,7 +21,11 @@ impl PairData {
         let (ra, rb) = (0.5 * a.diameter, 0.5 * b.diameter);
         Self {
             reach: 0.5 * (a.contact_diameter + b.contact_diameter),
-            geometry: ContactGeometry::new(2.0 * ra * rb / (ra + rb), 0.5 * (a.element_length + b.element_length), ra + rb),
+            geometry: ContactGeometry::new(
+                2.0 * ra * rb / (ra + rb),
+                0.5 * (a.element_length + b.element_length),
+                ra + rb,
+            ),
         }
     }
 }

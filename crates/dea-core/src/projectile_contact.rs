@@ -84,9 +84,22 @@ impl ProjectileContacts {
         let mut surface = projectile.surface_moved_since(&contacts.reference_position, &contacts.reference_orientation);
         if let Some(mesh) = projectile.shape.deforming_mesh() {
             // a deformable body's surface also moves against its frame
-            surface += mesh.surface.vertices.iter().zip(&contacts.reference_vertices).map(|(v, r)| (v - r).norm_squared()).fold(0.0, f64::max).sqrt();
+            surface += mesh
+                .surface
+                .vertices
+                .iter()
+                .zip(&contacts.reference_vertices)
+                .map(|(v, r)| (v - r).norm_squared())
+                .fold(0.0, f64::max)
+                .sqrt();
         }
-        let node = contacts.node_reference.iter().zip(&nodes.position).map(|(r, x)| (x - r).norm_squared()).fold(0.0, f64::max).sqrt();
+        let node = contacts
+            .node_reference
+            .iter()
+            .zip(&nodes.position)
+            .map(|(r, x)| (x - r).norm_squared())
+            .fold(0.0, f64::max)
+            .sqrt();
         node + surface > skin
     }
 
@@ -94,7 +107,13 @@ impl ProjectileContacts {
     /// finds them through its cubes, whose reach covers the contact radius plus the skin).
     /// A node that is not a candidate cannot touch, so the choice and its timing never
     /// change a result: each rank refreshes on its own.
-    pub fn refresh_candidates(&mut self, projectile: Option<&RigidProjectile>, nodes: &Nodes, sections: &[FibreSection], skin: f64) {
+    pub fn refresh_candidates(
+        &mut self,
+        projectile: Option<&RigidProjectile>,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        skin: f64,
+    ) {
         let Some(projectile) = projectile else { return };
         let contacts = self;
         let max_contact_radius = sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
@@ -103,7 +122,9 @@ impl ProjectileContacts {
         contacts.candidates.clear();
         for i in 0..nodes.n_owned {
             let x = nodes.position[i];
-            if (x - projectile.position).norm_squared() < bounding * bounding && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach {
+            if (x - projectile.position).norm_squared() < bounding * bounding
+                && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach
+            {
                 contacts.candidates.push(LocalNodeId::of(i));
             } else {
                 // a node leaving the candidate set is out of contact
@@ -123,7 +144,13 @@ impl ProjectileContacts {
     /// Geometry of the contact of fibre node `i` with the projectile surface: overlap, outward
     /// normal (body frame), body-frame position, and the contact geometry of the law.
     #[inline]
-    pub fn geometry(&self, projectile: &RigidProjectile, nodes: &Nodes, sections: &[FibreSection], i: usize) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
+    pub fn geometry(
+        &self,
+        projectile: &RigidProjectile,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        i: usize,
+    ) -> (f64, SurfacePoint, Vec3, ContactGeometry) {
         let section = &sections[nodes.section[i] as usize];
         let body = projectile.to_body(&nodes.position[i]);
         // the triangle it was last in contact with: the same answer, often without a search
@@ -138,7 +165,16 @@ impl ProjectileContacts {
     /// its dissipation to `ledger`, and keeps the force and the reaction's torque for
     /// [`Self::reactions`].
     #[allow(clippy::too_many_arguments)]
-    pub fn add_forces(&mut self, projectile: &RigidProjectile, nodes: &mut Nodes, sections: &[FibreSection], law: NormalLaw, mu: f64, ledger: &mut NodeLedger, contact_stiffness: &mut [f64]) {
+    pub fn add_forces(
+        &mut self,
+        projectile: &RigidProjectile,
+        nodes: &mut Nodes,
+        sections: &[FibreSection],
+        law: NormalLaw,
+        mu: f64,
+        ledger: &mut NodeLedger,
+        contact_stiffness: &mut [f64],
+    ) {
         // a rigid mesh's query is costly: it is skipped for a node known to be clear
         let skips = matches!(projectile.shape, RigidShape::Mesh(_)) && projectile.shape.deforming_mesh().is_none();
         let contacts = &mut *self;
@@ -152,7 +188,12 @@ impl ProjectileContacts {
             let i = self.candidates[c].index();
             let contacts = &mut *self;
             // the signed distance moves no faster than the node and the surface together
-            if skips && contacts.clearance[i] - (nodes.position[i] - contacts.clearance_position[i]).norm() - (contacts.surface_travel - contacts.clearance_travel[i]) > CLEARANCE_MARGIN {
+            if skips
+                && contacts.clearance[i]
+                    - (nodes.position[i] - contacts.clearance_position[i]).norm()
+                    - (contacts.surface_travel - contacts.clearance_travel[i])
+                    > CLEARANCE_MARGIN
+            {
                 contacts.release(i);
                 contacts.skipped_queries += 1;
                 continue;
@@ -173,7 +214,8 @@ impl ProjectileContacts {
             let previous_max = contacts.max_overlap[i];
             let (response, max_overlap) = law.evaluate(&geometry, overlap, previous_max);
             if max_overlap > previous_max {
-                ledger.plastic_dissipated[i] += law.dissipated(&geometry, max_overlap) - law.dissipated(&geometry, previous_max);
+                ledger.plastic_dissipated[i] +=
+                    law.dissipated(&geometry, max_overlap) - law.dissipated(&geometry, previous_max);
                 contacts.max_overlap[i] = max_overlap;
             }
             // the partner of the fibre pairs: the body origin of a rigid body (its frame turns
@@ -194,7 +236,15 @@ impl ProjectileContacts {
                 contacts.anchor[i] = relative;
                 contacts.spring_stiffness[i] = mu * response.stiffness;
             } else if mu > 0.0 {
-                let friction = stick_slip(relative, normal, &mut contacts.anchor[i], &mut contacts.spring_stiffness[i], response.force, response.stiffness, mu);
+                let friction = stick_slip(
+                    relative,
+                    normal,
+                    &mut contacts.anchor[i],
+                    &mut contacts.spring_stiffness[i],
+                    response.force,
+                    response.stiffness,
+                    mu,
+                );
                 force_body += friction.force;
                 ledger.friction_dissipated[i] += friction.dissipated;
                 if let (Some(mesh), true) = (deforming, friction.dissipated > 0.0) {
@@ -207,7 +257,9 @@ impl ProjectileContacts {
                 }
             }
             let force = projectile.to_world_vector(&force_body);
-            let surface_point = nodes.position[i] - projectile.to_world_vector(&normal) * (0.5 * sections[nodes.section[i] as usize].contact_diameter - overlap);
+            let surface_point = nodes.position[i]
+                - projectile.to_world_vector(&normal)
+                    * (0.5 * sections[nodes.section[i] as usize].contact_diameter - overlap);
             contacts.force_on_node[i] = force;
             contacts.triangle[i] = point.triangle;
             contacts.weights[i] = point.weights;

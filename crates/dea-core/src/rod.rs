@@ -10,7 +10,12 @@ use crate::{FibreMaterial, FibreSection};
 /// `compressive_stiffness_ratio`). Stores the force in `elements.axial_force`, and the
 /// element's direction and inverse length for the bending pass and the chain forces (the
 /// force is stored as a magnitude: the step moves a third of the bytes it would as a vector).
-pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
+pub fn compute_element_tension(
+    nodes: &Nodes,
+    elements: &mut Elements,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+) {
     if crate::in_avx2_lanes!(tension_in_lanes(nodes, elements, sections, material)).is_some() {
         return;
     }
@@ -21,7 +26,13 @@ pub fn compute_element_tension(nodes: &Nodes, elements: &mut Elements, sections:
 
 /// [`compute_element_tension`] of element `i`.
 #[inline]
-pub(crate) fn element_tension(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial, i: usize) {
+pub(crate) fn element_tension(
+    nodes: &Nodes,
+    elements: &mut Elements,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+    i: usize,
+) {
     let j = nodes.next[i];
     if j == NONE {
         return;
@@ -64,7 +75,8 @@ fn tension_in_lanes(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSec
             let strain = length.sub(rest).div(rest);
             strain.store(&mut elements.strain, i);
             // axial_force: the compressive ratio below zero strain
-            let scale = F4::select(strain.ge(F4::splat(0.0)), F4::splat(1.0), F4::splat(material.compressive_stiffness_ratio));
+            let scale =
+                F4::select(strain.ge(F4::splat(0.0)), F4::splat(1.0), F4::splat(material.compressive_stiffness_ratio));
             let stiffness = F4::gather(i, stiffness_of);
             scale.mul(stiffness).mul(strain).store(&mut elements.axial_force, i);
         } else {
@@ -111,7 +123,13 @@ pub fn axial_force(material: &FibreMaterial, area: f64, strain: f64) -> f64 {
 }
 
 /// Axial strain energy of element `i`: `E A l0 eps^2 / 2` (scaled in compression) [J].
-pub fn element_strain_energy(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], material: &FibreMaterial, i: usize) -> f64 {
+pub fn element_strain_energy(
+    nodes: &Nodes,
+    elements: &Elements,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+    i: usize,
+) -> f64 {
     if !elements.is_intact(nodes, i) {
         return 0.0;
     }

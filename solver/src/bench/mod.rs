@@ -5,12 +5,12 @@ mod packed;
 
 use std::time::Instant;
 
-use dea_core::Rank;
 use dea_core::projectile::{MeshShape, RigidShape};
+use dea_core::Rank;
 use dea_core::Vec3;
 use dea_io::case::{default_case, Case, ProjectileSpec, TargetSpec, DEFAULT_FSP_DIVISIONS, KM2_600_DENIER_AREA};
-use dea_projectile::generate::{FspDimensions, Solid};
 use dea_partition::Method;
+use dea_projectile::generate::{FspDimensions, Solid};
 use serde::Serialize;
 
 use crate::comm::Comm;
@@ -83,9 +83,15 @@ pub fn bench_case(min_nodes: usize) -> Case {
     let fibres = 19;
     let diameter = (4.0 * KM2_600_DENIER_AREA / fibres as f64 / std::f64::consts::PI).sqrt();
     case.name = "bench-19-fibre-yarn".into();
-    case.target = TargetSpec::StraightYarn { yarn: "km2_600_denier".into(), fibres_per_yarn: fibres, length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter, element_length_ratio: 0.5 };
+    case.target = TargetSpec::StraightYarn {
+        yarn: "km2_600_denier".into(),
+        fibres_per_yarn: fibres,
+        length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter,
+        element_length_ratio: 0.5,
+    };
     case.failure.mode = "none".into();
-    case.projectile = ProjectileSpec { preset: Some("table_4_2_sphere".into()), velocity_m_s: 50.0, ..Default::default() };
+    case.projectile =
+        ProjectileSpec { preset: Some("table_4_2_sphere".into()), velocity_m_s: 50.0, ..Default::default() };
     case
 }
 
@@ -96,7 +102,8 @@ fn surface_query_costs(contact_diameter: f64, skin: f64) -> (f64, f64, usize) {
     use rand::{Rng, SeedableRng};
     let (vertices, triangles) = Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN).mesh(DEFAULT_FSP_DIVISIONS).boundary();
     let reach = 0.5 * contact_diameter + skin;
-    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, 1.3 * contact_diameter).expect("the FSP mesh is closed");
+    let (mesh, _) =
+        MeshShape::new(&vertices, triangles, reach, 1.3 * contact_diameter).expect("the FSP mesh is closed");
     let count = mesh.surface.triangles.len();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     let points: Vec<Vec3> = (0..200_000)
@@ -106,7 +113,10 @@ fn surface_query_costs(contact_diameter: f64, skin: f64) -> (f64, f64, usize) {
         })
         .collect();
     let radius = 0.5 * FspDimensions::SEVENTEEN_GRAIN.diameter;
-    let shapes = [RigidShape::Mesh(std::sync::Arc::new(mesh)), RigidShape::Cylinder { radius, height: FspDimensions::SEVENTEEN_GRAIN.length, edge_radius: 150e-6 }];
+    let shapes = [
+        RigidShape::Mesh(std::sync::Arc::new(mesh)),
+        RigidShape::Cylinder { radius, height: FspDimensions::SEVENTEEN_GRAIN.length, edge_radius: 150e-6 },
+    ];
     let costs = shapes.map(|shape| {
         let clock = Instant::now();
         let found: f64 = points.iter().map(|p| shape.distance_and_normal(p).0.min(1.0)).sum();
@@ -128,7 +138,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     })?;
     let sum = |run: &crate::distributed::Distributed<C>, values: &[f64]| -> Vec<f64> {
         let all = run.comm.gather_f64(values);
-        let summed: Vec<f64> = (0..values.len()).map(|k| all.as_ref().map_or(0.0, |a| a.iter().map(|v| v[k]).sum())).collect();
+        let summed: Vec<f64> =
+            (0..values.len()).map(|k| all.as_ref().map_or(0.0, |a| a.iter().map(|v| v[k]).sum())).collect();
         summed
     };
     let owned = run.domain.nodes.n_owned as f64;
@@ -193,11 +204,16 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     if run.comm.rank() != Rank(0) {
         return Ok(None);
     }
-    let [nodes, rebuild_seconds, static_seconds, static_touching, packed_seconds, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts, run_rebuild_seconds] = totals[..] else { unreachable!("thirteen totals") };
+    let [nodes, rebuild_seconds, static_seconds, static_touching, packed_seconds, mean_touching, mean_listed, fibre_contacts, rods, compute_total, halo_bytes, ghosts, run_rebuild_seconds] =
+        totals[..]
+    else {
+        unreachable!("thirteen totals")
+    };
     let ranks = run.comm.size();
     let node_steps = nodes * steps as f64;
     let section = &run.domain.sections[0];
-    let (mesh_query, analytic_query, mesh_triangles) = surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
+    let (mesh_query, analytic_query, mesh_triangles) =
+        surface_query_costs(section.contact_diameter, run.domain.pairs.skin);
     let ns_per_contact_entry = static_seconds * 1e9 / (static_touching * statics as f64);
     Ok(Some(BenchReport {
         nodes: nodes as u64,

@@ -31,10 +31,20 @@ fn sweep_packed_pairs(
     data_of: impl Fn(usize) -> PairData,
 ) -> RunningSums {
     let n = relative.len();
-    let (touching, max_overlap, anchor, spring_stiffness, handed) = (&touching[..n], &mut max_overlap[..n], &mut anchor[..n], &mut spring_stiffness[..n], &mut handed[..n]);
+    let (touching, max_overlap, anchor, spring_stiffness, handed) =
+        (&touching[..n], &mut max_overlap[..n], &mut anchor[..n], &mut spring_stiffness[..n], &mut handed[..n]);
     let mut sum = RunningSums::default();
     for k in 0..n {
-        if let Some(terms) = evaluate_pair(law, mu, relative[k], data_of(k), &touching[k], &mut max_overlap[k], &mut anchor[k], &mut spring_stiffness[k]) {
+        if let Some(terms) = evaluate_pair(
+            law,
+            mu,
+            relative[k],
+            data_of(k),
+            &touching[k],
+            &mut max_overlap[k],
+            &mut anchor[k],
+            &mut spring_stiffness[k],
+        ) {
             sum.add(&terms);
             handed[k].add_mirrored(&terms);
         }
@@ -75,20 +85,56 @@ impl PackedPairs {
     /// One sweep in `compilation`, which the processor must run. Never inlined, so that
     /// `scripts/count-instructions.sh` counts it by this name.
     #[inline(never)]
-    fn sweep(&mut self, compilation: Compilation, law: NormalLaw, mu: f64, one_section: Option<PairData>) -> RunningSums {
+    fn sweep(
+        &mut self,
+        compilation: Compilation,
+        law: NormalLaw,
+        mu: f64,
+        one_section: Option<PairData>,
+    ) -> RunningSums {
         let touching = Cell::from_mut(&mut self.touching[..]).as_slice_of_cells();
-        let (relative, data, max_overlap, anchor, spring_stiffness, handed) =
-            (&self.relative[..], &self.data[..], &mut self.max_overlap[..], &mut self.anchor[..], &mut self.spring_stiffness[..], &mut self.handed[..]);
+        let (relative, data, max_overlap, anchor, spring_stiffness, handed) = (
+            &self.relative[..],
+            &self.data[..],
+            &mut self.max_overlap[..],
+            &mut self.anchor[..],
+            &mut self.spring_stiffness[..],
+            &mut self.handed[..],
+        );
         match one_section {
             Some(data) => in_compilation(
                 compilation,
                 #[inline(always)]
-                move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |_| data),
+                move || {
+                    sweep_packed_pairs(
+                        law,
+                        mu,
+                        relative,
+                        touching,
+                        max_overlap,
+                        anchor,
+                        spring_stiffness,
+                        handed,
+                        |_| data,
+                    )
+                },
             ),
             None => in_compilation(
                 compilation,
                 #[inline(always)]
-                move || sweep_packed_pairs(law, mu, relative, touching, max_overlap, anchor, spring_stiffness, handed, |k| data[k]),
+                move || {
+                    sweep_packed_pairs(
+                        law,
+                        mu,
+                        relative,
+                        touching,
+                        max_overlap,
+                        anchor,
+                        spring_stiffness,
+                        handed,
+                        |k| data[k],
+                    )
+                },
             ),
         }
     }
@@ -104,7 +150,10 @@ pub fn time_packed_contact_law(domain: &Domain, sweeps: usize) -> (usize, f64, f
     let evaluated: Vec<(usize, usize)> = pairs.evaluated_touching().collect();
     let partner = |k: usize| pairs.partner[k] as usize;
     let mut packed = PackedPairs {
-        relative: evaluated.iter().map(|&(i, k)| domain.nodes.position[partner(k)] - domain.nodes.position[i]).collect(),
+        relative: evaluated
+            .iter()
+            .map(|&(i, k)| domain.nodes.position[partner(k)] - domain.nodes.position[i])
+            .collect(),
         data: evaluated.iter().map(|&(i, k)| domain.pair_data_of(i, partner(k))).collect(),
         touching: vec![true; evaluated.len()],
         max_overlap: evaluated.iter().map(|&(_, k)| pairs.max_overlap[k]).collect(),
@@ -113,7 +162,8 @@ pub fn time_packed_contact_law(domain: &Domain, sweeps: usize) -> (usize, f64, f
         handed: vec![RunningSums::default(); evaluated.len()],
     };
     let one_section = (domain.sections.len() == 1).then(|| domain.pair_data_of(0, 0));
-    let (seconds, stiffness) = packed.time(domain.contact.law, domain.contact.friction_coefficient, one_section, sweeps);
+    let (seconds, stiffness) =
+        packed.time(domain.contact.law, domain.contact.friction_coefficient, one_section, sweeps);
     (evaluated.len(), seconds, stiffness)
 }
 
@@ -134,13 +184,29 @@ mod tests {
                 domain.add_fibre_contacts();
             }
             let (law, pairs) = (domain.contact.law, &domain.pairs);
-            let evaluated: Vec<(usize, usize)> = (0..domain.nodes.n_owned).flat_map(|i| pairs.row(i).map(move |k| (i, k))).filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k]).collect();
-            let expected: f64 =
-                evaluated.iter().map(|&(i, k)| law.evaluate(&domain.pair_data_of(i, pairs.partner[k] as usize).geometry, contact_overlap(&domain, i, k), pairs.max_overlap[k]).0.stiffness).sum();
+            let evaluated: Vec<(usize, usize)> = (0..domain.nodes.n_owned)
+                .flat_map(|i| pairs.row(i).map(move |k| (i, k)))
+                .filter(|&(i, k)| pairs.evaluates(i, k) && pairs.touching[k])
+                .collect();
+            let expected: f64 = evaluated
+                .iter()
+                .map(|&(i, k)| {
+                    law.evaluate(
+                        &domain.pair_data_of(i, pairs.partner[k] as usize).geometry,
+                        contact_overlap(&domain, i, k),
+                        pairs.max_overlap[k],
+                    )
+                    .0
+                    .stiffness
+                })
+                .sum();
             let (count, seconds, stiffness) = time_packed_contact_law(&domain, 3);
             assert_eq!(count, evaluated.len(), "sections {sections}, ghosts {ghosts}");
             assert!(count > 100 && seconds > 0.0);
-            assert!((stiffness - expected).abs() <= 1e-12 * expected, "sections {sections}, ghosts {ghosts}: {stiffness} against {expected}");
+            assert!(
+                (stiffness - expected).abs() <= 1e-12 * expected,
+                "sections {sections}, ghosts {ghosts}: {stiffness} against {expected}"
+            );
             if !ghosts {
                 assert_eq!(2 * count, pairs.touching_entries(), "each pair of owned nodes once");
             }

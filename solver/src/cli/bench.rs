@@ -7,9 +7,11 @@ use dea_mpi::comm::mpi::MpiComm;
 use super::{fail, fail_all, setup_exit, Exit};
 
 pub const ABOUT: &str = "Benchmark the step on a dense 19-fibre yarn on the ranks of the job";
-pub const LONG_ABOUT: &str = "Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the ranks of
+pub const LONG_ABOUT: &str =
+    "Benchmark the step on a dense 19-fibre yarn (>= 300,000 nodes by default), on the ranks of
 the job: ns per node-step, per contact pair, per node of rods and of a rebuild, and the time of each stage.";
-pub const EXAMPLES: &str = "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000";
+pub const EXAMPLES: &str =
+    "Examples:\n  dea-mpi bench\n  mpirun -np 2 dea-mpi bench --json --nodes 300000 --steps 2000";
 
 #[derive(clap::Args)]
 pub struct Args {

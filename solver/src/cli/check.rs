@@ -10,7 +10,8 @@ use super::{fail, load_case_or_campaign, setup_exit, Exit};
 pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved, without running";
 pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
 sections, projectile, nodes, time step, steps, skin), without running.";
-pub const EXAMPLES: &str = "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json";
+pub const EXAMPLES: &str =
+    "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json";
 
 #[derive(clap::Args)]
 pub struct Args {

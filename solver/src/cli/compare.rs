@@ -18,11 +18,18 @@ pub struct Args {
 
 pub fn main(Args { first, second }: Args) -> ExitCode {
     match dea_io::results::compare_results(&first, &second).and_then(|mut differences| {
-        differences.extend(dea_io::snapshot::compare_snapshots(first.parent().unwrap_or(Path::new(".")), second.parent().unwrap_or(Path::new(".")))?);
+        differences.extend(dea_io::snapshot::compare_snapshots(
+            first.parent().unwrap_or(Path::new(".")),
+            second.parent().unwrap_or(Path::new(".")),
+        )?);
         Ok(differences)
     }) {
         Ok(differences) if differences.is_empty() => {
-            println!("identical: every dataset of {} and {}, and every field snapshot beside them, has the same bits", first.display(), second.display());
+            println!(
+                "identical: every dataset of {} and {}, and every field snapshot beside them, has the same bits",
+                first.display(),
+                second.display()
+            );
             ExitCode::SUCCESS
         }
         Ok(differences) => {

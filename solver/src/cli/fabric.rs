@@ -87,12 +87,16 @@ fn whole(case: Option<PathBuf>, out: PathBuf, method: PartitionMethod) -> ExitCo
         Ok(case) => case,
         Err((code, message)) => return fail_all(&session, code, message),
     };
-    if matches!(case.target, dea_io::case::TargetSpec::ThreeDWeaveCell { .. } | dea_io::case::TargetSpec::ThreeDWovenPanel { .. }) {
+    if matches!(
+        case.target,
+        dea_io::case::TargetSpec::ThreeDWeaveCell { .. } | dea_io::case::TargetSpec::ThreeDWovenPanel { .. }
+    ) {
         return match dea_mpi::fabric::fabric_cell(&case, comm, &out) {
             Ok(Some(report)) => {
                 let (r, c) = (&report.relaxation, &report.cell);
                 print_relaxation(r, report.relaxation_s);
-                let crimps: Vec<String> = report.crimp_by_role.iter().map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp)).collect();
+                let crimps: Vec<String> =
+                    report.crimp_by_role.iter().map(|(role, crimp)| format!("{role} {:.2} %", 100.0 * crimp)).collect();
                 println!(
                     "cell: {:.2} x {:.2} mm, {} yarns, {} fibres, {} nodes; thickness {:.1} -> {:.1} um ({:+.1} %), crimp {}, fibre volume fraction {:.3}, {:.1} g/m^2; results in {}",
                     1e3 * report.period_m[0], 1e3 * report.period_m[1], report.yarns.len(), report.fibres, report.nodes, 1e6 * r.before.thickness_m, 1e6 * c.thickness_m,
@@ -133,7 +137,10 @@ fn whole(case: Option<PathBuf>, out: PathBuf, method: PartitionMethod) -> ExitCo
                 }
             }
             for r in &report.ranks {
-                println!("rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node", r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node);
+                println!(
+                    "rank {}: {} nodes + {} ghosts, built in {:.2} s, {:.0} bytes per node",
+                    r.rank, r.owned_nodes, r.ghost_nodes, r.build_s, r.bytes_per_node
+                );
             }
             ExitCode::SUCCESS
         }

@@ -112,7 +112,8 @@ pub fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
 /// A case file, or a campaign file (one naming its shot's `case` or `case_file`) with its
 /// shot's case.
 pub fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case), (Exit, String)> {
-    let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
     let campaign = serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|document| is_campaign(&document));
     if campaign {
         load_campaign(path).map(|(campaign, case)| (Some(campaign), case)).map_err(|e| (Exit::BadCase, e.to_string()))
@@ -123,7 +124,10 @@ pub fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case),
 
 /// Rank 0 runs `load` and every rank gets its value, or the same error: a file missing on one
 /// node's file system cannot split the job.
-fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(comm: &impl Comm, load: impl FnOnce() -> Result<T, (Exit, String)>) -> Result<T, (Exit, String)> {
+fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(
+    comm: &impl Comm,
+    load: impl FnOnce() -> Result<T, (Exit, String)>,
+) -> Result<T, (Exit, String)> {
     let mut message = Vec::new();
     if comm.rank() == Rank(0) {
         match load() {
@@ -155,7 +159,8 @@ pub fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Ex
 /// Rank 0 reads the campaign, its case and its text; every rank gets them.
 pub fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, Case, String), (Exit, String)> {
     from_rank0(comm, || {
-        let text = std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
         let (campaign, case) = load_campaign(path).map_err(|e| (Exit::BadCase, e.to_string()))?;
         Ok((campaign, case, text))
     })
@@ -186,4 +191,3 @@ pub fn setup_exit(error: &SetupError) -> Exit {
         SetupError::Case(_) => Exit::BadCase,
     }
 }
-

@@ -59,7 +59,10 @@ pub fn main(Args { case, ranks, segment_nodes, method, json }: Args) -> ExitCode
         );
         println!("{:>6} {:>12} {:>12} {:>14} {:>16}", "rank", "owned", "ghosts", "work", "halo bytes/step");
         for r in &report.ranks {
-            println!("{:>6} {:>12} {:>12} {:>14.0} {:>16}", r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step);
+            println!(
+                "{:>6} {:>12} {:>12} {:>14.0} {:>16}",
+                r.rank, r.owned_nodes, r.ghost_nodes, r.work, r.halo_bytes_per_step
+            );
         }
     }
     ExitCode::SUCCESS

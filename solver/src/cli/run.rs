@@ -60,7 +60,11 @@ pub fn main(Args { case, out, method, restart, log_dir, panic_on_rank }: Args) -
             Ok(restored) => {
                 let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                 if resume.is_none() {
-                    return fail_all(&session, Exit::File, format!("{}: run state of another version", directory.display()));
+                    return fail_all(
+                        &session,
+                        Exit::File,
+                        format!("{}: run state of another version", directory.display()),
+                    );
                 }
                 (restored.case, restored.run, resume)
             }

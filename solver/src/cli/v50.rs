@@ -43,7 +43,11 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
     let ranks = comm.size();
     let per_shot = ranks_per_shot.unwrap_or(ranks);
     if per_shot == 0 || ranks % per_shot != 0 {
-        return fail_all(&session, Exit::Usage, format!("--ranks-per-shot {per_shot} does not divide the job's {ranks} ranks"));
+        return fail_all(
+            &session,
+            Exit::Usage,
+            format!("--ranks-per-shot {per_shot} does not divide the job's {ranks} ranks"),
+        );
     }
     let (campaign_spec, case, text) = match load_campaign_shared(&comm, &campaign) {
         Ok(loaded) => loaded,
@@ -61,7 +65,15 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
     };
     let group = Group { index: comm.rank().0 as usize / per_shot, count: ranks / per_shot };
     let group_comm = comm.split(group.index as u32);
-    let result = dea_mpi::campaign::run_group(&campaign_spec, &case, group_comm, group, &out, shots_per_group, Some(stop_signal));
+    let result = dea_mpi::campaign::run_group(
+        &campaign_spec,
+        &case,
+        group_comm,
+        group,
+        &out,
+        shots_per_group,
+        Some(stop_signal),
+    );
     let code = match &result {
         Ok(_) => 0,
         Err(CampaignError::Setup { error, .. }) => setup_exit(error) as u8,
@@ -88,13 +100,28 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
         return ExitCode::SUCCESS;
     }
     if paused[0] != 0.0 {
-        println!("{}: paused after --shots-per-group {} new shots per group; run again to continue", campaign_spec.name, shots_per_group.unwrap_or(0));
+        println!(
+            "{}: paused after --shots-per-group {} new shots per group; run again to continue",
+            campaign_spec.name,
+            shots_per_group.unwrap_or(0)
+        );
     }
-    let report = match dea_mpi::campaign::report(&campaign_spec, &out).and_then(|r| dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r)) {
+    let report = match dea_mpi::campaign::report(&campaign_spec, &out)
+        .and_then(|r| dea_mpi::campaign::write_report(&r, &campaign_spec, &case, &text, &out).map(|()| r))
+    {
         Ok(report) => report,
         Err(e) => return fail(Exit::File, e),
     };
-    println!("{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}", report.campaign, report.shots.len(), report.partials, report.completes, group.count, per_shot, out.display());
+    println!(
+        "{}: {} shots ({} partial, {} complete) on {} group(s) of {} rank(s); results in {}",
+        report.campaign,
+        report.shots.len(),
+        report.partials,
+        report.completes,
+        group.count,
+        per_shot,
+        out.display()
+    );
     if report.held_at_end > 0 {
         println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
     }
@@ -108,11 +135,16 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
         }
     }
     match &report.mil_std_662f {
-        Ok(m) => println!("MIL-STD-662F: V50 {:.1} m/s from {} + {} shots within {:.1} m/s", m.v50, m.count, m.count, m.spread),
+        Ok(m) => println!(
+            "MIL-STD-662F: V50 {:.1} m/s from {} + {} shots within {:.1} m/s",
+            m.v50, m.count, m.count, m.spread
+        ),
         Err(e) => println!("MIL-STD-662F: {e}"),
     }
     match &report.lambert_jonas {
-        Ok(l) => println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s),
+        Ok(l) => {
+            println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s)
+        }
         Err(e) => println!("Lambert-Jonas: {e}"),
     }
     for (r, (low, high)) in report.bisection_brackets.iter().enumerate() {

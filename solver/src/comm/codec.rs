@@ -51,7 +51,13 @@ pub fn reaction_words(r: &Reaction) -> [f64; REACTION_WORDS] {
 
 /// Inverse of [`reaction_words`].
 pub fn reaction_from_words(w: &[f64]) -> Reaction {
-    Reaction { gid: GlobalNodeId(integer(w[0])), force: Vec3::new(w[1], w[2], w[3]), torque: Vec3::new(w[4], w[5], w[6]), triangle: integer(w[7]) as u32, weights: [w[8], w[9], w[10]] }
+    Reaction {
+        gid: GlobalNodeId(integer(w[0])),
+        force: Vec3::new(w[1], w[2], w[3]),
+        torque: Vec3::new(w[4], w[5], w[6]),
+        triangle: integer(w[7]) as u32,
+        weights: [w[8], w[9], w[10]],
+    }
 }
 
 /// An integer as the bits of a word.

@@ -12,7 +12,10 @@ use dea_core::neighbour::SharedCubes;
 use dea_core::nodes::FailureMode;
 use dea_core::{Domain, GhostRecord, GlobalNodeId, LocalNodeId, Nodes, Rank, Vec3};
 
-use super::codec::{from_halo_words, ghost_record_from_words, ghost_record_is_chain, ghost_record_position, ghost_record_words, halo_words, integer, word, HALO_WORDS, RECORD_WORDS};
+use super::codec::{
+    from_halo_words, ghost_record_from_words, ghost_record_is_chain, ghost_record_position, ghost_record_words,
+    halo_words, integer, word, HALO_WORDS, RECORD_WORDS,
+};
 use super::Comm;
 
 /// The most cubes of a box two ranks share ([`SharedCubes`]) before `borders` sends every
@@ -37,11 +40,18 @@ impl HaloPlan {
     /// and those that may lie within `reach` [m] of the partner's owned nodes; the partner keeps
     /// the stencil's and those within `reach` of an owned node, and says which. Returns the new
     /// plan and the ghosts, in partner order.
-    pub fn borders<C: Comm>(comm: &C, domain: &Domain, chain_send: &[(Rank, Vec<u32>)], reach: f64) -> (Self, Vec<GhostRecord>) {
+    pub fn borders<C: Comm>(
+        comm: &C,
+        domain: &Domain,
+        chain_send: &[(Rank, Vec<u32>)],
+        reach: f64,
+    ) -> (Self, Vec<GhostRecord>) {
         let me = comm.rank();
         let nodes = &domain.nodes;
         let owned = &nodes.position[..nodes.n_owned];
-        let (low, high) = owned.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
+        let (low, high) = owned
+            .iter()
+            .fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
         let boxes = comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
         let grown = |r: usize| {
             let low = Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach);
@@ -66,7 +76,10 @@ impl HaloPlan {
             SharedCubes::new(mine.0.sup(&theirs.0), mine.1.inf(&theirs.1), reach, MOST_SHARED_CUBES)
         };
         let cubes: Vec<Option<SharedCubes>> = partners.iter().map(|p| shared(p.0 as usize)).collect();
-        let offers: Vec<Vec<f64>> = cubes.iter().map(|c| c.as_ref().map_or(Vec::new(), |c| c.occupied(owned.iter()).into_iter().map(word).collect())).collect();
+        let offers: Vec<Vec<f64>> = cubes
+            .iter()
+            .map(|c| c.as_ref().map_or(Vec::new(), |c| c.occupied(owned.iter()).into_iter().map(word).collect()))
+            .collect();
         let mut occupied: Vec<Vec<f64>> = offers.iter().map(|o| vec![0.0; o.len()]).collect();
         comm.exchange(&partners, &offers, &mut occupied);
         // candidates for each partner: its chain stencil plus our nodes inside its grown box,
@@ -74,11 +87,14 @@ impl HaloPlan {
         let mut candidates: Vec<Vec<u32>> = Vec::with_capacity(partners.len());
         let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
         for ((&partner, cubes), occupied) in partners.iter().zip(&cubes).zip(&occupied) {
-            let chain = chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &chain_send[k].1[..]);
+            let chain =
+                chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &chain_send[k].1[..]);
             let region = grown(partner.0 as usize);
-            let near = cubes.as_ref().map(|c| (c, c.next_to(&occupied.iter().map(|&w| integer(w)).collect::<Vec<u64>>())));
+            let near =
+                cubes.as_ref().map(|c| (c, c.next_to(&occupied.iter().map(|&w| integer(w)).collect::<Vec<u64>>())));
             let next_to_theirs = |x: &Vec3| near.as_ref().is_none_or(|(c, near)| c.cube(x).is_some_and(|k| near[k]));
-            let is_offered = |i: u32| inside(&nodes.position[i as usize], &region) && next_to_theirs(&nodes.position[i as usize]);
+            let is_offered =
+                |i: u32| inside(&nodes.position[i as usize], &region) && next_to_theirs(&nodes.position[i as usize]);
             let mut list: Vec<u32> = (0..nodes.n_owned as u32).filter(|&i| is_offered(i)).collect();
             list.extend_from_slice(chain);
             list.sort_unstable();
@@ -94,7 +110,8 @@ impl HaloPlan {
         let mut received: Vec<Vec<f64>> = vec![Vec::new(); partners.len()];
         comm.exchange_sized(&partners, &records, &mut received);
         // keep what our stencil needs and what comes within reach of an owned node
-        let positions: Vec<Vec3> = received.iter().flat_map(|w| w.chunks_exact(RECORD_WORDS)).map(ghost_record_position).collect();
+        let positions: Vec<Vec3> =
+            received.iter().flat_map(|w| w.chunks_exact(RECORD_WORDS)).map(ghost_record_position).collect();
         let near = dea_core::neighbour::within_reach_of_any(owned, &positions, reach);
         let mut ghosts = Vec::with_capacity(positions.len());
         let mut masks: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
@@ -115,7 +132,11 @@ impl HaloPlan {
         }
         let mut kept: Vec<Vec<f64>> = candidates.iter().map(|c| vec![0.0; c.len()]).collect();
         comm.exchange(&partners, &masks, &mut kept);
-        let send_nodes: Vec<Vec<LocalNodeId>> = candidates.iter().zip(&kept).map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| LocalNodeId(i)).collect()).collect();
+        let send_nodes: Vec<Vec<LocalNodeId>> = candidates
+            .iter()
+            .zip(&kept)
+            .map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| LocalNodeId(i)).collect())
+            .collect();
         let plan = HaloPlan {
             send_buffers: send_nodes.iter().map(|s| Vec::with_capacity(s.len() * HALO_WORDS)).collect(),
             receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
@@ -151,8 +172,13 @@ impl HaloPlan {
     /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no force
     /// needs it).
     pub fn forward_velocities<C: Comm>(&self, comm: &C, domain: &mut Domain) {
-        let sends: Vec<Vec<f64>> = self.send_nodes.iter().map(|send| send.iter().flat_map(|&i| domain.velocity(i.index()).as_slice().to_vec()).collect()).collect();
-        let mut receives: Vec<Vec<f64>> = self.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
+        let sends: Vec<Vec<f64>> = self
+            .send_nodes
+            .iter()
+            .map(|send| send.iter().flat_map(|&i| domain.velocity(i.index()).as_slice().to_vec()).collect())
+            .collect();
+        let mut receives: Vec<Vec<f64>> =
+            self.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         comm.exchange(&self.partners, &sends, &mut receives);
         let mut g = domain.nodes.n_owned;
         for buffer in &receives {
@@ -166,6 +192,11 @@ impl HaloPlan {
     /// The plan: (partner, owned global ids sent to it each step, ghosts received), with
     /// `gid` the global ids of the local nodes.
     pub fn summary(&self, gid: &[GlobalNodeId]) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
-        self.partners.iter().zip(&self.send_nodes).zip(&self.receive_buffers).map(|((&p, s), r)| (p, s.iter().map(|&i| gid[i.index()]).collect(), r.len() / HALO_WORDS)).collect()
+        self.partners
+            .iter()
+            .zip(&self.send_nodes)
+            .zip(&self.receive_buffers)
+            .map(|((&p, s), r)| (p, s.iter().map(|&i| gid[i.index()]).collect(), r.len() / HALO_WORDS))
+            .collect()
     }
 }

@@ -150,14 +150,21 @@ impl LocalComm {
 
     fn send(&self, to: usize, message: Vec<u64>) {
         let _lock = self.shared.mail_lock.lock().unwrap_or_else(|e| e.into_inner());
-        self.shared.mailboxes[self.rank * self.shared.size + to].lock().unwrap_or_else(|e| e.into_inner()).push_back(message);
+        self.shared.mailboxes[self.rank * self.shared.size + to]
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push_back(message);
         self.shared.mail_signal.notify_all();
     }
 
     fn receive(&self, from: usize) -> Vec<u64> {
         let mut lock = self.shared.mail_lock.lock().unwrap_or_else(|e| e.into_inner());
         loop {
-            if let Some(message) = self.shared.mailboxes[from * self.shared.size + self.rank].lock().unwrap_or_else(|e| e.into_inner()).pop_front() {
+            if let Some(message) = self.shared.mailboxes[from * self.shared.size + self.rank]
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .pop_front()
+            {
                 return message;
             }
             self.shared.check();
@@ -235,7 +242,15 @@ impl Comm for LocalComm {
         }
         for (partner, receive) in partners.iter().zip(receives.iter_mut()) {
             let message = self.receive(partner.0 as usize);
-            assert_eq!(message.len(), receive.len(), "rank {} expected {} values from rank {}, got {}", self.rank, receive.len(), partner.0, message.len());
+            assert_eq!(
+                message.len(),
+                receive.len(),
+                "rank {} expected {} values from rank {}, got {}",
+                self.rank,
+                receive.len(),
+                partner.0,
+                message.len()
+            );
             for (r, m) in receive.iter_mut().zip(message) {
                 *r = f64::from_bits(m);
             }

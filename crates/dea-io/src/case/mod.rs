@@ -262,8 +262,15 @@ impl Weave3dSpec {
         }
         let columns = match (self.pattern, &self.columns) {
             (Some(_), Some(_)) => return Err(invalid("target.weave.columns", "give a pattern or columns, not both")),
-            (None, None) => return Err(invalid("target.weave.pattern", "is needed unless target.weave.columns gives the topology")),
-            (Some(pattern), None) if layers < 2 => return Err(invalid("target.weave.filler_layers", format!("the {pattern:?} pattern needs at least 2 filler layers, got {layers}"))),
+            (None, None) => {
+                return Err(invalid("target.weave.pattern", "is needed unless target.weave.columns gives the topology"))
+            }
+            (Some(pattern), None) if layers < 2 => {
+                return Err(invalid(
+                    "target.weave.filler_layers",
+                    format!("the {pattern:?} pattern needs at least 2 filler layers, got {layers}"),
+                ))
+            }
             (Some(pattern), None) => pattern.columns(layers),
             (None, Some(columns)) => columns.clone(),
         };
@@ -290,7 +297,10 @@ impl Weave3dSpec {
         for (path, kind) in [("target.weave.stuffer", weave.stuffer), ("target.weave.binder", weave.binder)] {
             let fibres = weave.fibres_of(&kind);
             if fibres > 400 {
-                return Err(invalid(&format!("{path}.area_m2"), format!("holds {fibres} digital fibres of the filler's section, more than 400")));
+                return Err(invalid(
+                    &format!("{path}.area_m2"),
+                    format!("holds {fibres} digital fibres of the filler's section, more than 400"),
+                ));
             }
         }
         if let Some(v) = self.element_length_ratio {
@@ -333,10 +343,15 @@ pub struct HybridSpec {
 impl HybridSpec {
     /// The coarse yarns' weave: `fine` with the coarse fibre count and element length.
     pub fn coarse_weave(&self, fine: &PlainWeave) -> Result<PlainWeave, CaseError> {
-        let fibres = self.fibres_per_yarn.ok_or_else(|| invalid("target.hybrid.fibres_per_yarn", "is needed unless target.hybrid.cell_file gives the coarse cell"))?;
+        let fibres = self.fibres_per_yarn.ok_or_else(|| {
+            invalid("target.hybrid.fibres_per_yarn", "is needed unless target.hybrid.cell_file gives the coarse cell")
+        })?;
         let fibres = fibre_count_at("target.hybrid.fibres_per_yarn", fibres)?;
         if fibres >= fine.fibres_per_yarn {
-            return Err(invalid("target.hybrid.fibres_per_yarn", format!("must be fewer than the fine yarns' {} digital fibres, got {fibres}", fine.fibres_per_yarn)));
+            return Err(invalid(
+                "target.hybrid.fibres_per_yarn",
+                format!("must be fewer than the fine yarns' {} digital fibres, got {fibres}", fine.fibres_per_yarn),
+            ));
         }
         let mut coarse = PlainWeave { fibres_per_yarn: fibres, ..fine.clone() };
         if let Some(v) = self.element_length_ratio {
@@ -381,7 +396,16 @@ fn as_woven() -> BendingAtRest {
 
 impl Default for WeaveSpec {
     fn default() -> Self {
-        Self { preset: "km2_style_706".into(), fibres_per_yarn: 4, yarn_spacing_m: None, section_aspect: None, initial_crimp: None, yarn_tension_n: None, element_length_ratio: None, bending_at_rest: BendingAtRest::AsWoven }
+        Self {
+            preset: "km2_style_706".into(),
+            fibres_per_yarn: 4,
+            yarn_spacing_m: None,
+            section_aspect: None,
+            initial_crimp: None,
+            yarn_tension_n: None,
+            element_length_ratio: None,
+            bending_at_rest: BendingAtRest::AsWoven,
+        }
     }
 }
 
@@ -439,7 +463,11 @@ impl RelaxationSpec {
 
     /// The relaxation's options, with the springs resting as `bending_at_rest` says.
     pub fn options(&self, bending_at_rest: BendingAtRest) -> dea_fabric::relax::RelaxOptions {
-        dea_fabric::relax::RelaxOptions { tolerance: self.tolerance, max_iterations: self.max_iterations, bending_at_rest }
+        dea_fabric::relax::RelaxOptions {
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            bending_at_rest,
+        }
     }
 }
 
@@ -447,8 +475,15 @@ impl WeaveSpec {
     /// The weave the spec names (validated: call [`Case::validate`] first for field errors).
     pub fn plain_weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<PlainWeave, CaseError> {
         let mut weave = match self.preset.as_str() {
-            "km2_style_706" => PlainWeave::km2_style_706(fibre_count_at("target.weave.fibres_per_yarn", self.fibres_per_yarn)?),
-            other => return Err(invalid("target.weave.preset", format!("unknown fabric {other:?}; known: \"km2_style_706\""))),
+            "km2_style_706" => {
+                PlainWeave::km2_style_706(fibre_count_at("target.weave.fibres_per_yarn", self.fibres_per_yarn)?)
+            }
+            other => {
+                return Err(invalid(
+                    "target.weave.preset",
+                    format!("unknown fabric {other:?}; known: \"km2_style_706\""),
+                ))
+            }
         };
         weave.inertia = bending;
         weave.friction_coefficient = friction_coefficient;
@@ -595,7 +630,10 @@ impl DeformableSpec {
         match self.model.as_deref() {
             None | Some("corotational") => Ok(ElasticModel::Corotational),
             Some("neo_hookean") => Ok(ElasticModel::NeoHookean),
-            Some(other) => Err(invalid("projectile.deformable.model", format!("unknown model {other:?}; known: \"corotational\", \"neo_hookean\""))),
+            Some(other) => Err(invalid(
+                "projectile.deformable.model",
+                format!("unknown model {other:?}; known: \"corotational\", \"neo_hookean\""),
+            )),
         }
     }
 }
@@ -801,7 +839,10 @@ fn finer_than_mesh_allows(path: &str, radius: f64, diameter: f64) -> Result<(), 
     if radius >= 1e-3 * diameter {
         Ok(())
     } else {
-        Err(invalid(path, format!("must be at least a thousandth of the diameter ({:?} m), got {radius:?}", 1e-3 * diameter)))
+        Err(invalid(
+            path,
+            format!("must be at least a thousandth of the diameter ({:?} m), got {radius:?}", 1e-3 * diameter),
+        ))
     }
 }
 
@@ -837,15 +878,22 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
 /// Reads, parses and validates a case file; a relative mesh or cell file is taken relative to
 /// the case file and made absolute (so that a checkpoint's copy of the case finds it too).
 pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
-    let text = std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
     let mut case = parse_case(&text, &path.display().to_string())?;
     let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
     let (cell_file, coarse_cell_file) = match &mut case.target {
-        TargetSpec::WovenPanel { cell_file, hybrid, .. } => (cell_file.as_mut(), hybrid.as_mut().and_then(|h| h.cell_file.as_mut())),
+        TargetSpec::WovenPanel { cell_file, hybrid, .. } => {
+            (cell_file.as_mut(), hybrid.as_mut().and_then(|h| h.cell_file.as_mut()))
+        }
         TargetSpec::ThreeDWovenPanel { cell_file, .. } => (cell_file.as_mut(), None),
         _ => (None, None),
     };
-    for file in [case.projectile.mesh_file.as_mut(), cell_file, coarse_cell_file].into_iter().flatten().filter(|f| f.is_relative()) {
+    for file in [case.projectile.mesh_file.as_mut(), cell_file, coarse_cell_file]
+        .into_iter()
+        .flatten()
+        .filter(|f| f.is_relative())
+    {
         let joined = base.join(&*file);
         *file = std::path::absolute(&joined).unwrap_or(joined);
     }
@@ -872,10 +920,30 @@ pub fn default_case() -> Case {
             hybrid: None,
         },
         bending: default_bending(),
-        contact: ContactSpec { law: "elasto_plastic_km2".into(), friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin_m: None },
-        failure: FailureSpec { mode: "deterministic".into(), tensile_strength_pa: Some(3.8e9), shear_strength_pa: Some(0.7672e9), weibull: None, seed: 1 },
+        contact: ContactSpec {
+            law: "elasto_plastic_km2".into(),
+            friction_coefficient: 0.3,
+            projectile_friction_coefficient: 0.3,
+            skin_m: None,
+        },
+        failure: FailureSpec {
+            mode: "deterministic".into(),
+            tensile_strength_pa: Some(3.8e9),
+            shear_strength_pa: Some(0.7672e9),
+            weibull: None,
+            seed: 1,
+        },
         projectile: ProjectileSpec { preset: Some("fsp_17_grain".into()), velocity_m_s: 400.0, ..Default::default() },
-        run: RunSpec { end_time_s: 30e-6, time_step_safety: 0.5, history_interval_steps: 50, stop_on_perforation: true, snapshot_interval_steps: Some(2000), checkpoint_interval_steps: None, checkpoint_interval_minutes: default_checkpoint_minutes(), settle: None },
+        run: RunSpec {
+            end_time_s: 30e-6,
+            time_step_safety: 0.5,
+            history_interval_steps: 50,
+            stop_on_perforation: true,
+            snapshot_interval_steps: Some(2000),
+            checkpoint_interval_steps: None,
+            checkpoint_interval_minutes: default_checkpoint_minutes(),
+            settle: None,
+        },
     }
 }
 
@@ -902,7 +970,8 @@ mod tests {
     #[test]
     fn sizes_beyond_any_projectile_or_fabric_are_refused_with_brief_numbers() {
         let e = error_for(|v| {
-            v["projectile"] = serde_json::json!({ "shape": "fsp", "height_m": 1e300, "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
+            v["projectile"] =
+                serde_json::json!({ "shape": "fsp", "height_m": 1e300, "mass_kg": 1.1e-3, "velocity_m_s": 300.0 });
         });
         assert_eq!((e.path.as_str(), e.to_string().contains("got 1e300")), ("projectile.height_m", true), "{e}");
         let e = error_for(|v| {
@@ -910,7 +979,8 @@ mod tests {
         });
         assert_eq!(e.path, "projectile.flat_edge_radius_m", "a thousandth of the 5.46 mm diameter at least: {e}");
         let e = error_for(|v| {
-            v["projectile"] = serde_json::json!({ "shape": "sphere", "diameter_m": 1e-3, "mass_kg": 1e-300, "velocity_m_s": 50.0 });
+            v["projectile"] =
+                serde_json::json!({ "shape": "sphere", "diameter_m": 1e-3, "mass_kg": 1e-300, "velocity_m_s": 50.0 });
         });
         assert_eq!(e.path, "projectile.mass_kg");
         let e = error_for(|v| v["target"]["weave"]["yarn_spacing_m"] = 1.0.into());
@@ -969,13 +1039,28 @@ mod tests {
         let case = default_case();
         let resolved = case.projectile().unwrap();
         assert!((resolved.mass - 1.1016e-3).abs() < 1e-7, "{}", resolved.mass);
-        assert_eq!(resolved.body, ProjectileBody::Generated { solid: Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN), divisions: DEFAULT_FSP_DIVISIONS });
+        assert_eq!(
+            resolved.body,
+            ProjectileBody::Generated {
+                solid: Solid::Fsp(FspDimensions::SEVENTEEN_GRAIN),
+                divisions: DEFAULT_FSP_DIVISIONS
+            }
+        );
         // a sphere is analytic unless meshed
         let mut sphere = case.clone();
-        sphere.projectile = ProjectileSpec { shape: Some("sphere".into()), diameter_m: Some(1e-3), mass_kg: Some(1e-6), velocity_m_s: 10.0, ..Default::default() };
+        sphere.projectile = ProjectileSpec {
+            shape: Some("sphere".into()),
+            diameter_m: Some(1e-3),
+            mass_kg: Some(1e-6),
+            velocity_m_s: 10.0,
+            ..Default::default()
+        };
         assert!(matches!(sphere.projectile().unwrap().body, ProjectileBody::Analytic(RigidShape::Sphere { .. })));
         sphere.projectile.mesh_divisions = Some(4);
-        assert_eq!(sphere.projectile().unwrap().body, ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 });
+        assert_eq!(
+            sphere.projectile().unwrap().body,
+            ProjectileBody::Generated { solid: Solid::Sphere { radius: 0.5e-3 }, divisions: 4 }
+        );
     }
 
     #[test]
@@ -990,17 +1075,23 @@ mod tests {
         // serde reads a tagged target whole, so an unknown pattern is placed at the target
         let e = weave(&|v| v["target"]["weave"]["pattern"] = "satin".into());
         assert!(e.path == "target" && e.message.contains("satin") && e.message.contains("layer_to_layer"), "{e}");
-        let e = weave(&|v| v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]]));
-        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave.columns", "give a pattern or columns, not both (in case.json)"));
+        let e =
+            weave(&|v| v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]]));
+        assert_eq!(
+            (e.path.as_str(), e.message.as_str()),
+            ("target.weave.columns", "give a pattern or columns, not both (in case.json)")
+        );
         let e = weave(&|v| v["target"]["weave"]["filler_layers"] = 1.into());
         assert_eq!(e.path, "target.weave.filler_layers");
-        let e = weave(&|v| v["target"]["weave"]["binder"] = serde_json::json!({ "area_m2": 0.0, "section_aspect": 2.0 }));
+        let e =
+            weave(&|v| v["target"]["weave"]["binder"] = serde_json::json!({ "area_m2": 0.0, "section_aspect": 2.0 }));
         assert_eq!(e.path, "target.weave.binder.area_m2");
         let e = weave(&|v| v["target"]["weave"]["filler_fibres"] = 0.into());
         assert_eq!(e.path, "target.weave.filler_fibres");
         let e = weave(&|v| {
             v["target"]["weave"].as_object_mut().unwrap().remove("pattern");
-            v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "stuffer", "gaps": [1, 1] }, { "role": "binder", "gaps": [3, 0] }]]);
+            v["target"]["weave"]["columns"] =
+                serde_json::json!([[{ "role": "stuffer", "gaps": [1, 1] }, { "role": "binder", "gaps": [3, 0] }]]);
         });
         assert_eq!(e.path, "target.weave");
         assert!(e.message.contains("columns[0][1]") && e.message.contains("cross"), "{e}");
@@ -1017,7 +1108,10 @@ mod tests {
         let e = panel(&|v| v["target"]["cell_file"] = "cell.h5".into());
         assert_eq!(e.path, "target.weave");
         let e = panel(&|v| v["target"].as_object_mut().unwrap().remove("weave").map(drop).unwrap_or(()));
-        assert_eq!((e.path.as_str(), e.message.as_str()), ("target.weave", "is needed unless target.cell_file gives the relaxed cell (in case.json)"));
+        assert_eq!(
+            (e.path.as_str(), e.message.as_str()),
+            ("target.weave", "is needed unless target.cell_file gives the relaxed cell (in case.json)")
+        );
         let e = panel(&|v| v["target"]["side_m"] = 0.0.into());
         assert_eq!(e.path, "target.side_m");
         let e = panel(&|v| v["target"]["layers"] = 0.into());
@@ -1072,9 +1166,13 @@ mod tests {
         assert_eq!(e.path, "target.hybrid.fibres_per_yarn");
         let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.005, "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid.fine_half_width_m");
-        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "element_length_ratio": 9.0 })));
+        let e = error_for(hybrid(
+            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "element_length_ratio": 9.0 }),
+        ));
         assert_eq!(e.path, "target.hybrid.element_length_ratio");
-        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "cell_file": "coarse.h5" })));
+        let e = error_for(hybrid(
+            serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1, "cell_file": "coarse.h5" }),
+        ));
         assert_eq!(e.path, "target.hybrid.cell_file");
         let e = error_for(|v| {
             v["target"].as_object_mut().unwrap().remove("weave");
@@ -1082,7 +1180,9 @@ mod tests {
             v["target"]["hybrid"] = serde_json::json!({ "fine_half_width_m": 0.002, "fibres_per_yarn": 1 });
         });
         assert_eq!(e.path, "target.hybrid.cell_file");
-        let e = error_for(hybrid(serde_json::json!({ "fine_half_width_m": 0.002, "fine_radius_m": 0.002, "fibres_per_yarn": 1 })));
+        let e = error_for(hybrid(
+            serde_json::json!({ "fine_half_width_m": 0.002, "fine_radius_m": 0.002, "fibres_per_yarn": 1 }),
+        ));
         assert_eq!(e.path, "target.hybrid");
         let e = error_for(hybrid(serde_json::json!({ "fibres_per_yarn": 1 })));
         assert_eq!(e.path, "target.hybrid");
@@ -1110,7 +1210,9 @@ mod tests {
         value["target"]["cell_file"] = "relaxed/cell.h5".into();
         std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
         let case = load_case(&dir.join("case.json")).unwrap();
-        let TargetSpec::WovenPanel { cell_file: Some(file), .. } = case.target else { panic!("a woven target with a cell file") };
+        let TargetSpec::WovenPanel { cell_file: Some(file), .. } = case.target else {
+            panic!("a woven target with a cell file")
+        };
         assert!(file.is_absolute() && file.ends_with("relaxed/cell.h5"), "{}", file.display());
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -1120,11 +1222,18 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("dea-case-mesh-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let mut value = default_json();
-        value["projectile"] = serde_json::json!({ "shape": "file", "mesh_file": "body.stl", "mass_kg": 1e-3, "velocity_m_s": 100.0 });
+        value["projectile"] =
+            serde_json::json!({ "shape": "file", "mesh_file": "body.stl", "mass_kg": 1e-3, "velocity_m_s": 100.0 });
         std::fs::write(dir.join("case.json"), value.to_string()).unwrap();
         let case = load_case(&dir.join("case.json")).unwrap();
         let file = case.projectile.mesh_file.unwrap();
-        assert!(file.is_absolute() && file.ends_with("body.stl") && file.parent().unwrap().ends_with(dir.file_name().unwrap()), "{}", file.display());
+        assert!(
+            file.is_absolute()
+                && file.ends_with("body.stl")
+                && file.parent().unwrap().ends_with(dir.file_name().unwrap()),
+            "{}",
+            file.display()
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -39,7 +39,9 @@ impl Case {
         let m = &self.material;
         let mut material = match m.preset.as_str() {
             "kevlar_km2" => FibreMaterial::kevlar_km2(),
-            other => return Err(invalid("material.preset", format!("unknown preset {other:?}; known: \"kevlar_km2\""))),
+            other => {
+                return Err(invalid("material.preset", format!("unknown preset {other:?}; known: \"kevlar_km2\"")))
+            }
         };
         if let Some(v) = m.longitudinal_modulus_pa {
             material.longitudinal_modulus = positive("material.longitudinal_modulus_pa", v)?;
@@ -67,7 +69,10 @@ impl Case {
         match self.contact.law.as_str() {
             "elastic" => Ok(NormalLaw::Elastic { transverse_modulus: material.transverse_modulus }),
             "elasto_plastic_km2" => Ok(NormalLaw::ElastoPlasticKm2),
-            other => Err(invalid("contact.law", format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""))),
+            other => Err(invalid(
+                "contact.law",
+                format!("unknown law {other:?}; known: \"elastic\", \"elasto_plastic_km2\""),
+            )),
         }
     }
 
@@ -76,22 +81,37 @@ impl Case {
         let f = &self.failure;
         match f.mode.as_str() {
             "none" => Ok(Strength::None),
-            "deterministic" => Ok(Strength::Deterministic(positive("failure.tensile_strength_pa", required("failure.tensile_strength_pa", f.tensile_strength_pa)?)?)),
+            "deterministic" => Ok(Strength::Deterministic(positive(
+                "failure.tensile_strength_pa",
+                required("failure.tensile_strength_pa", f.tensile_strength_pa)?,
+            )?)),
             "weibull" => {
-                let w = f.weibull.as_ref().ok_or_else(|| invalid("failure.weibull", "is required when failure.mode is \"weibull\""))?;
+                let w = f
+                    .weibull
+                    .as_ref()
+                    .ok_or_else(|| invalid("failure.weibull", "is required when failure.mode is \"weibull\""))?;
                 let second = match (w.shape_2, w.scale_2_pa) {
                     (None, None) => None,
-                    (Some(shape), Some(scale)) => Some(WeibullMode { shape: positive("failure.weibull.shape_2", shape)?, scale: positive("failure.weibull.scale_2_pa", scale)? }),
+                    (Some(shape), Some(scale)) => Some(WeibullMode {
+                        shape: positive("failure.weibull.shape_2", shape)?,
+                        scale: positive("failure.weibull.scale_2_pa", scale)?,
+                    }),
                     _ => return Err(invalid("failure.weibull", "shape_2 and scale_2_pa go together")),
                 };
                 let law = WeibullStrength {
                     gauge_length: positive("failure.weibull.gauge_length_m", w.gauge_length_m)?,
-                    first: WeibullMode { shape: positive("failure.weibull.shape_1", w.shape_1)?, scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)? },
+                    first: WeibullMode {
+                        shape: positive("failure.weibull.shape_1", w.shape_1)?,
+                        scale: positive("failure.weibull.scale_1_pa", w.scale_1_pa)?,
+                    },
                     second,
                 };
                 Ok(Strength::Weibull(law, f.seed))
             }
-            other => Err(invalid("failure.mode", format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""))),
+            other => Err(invalid(
+                "failure.mode",
+                format!("unknown mode {other:?}; known: \"none\", \"deterministic\", \"weibull\""),
+            )),
         }
     }
 
@@ -99,7 +119,10 @@ impl Case {
     pub(super) fn shear_strength(&self) -> Result<f64, CaseError> {
         match self.failure.mode.as_str() {
             "none" => Ok(self.failure.shear_strength_pa.unwrap_or(f64::INFINITY)),
-            _ => positive("failure.shear_strength_pa", required("failure.shear_strength_pa", self.failure.shear_strength_pa)?),
+            _ => positive(
+                "failure.shear_strength_pa",
+                required("failure.shear_strength_pa", self.failure.shear_strength_pa)?,
+            ),
         }
     }
 
@@ -107,7 +130,9 @@ impl Case {
     pub(super) fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
         let p = &self.projectile;
         let divisions = match p.mesh_divisions {
-            Some(n) if !(2..=64).contains(&n) => return Err(invalid("projectile.mesh_divisions", format!("must lie in 2..=64, got {n}"))),
+            Some(n) if !(2..=64).contains(&n) => {
+                return Err(invalid("projectile.mesh_divisions", format!("must lie in 2..=64, got {n}")))
+            }
             n => n,
         };
         let mesh_or = |shape: RigidShape, solid: Solid| match divisions {
@@ -118,7 +143,10 @@ impl Case {
             dimensions.check().map_err(|e| invalid("projectile", e))?;
             finer_than_mesh_allows("projectile.flat_edge_radius_m", dimensions.flat_edge_radius, dimensions.diameter)?;
             finer_than_mesh_allows("projectile.edge_radius_m", dimensions.rim_edge_radius, dimensions.diameter)?;
-            Ok(ProjectileBody::Generated { solid: Solid::Fsp(dimensions), divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS) })
+            Ok(ProjectileBody::Generated {
+                solid: Solid::Fsp(dimensions),
+                divisions: divisions.unwrap_or(DEFAULT_FSP_DIVISIONS),
+            })
         };
         let mass = |default: Option<f64>| match (p.mass_kg, default) {
             (Some(m), _) => ranged("projectile.mass_kg", m, PROJECTILE_MASS_KG.0, PROJECTILE_MASS_KG.1),
@@ -144,7 +172,8 @@ impl Case {
                 other => return Err(invalid("projectile.preset", format!("unknown preset {other:?}; {PRESETS}"))),
             },
             (None, Some(kind)) => {
-                let diameter = || projectile_size("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
+                let diameter =
+                    || projectile_size("projectile.diameter_m", required("projectile.diameter_m", p.diameter_m)?);
                 let height = || projectile_size("projectile.height_m", required("projectile.height_m", p.height_m)?);
                 let body = match kind.as_str() {
                     "sphere" => {
@@ -153,24 +182,59 @@ impl Case {
                     }
                     "cylinder" => {
                         let (diameter, height) = (diameter()?, height()?);
-                        let edge = edge_radius("projectile.edge_radius_m", required("projectile.edge_radius_m", p.edge_radius_m)?)?;
+                        let edge = edge_radius(
+                            "projectile.edge_radius_m",
+                            required("projectile.edge_radius_m", p.edge_radius_m)?,
+                        )?;
                         if edge > 0.5 * diameter.min(height) {
-                            return Err(invalid("projectile.edge_radius_m", format!("must not exceed half the diameter and half the height, got {edge}")));
+                            return Err(invalid(
+                                "projectile.edge_radius_m",
+                                format!("must not exceed half the diameter and half the height, got {edge}"),
+                            ));
                         }
                         finer_than_mesh_allows("projectile.edge_radius_m", edge, diameter)?;
                         let radius = 0.5 * diameter;
-                        mesh_or(RigidShape::Cylinder { radius, height, edge_radius: edge }, Solid::Cylinder { radius, height, edge_radius: edge })
+                        mesh_or(
+                            RigidShape::Cylinder { radius, height, edge_radius: edge },
+                            Solid::Cylinder { radius, height, edge_radius: edge },
+                        )
                     }
                     "fsp" => {
                         let standard = FspDimensions::SEVENTEEN_GRAIN;
-                        let or = |path: &str, value: Option<f64>, default: f64, check: fn(&str, f64) -> Result<f64, CaseError>| value.map_or(Ok(default), |v| check(path, v));
+                        let or = |path: &str,
+                                  value: Option<f64>,
+                                  default: f64,
+                                  check: fn(&str, f64) -> Result<f64, CaseError>| {
+                            value.map_or(Ok(default), |v| check(path, v))
+                        };
                         fsp(FspDimensions {
                             diameter: or("projectile.diameter_m", p.diameter_m, standard.diameter, projectile_size)?,
                             length: or("projectile.height_m", p.height_m, standard.length, projectile_size)?,
-                            flat_width: or("projectile.flat_width_m", p.flat_width_m, standard.flat_width, projectile_size)?,
-                            bevel_angle: or("projectile.bevel_angle_deg", p.bevel_angle_deg, standard.bevel_angle.to_degrees(), positive)?.to_radians(),
-                            flat_edge_radius: or("projectile.flat_edge_radius_m", p.flat_edge_radius_m, standard.flat_edge_radius, edge_radius)?,
-                            rim_edge_radius: or("projectile.edge_radius_m", p.edge_radius_m, standard.rim_edge_radius, edge_radius)?,
+                            flat_width: or(
+                                "projectile.flat_width_m",
+                                p.flat_width_m,
+                                standard.flat_width,
+                                projectile_size,
+                            )?,
+                            bevel_angle: or(
+                                "projectile.bevel_angle_deg",
+                                p.bevel_angle_deg,
+                                standard.bevel_angle.to_degrees(),
+                                positive,
+                            )?
+                            .to_radians(),
+                            flat_edge_radius: or(
+                                "projectile.flat_edge_radius_m",
+                                p.flat_edge_radius_m,
+                                standard.flat_edge_radius,
+                                edge_radius,
+                            )?,
+                            rim_edge_radius: or(
+                                "projectile.edge_radius_m",
+                                p.edge_radius_m,
+                                standard.rim_edge_radius,
+                                edge_radius,
+                            )?,
                         })?
                     }
                     "file" => {
@@ -178,7 +242,12 @@ impl Case {
                         let scale = p.mesh_scale.map_or(Ok(1.0), |s| positive("projectile.mesh_scale", s))?;
                         ProjectileBody::File { path, scale }
                     }
-                    other => return Err(invalid("projectile.shape", format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\", \"fsp\", \"file\""))),
+                    other => {
+                        return Err(invalid(
+                            "projectile.shape",
+                            format!("unknown shape {other:?}; known: \"sphere\", \"cylinder\", \"fsp\", \"file\""),
+                        ))
+                    }
                 };
                 (body, mass(None)?)
             }
@@ -217,11 +286,17 @@ impl Case {
             positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
             d.model()?;
             if !(0.0..0.5).contains(&d.poisson_ratio) {
-                return Err(invalid("projectile.deformable.poisson_ratio", format!("must lie in [0, 0.5), got {}", d.poisson_ratio)));
+                return Err(invalid(
+                    "projectile.deformable.poisson_ratio",
+                    format!("must lie in [0, 0.5), got {}", d.poisson_ratio),
+                ));
             }
             let hexahedra = match &body {
                 ProjectileBody::Generated { .. } => true,
-                ProjectileBody::File { path, .. } => path.extension().and_then(|e| e.to_str()).is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
+                ProjectileBody::File { path, .. } => path
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "msh" | "inp")),
                 ProjectileBody::Analytic(_) => false,
             };
             if !hexahedra {
@@ -261,19 +336,39 @@ impl Case {
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::StraightYarnLayers { yarn, fibres_per_yarn, layers, yarns_per_layer, length_m, element_length_ratio } => {
+            TargetSpec::StraightYarnLayers {
+                yarn,
+                fibres_per_yarn,
+                layers,
+                yarns_per_layer,
+                length_m,
+                element_length_ratio,
+            } => {
                 fibre_area = Some(yarn_area(yarn)? / *fibres_per_yarn as f64);
                 fibre_count(*fibres_per_yarn)?;
                 if *layers < 1 || *layers > 100 {
                     return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
                 }
                 if *yarns_per_layer < 1 || *yarns_per_layer > 10_000 {
-                    return Err(invalid("target.yarns_per_layer", format!("must be in 1..=10000, got {yarns_per_layer}")));
+                    return Err(invalid(
+                        "target.yarns_per_layer",
+                        format!("must be in 1..=10000, got {yarns_per_layer}"),
+                    ));
                 }
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
             }
-            TargetSpec::WovenPanel { weave, cell_file, side_m, layers, layer_gap_m, layer_shift_m, boundary, relaxation, hybrid } => {
+            TargetSpec::WovenPanel {
+                weave,
+                cell_file,
+                side_m,
+                layers,
+                layer_gap_m,
+                layer_shift_m,
+                boundary,
+                relaxation,
+                hybrid,
+            } => {
                 if cell_file.is_some() && *weave != WeaveSpec::default() {
                     return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
                 }
@@ -304,7 +399,10 @@ impl Case {
                             return Err(invalid("target.hybrid.cell_file", "a coarse cell file carries its fibres and elements: leave target.hybrid.fibres_per_yarn and element_length_ratio out"));
                         }
                         (Some(_), _) => {}
-                        (None, Some(_)) => return Err(invalid("target.hybrid.cell_file", "the fine cell comes from target.cell_file, so the coarse one must come from a file too")),
+                        (None, Some(_)) => return Err(invalid(
+                            "target.hybrid.cell_file",
+                            "the fine cell comes from target.cell_file, so the coarse one must come from a file too",
+                        )),
                         (None, None) => {
                             coarse = Some(hybrid.coarse_weave(&fine)?);
                         }
@@ -317,7 +415,10 @@ impl Case {
                 if let BoundarySpec::Clamp { opening_m } = boundary {
                     positive("target.boundary.opening_m", *opening_m)?;
                     if *opening_m >= *side_m {
-                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                        return Err(invalid(
+                            "target.boundary.opening_m",
+                            format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}"),
+                        ));
                     }
                 }
                 relaxation.validate()?;
@@ -326,14 +427,27 @@ impl Case {
                 three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
                 relaxation.validate()?;
             }
-            TargetSpec::ThreeDWovenPanel { weave, cell_file, relaxation, side_m, layers, layer_gap_m, layer_shift_m, boundary } => {
+            TargetSpec::ThreeDWovenPanel {
+                weave,
+                cell_file,
+                relaxation,
+                side_m,
+                layers,
+                layer_gap_m,
+                layer_shift_m,
+                boundary,
+            } => {
                 match (weave, cell_file) {
                     (Some(weave), None) => {
                         three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
                     }
                     (None, Some(_)) => {}
-                    (Some(_), Some(_)) => return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out")),
-                    (None, None) => return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell")),
+                    (Some(_), Some(_)) => {
+                        return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"))
+                    }
+                    (None, None) => {
+                        return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell"))
+                    }
                 }
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
@@ -344,7 +458,10 @@ impl Case {
                 if let BoundarySpec::Clamp { opening_m } = boundary {
                     positive("target.boundary.opening_m", *opening_m)?;
                     if *opening_m >= *side_m {
-                        return Err(invalid("target.boundary.opening_m", format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}")));
+                        return Err(invalid(
+                            "target.boundary.opening_m",
+                            format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}"),
+                        ));
                     }
                 }
             }
