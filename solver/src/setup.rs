@@ -214,7 +214,6 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,
     };
-    let mu = resolved.friction_coefficient;
     let (mut relaxation, mut coarse_relaxation) = (None, None);
     let fabric = match &case.target {
         TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
@@ -223,34 +222,30 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                 1,
                 std::f64::consts::PI * diameter_m * diameter_m / 4.0,
                 *element_length_ratio,
-                case.bending,
-                mu,
+                resolved.section_inertia,
                 deterministic,
             ))
         }
-        TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
+        TargetSpec::StraightYarn { fibres_per_yarn, length_m, element_length_ratio, .. } => {
             let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
-            let _ = yarn;
             Fabric::Straight(StraightFabric::single_yarn(
                 *length_m,
                 *fibres_per_yarn,
                 area,
                 *element_length_ratio,
-                case.bending,
-                mu,
+                resolved.section_inertia,
                 deterministic,
             ))
         }
         TargetSpec::StraightYarnLayers {
-            yarn,
             fibres_per_yarn,
             layers,
             yarns_per_layer,
             length_m,
             element_length_ratio,
+            ..
         } => {
             let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
-            let _ = yarn;
             Fabric::Straight(StraightFabric::cross_ply(
                 *layers,
                 *yarns_per_layer,
@@ -258,8 +253,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                 *length_m,
                 area,
                 *element_length_ratio,
-                case.bending,
-                mu,
+                resolved.section_inertia,
                 deterministic,
                 &material,
             ))
@@ -361,7 +355,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let largest_contact_diameter = sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
     let contact = ContactParameters {
         law,
-        friction_coefficient: mu,
+        friction_coefficient: resolved.friction_coefficient,
         projectile_friction_coefficient: resolved.projectile_friction_coefficient,
         skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };

@@ -34,8 +34,7 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
         1,
         std::f64::consts::PI * diameter * diameter / 4.0,
         element_length_ratio,
-        inertia,
-        0.3,
+        inertia.with_friction(0.3),
         3.8e9,
     );
     let built = bundle.build_all(&material);
@@ -211,7 +210,7 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let bundle = StraightFabric {
         clamp_ends: false,
-        ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked, 0.3, 3.8e9)
+        ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked.with_friction(0.3), 3.8e9)
     };
     let mut built = bundle.build_all(&material);
     // squeeze the section by 3% and bend the fibres: overlaps everywhere
@@ -427,7 +426,14 @@ fn tied_yarn(fine: usize, coarse: usize, length: f64) -> Distributed<LocalComm> 
     let yarn_area = 4.63e-8;
     let inertia = InertiaModel::Effective { k1: 0.8, k2: 1.0 };
     let kind = |fibres: usize| {
-        let mut yarn = StraightFabric::single_yarn(length, fibres, yarn_area / fibres as f64, 0.5, inertia, 0.0, 3.8e9);
+        let mut yarn = StraightFabric::single_yarn(
+            length,
+            fibres,
+            yarn_area / fibres as f64,
+            0.5,
+            inertia.with_friction(0.0),
+            3.8e9,
+        );
         yarn.clamp_ends = false;
         yarn.build_all(&material)
     };

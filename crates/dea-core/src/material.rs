@@ -52,6 +52,36 @@ pub enum InertiaModel {
     None,
 }
 
+impl InertiaModel {
+    /// The model with the inter-fibre friction coefficient `mu` [-] that (5-10) weighs the
+    /// locked bundle by, applied: what a section's moment of inertia needs, made once where
+    /// the case is resolved (the friction coefficient travels no further).
+    pub fn with_friction(self, mu: f64) -> SectionInertia {
+        match self {
+            InertiaModel::Free => SectionInertia::Free,
+            InertiaModel::Locked => SectionInertia::Locked,
+            InertiaModel::None => SectionInertia::None,
+            // mu/k2 capped at 1: above k2 the bundle is locked (seed §5.2.3)
+            InertiaModel::Effective { k1, k2 } => {
+                SectionInertia::Weighted { locked_share: (mu / k2).clamp(0.0, 1.0).powf(k1) }
+            }
+        }
+    }
+}
+
+/// The bending model of a section, its friction weight applied ([`InertiaModel::with_friction`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SectionInertia {
+    /// I_0 = n pi d_a^4 / 64 (5-7)
+    Free,
+    /// I_inf = pi d_d^4 / 64 (5-8)
+    Locked,
+    /// I_e = w I_inf + (1 - w) I_0 (5-10) with `locked_share` w = (mu/k2)^k1 [-]
+    Weighted { locked_share: f64 },
+    /// no bending stiffness
+    None,
+}
+
 /// Cross-section of one class of digital fibre (all fibres of a yarn share one).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FibreSection {
@@ -72,20 +102,13 @@ pub struct FibreSection {
 }
 
 impl FibreSection {
-    /// Builds a section from the digital fibre area, element length and bending model.
-    /// `friction_coefficient` is the inter-fibre mu that (5-10) uses.
-    pub fn new(
-        material: &FibreMaterial,
-        area: f64,
-        element_length: f64,
-        inertia: InertiaModel,
-        friction_coefficient: f64,
-    ) -> Self {
+    /// Builds a section from the digital fibre area [m^2], element length [m] and bending model.
+    pub fn new(material: &FibreMaterial, area: f64, element_length: f64, inertia: SectionInertia) -> Self {
         let diameter = (4.0 * area / std::f64::consts::PI).sqrt();
         let filament_area = std::f64::consts::PI * material.filament_diameter.powi(2) / 4.0;
         let filaments_per_fibre = (area / filament_area).max(1.0);
         let moment_of_inertia =
-            effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia, friction_coefficient);
+            effective_moment_of_inertia(diameter, material.filament_diameter, filaments_per_fibre, inertia);
         Self {
             diameter,
             area,
@@ -115,26 +138,21 @@ pub fn modified_contact_diameter(diameter: f64, element_length: f64) -> f64 {
 /// Effective moment of inertia of a digital fibre, seed (5-7)…(5-10).
 ///
 /// `I_0 = n pi d_a^4/64` (free filaments), `I_inf = pi d_d^4/64` (locked bundle),
-/// `I_e = (mu/k2)^k1 I_inf + (1 - (mu/k2)^k1) I_0`, with mu/k2 capped at 1 (above k2 the
-/// bundle is locked, seed §5.2.3).
+/// `I_e = w I_inf + (1 - w) I_0` with `w = (mu/k2)^k1` ([`InertiaModel::with_friction`]).
 pub fn effective_moment_of_inertia(
     fibre_diameter: f64,
     filament_diameter: f64,
     filaments_per_fibre: f64,
-    model: InertiaModel,
-    friction_coefficient: f64,
+    model: SectionInertia,
 ) -> f64 {
     let pi = std::f64::consts::PI;
     let free = filaments_per_fibre * pi * filament_diameter.powi(4) / 64.0; // (5-7)
     let locked = pi * fibre_diameter.powi(4) / 64.0; // (5-8)
     match model {
-        InertiaModel::Free => free,
-        InertiaModel::Locked => locked,
-        InertiaModel::None => 0.0,
-        InertiaModel::Effective { k1, k2 } => {
-            let weight = (friction_coefficient / k2).clamp(0.0, 1.0).powf(k1);
-            weight * locked + (1.0 - weight) * free // (5-10)
-        }
+        SectionInertia::Free => free,
+        SectionInertia::Locked => locked,
+        SectionInertia::None => 0.0,
+        SectionInertia::Weighted { locked_share: weight } => weight * locked + (1.0 - weight) * free, // (5-10)
     }
 }
 
@@ -152,11 +170,12 @@ mod tests {
     #[test]
     fn effective_inertia_interpolates_between_free_and_locked() {
         let (d, da, n) = (120e-6, 12e-6, 100.0);
-        let free = effective_moment_of_inertia(d, da, n, InertiaModel::Free, 0.3);
-        let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked, 0.3);
+        let free = effective_moment_of_inertia(d, da, n, InertiaModel::Free.with_friction(0.3));
+        let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked.with_friction(0.3));
         // (5-9): I_inf / I_0 = A_d / A_a = n when the digital fibre carries n filaments' area
         assert!((locked / free - n).abs() / n < 1e-12);
-        let at = |mu| effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, mu);
+        let at =
+            |mu| effective_moment_of_inertia(d, da, n, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(mu));
         assert_eq!(at(0.0), free);
         assert!((at(1.0) - locked).abs() < 1e-12 * locked);
         assert!((at(2.0) - locked).abs() < 1e-12 * locked, "mu beyond k2 stays locked");

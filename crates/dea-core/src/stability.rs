@@ -15,10 +15,17 @@ pub const DESIGN_CONTACT_STRAIN: f64 = 0.3;
 /// (1, -2, 1) applied twice gives the factor 16; contact stiffness is the law's tangent at
 /// `contact_strain` (at least [`DESIGN_CONTACT_STRAIN`]; unloading slope where that is
 /// steeper), times the friction spring mu k_n, for [`DESIGN_CONTACTS_PER_NODE`] partners.
-pub fn highest_frequency(material: &FibreMaterial, section: &FibreSection, law: &NormalLaw, friction_coefficient: f64, contact_strain: f64) -> f64 {
+pub fn highest_frequency(
+    material: &FibreMaterial,
+    section: &FibreSection,
+    law: &NormalLaw,
+    friction_coefficient: f64,
+    contact_strain: f64,
+) -> f64 {
     let mass = section.node_mass(material);
     let contact = contact_stiffness_at(section, law, contact_strain.max(DESIGN_CONTACT_STRAIN));
-    ((chain_stiffness(material, section) + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass).sqrt()
+    ((chain_stiffness(material, section) + DESIGN_CONTACTS_PER_NODE * (1.0 + friction_coefficient) * contact) / mass)
+        .sqrt()
 }
 
 /// Normal stiffness of one contact of a node of `section` at [`DESIGN_CONTACT_STRAIN`]: the
@@ -52,8 +59,18 @@ pub fn node_stability_limit(chain: f64, contact: f64, friction_coefficient: f64,
 
 /// Stable time step `safety * 2 / omega_max` over all sections [s], contacts taken at
 /// `contact_strain` (at least [`DESIGN_CONTACT_STRAIN`]; a relaxed fabric may start deeper).
-pub fn stable_time_step(material: &FibreMaterial, sections: &[FibreSection], law: &NormalLaw, friction_coefficient: f64, contact_strain: f64, safety: f64) -> f64 {
-    let omega = sections.iter().map(|s| highest_frequency(material, s, law, friction_coefficient, contact_strain)).fold(0.0, f64::max);
+pub fn stable_time_step(
+    material: &FibreMaterial,
+    sections: &[FibreSection],
+    law: &NormalLaw,
+    friction_coefficient: f64,
+    contact_strain: f64,
+    safety: f64,
+) -> f64 {
+    let omega = sections
+        .iter()
+        .map(|s| highest_frequency(material, s, law, friction_coefficient, contact_strain))
+        .fold(0.0, f64::max);
     safety * 2.0 / omega
 }
 
@@ -65,14 +82,18 @@ mod tests {
     #[test]
     fn axial_limit_alone_is_element_length_over_wave_speed() {
         let material = FibreMaterial::kevlar_km2();
-        let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None, 0.0);
+        let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None.with_friction(0.0));
         let no_contact = NormalLaw::Elastic { transverse_modulus: 0.0 };
-        let dt = stable_time_step(&material, std::slice::from_ref(&section), &no_contact, 0.0, DESIGN_CONTACT_STRAIN, 1.0);
+        let dt =
+            stable_time_step(&material, std::slice::from_ref(&section), &no_contact, 0.0, DESIGN_CONTACT_STRAIN, 1.0);
         let expected = section.element_length / material.wave_speed();
         assert!((dt - expected).abs() < 1e-12 * expected);
         // contact and bending only ever shorten it
-        let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked, 0.3);
-        assert!(stable_time_step(&material, &[with_all], &NormalLaw::ElastoPlasticKm2, 0.3, DESIGN_CONTACT_STRAIN, 1.0) < dt);
+        let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked.with_friction(0.3));
+        assert!(
+            stable_time_step(&material, &[with_all], &NormalLaw::ElastoPlasticKm2, 0.3, DESIGN_CONTACT_STRAIN, 1.0)
+                < dt
+        );
         // the per-node check of a free node without contacts gives the same limit, and a
         // contact stiffness only lowers it
         let mass = section.node_mass(&material);

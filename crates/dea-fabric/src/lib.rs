@@ -13,7 +13,7 @@ pub mod weave3d;
 
 use panel::Tiling;
 
-use dea_core::material::InertiaModel;
+use dea_core::material::SectionInertia;
 use dea_core::nodes::FailureMode;
 use dea_core::{Elements, FibreId, FibreMaterial, FibreSection, GlobalNodeId, Nodes, Vec3};
 
@@ -48,10 +48,8 @@ pub struct StraightFabric {
     pub fibre_area: f64,
     /// target element length / digital fibre diameter [-] (seed §6.1: 0.5 converges)
     pub element_length_ratio: f64,
-    /// bending model of (5-7)…(5-10)
-    pub inertia: InertiaModel,
-    /// inter-fibre friction coefficient used by (5-10) [-]
-    pub friction_coefficient: f64,
+    /// bending model of (5-7)…(5-10), its friction weight applied
+    pub inertia: SectionInertia,
     /// tensile strength given to every element before any Weibull sampling [Pa]
     pub tensile_strength: f64,
     /// clamp both ends of every fibre
@@ -94,14 +92,13 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
 
 impl StraightFabric {
     /// One yarn of `fibres` digital fibres along x, centred on the origin.
-    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64) -> Self {
+    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: SectionInertia, tensile_strength: f64) -> Self {
         Self {
             yarns: vec![YarnLine { centre: Vec3::zeros(), axis: Axis::X, fibres, layer: 0 }],
             length,
             fibre_area,
             element_length_ratio,
             inertia,
-            friction_coefficient,
             tensile_strength,
             clamp_ends: true,
         }
@@ -112,8 +109,8 @@ impl StraightFabric {
     /// half a yarn. Yarns sit at the pitch of their envelope (packing radius plus half a
     /// contact diameter, on both sides).
     #[allow(clippy::too_many_arguments)]
-    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: InertiaModel, friction_coefficient: f64, tensile_strength: f64, material: &FibreMaterial) -> Self {
-        let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, friction_coefficient, tensile_strength);
+    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: SectionInertia, tensile_strength: f64, material: &FibreMaterial) -> Self {
+        let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, tensile_strength);
         let pitch = fabric.yarn_envelope_diameter(material);
         fabric.yarns = (0..layers)
             .flat_map(|l| {
@@ -152,7 +149,7 @@ impl StraightFabric {
 
     /// The one section every fibre has.
     pub fn section(&self, material: &FibreMaterial) -> FibreSection {
-        FibreSection::new(material, self.fibre_area, self.length / self.elements_per_fibre() as f64, self.inertia, self.friction_coefficient)
+        FibreSection::new(material, self.fibre_area, self.length / self.elements_per_fibre() as f64, self.inertia)
     }
 
     /// Diameter of the circle enclosing a yarn's fibres (contact diameter included) [m].
@@ -406,6 +403,7 @@ impl Fabric {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dea_core::material::InertiaModel;
 
     #[test]
     fn hexagonal_rings_are_complete_and_touching() {
@@ -427,7 +425,7 @@ mod tests {
     #[test]
     fn bundle_mass_and_length_are_exact() {
         let material = FibreMaterial::kevlar_km2();
-        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }, 0.3, 3.8e9);
+        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3), 3.8e9);
         let built = bundle.build_all(&material);
         let total_mass: f64 = built.nodes.mass.iter().sum();
         let expected = material.density * 4.63e-8 * 0.01;
@@ -442,7 +440,7 @@ mod tests {
     #[test]
     fn a_rank_builds_exactly_its_piece_of_the_whole() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None.with_friction(0.3), 3.8e9, &material);
         let whole = fabric.build_all(&material);
         let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
         let piece = fabric.build(&material, keep);
@@ -464,7 +462,7 @@ mod tests {
     #[test]
     fn cross_ply_yarns_touch_without_overlapping() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None, 0.3, 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None.with_friction(0.3), 3.8e9, &material);
         let built = fabric.build_all(&material);
         let contact = built.sections[0].contact_diameter;
         let nodes = &built.nodes;

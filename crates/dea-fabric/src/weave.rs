@@ -3,7 +3,7 @@
 //! whose amplitude keeps the crossing yarns apart. The cell is the starting point of the
 //! periodic relaxation ([`crate::relax`]).
 
-use dea_core::material::InertiaModel;
+use dea_core::material::{InertiaModel, SectionInertia};
 use std::ops::{Deref, DerefMut};
 
 use dea_core::{FibreMaterial, FibreSection, Vec3};
@@ -16,7 +16,9 @@ use crate::cell::{CellYarn, PeriodicCell, YarnRole};
 pub enum WeaveError {
     #[error("section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)")]
     TooWide { packed_width: f64, spacing: f64 },
-    #[error("initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart")]
+    #[error(
+        "initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart"
+    )]
     CrimpTooSmall { requested: f64, minimum: f64 },
 }
 
@@ -72,15 +74,14 @@ pub struct PlainWeave {
     pub initial_crimp: Option<f64>,
     /// tension of a whole yarn at the start of relaxation [N]
     pub yarn_tension: f64,
-    /// bending model of the fibres
-    pub inertia: InertiaModel,
-    /// inter-fibre friction coefficient used by (5-10) [-]
-    pub friction_coefficient: f64,
+    /// bending model of the fibres, its friction weight (5-10) applied
+    pub inertia: SectionInertia,
 }
 
 /// The four yarns of a plain-weave unit cell: warp 0 and 1 along x at y = 0 and y = s,
 /// weft 0 and 1 along y at x = 0 and x = s. Warp 0 passes over weft 0 at the origin.
-pub const CELL_YARNS: [(YarnDirection, usize); 4] = [(YarnDirection::Warp, 0), (YarnDirection::Warp, 1), (YarnDirection::Weft, 0), (YarnDirection::Weft, 1)];
+pub const CELL_YARNS: [(YarnDirection, usize); 4] =
+    [(YarnDirection::Warp, 0), (YarnDirection::Warp, 1), (YarnDirection::Weft, 0), (YarnDirection::Weft, 1)];
 
 /// A plain-weave unit cell: the [`PeriodicCell`] of the four [`CELL_YARNS`], `2 s` square,
 /// with what a panel needs to tile it (its fibres all have `nodes_per_period` nodes, and the
@@ -116,13 +117,33 @@ impl UnitCell {
     /// Assembles a plain-weave cell from the positions of its four yarns (in [`CELL_YARNS`]
     /// order), checking the sizes.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(yarn_spacing: f64, fibres_per_yarn: usize, nodes_per_period: u32, section: FibreSection, positions: Vec<Vec3>, rest_lengths: Vec<f64>, rest_angles: Vec<f64>, fibre_tension: f64, packing: Vec<[f64; 2]>, initial_amplitude: f64) -> Result<Self, crate::cell::CellError> {
+    pub fn new(
+        yarn_spacing: f64,
+        fibres_per_yarn: usize,
+        nodes_per_period: u32,
+        section: FibreSection,
+        positions: Vec<Vec3>,
+        rest_lengths: Vec<f64>,
+        rest_angles: Vec<f64>,
+        fibre_tension: f64,
+        packing: Vec<[f64; 2]>,
+        initial_amplitude: f64,
+    ) -> Result<Self, crate::cell::CellError> {
         if packing.len() != fibres_per_yarn || !nodes_per_period.is_multiple_of(4) {
             return Err(crate::cell::CellError::Sizes(format!("{} packing points for {fibres_per_yarn} fibres per yarn, {nodes_per_period} nodes per period (a multiple of 4)", packing.len())));
         }
-        let yarns = CELL_YARNS.iter().map(|&(direction, _)| CellYarn { direction, role: YarnRole::Plain, fibres: fibres_per_yarn, nodes_per_period }).collect();
+        let yarns = CELL_YARNS
+            .iter()
+            .map(|&(direction, _)| CellYarn {
+                direction,
+                role: YarnRole::Plain,
+                fibres: fibres_per_yarn,
+                nodes_per_period,
+            })
+            .collect();
         let period = 2.0 * yarn_spacing;
-        let periodic = PeriodicCell::new([period, period], yarns, section, positions, rest_lengths, rest_angles, fibre_tension)?;
+        let periodic =
+            PeriodicCell::new([period, period], yarns, section, positions, rest_lengths, rest_angles, fibre_tension)?;
         Ok(Self { periodic, yarn_spacing, fibres_per_yarn, nodes_per_period, packing, initial_amplitude })
     }
 
@@ -163,8 +184,7 @@ impl PlainWeave {
             element_length_ratio: 0.5,
             initial_crimp: None,
             yarn_tension: 0.5,
-            inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 },
-            friction_coefficient: 0.3,
+            inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
         }
     }
 
@@ -184,13 +204,14 @@ impl PlainWeave {
         let stretch = 1.0 + self.yarn_tension / (material.longitudinal_modulus * self.yarn_area);
         // the contact diameter depends on the element length, which depends on the path: pack
         // at the target ratio, then repeat with the element length found until it settles
-        let mut section = FibreSection::new(material, area, self.element_length_ratio * diameter, self.inertia, self.friction_coefficient);
+        let mut section = FibreSection::new(material, area, self.element_length_ratio * diameter, self.inertia);
         let mut previous = 0;
         let mut clearance = 1.0;
         loop {
             let packing = elliptical_packing(self.fibres_per_yarn, section.contact_diameter, self.section_aspect);
             let across = packing.iter().map(|p| p[0].abs()).fold(0.0, f64::max);
-            let (low, high) = packing.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[1]), h.max(p[1])));
+            let (low, high) =
+                packing.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[1]), h.max(p[1])));
             let packed_width = 2.0 * across + section.contact_diameter;
             if 2.0 * across >= 0.9 * s {
                 return Err(WeaveError::TooWide { packed_width, spacing: s });
@@ -204,7 +225,9 @@ impl PlainWeave {
             let minimum_crimp = sinusoid_length_ratio(minimum, s) - 1.0;
             let amplitude = match self.initial_crimp {
                 None => minimum,
-                Some(crimp) if crimp < minimum_crimp => return Err(WeaveError::CrimpTooSmall { requested: crimp, minimum: minimum_crimp }),
+                Some(crimp) if crimp < minimum_crimp => {
+                    return Err(WeaveError::CrimpTooSmall { requested: crimp, minimum: minimum_crimp })
+                }
                 Some(crimp) => {
                     let (mut a, mut b) = (minimum, s);
                     for _ in 0..200 {
@@ -225,7 +248,7 @@ impl PlainWeave {
             // equal chords, so every element starts at the strain of the initial tension
             let (stations, chord) = equal_chord_stations(amplitude, s, nodes_per_period);
             let rest_length = chord / stretch;
-            let grown = FibreSection::new(material, area, rest_length, self.inertia, self.friction_coefficient);
+            let grown = FibreSection::new(material, area, rest_length, self.inertia);
             // settled once the count of elements repeats and the packing used a contact
             // diameter no smaller than the final one
             if nodes_per_period == previous && grown.contact_diameter <= section.contact_diameter {
@@ -242,7 +265,14 @@ impl PlainWeave {
     }
 
     /// Places the fibres of the four yarns on their sinusoids.
-    fn lay_out(&self, section: FibreSection, packing: Vec<[f64; 2]>, stations: &[(f64, f64)], amplitude: f64, nodes_per_period: u32) -> UnitCell {
+    fn lay_out(
+        &self,
+        section: FibreSection,
+        packing: Vec<[f64; 2]>,
+        stations: &[(f64, f64)],
+        amplitude: f64,
+        nodes_per_period: u32,
+    ) -> UnitCell {
         let s = self.yarn_spacing;
         let mut positions = Vec::with_capacity(4 * packing.len() * nodes_per_period as usize);
         for (direction, index) in CELL_YARNS {
@@ -261,7 +291,19 @@ impl PlainWeave {
         let rest_lengths = vec![section.element_length; 4 * packing.len()];
         let fibre_tension = self.yarn_tension / self.fibres_per_yarn as f64;
         let rest_angles = vec![0.0; positions.len()];
-        UnitCell::new(s, self.fibres_per_yarn, nodes_per_period, section, positions, rest_lengths, rest_angles, fibre_tension, packing, amplitude).expect("a laid-out cell fits its yarns")
+        UnitCell::new(
+            s,
+            self.fibres_per_yarn,
+            nodes_per_period,
+            section,
+            positions,
+            rest_lengths,
+            rest_angles,
+            fibre_tension,
+            packing,
+            amplitude,
+        )
+        .expect("a laid-out cell fits its yarns")
     }
 }
 
@@ -318,13 +360,21 @@ mod tests {
                     assert!((p[0] - q[0]).hypot(p[1] - q[1]) >= 1.0 - 1e-12);
                 }
             }
-            let width = points.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max) - points.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min) + 1.0;
-            let height = points.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max) - points.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min) + 1.0;
+            let width = points.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max)
+                - points.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min)
+                + 1.0;
+            let height = points.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)
+                - points.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)
+                + 1.0;
             if count > 1 && aspect > 2.0 {
                 assert!(width > 1.5 * height, "{count} fibres, aspect {aspect}: {width} x {height}");
             }
         }
-        assert_eq!(elliptical_packing(4, 1.0, 7.0).iter().filter(|p| p[1] == 0.0).count(), 4, "four fibres lie in one row");
+        assert_eq!(
+            elliptical_packing(4, 1.0, 7.0).iter().filter(|p| p[1] == 0.0).count(),
+            4,
+            "four fibres lie in one row"
+        );
     }
 
     #[test]
@@ -363,7 +413,8 @@ mod tests {
             assert!((length / cell.section.element_length - 1.0 - strain).abs() < 1e-12, "element {k}");
         }
         // areal density: two yarn sets of linear density rho A, spaced s, times path / length
-        let expected = 2.0 * material.density * weave.yarn_area / weave.yarn_spacing * (1.0 + cell.crimp()) / (1.0 + strain);
+        let expected =
+            2.0 * material.density * weave.yarn_area / weave.yarn_spacing * (1.0 + cell.crimp()) / (1.0 + strain);
         assert!((cell.areal_density(&material) / expected - 1.0).abs() < 1e-3);
     }
 
@@ -379,8 +430,12 @@ mod tests {
                     if cell.direction(a) == cell.direction(b) {
                         continue;
                     }
-                    for p in &cell.positions[a * cell.nodes_per_period as usize..(a + 1) * cell.nodes_per_period as usize] {
-                        for q in &cell.positions[b * cell.nodes_per_period as usize..(b + 1) * cell.nodes_per_period as usize] {
+                    for p in
+                        &cell.positions[a * cell.nodes_per_period as usize..(a + 1) * cell.nodes_per_period as usize]
+                    {
+                        for q in &cell.positions
+                            [b * cell.nodes_per_period as usize..(b + 1) * cell.nodes_per_period as usize]
+                        {
                             closest = closest.min((p - q).norm());
                         }
                     }
@@ -389,7 +444,9 @@ mod tests {
             assert!(closest >= d * (1.0 - 1e-9), "{fibres} fibres: {closest} < {d}");
             // warp 0 over weft 0 at the origin, under weft 1 at x = s
             let n = cell.nodes_per_period;
-            let centre = |yarn: usize, k: u32| (0..fibres).map(|f| cell.position(yarn * fibres + f, k).z).sum::<f64>() / fibres as f64;
+            let centre = |yarn: usize, k: u32| {
+                (0..fibres).map(|f| cell.position(yarn * fibres + f, k).z).sum::<f64>() / fibres as f64
+            };
             assert!(centre(0, 0) > centre(2, 0));
             assert!(centre(0, n / 2) < centre(3, 0));
             assert!(centre(1, 0) < centre(2, n / 2));

@@ -17,7 +17,7 @@
 //! Nodes are spaced at equal chords along each fibre, so every element starts at the strain
 //! of the initial tension (docs/theory.md F10).
 
-use dea_core::material::InertiaModel;
+use dea_core::material::{InertiaModel, SectionInertia};
 use dea_core::{FibreMaterial, FibreSection, Vec3};
 
 use crate::cell::{CellYarn, PeriodicCell, YarnDirection, YarnRole};
@@ -101,13 +101,17 @@ impl Pattern {
         let binder = |gaps: Vec<u32>| WarpPath { role: PathRole::Binder, gaps };
         match self {
             Pattern::Orthogonal => {
-                let stuffers: Vec<WarpPath> = (1..layers).map(|g| WarpPath { role: PathRole::Stuffer, gaps: vec![g, g] }).collect();
+                let stuffers: Vec<WarpPath> =
+                    (1..layers).map(|g| WarpPath { role: PathRole::Stuffer, gaps: vec![g, g] }).collect();
                 vec![stuffers.clone(), vec![binder(vec![layers, 0])], stuffers, vec![binder(vec![0, layers])]]
             }
-            Pattern::LayerToLayer => (0..layers.saturating_sub(1)).map(|b| vec![binder(if b % 2 == 0 { vec![b + 2, b] } else { vec![b, b + 2] })]).collect(),
+            Pattern::LayerToLayer => (0..layers.saturating_sub(1))
+                .map(|b| vec![binder(if b % 2 == 0 { vec![b + 2, b] } else { vec![b, b + 2] })])
+                .collect(),
             Pattern::AngleInterlock => {
                 let down: Vec<u32> = (0..2 * layers).map(|c| layers.abs_diff(c)).collect();
-                let shifted: Vec<u32> = (0..2 * layers as usize).map(|c| down[(c + layers as usize) % down.len()]).collect();
+                let shifted: Vec<u32> =
+                    (0..2 * layers as usize).map(|c| down[(c + layers as usize) % down.len()]).collect();
                 vec![vec![binder(down)], vec![binder(shifted)]]
             }
         }
@@ -136,9 +140,8 @@ pub struct ThreeDWeave {
     /// tension of a filler yarn during relaxation; every digital fibre carries the same
     /// share (one stress in every yarn) [N]
     pub filler_tension: f64,
-    pub inertia: InertiaModel,
-    /// inter-fibre friction coefficient used by (5-10) [-]
-    pub friction_coefficient: f64,
+    /// bending model of the fibres, its friction weight (5-10) applied
+    pub inertia: SectionInertia,
 }
 
 /// A warp-direction fibre's path: a dense polyline over one period, with its arc length.
@@ -251,7 +254,8 @@ fn turn(samples: &mut Centreline, (x0, z0): (f64, f64), z1: f64, room: f64, radi
 /// `None` when the arcs alone cannot reach the height within the room.
 fn turn_angle(height: f64, room: f64, radius: f64) -> Option<f64> {
     let rise = |phi: f64| 2.0 * radius * (1.0 - phi.cos()) + (room - 2.0 * radius * phi.sin()) / phi.cos() * phi.sin();
-    let steepest = if room >= 2.0 * radius { std::f64::consts::FRAC_PI_2 * (1.0 - 1e-9) } else { (room / (2.0 * radius)).asin() };
+    let steepest =
+        if room >= 2.0 * radius { std::f64::consts::FRAC_PI_2 * (1.0 - 1e-9) } else { (room / (2.0 * radius)).asin() };
     if rise(steepest) < height {
         return None;
     }
@@ -290,7 +294,8 @@ struct Packed {
 fn pack(fibres: usize, contact_diameter: f64, aspect: f64) -> Packed {
     let offsets = elliptical_packing(fibres, contact_diameter, aspect);
     let extent = |axis: usize| {
-        let (low, high) = offsets.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[axis]), h.max(p[axis])));
+        let (low, high) =
+            offsets.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[axis]), h.max(p[axis])));
         high - low + contact_diameter
     };
     let largest_up = offsets.iter().map(|p| p[1].abs()).fold(0.0, f64::max);
@@ -302,7 +307,16 @@ impl ThreeDWeave {
     /// filler tension, element length half a fibre diameter and bending by I_e with k1 = 0.8,
     /// k2 = 1 and mu = 0.3 (seed §5.3), as the plain weave's preset.
     #[allow(clippy::too_many_arguments)]
-    pub fn of_pattern(pattern: Pattern, filler_layers: u32, pick_spacing: f64, end_spacing: f64, filler: YarnKind, filler_fibres: usize, stuffer: YarnKind, binder: YarnKind) -> Self {
+    pub fn of_pattern(
+        pattern: Pattern,
+        filler_layers: u32,
+        pick_spacing: f64,
+        end_spacing: f64,
+        filler: YarnKind,
+        filler_fibres: usize,
+        stuffer: YarnKind,
+        binder: YarnKind,
+    ) -> Self {
         Self {
             filler_layers,
             columns: pattern.columns(filler_layers),
@@ -314,8 +328,7 @@ impl ThreeDWeave {
             binder,
             element_length_ratio: 0.5,
             filler_tension: 0.5,
-            inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 },
-            friction_coefficient: 0.3,
+            inertia: InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
         }
     }
 
@@ -342,7 +355,10 @@ impl ThreeDWeave {
         let fail = |message: String| Err(Weave3dError::Topology(message));
         let columns = self.filler_columns();
         if self.filler_layers < 1 || columns < 2 {
-            return fail(format!("a 3-D weave needs at least one filler layer and two filler columns, got {} and {columns}", self.filler_layers));
+            return fail(format!(
+                "a 3-D weave needs at least one filler layer and two filler columns, got {} and {columns}",
+                self.filler_layers
+            ));
         }
         if self.filler_fibres == 0 || self.columns.is_empty() || self.columns.iter().any(Vec::is_empty) {
             return fail("a 3-D weave needs filler fibres and at least one yarn in every warp-direction column".into());
@@ -383,14 +399,14 @@ impl ThreeDWeave {
         let area = self.fibre_area();
         let diameter = (4.0 * area / std::f64::consts::PI).sqrt();
         let stretch = 1.0 + self.filler_tension / self.filler_fibres as f64 / (material.longitudinal_modulus * area);
-        let mut section = FibreSection::new(material, area, self.element_length_ratio * diameter, self.inertia, self.friction_coefficient);
+        let mut section = FibreSection::new(material, area, self.element_length_ratio * diameter, self.inertia);
         let (mut previous, mut clearance) = (Vec::new(), 1.0);
         for _ in 0..100 {
             let mut cell = self.lay_out(&section, clearance, stretch)?;
             let counts: Vec<u32> = cell.yarns.iter().map(|y| y.nodes_per_period).collect();
             let mean_rest = cell.rest_lengths.iter().sum::<f64>() / cell.rest_lengths.len() as f64;
             let longest_rest = cell.rest_lengths.iter().copied().fold(0.0, f64::max);
-            let grown = FibreSection::new(material, area, mean_rest, self.inertia, self.friction_coefficient);
+            let grown = FibreSection::new(material, area, mean_rest, self.inertia);
             // the contact diameter must cover the longest element's
             let needed = dea_core::material::modified_contact_diameter(diameter, longest_rest);
             if counts == previous && needed <= section.contact_diameter {
@@ -436,9 +452,14 @@ impl ThreeDWeave {
         let margin = 0.05 * d;
         let room = self.pick_spacing - filler.width - 2.0 * margin;
         let tightest = binder.largest_up + 0.5 * d + margin;
-        let binds = self.columns.iter().flatten().any(|p| p.role == PathRole::Binder && p.gaps.iter().any(|&g| g != p.gaps[0]));
+        let binds =
+            self.columns.iter().flatten().any(|p| p.role == PathRole::Binder && p.gaps.iter().any(|&g| g != p.gaps[0]));
         if binds && room <= 0.0 {
-            return Err(Weave3dError::NoRoomToTurn { filler_width: filler.width, room: room.max(0.0), needed: 2.0 * tightest });
+            return Err(Weave3dError::NoRoomToTurn {
+                filler_width: filler.width,
+                room: room.max(0.0),
+                needed: 2.0 * tightest,
+            });
         }
         let step = 0.02 * section.diameter;
         let (mut yarns, mut positions, mut rest_lengths) = (Vec::new(), Vec::new(), Vec::new());
@@ -447,9 +468,20 @@ impl ThreeDWeave {
         let chord = period[1] / filler_nodes as f64;
         for c in 0..columns {
             for j in 0..layers {
-                yarns.push(CellYarn { direction: YarnDirection::Weft, role: YarnRole::Filler, fibres: filler.offsets.len(), nodes_per_period: filler_nodes });
+                yarns.push(CellYarn {
+                    direction: YarnDirection::Weft,
+                    role: YarnRole::Filler,
+                    fibres: filler.offsets.len(),
+                    nodes_per_period: filler_nodes,
+                });
                 for offset in &filler.offsets {
-                    positions.extend((0..filler_nodes).map(|k| Vec3::new(c as f64 * self.pick_spacing + offset[0], k as f64 * chord, (j as f64 + 0.5) * pitch + offset[1])));
+                    positions.extend((0..filler_nodes).map(|k| {
+                        Vec3::new(
+                            c as f64 * self.pick_spacing + offset[0],
+                            k as f64 * chord,
+                            (j as f64 + 0.5) * pitch + offset[1],
+                        )
+                    }));
                     rest_lengths.push(chord / stretch);
                 }
             }
@@ -465,35 +497,58 @@ impl ThreeDWeave {
                     let z_next = gap_height(path.gaps[(c + 1) % columns]);
                     let plateau_start = if c == 0 { x } else { x - half_plateau };
                     let samples = ((x + half_plateau - plateau_start) / step).ceil().max(1.0) as usize;
-                    centreline.extend((0..samples).map(|s| (plateau_start + (x + half_plateau - plateau_start) * s as f64 / samples as f64, z, 0.0)));
+                    centreline.extend((0..samples).map(|s| {
+                        (plateau_start + (x + half_plateau - plateau_start) * s as f64 / samples as f64, z, 0.0)
+                    }));
                     if z_next == z {
                         let samples = (room / step).ceil().max(1.0) as usize;
-                        centreline.extend((0..samples).map(|s| (x + half_plateau + room * s as f64 / samples as f64, z, 0.0)));
+                        centreline.extend(
+                            (0..samples).map(|s| (x + half_plateau + room * s as f64 / samples as f64, z, 0.0)),
+                        );
                     } else {
                         let levels = path.gaps[c].abs_diff(path.gaps[(c + 1) % columns]);
                         let radius = turn_radius((z_next - z).abs(), room, tightest);
-                        let phi = turn_angle((z_next - z).abs(), room, radius).ok_or(Weave3dError::TooSteep { levels, room, radius })?;
+                        let phi = turn_angle((z_next - z).abs(), room, radius).ok_or(Weave3dError::TooSteep {
+                            levels,
+                            room,
+                            radius,
+                        })?;
                         turn(&mut centreline, (x + half_plateau, z), z_next, room, radius, phi, step);
                     }
                     if c + 1 == columns {
                         // the last plateau ends where the first one's image starts
                         let start = x + self.pick_spacing - half_plateau;
                         let samples = (half_plateau / step).ceil().max(1.0) as usize;
-                        centreline.extend((0..samples).map(|s| (start + half_plateau * s as f64 / samples as f64, gap_height(path.gaps[0]), 0.0)));
+                        centreline.extend((0..samples).map(|s| {
+                            (start + half_plateau * s as f64 / samples as f64, gap_height(path.gaps[0]), 0.0)
+                        }));
                     }
                 }
                 let section_of = packed(path.role);
-                let centre = Polyline::new(centreline.iter().map(|&(x, z, _)| Vec3::new(x, across, z)).collect(), Vec3::new(period[0], 0.0, 0.0));
+                let centre = Polyline::new(
+                    centreline.iter().map(|&(x, z, _)| Vec3::new(x, across, z)).collect(),
+                    Vec3::new(period[0], 0.0, 0.0),
+                );
                 let nodes = ((centre.length() / target_element).round() as u32).max(4);
                 let role = match path.role {
                     PathRole::Stuffer => YarnRole::Stuffer,
                     PathRole::Binder => YarnRole::Binder,
                 };
-                yarns.push(CellYarn { direction: YarnDirection::Warp, role, fibres: section_of.offsets.len(), nodes_per_period: nodes });
+                yarns.push(CellYarn {
+                    direction: YarnDirection::Warp,
+                    role,
+                    fibres: section_of.offsets.len(),
+                    nodes_per_period: nodes,
+                });
                 for offset in &section_of.offsets {
                     // offset along the path's normal (-sin a, 0, cos a), across along y
                     let fibre = Polyline::new(
-                        centreline.iter().map(|&(x, z, angle)| Vec3::new(x - offset[1] * angle.sin(), across + offset[0], z + offset[1] * angle.cos())).collect(),
+                        centreline
+                            .iter()
+                            .map(|&(x, z, angle)| {
+                                Vec3::new(x - offset[1] * angle.sin(), across + offset[0], z + offset[1] * angle.cos())
+                            })
+                            .collect(),
                         Vec3::new(period[0], 0.0, 0.0),
                     );
                     let (stations, chord) = fibre.equal_chords(nodes);
@@ -504,7 +559,8 @@ impl ThreeDWeave {
         }
         let rest_angles = vec![0.0; positions.len()];
         let fibre_tension = self.filler_tension / self.filler_fibres as f64;
-        Ok(PeriodicCell::new(period, yarns, section.clone(), positions, rest_lengths, rest_angles, fibre_tension).expect("a laid-out cell fits its yarns"))
+        Ok(PeriodicCell::new(period, yarns, section.clone(), positions, rest_lengths, rest_angles, fibre_tension)
+            .expect("a laid-out cell fits its yarns"))
     }
 }
 
@@ -518,7 +574,16 @@ mod tests {
     /// area (2 fibres).
     fn km2_weave(pattern: Pattern, layers: u32) -> ThreeDWeave {
         let yarn = YarnKind { area_m2: 4.63e-8, section_aspect: 3.0 };
-        ThreeDWeave::of_pattern(pattern, layers, 1.0e-3, 0.8e-3, yarn, 4, yarn, YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 })
+        ThreeDWeave::of_pattern(
+            pattern,
+            layers,
+            1.0e-3,
+            0.8e-3,
+            yarn,
+            4,
+            yarn,
+            YarnKind { area_m2: 2.315e-8, section_aspect: 2.0 },
+        )
     }
 
     fn yarn_fibres(cell: &PeriodicCell, role: YarnRole) -> Vec<usize> {
@@ -528,8 +593,19 @@ mod tests {
     #[test]
     fn patterns_have_the_seed_topologies() {
         let orthogonal = Pattern::Orthogonal.columns(3);
-        let stuffers = vec![WarpPath { role: PathRole::Stuffer, gaps: vec![1, 1] }, WarpPath { role: PathRole::Stuffer, gaps: vec![2, 2] }];
-        assert_eq!(orthogonal, vec![stuffers.clone(), vec![WarpPath { role: PathRole::Binder, gaps: vec![3, 0] }], stuffers, vec![WarpPath { role: PathRole::Binder, gaps: vec![0, 3] }]]);
+        let stuffers = vec![
+            WarpPath { role: PathRole::Stuffer, gaps: vec![1, 1] },
+            WarpPath { role: PathRole::Stuffer, gaps: vec![2, 2] },
+        ];
+        assert_eq!(
+            orthogonal,
+            vec![
+                stuffers.clone(),
+                vec![WarpPath { role: PathRole::Binder, gaps: vec![3, 0] }],
+                stuffers,
+                vec![WarpPath { role: PathRole::Binder, gaps: vec![0, 3] }]
+            ]
+        );
         let layer_to_layer = Pattern::LayerToLayer.columns(3);
         assert_eq!(layer_to_layer.iter().map(|c| c[0].gaps.clone()).collect::<Vec<_>>(), vec![vec![2, 0], vec![1, 3]]);
         let interlock = Pattern::AngleInterlock.columns(3);
@@ -574,7 +650,10 @@ mod tests {
             let mut samples = Vec::new();
             turn(&mut samples, (0.0, 0.0), -height, room, radius, phi, step);
             let end = samples.last().unwrap();
-            assert!((end.0 - room).abs() < 2.0 * step && (end.1 + height).abs() < 2.0 * step, "{height} over {room}: ends at {end:?}");
+            assert!(
+                (end.0 - room).abs() < 2.0 * step && (end.1 + height).abs() < 2.0 * step,
+                "{height} over {room}: ends at {end:?}"
+            );
             // tangent continuity: neighbouring samples' angles and chord directions agree
             for w in samples.windows(2) {
                 let chord_angle = (w[1].1 - w[0].1).atan2(w[1].0 - w[0].0);
@@ -608,15 +687,27 @@ mod tests {
                 let length = cell.fibre_length(f);
                 let chord = length / nodes.len() as f64;
                 for i in nodes.start..nodes.end - 1 {
-                    assert!(((cell.positions[i + 1] - cell.positions[i]).norm() / chord - 1.0).abs() < 1e-9, "{pattern:?} fibre {f}");
+                    assert!(
+                        ((cell.positions[i + 1] - cell.positions[i]).norm() / chord - 1.0).abs() < 1e-9,
+                        "{pattern:?} fibre {f}"
+                    );
                 }
                 assert!((chord / cell.rest_lengths[f] - 1.0 - strain).abs() < 1e-9);
             }
             // the mass is the yarns' linear density times their path
-            let expected: f64 = cell.yarns.iter().enumerate().map(|(y, yarn)| {
-                let fibres: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == y).collect();
-                fibres.iter().map(|&f| material.density * cell.section.area * cell.fibre_length(f)).sum::<f64>() / (1.0 + strain) * yarn.fibres as f64 / fibres.len() as f64
-            }).sum::<f64>() / (cell.period[0] * cell.period[1]);
+            let expected: f64 = cell
+                .yarns
+                .iter()
+                .enumerate()
+                .map(|(y, yarn)| {
+                    let fibres: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == y).collect();
+                    fibres.iter().map(|&f| material.density * cell.section.area * cell.fibre_length(f)).sum::<f64>()
+                        / (1.0 + strain)
+                        * yarn.fibres as f64
+                        / fibres.len() as f64
+                })
+                .sum::<f64>()
+                / (cell.period[0] * cell.period[1]);
             assert!((cell.areal_density(&material) / expected - 1.0).abs() < 1e-9);
         }
     }
@@ -630,10 +721,17 @@ mod tests {
         let first_binder = cell.yarns.iter().position(|y| y.role == YarnRole::Binder).unwrap();
         let binder: Vec<usize> = (0..cell.fibres()).filter(|&f| cell.fibre_yarn(f) == first_binder).collect();
         let mean_z = |fibres: &[usize], near_x: f64| {
-            let points: Vec<Vec3> = fibres.iter().flat_map(|&f| cell.fibre_nodes(f).map(|i| cell.positions[i])).filter(|p| (p.x - near_x).abs() < 0.1e-3).collect();
+            let points: Vec<Vec3> = fibres
+                .iter()
+                .flat_map(|&f| cell.fibre_nodes(f).map(|i| cell.positions[i]))
+                .filter(|p| (p.x - near_x).abs() < 0.1e-3)
+                .collect();
             points.iter().map(|p| p.z).sum::<f64>() / points.len() as f64
         };
-        let (top, bottom) = (fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::NEG_INFINITY, f64::max), fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::INFINITY, f64::min));
+        let (top, bottom) = (
+            fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::NEG_INFINITY, f64::max),
+            fillers.iter().map(|&f| cell.position(f, 0).z).fold(f64::INFINITY, f64::min),
+        );
         assert!(mean_z(&binder, 0.0) > top, "over the fillers at the first column");
         assert!(mean_z(&binder, 1.0e-3) < bottom, "under them at the second");
         // the stuffers lie between the filler layers: gaps 1 and 2 in each stuffer column
@@ -655,12 +753,22 @@ mod tests {
         let law = NormalLaw::ElastoPlasticKm2;
         let weave = km2_weave(Pattern::Orthogonal, 2);
         let mut cell = weave.unit_cell(&material).unwrap();
-        let options = RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight };
+        let options =
+            RelaxOptions { tolerance: 1e-6, max_iterations: 400_000, bending_at_rest: BendingAtRest::Straight };
         let report = relax(&mut cell, &material, &law, &options).unwrap();
         assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
         // the binder's tension pulls the filler layers together
-        assert!(report.after.thickness_m < report.before.thickness_m, "{} -> {}", report.before.thickness_m, report.after.thickness_m);
-        assert!(report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN, "{}", report.largest_overlap_ratio);
+        assert!(
+            report.after.thickness_m < report.before.thickness_m,
+            "{} -> {}",
+            report.before.thickness_m,
+            report.after.thickness_m
+        );
+        assert!(
+            report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN,
+            "{}",
+            report.largest_overlap_ratio
+        );
         let mut again = weave.unit_cell(&material).unwrap();
         relax(&mut again, &material, &law, &options).unwrap();
         assert_eq!(again, cell, "the same bits every time");

@@ -2,7 +2,7 @@
 //! error names the field path (`target.fibres_per_yarn: must be >= 1, got 0`).
 
 use dea_core::contact::NormalLaw;
-use dea_core::material::InertiaModel;
+use dea_core::material::{InertiaModel, SectionInertia};
 use dea_core::projectile::RigidShape;
 use dea_core::weibull::{WeibullMode, WeibullStrength};
 use dea_core::FibreMaterial;
@@ -255,7 +255,8 @@ fn straight() -> BendingAtRest {
 
 impl Weave3dSpec {
     /// The weave the spec describes, every field checked.
-    pub fn weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<ThreeDWeave, CaseError> {
+    /// `inertia` is the case's bending model with its friction weight applied.
+    pub fn weave(&self, inertia: SectionInertia) -> Result<ThreeDWeave, CaseError> {
         let layers = self.filler_layers;
         if !(1..=50).contains(&layers) {
             return Err(invalid("target.weave.filler_layers", format!("must be in 1..=50, got {layers}")));
@@ -291,8 +292,7 @@ impl Weave3dSpec {
             binder: kind("target.weave.binder", self.binder.as_ref().unwrap_or(&filler))?,
             element_length_ratio: 0.5,
             filler_tension: 0.5,
-            inertia: bending,
-            friction_coefficient,
+            inertia,
         };
         for (path, kind) in [("target.weave.stuffer", weave.stuffer), ("target.weave.binder", weave.binder)] {
             let fibres = weave.fibres_of(&kind);
@@ -473,7 +473,8 @@ impl RelaxationSpec {
 
 impl WeaveSpec {
     /// The weave the spec names (validated: call [`Case::validate`] first for field errors).
-    pub fn plain_weave(&self, bending: InertiaModel, friction_coefficient: f64) -> Result<PlainWeave, CaseError> {
+    /// `inertia` is the case's bending model with its friction weight applied.
+    pub fn plain_weave(&self, inertia: SectionInertia) -> Result<PlainWeave, CaseError> {
         let mut weave = match self.preset.as_str() {
             "km2_style_706" => {
                 PlainWeave::km2_style_706(fibre_count_at("target.weave.fibres_per_yarn", self.fibres_per_yarn)?)
@@ -485,8 +486,7 @@ impl WeaveSpec {
                 ))
             }
         };
-        weave.inertia = bending;
-        weave.friction_coefficient = friction_coefficient;
+        weave.inertia = inertia;
         if let Some(v) = self.yarn_spacing_m {
             weave.yarn_spacing = yarn_spacing("target.weave.yarn_spacing_m", v)?;
         }

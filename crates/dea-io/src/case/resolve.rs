@@ -15,6 +15,8 @@ pub struct ResolvedCase {
     pub law: NormalLaw,
     /// inter-fibre friction coefficient mu [-]
     pub friction_coefficient: f64,
+    /// the bending model of the sections with mu's weight (5-10) applied
+    pub section_inertia: SectionInertia,
     /// fibre–projectile friction coefficient [-]
     pub projectile_friction_coefficient: f64,
     pub strength: Strength,
@@ -323,6 +325,9 @@ impl Case {
         let shear_strength = self.shear_strength()?;
         let projectile = self.projectile()?;
         let elastic_model = self.projectile.deformable.as_ref().map(DeformableSpec::model).transpose()?;
+        let friction_coefficient = non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
+        // the friction coefficient weighs the bending rigidity (5-10) here, once
+        let section_inertia = self.bending.with_friction(friction_coefficient);
         let (mut woven, mut coarse, mut three_d, mut fibre_area) = (None, None, None, None);
         match &self.target {
             TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
@@ -372,7 +377,7 @@ impl Case {
                 if cell_file.is_some() && *weave != WeaveSpec::default() {
                     return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
                 }
-                let fine = weave.plain_weave(self.bending, self.contact.friction_coefficient)?;
+                let fine = weave.plain_weave(section_inertia)?;
                 positive("target.side_m", *side_m)?;
                 woven = cell_file.is_none().then(|| fine.clone());
                 if let Some(hybrid) = hybrid {
@@ -424,7 +429,7 @@ impl Case {
                 relaxation.validate()?;
             }
             TargetSpec::ThreeDWeaveCell { weave, relaxation } => {
-                three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
+                three_d = Some(weave.weave(section_inertia)?);
                 relaxation.validate()?;
             }
             TargetSpec::ThreeDWovenPanel {
@@ -439,7 +444,7 @@ impl Case {
             } => {
                 match (weave, cell_file) {
                     (Some(weave), None) => {
-                        three_d = Some(weave.weave(self.bending, self.contact.friction_coefficient)?);
+                        three_d = Some(weave.weave(section_inertia)?);
                     }
                     (None, Some(_)) => {}
                     (Some(_), Some(_)) => {
@@ -473,7 +478,6 @@ impl Case {
             }
             InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
         }
-        non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
         non_negative("contact.projectile_friction_coefficient", self.contact.projectile_friction_coefficient)?;
         if let Some(skin) = self.contact.skin_m {
             positive("contact.skin_m", skin)?;
@@ -502,7 +506,8 @@ impl Case {
         Ok(ResolvedCase {
             material,
             law,
-            friction_coefficient: self.contact.friction_coefficient,
+            friction_coefficient,
+            section_inertia,
             projectile_friction_coefficient: self.contact.projectile_friction_coefficient,
             strength,
             shear_strength,
