@@ -29,11 +29,13 @@ pub struct RunRequests {
     pub checkpoint: bool,
 }
 
-/// One rank of a distributed run.
+/// One rank of a distributed run. The domain and the communicator are what the kernels and
+/// collectives work on, and the run loop, tests and diagnostics read them directly; the
+/// rest is this rank's bookkeeping, read through methods and set within the solver.
 pub struct Distributed<C: Comm> {
     pub comm: C,
     pub domain: Domain,
-    pub partition: Partition,
+    pub(crate) partition: Partition,
     /// contact search distance: largest contact diameter plus the skin [m]
     reach: f64,
     /// owned nodes each rank needs for its chain stencil, by rank (static: the partition
@@ -43,28 +45,29 @@ pub struct Distributed<C: Comm> {
     /// the one timer of this rank's stages
     pub timer: StageTimer,
     /// bytes of forward halo received so far
-    pub halo_bytes: u64,
+    pub(crate) halo_bytes: u64,
     /// steps that sent the forward halo (every step: the rebuild check reads the ghosts)
-    pub halo_steps: u64,
-    pub rebuilds: u64,
+    pub(crate) halo_steps: u64,
+    /// ghost and list rebuilds so far
+    pub(crate) rebuilds: u64,
     /// this rank's requests for the next step's reduction
-    pub requests: RunRequests,
+    pub(crate) requests: RunRequests,
     /// the requests of any rank, agreed in the last step
-    pub agreed: RunRequests,
+    pub(crate) agreed: RunRequests,
     /// layer of each yarn (for snapshots and per-layer diagnostics); empty: all in layer 0
-    pub layer_of_yarn: Vec<u32>,
+    pub(crate) layer_of_yarn: Vec<u32>,
     /// fibres of the whole target
-    pub fibres: usize,
+    pub(crate) fibres: usize,
     /// reaction records of this rank, and (rank 0) of all ranks: reused every step
     reaction_words: Vec<f64>,
     pub(crate) reactions: Vec<Reaction>,
     /// a deformable projectile's body, on rank 0 (the other ranks see its meshed proxy)
-    pub deformable: Option<DeformableProjectile>,
+    pub(crate) deformable: Option<DeformableProjectile>,
     /// projectile broadcast buffer, and a deformable body's surface decoded from it
     projectile_words: Vec<f64>,
     surface: Vec<Vec3>,
     /// how the target settled before the shot (none: no settle, or a restart)
-    pub settled: Option<crate::settle::SettleReport>,
+    pub(crate) settled: Option<crate::settle::SettleReport>,
 }
 
 impl Distributed<LocalComm> {
@@ -311,6 +314,11 @@ impl<C: Comm> Distributed<C> {
         self.rebuilds += 1;
         self.timer.stamp(Stage::NeighbourRebuild);
         self.agree(built)
+    }
+
+    /// Ghost and list rebuilds so far.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
     }
 
     /// Ghost nodes held now.

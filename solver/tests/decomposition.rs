@@ -405,11 +405,11 @@ fn every_node_is_owned_once_and_halos_are_symmetric() {
     let case = panel_case();
     let views = run_local(3, |comm| {
         let mut state = build(&case, comm, Method::KWay, None).unwrap();
-        let rebuilds = state.rebuilds;
+        let rebuilds = state.rebuilds();
         for _ in 0..300 {
             state.step().unwrap();
         }
-        assert!(state.rebuilds > rebuilds, "the ghosts were rebuilt while running");
+        assert!(state.rebuilds() > rebuilds, "the ghosts were rebuilt while running");
         view(&state)
     });
     let total = problem(&case).unwrap().fabric.node_count();
@@ -467,7 +467,7 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
     for ranks in [1, 2, 3] {
         let states = run_local(ranks, |comm| {
             let mut state = build_adjusted(&case, comm, Method::KWay, None, glide).unwrap();
-            let built = state.rebuilds;
+            let built = state.rebuilds();
             for _ in 0..steps {
                 state.step().unwrap();
             }
@@ -480,9 +480,9 @@ fn ranks_keep_their_lists_while_the_nodes_move_together() {
                 "a node moved {moved} m, skin {} m, {steps} steps of {} s, rebuilds {} {built}",
                 p.contact.skin,
                 p.time_step,
-                state.rebuilds
+                state.rebuilds()
             );
-            assert_eq!(state.rebuilds, built, "{ranks} ranks rebuilt their lists");
+            assert_eq!(state.rebuilds(), built, "{ranks} ranks rebuilt their lists");
             (0..nodes.n_owned).map(|i| (nodes.gid[i], nodes.position[i].map(f64::to_bits).into())).collect::<Vec<_>>()
         });
         let positions = final_positions(states);
@@ -554,7 +554,7 @@ fn assert_every_contact_is_listed(
                 }
             }
         }
-        (touching, state.rebuilds)
+        (touching, state.rebuilds())
     })
 }
 
