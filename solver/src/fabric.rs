@@ -127,7 +127,11 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
     let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
     let material = resolved.material.clone();
     let started = Instant::now();
-    let (cell, relaxation) = setup::three_d_cell(case, &resolved)?.expect("a 3-D weave target");
+    let Some((cell, relaxation)) = setup::three_d_cell(&resolved)? else {
+        return Err(SetupError::Case(
+            "target.kind: `dea-mpi fabric` relaxes a 3-D weave cell; this target has none".into(),
+        ));
+    };
     let relaxation = relaxation.ok_or_else(|| {
         SetupError::Case(
             "target.cell_file: the cell is already relaxed; `dea-mpi fabric` generates one from target.weave".into(),

@@ -24,7 +24,8 @@ use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::weave3d::ThreeDWeave;
 use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{
-    parse_case, Case, ProjectileBody, ResolvedCase, ResolvedProjectile, Strength, TargetSpec, PROJECTILE_SIZE_M,
+    parse_case, Case, CellSource, ProjectileBody, ResolvedCase, ResolvedProjectile, ResolvedTarget, StraightTarget,
+    Strength, WovenTarget, PROJECTILE_SIZE_M,
 };
 use dea_io::cell::read_cell;
 use dea_io::checkpoint::{manifest_path, part_path, read_manifest, read_part, GlobalState, NodeState};
@@ -99,24 +100,21 @@ pub enum SetupError {
     Relaxation(String),
 }
 
-/// A relaxed cell: read from `file` (then without a report), or generated from `weave` and
-/// relaxed with the case's contact law. `field` names the case field a weave error is about.
+/// A plain-weave cell: read from its file (then without a report), or generated from its weave
+/// and relaxed with the case's contact law. `field` names the case field a weave error is
+/// about.
 fn relaxed_cell(
-    case: &Case,
     resolved: &ResolvedCase,
-    file: Option<&Path>,
-    weave: Option<&PlainWeave>,
+    source: &CellSource<PlainWeave>,
     field: &str,
 ) -> Result<(UnitCell, Option<RelaxReport>), SetupError> {
-    let TargetSpec::WovenPanel { weave: spec, relaxation, .. } = &case.target else { unreachable!("a woven target") };
-    if let Some(path) = file {
-        return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh);
-    }
-    let plain = weave.expect("a resolved woven target has its weave when it has no cell file");
+    let (weave, options) = match source {
+        CellSource::File(path) => return read_cell(path).map(|cell| (cell, None)).map_err(SetupError::Mesh),
+        CellSource::Generate { weave, relaxation } => (weave, relaxation),
+    };
     let material = &resolved.material;
-    let mut cell = plain.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
-    let options = relaxation.options(spec.bending_at_rest);
-    let report = relax(&mut cell, material, &resolved.law, &options)
+    let mut cell = weave.unit_cell(material).map_err(|e| SetupError::Case(format!("{field}: {e}")))?;
+    let report = relax(&mut cell, material, &resolved.law, options)
         .map_err(|e| SetupError::Relaxation(format!("target.relaxation ({field}): {e}")))?;
     Ok((cell, Some(report)))
 }
@@ -126,49 +124,56 @@ pub fn laid_out_cell(weave: &ThreeDWeave, material: &FibreMaterial) -> Result<Pe
     weave.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))
 }
 
+/// A 3-D woven cell: read from its file (then without a report), or generated from its weave
+/// and relaxed with the case's contact law.
+fn relaxed_3d_cell(
+    resolved: &ResolvedCase,
+    source: &CellSource<ThreeDWeave>,
+) -> Result<(PeriodicCell, Option<RelaxReport>), SetupError> {
+    let (weave, options) = match source {
+        CellSource::File(path) => {
+            return dea_io::cell::read_periodic(path).map(|(_, cell)| (cell, None)).map_err(SetupError::Mesh);
+        }
+        CellSource::Generate { weave, relaxation } => (weave, relaxation),
+    };
+    let mut cell = laid_out_cell(weave, &resolved.material)?;
+    let report = relax(&mut cell, &resolved.material, &resolved.law, options)
+        .map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
+    Ok((cell, Some(report)))
+}
+
 /// The relaxed cell of a 3-D weave target: generated and relaxed with the case's contact
 /// law, or read from the panel's cell file (then without a report); `None` for other targets.
-pub fn three_d_cell(
-    case: &Case,
-    resolved: &ResolvedCase,
-) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
-    let (spec, relaxation) = match &case.target {
-        TargetSpec::ThreeDWeaveCell { weave, relaxation } => (weave, relaxation),
-        TargetSpec::ThreeDWovenPanel { cell_file: Some(path), .. } => {
-            return dea_io::cell::read_periodic(path).map(|(_, cell)| Some((cell, None))).map_err(SetupError::Mesh);
+pub fn three_d_cell(resolved: &ResolvedCase) -> Result<Option<(PeriodicCell, Option<RelaxReport>)>, SetupError> {
+    match &resolved.target {
+        ResolvedTarget::ThreeDCell { weave, relaxation } => {
+            relaxed_3d_cell(resolved, &CellSource::Generate { weave: weave.clone(), relaxation: *relaxation }).map(Some)
         }
-        TargetSpec::ThreeDWovenPanel { weave: Some(weave), relaxation, .. } => (weave, relaxation),
-        _ => return Ok(None),
-    };
-    let weave = resolved.three_d.as_ref().expect("a resolved 3-D weave target has its weave");
-    let mut cell = laid_out_cell(weave, &resolved.material)?;
-    let report = relax(&mut cell, &resolved.material, &resolved.law, &relaxation.options(spec.bending_at_rest))
-        .map_err(|e| SetupError::Relaxation(format!("target.relaxation: {e}")))?;
-    Ok(Some((cell, Some(report))))
+        ResolvedTarget::ThreeDPanel { cell, .. } => relaxed_3d_cell(resolved, cell).map(Some),
+        _ => Ok(None),
+    }
 }
 
 /// The unit cell of a woven target (the fine yarns' of a hybrid panel), relaxed with the
 /// case's contact law (or read from its cell file, then without a report); `None` for other
 /// targets.
-pub fn woven_cell(case: &Case, resolved: &ResolvedCase) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel { cell_file, .. } = &case.target else {
+pub fn woven_cell(resolved: &ResolvedCase) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
+    let ResolvedTarget::Woven(woven) = &resolved.target else {
         return Ok(None);
     };
-    relaxed_cell(case, resolved, cell_file.as_deref(), resolved.woven.as_ref(), "target.weave").map(Some)
+    relaxed_cell(resolved, &woven.fine, "target.weave").map(Some)
 }
 
 /// The coarse yarns' cell of a hybrid woven target, relaxed like the fine one (or read from
 /// its file); `None` when the target is not hybrid. Its yarn spacing must be the fine cell's.
 pub fn coarse_cell(
-    case: &Case,
     resolved: &ResolvedCase,
     fine: &UnitCell,
 ) -> Result<Option<(UnitCell, Option<RelaxReport>)>, SetupError> {
-    let TargetSpec::WovenPanel { hybrid: Some(hybrid), .. } = &case.target else {
+    let ResolvedTarget::Woven(WovenTarget { hybrid: Some(hybrid), .. }) = &resolved.target else {
         return Ok(None);
     };
-    let (cell, report) =
-        relaxed_cell(case, resolved, hybrid.cell_file.as_deref(), resolved.coarse.as_ref(), "target.hybrid")?;
+    let (cell, report) = relaxed_cell(resolved, &hybrid.coarse, "target.hybrid")?;
     if cell.yarn_spacing != fine.yarn_spacing || cell.fibres_per_yarn >= fine.fibres_per_yarn {
         return Err(SetupError::Case(format!(
             "target.hybrid.cell_file: the coarse cell ({} fibres per yarn, spacing {:e} m) must have fewer fibres than the fine one ({}) and the same spacing ({:e} m)",
@@ -215,92 +220,76 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         _ => f64::INFINITY,
     };
     let (mut relaxation, mut coarse_relaxation) = (None, None);
-    let fabric = match &case.target {
-        TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
-            Fabric::Straight(StraightFabric::single_yarn(
-                *length_m,
-                1,
-                std::f64::consts::PI * diameter_m * diameter_m / 4.0,
-                *element_length_ratio,
-                resolved.section_inertia,
-                deterministic,
-            ))
-        }
-        TargetSpec::StraightYarn { fibres_per_yarn, length_m, element_length_ratio, .. } => {
-            let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
-            Fabric::Straight(StraightFabric::single_yarn(
-                *length_m,
-                *fibres_per_yarn,
-                area,
-                *element_length_ratio,
-                resolved.section_inertia,
-                deterministic,
-            ))
-        }
-        TargetSpec::StraightYarnLayers {
+    let fabric = match &resolved.target {
+        ResolvedTarget::Straight(StraightTarget {
+            layers: None,
             fibres_per_yarn,
-            layers,
-            yarns_per_layer,
-            length_m,
+            fibre_area,
+            length,
             element_length_ratio,
-            ..
-        } => {
-            let area = resolved.fibre_area.expect("a resolved straight yarn has its fibre area");
-            Fabric::Straight(StraightFabric::cross_ply(
-                *layers,
-                *yarns_per_layer,
-                *fibres_per_yarn,
-                *length_m,
-                area,
-                *element_length_ratio,
-                resolved.section_inertia,
-                deterministic,
-                &material,
-            ))
-        }
-        TargetSpec::WovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, hybrid, .. } => {
-            let (cell, report) = woven_cell(case, &resolved)?.expect("a woven target");
+        }) => Fabric::Straight(StraightFabric::single_yarn(
+            *length,
+            *fibres_per_yarn,
+            *fibre_area,
+            *element_length_ratio,
+            resolved.section_inertia,
+            deterministic,
+        )),
+        ResolvedTarget::Straight(StraightTarget {
+            layers: Some((layers, yarns_per_layer)),
+            fibres_per_yarn,
+            fibre_area,
+            length,
+            element_length_ratio,
+        }) => Fabric::Straight(StraightFabric::cross_ply(
+            *layers,
+            *yarns_per_layer,
+            *fibres_per_yarn,
+            *length,
+            *fibre_area,
+            *element_length_ratio,
+            resolved.section_inertia,
+            deterministic,
+            &material,
+        )),
+        ResolvedTarget::Woven(woven) => {
+            let (cell, report) = relaxed_cell(&resolved, &woven.fine, "target.weave")?;
             relaxation = report;
-            let coarse = match coarse_cell(case, &resolved, &cell)? {
-                Some((coarse, report)) => {
+            let coarse = match (&woven.hybrid, coarse_cell(&resolved, &cell)?) {
+                (Some(hybrid), Some((coarse, report))) => {
                     coarse_relaxation = report;
-                    let hybrid = hybrid.as_ref().expect("a hybrid target");
-                    let fine = match (hybrid.fine_half_width_m, hybrid.fine_radius_m) {
-                        (Some(half_width), _) => FineRegion::Band { half_width },
-                        (None, Some(radius)) => {
-                            if transition_nodes(&cell, &coarse).is_none() {
-                                return Err(SetupError::Case(format!(
-                                    "target.hybrid.fine_radius_m: a fine yarn's fibres cannot end clear of the coarse ones between two crossings ({} fine and {} coarse fibres per yarn, contact diameters {:.1} and {:.1} um, yarn spacing {:.1} um): use more coarse fibres or fine_half_width_m",
-                                    cell.fibres_per_yarn,
-                                    coarse.fibres_per_yarn,
-                                    1e6 * cell.section.contact_diameter,
-                                    1e6 * coarse.section.contact_diameter,
-                                    1e6 * cell.yarn_spacing
-                                )));
-                            }
-                            // the crossings nearest the centre lie half a spacing from it each way
-                            let nearest = std::f64::consts::FRAC_1_SQRT_2 * cell.yarn_spacing;
-                            if radius < nearest {
-                                return Err(SetupError::Case(format!(
-                                    "target.hybrid.fine_radius_m: no crossing lies within {radius} m of the centre (the nearest are {nearest:.3e} m from it), so no yarn would be fine"
-                                )));
-                            }
-                            FineRegion::Disc { radius }
+                    if let FineRegion::Disc { radius } = hybrid.region {
+                        if transition_nodes(&cell, &coarse).is_none() {
+                            return Err(SetupError::Case(format!(
+                                "target.hybrid.fine_radius_m: a fine yarn's fibres cannot end clear of the coarse ones between two crossings ({} fine and {} coarse fibres per yarn, contact diameters {:.1} and {:.1} um, yarn spacing {:.1} um): use more coarse fibres or fine_half_width_m",
+                                cell.fibres_per_yarn,
+                                coarse.fibres_per_yarn,
+                                1e6 * cell.section.contact_diameter,
+                                1e6 * coarse.section.contact_diameter,
+                                1e6 * cell.yarn_spacing
+                            )));
                         }
-                        (None, None) => unreachable!("a validated hybrid names its fine region"),
-                    };
-                    Some(CoarseYarns { cell: Arc::new(coarse), fine })
+                        // the crossings nearest the centre lie half a spacing from it each way
+                        let nearest = std::f64::consts::FRAC_1_SQRT_2 * cell.yarn_spacing;
+                        if radius < nearest {
+                            return Err(SetupError::Case(format!(
+                                "target.hybrid.fine_radius_m: no crossing lies within {radius} m of the centre (the nearest are {nearest:.3e} m from it), so no yarn would be fine"
+                            )));
+                        }
+                    }
+                    Some(CoarseYarns { cell: Arc::new(coarse), fine: hybrid.region })
                 }
-                None => None,
+                _ => None,
             };
-            let cells = (side_m / cell.period()).round().max(1.0);
+            let layout = woven.layout;
+            let cells = (layout.side / cell.period()).round().max(1.0);
             let kinds = std::iter::once(&cell).chain(coarse.as_ref().map(|c| &*c.cell));
             let (fibres_per_yarn, nodes_per_period) =
                 kinds.fold((0, 0), |(f, n), c| (f.max(c.fibres_per_yarn), n.max(c.nodes_per_period)));
             // two warp and two weft yarns per cell and layer
             target_fits(
                 "target.side_m",
-                4.0 * cells * *layers as f64 * fibres_per_yarn as f64,
+                4.0 * cells * layout.layers as f64 * fibres_per_yarn as f64,
                 cells * nodes_per_period as f64 + 1.0,
             )?;
             let cells = cells as u32;
@@ -308,36 +297,36 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
                 Arc::new(cell),
                 coarse,
                 cells,
-                *layers as u32,
-                *layer_gap_m,
-                *layer_shift_m,
-                boundary.boundary(),
+                layout.layers as u32,
+                layout.layer_gap,
+                layout.layer_shift,
+                layout.boundary,
                 deterministic,
             ))
         }
-        TargetSpec::ThreeDWeaveCell { .. } => {
+        ResolvedTarget::ThreeDCell { .. } => {
             return Err(SetupError::Case("target.kind: a three_d_weave_cell is a unit cell for `dea-mpi fabric` to generate and relax; to strike it, tile it with kind three_d_woven_panel".into()));
         }
-        TargetSpec::ThreeDWovenPanel { side_m, layers, layer_gap_m, layer_shift_m, boundary, .. } => {
-            let (cell, report) = three_d_cell(case, &resolved)?.expect("a 3-D woven target");
+        ResolvedTarget::ThreeDPanel { cell, layout } => {
+            let (cell, report) = relaxed_3d_cell(&resolved, cell)?;
             relaxation = report;
-            let tiles = cell.period.map(|p| (side_m / p).round().max(1.0));
+            let tiles = cell.period.map(|p| (layout.side / p).round().max(1.0));
             let most_tiles = tiles[0].max(tiles[1]);
             let nodes_per_period = cell.yarns.iter().map(|y| y.nodes_per_period).max().unwrap_or(0);
             let fibres_per_tile: usize = cell.yarns.iter().map(|y| y.fibres).sum();
             target_fits(
                 "target.side_m",
-                fibres_per_tile as f64 * most_tiles * *layers as f64,
+                fibres_per_tile as f64 * most_tiles * layout.layers as f64,
                 most_tiles * nodes_per_period as f64 + 1.0,
             )?;
             let tiles = tiles.map(|t| t as u32);
             Fabric::Tiled(TiledPanel::new(
                 Arc::new(cell),
                 tiles,
-                *layers as u32,
-                *layer_gap_m,
-                *layer_shift_m,
-                boundary.boundary(),
+                layout.layers as u32,
+                layout.layer_gap,
+                layout.layer_shift,
+                layout.boundary,
                 deterministic,
             ))
         }
@@ -370,9 +359,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         )));
     }
     let failure = FailureParameters { shear_strength, enabled: !matches!(strength, Strength::None) };
-    let resolved_projectile = resolved.projectile.clone();
-    let elastic_model = resolved.elastic_model;
-    let resolved = resolved_projectile;
+    let resolved = resolved.projectile.clone();
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre
     // diameters (§4.2.2)
@@ -383,11 +370,10 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             let (projectile, aim) = launch(rigid_shape(&resolved.body, reach, cell)?, &resolved, top);
             (projectile, aim, None)
         }
-        Some(ref elastic) => {
-            let model = elastic_model.expect("a resolved deformable projectile has its model");
+        Some(elastic) => {
             let (body, shape) = deformable_body(
                 &resolved,
-                (elastic.youngs_modulus_pa, elastic.poisson_ratio, model),
+                (elastic.youngs_modulus, elastic.poisson_ratio, elastic.model),
                 reach,
                 cell,
                 contact.skin,
@@ -468,7 +454,11 @@ fn deformable_body(
             projectile_spans(path, &mesh.nodes)?;
             (mesh, path.display().to_string())
         }
-        ProjectileBody::Analytic(_) => unreachable!("a validated deformable projectile is meshed"),
+        ProjectileBody::Analytic(_) => {
+            return Err(SetupError::Case(
+                "projectile.deformable: a deformable projectile needs a hexahedral mesh".into(),
+            ))
+        }
     };
     let (vertices, triangles) = mesh.boundary();
     let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model)
@@ -910,6 +900,7 @@ pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dea_io::case::TargetSpec;
 
     #[test]
     fn an_oblique_yawed_shot_starts_just_above_the_target_on_its_line_of_flight() {

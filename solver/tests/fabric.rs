@@ -109,7 +109,7 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
     assert_eq!(report.crimp_by_role.keys().map(String::as_str).collect::<Vec<_>>(), ["binder", "filler", "stuffer"]);
     // the file holds the relaxed cell bit for bit, and ParaView's description of it
     let (_, written) = dea_io::cell::read_periodic(&dir.join("cell.h5")).unwrap();
-    let (relaxed, relaxation) = dea_mpi::setup::three_d_cell(&case, &case.resolve().unwrap()).unwrap().unwrap();
+    let (relaxed, relaxation) = dea_mpi::setup::three_d_cell(&case.resolve().unwrap()).unwrap().unwrap();
     assert!(relaxation.is_some(), "relaxed here");
     assert!(written == relaxed, "cell.h5 is the relaxed cell");
     assert_eq!(written.fibres(), report.fibres);

@@ -28,7 +28,7 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
         Ok(resolved) => resolved,
         Err(e) => return fail(Exit::BadCase, e),
     };
-    if let (dea_io::case::TargetSpec::ThreeDWeaveCell { .. }, Some(weave)) = (&case.target, &resolved.three_d) {
+    if let dea_io::case::ResolvedTarget::ThreeDCell { weave, .. } = &resolved.target {
         // a cell for `dea-mpi fabric`: its initial layout, not relaxed
         let material = resolved.material.clone();
         let cell = match setup::laid_out_cell(weave, &material) {

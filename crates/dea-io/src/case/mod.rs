@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 mod resolve;
 
-pub use resolve::ResolvedCase;
+pub use resolve::{CellSource, HybridTarget, PanelLayout, ResolvedCase, ResolvedTarget, StraightTarget, WovenTarget};
 
 /// A case error: where and why.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -716,8 +716,18 @@ pub struct ResolvedProjectile {
     pub obliquity: f64,
     /// [rad]
     pub yaw: f64,
-    /// elastic constants of a deformable body
-    pub deformable: Option<DeformableSpec>,
+    /// a deformable body's elastic constants and model
+    pub deformable: Option<ElasticBody>,
+}
+
+/// A deformable projectile's material, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElasticBody {
+    /// Young's modulus [Pa]
+    pub youngs_modulus: f64,
+    /// Poisson's ratio [-]
+    pub poisson_ratio: f64,
+    pub model: ElasticModel,
 }
 
 /// What the projectile's surface is made of.

@@ -3,6 +3,8 @@
 //! set-up builds from without checking again.
 
 use super::*;
+use dea_fabric::panel::FineRegion;
+use dea_fabric::relax::RelaxOptions;
 
 /// A case resolved: every value checked and given its default, the material's overrides
 /// applied, the weaves made. Set-up builds from this and the case's own fields, and checks
@@ -23,16 +25,72 @@ pub struct ResolvedCase {
     /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
     pub shear_strength: f64,
     pub projectile: ResolvedProjectile,
-    /// the elastic model of a deformable projectile
-    pub elastic_model: Option<ElasticModel>,
-    /// a woven panel's weave, unless its cell comes from a file
-    pub woven: Option<PlainWeave>,
-    /// a hybrid woven panel's coarse weave, unless its cell comes from a file
-    pub coarse: Option<PlainWeave>,
-    /// a 3-D weave target's weave, unless its cell comes from a file
-    pub three_d: Option<ThreeDWeave>,
-    /// a straight-yarn target's fibre cross-section area: the yarn's over its fibres [m^2]
-    pub fibre_area: Option<f64>,
+    /// the target, with what set-up builds it from
+    pub target: ResolvedTarget,
+}
+
+/// A target resolved: every size checked, the weaves made.
+#[derive(Clone, Debug)]
+pub enum ResolvedTarget {
+    /// a single fibre, a straight yarn, or layers of straight yarns
+    Straight(StraightTarget),
+    /// a plain-woven panel, hybrid or not
+    Woven(WovenTarget),
+    /// a 3-D woven unit cell, for `dea-mpi fabric` to relax (it cannot be struck)
+    ThreeDCell { weave: ThreeDWeave, relaxation: RelaxOptions },
+    /// a panel tiled from a 3-D woven cell
+    ThreeDPanel { cell: CellSource<ThreeDWeave>, layout: PanelLayout },
+}
+
+/// Straight fibres or yarns.
+#[derive(Clone, Debug)]
+pub struct StraightTarget {
+    /// crossed layers and yarns per layer (none: one yarn)
+    pub layers: Option<(usize, usize)>,
+    pub fibres_per_yarn: usize,
+    /// each digital fibre's cross-section area: the yarn's over its fibres [m^2]
+    pub fibre_area: f64,
+    /// [m]
+    pub length: f64,
+    /// element length over fibre diameter [-]
+    pub element_length_ratio: f64,
+}
+
+/// A plain-woven panel.
+#[derive(Clone, Debug)]
+pub struct WovenTarget {
+    /// the fine (or only) yarns' cell
+    pub fine: CellSource<PlainWeave>,
+    /// a hybrid panel's coarse yarns and where the fine ones are
+    pub hybrid: Option<HybridTarget>,
+    pub layout: PanelLayout,
+}
+
+/// A hybrid woven panel's coarse part.
+#[derive(Clone, Debug)]
+pub struct HybridTarget {
+    pub coarse: CellSource<PlainWeave>,
+    pub region: FineRegion,
+}
+
+/// Where a unit cell comes from: a relaxed cell file, or a weave to generate and relax.
+#[derive(Clone, Debug)]
+pub enum CellSource<W> {
+    File(std::path::PathBuf),
+    Generate { weave: W, relaxation: RelaxOptions },
+}
+
+/// How a panel is stacked and held.
+#[derive(Clone, Copy, Debug)]
+pub struct PanelLayout {
+    /// [m]
+    pub side: f64,
+    pub layers: usize,
+    /// [m]
+    pub layer_gap: f64,
+    /// each layer's shift against the one above (x, y) [m]
+    pub layer_shift: [f64; 2],
+    pub boundary: Boundary,
 }
 
 impl Case {
@@ -284,9 +342,10 @@ impl Case {
                 Err(invalid(path, format!("must lie within ±80 degrees, got {degrees}")))
             }
         };
+        let mut deformable = None;
         if let Some(d) = &p.deformable {
-            positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
-            d.model()?;
+            let youngs_modulus = positive("projectile.deformable.youngs_modulus_pa", d.youngs_modulus_pa)?;
+            let model = d.model()?;
             if !(0.0..0.5).contains(&d.poisson_ratio) {
                 return Err(invalid(
                     "projectile.deformable.poisson_ratio",
@@ -304,9 +363,10 @@ impl Case {
             if !hexahedra {
                 return Err(invalid("projectile.deformable", "a deformable projectile needs a hexahedral mesh: mesh_divisions, shape \"fsp\", or a .msh/.inp file"));
             }
+            deformable = Some(ElasticBody { youngs_modulus, poisson_ratio: d.poisson_ratio, model });
         }
         Ok(ResolvedProjectile {
-            deformable: p.deformable.clone(),
+            deformable,
             body,
             mass,
             speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,
@@ -324,22 +384,34 @@ impl Case {
         let strength = self.strength()?;
         let shear_strength = self.shear_strength()?;
         let projectile = self.projectile()?;
-        let elastic_model = self.projectile.deformable.as_ref().map(DeformableSpec::model).transpose()?;
         let friction_coefficient = non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
         // the friction coefficient weighs the bending rigidity (5-10) here, once
         let section_inertia = self.bending.with_friction(friction_coefficient);
-        let (mut woven, mut coarse, mut three_d, mut fibre_area) = (None, None, None, None);
-        match &self.target {
+        let target = match &self.target {
             TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
                 positive("target.length_m", *length_m)?;
                 positive("target.diameter_m", *diameter_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
+                ResolvedTarget::Straight(StraightTarget {
+                    layers: None,
+                    fibres_per_yarn: 1,
+                    fibre_area: std::f64::consts::PI * diameter_m * diameter_m / 4.0,
+                    length: *length_m,
+                    element_length_ratio: *element_length_ratio,
+                })
             }
             TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
-                fibre_area = Some(yarn_area(yarn)? / *fibres_per_yarn as f64);
+                let fibre_area = yarn_area(yarn)? / *fibres_per_yarn as f64;
                 fibre_count(*fibres_per_yarn)?;
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
+                ResolvedTarget::Straight(StraightTarget {
+                    layers: None,
+                    fibres_per_yarn: *fibres_per_yarn,
+                    fibre_area,
+                    length: *length_m,
+                    element_length_ratio: *element_length_ratio,
+                })
             }
             TargetSpec::StraightYarnLayers {
                 yarn,
@@ -349,7 +421,7 @@ impl Case {
                 length_m,
                 element_length_ratio,
             } => {
-                fibre_area = Some(yarn_area(yarn)? / *fibres_per_yarn as f64);
+                let fibre_area = yarn_area(yarn)? / *fibres_per_yarn as f64;
                 fibre_count(*fibres_per_yarn)?;
                 if *layers < 1 || *layers > 100 {
                     return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
@@ -362,6 +434,13 @@ impl Case {
                 }
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
+                ResolvedTarget::Straight(StraightTarget {
+                    layers: Some((*layers, *yarns_per_layer)),
+                    fibres_per_yarn: *fibres_per_yarn,
+                    fibre_area,
+                    length: *length_m,
+                    element_length_ratio: *element_length_ratio,
+                })
             }
             TargetSpec::WovenPanel {
                 weave,
@@ -379,14 +458,22 @@ impl Case {
                 }
                 let fine = weave.plain_weave(section_inertia)?;
                 positive("target.side_m", *side_m)?;
-                woven = cell_file.is_none().then(|| fine.clone());
+                let fine_cell = match cell_file {
+                    Some(path) => CellSource::File(path.clone()),
+                    None => CellSource::Generate {
+                        weave: fine.clone(),
+                        relaxation: relaxation.options(weave.bending_at_rest),
+                    },
+                };
+                let mut resolved_hybrid = None;
                 if let Some(hybrid) = hybrid {
-                    match (hybrid.fine_half_width_m, hybrid.fine_radius_m) {
+                    let region = match (hybrid.fine_half_width_m, hybrid.fine_radius_m) {
                         (Some(half_width), None) => {
                             positive("target.hybrid.fine_half_width_m", half_width)?;
                             if half_width >= 0.5 * side_m {
                                 return Err(invalid("target.hybrid.fine_half_width_m", format!("must be less than half the panel (side_m = {side_m}), got {half_width}: every yarn would be fine")));
                             }
+                            FineRegion::Band { half_width }
                         }
                         (None, Some(radius)) => {
                             positive("target.hybrid.fine_radius_m", radius)?;
@@ -396,22 +483,25 @@ impl Case {
                                     format!("must be less than half the panel's diagonal (side_m = {side_m}), got {radius}: every crossing would be fine"),
                                 ));
                             }
+                            FineRegion::Disc { radius }
                         }
                         _ => return Err(invalid("target.hybrid", "give exactly one of fine_half_width_m (whole yarns fine) and fine_radius_m (yarns fine within a disc)")),
-                    }
-                    match (&hybrid.cell_file, cell_file) {
+                    };
+                    let coarse = match (&hybrid.cell_file, cell_file) {
                         (Some(_), _) if hybrid.fibres_per_yarn.is_some() || hybrid.element_length_ratio.is_some() => {
                             return Err(invalid("target.hybrid.cell_file", "a coarse cell file carries its fibres and elements: leave target.hybrid.fibres_per_yarn and element_length_ratio out"));
                         }
-                        (Some(_), _) => {}
+                        (Some(path), _) => CellSource::File(path.clone()),
                         (None, Some(_)) => return Err(invalid(
                             "target.hybrid.cell_file",
                             "the fine cell comes from target.cell_file, so the coarse one must come from a file too",
                         )),
-                        (None, None) => {
-                            coarse = Some(hybrid.coarse_weave(&fine)?);
-                        }
-                    }
+                        (None, None) => CellSource::Generate {
+                            weave: hybrid.coarse_weave(&fine)?,
+                            relaxation: relaxation.options(weave.bending_at_rest),
+                        },
+                    };
+                    resolved_hybrid = Some(HybridTarget { coarse, region });
                 }
                 if *layers < 1 || *layers > 100 {
                     return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
@@ -427,10 +517,22 @@ impl Case {
                     }
                 }
                 relaxation.validate()?;
+                ResolvedTarget::Woven(WovenTarget {
+                    fine: fine_cell,
+                    hybrid: resolved_hybrid,
+                    layout: PanelLayout {
+                        side: *side_m,
+                        layers: *layers,
+                        layer_gap: *layer_gap_m,
+                        layer_shift: *layer_shift_m,
+                        boundary: boundary.boundary(),
+                    },
+                })
             }
-            TargetSpec::ThreeDWeaveCell { weave, relaxation } => {
-                three_d = Some(weave.weave(section_inertia)?);
+            TargetSpec::ThreeDWeaveCell { weave: spec, relaxation } => {
+                let weave = spec.weave(section_inertia)?;
                 relaxation.validate()?;
+                ResolvedTarget::ThreeDCell { weave, relaxation: relaxation.options(spec.bending_at_rest) }
             }
             TargetSpec::ThreeDWovenPanel {
                 weave,
@@ -442,18 +544,19 @@ impl Case {
                 layer_shift_m,
                 boundary,
             } => {
-                match (weave, cell_file) {
-                    (Some(weave), None) => {
-                        three_d = Some(weave.weave(section_inertia)?);
-                    }
-                    (None, Some(_)) => {}
+                let cell = match (weave, cell_file) {
+                    (Some(spec), None) => CellSource::Generate {
+                        weave: spec.weave(section_inertia)?,
+                        relaxation: relaxation.options(spec.bending_at_rest),
+                    },
+                    (None, Some(path)) => CellSource::File(path.clone()),
                     (Some(_), Some(_)) => {
                         return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"))
                     }
                     (None, None) => {
                         return Err(invalid("target.weave", "is needed unless target.cell_file gives the relaxed cell"))
                     }
-                }
+                };
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
                 stacking(*layer_gap_m, layer_shift_m)?;
@@ -469,8 +572,18 @@ impl Case {
                         ));
                     }
                 }
+                ResolvedTarget::ThreeDPanel {
+                    cell,
+                    layout: PanelLayout {
+                        side: *side_m,
+                        layers: *layers,
+                        layer_gap: *layer_gap_m,
+                        layer_shift: *layer_shift_m,
+                        boundary: boundary.boundary(),
+                    },
+                }
             }
-        }
+        };
         match self.bending {
             InertiaModel::Effective { k1, k2 } => {
                 positive("bending.k1", k1)?;
@@ -512,11 +625,7 @@ impl Case {
             strength,
             shear_strength,
             projectile,
-            elastic_model,
-            woven,
-            coarse,
-            three_d,
-            fibre_area,
+            target,
         })
     }
 
