@@ -7,8 +7,8 @@ The shot's node count and its step count at the end time (plus a settle's, run.s
 from `dea-mpi check` (a shot that is decided earlier stops earlier, so this is an upper
 bound). The cost of a node-step
 is MEASURED on this machine for the default case (four layers of woven KM2 706 under the
-FSP: failures, frequent list rebuilds; docs/performance.md): 380 ns when it was first run
-(session 4), 235-252 ns per core on 1 and 2 ranks since session 15. The default keeps the
+FSP: failures, frequent list rebuilds; docs/performance.md, "Where it stands"): 380 ns when
+it was first run, 235-252 ns per core on 1 and 2 ranks since. The default keeps the
 first figure as a margin, for requesting wall time; the straight-yarn bench gives 60-70 ns,
 and a fabric at rest far from the projectile costs about that. Wall time assumes
 the shots spread evenly over the groups and a parallel efficiency of 0.8 within a shot

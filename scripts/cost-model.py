@@ -11,12 +11,12 @@ import math
 # --- measured on this machine ---------------------------------------------------------
 # A shot is priced at what a woven shot costs, not the straight-yarn bench (66 ns per
 # node-step, a rebuild every 65 steps): the default case, four layers of KM2 706 struck by
-# the FSP at 400 m/s, 1 rank, session 10 (docs/performance.md).
+# the FSP at 400 m/s, 1 rank (docs/performance.md, "Default case").
 NS_PER_NODE_STEP = 253.0      # MEASURED: default case, core time per node-step (all stages)
 NS_PER_GHOST_STEP = 19.0      # MEASURED: default case, rods per node-step; ghosts get rods only
 HALO_BYTES_PER_GHOST = 32     # MEASURED: position + failure state per ghost per step
 RECORD_BYTES_PER_GHOST = 96   # code: full ghost record at a rebuild (12 words)
-STEPS_PER_REBUILD = 8.4       # MEASURED: default case on 2 ranks, 638 rebuilds in 5,350 steps (session 12)
+STEPS_PER_REBUILD = 8.4       # MEASURED: default case on 2 ranks, 638 rebuilds in 5,350 steps (docs/performance-log.md, 2026-11)
 BYTES_PER_NODE = 1730         # MEASURED: peak RSS / nodes of the 300,010-node bench
 IMBALANCE = 1.01              # MEASURED: bench on 2 ranks, slowest / mean compute
 COLLECTIVES_PER_STEP = 6      # code: projectile broadcast, displacement max, error min, reaction gather (2), rebuild vote (past half a skin; counted in every step)
@@ -37,7 +37,7 @@ STEPS_PER_SHOT = 100e-6 / 1.8e-9
 
 CASES = {
     # name: (nodes, area holding the nodes [m2])
-    # the disc panel as generated (session 7); about half its nodes lie outside the disc,
+    # the disc panel as generated (docs/performance.md, fabric generation); about half its nodes lie outside the disc,
     # so placing all in it overstates the ghosts: conservative
     "fine disc (19 fibres within 1 in of the impact, 1 outside): 2.09e8 nodes": (2.09e8, math.pi * 0.0254 ** 2),
     "uniform 19 fibres per yarn: 4.7e9 nodes": (4.7e9, PANEL_SIDE_M ** 2),
