@@ -407,3 +407,55 @@ fn an_oblique_shot_reports_its_residual_velocity_along_the_line_of_flight() {
         "an oblique shot's two components differ: {residual} and {normal}"
     );
 }
+
+/// A file that is not one JSON document is refused with the line and column of the fault
+/// before any field is read: two cases back to back (the second was ignored), and a campaign
+/// with a syntax error after its `case_file` (reported as "unknown field `case_file`"). A
+/// UTF-8 byte-order mark, which some editors write, is read past.
+#[test]
+fn text_that_is_not_one_json_document_is_refused_with_its_line() {
+    let dir = scratch("documents");
+    let case = std::fs::read_to_string("../cases/single_fibre_short.json").unwrap();
+    let two = dir.join("two.json");
+    std::fs::write(&two, format!("{case}{case}")).unwrap();
+    for command in ["check", "run"] {
+        let stderr = stderr_of_exit(
+            3,
+            &[command, two.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]
+                [..if command == "check" { 2 } else { 4 }],
+        );
+        assert!(stderr.contains("two.json") && stderr.contains("trailing characters at line"), "{command}: {stderr}");
+    }
+    let campaign = dir.join("campaign.json");
+    let case_file = std::fs::canonicalize("../cases/v50_tiny_shot.json").unwrap();
+    std::fs::write(
+        &campaign,
+        format!(
+            "{{\"name\": \"c\", \"case_file\": {:?}, \"design\": {{ \"kind\": \"bisection\",, }} }}",
+            case_file.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let stderr = stderr_of_exit(3, &["check", campaign.to_str().unwrap()]);
+    assert!(
+        stderr.contains("campaign.json") && stderr.contains("line 1 column") && !stderr.contains("unknown field"),
+        "{stderr}"
+    );
+    let bom = dir.join("bom.json");
+    std::fs::write(&bom, format!("\u{feff}{case}")).unwrap();
+    let out = dea(&["check", bom.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Counts that cannot be zero are refused as usage errors (exit 2) naming the option.
+#[test]
+fn zero_counts_on_the_command_line_are_usage_errors() {
+    for args in [
+        &["bench", "--nodes", "0"][..],
+        &["bench", "--steps", "0"],
+        &["partition", "--ranks", "2", "--segment-nodes", "0"],
+    ] {
+        let stderr = stderr_of_exit(2, args);
+        assert!(stderr.contains(args[args.len() - 2]), "{args:?}: {stderr}");
+    }
+}

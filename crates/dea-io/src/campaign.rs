@@ -67,7 +67,8 @@ pub fn is_campaign(document: &serde_json::Value) -> bool {
 pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     let source = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
-    let deserializer = &mut serde_json::Deserializer::from_str(&text);
+    let text = crate::case::json_document(&text, &source)?;
+    let deserializer = &mut serde_json::Deserializer::from_str(text);
     let mut campaign: Campaign = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let field = e.path().to_string();
         invalid(if field == "." { &source } else { &field }, format!("{} (in {source})", e.into_inner()))
@@ -92,7 +93,8 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
             case
         }
         (None, Some(case)) => {
-            case.validate().map_err(|e| invalid(&format!("case.{}", e.path), format!("{} (in {source})", e.message)))?;
+            case.validate()
+                .map_err(|e| invalid(&format!("case.{}", e.path), format!("{} (in {source})", e.message)))?;
             case.clone()
         }
         _ => return Err(invalid(&source, "give exactly one of case_file and case")),

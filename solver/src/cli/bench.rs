@@ -19,10 +19,10 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// minimum number of nodes
-    #[arg(long, default_value_t = 300_000)]
+    #[arg(long, default_value_t = 300_000, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub nodes: usize,
     /// steps to time
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u64).range(1..))]
     pub steps: u64,
 }
 

@@ -114,7 +114,8 @@ pub fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
 pub fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case), (Exit, String)> {
     let text =
         std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
-    let campaign = serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|document| is_campaign(&document));
+    let text = dea_io::case::json_document(&text, &path.display().to_string()).map_err(|e| (Exit::BadCase, e.to_string()))?;
+    let campaign = serde_json::from_str::<serde_json::Value>(text).is_ok_and(|document| is_campaign(&document));
     if campaign {
         load_campaign(path).map(|(campaign, case)| (Some(campaign), case)).map_err(|e| (Exit::BadCase, e.to_string()))
     } else {

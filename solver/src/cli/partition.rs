@@ -21,7 +21,7 @@ pub struct Args {
     pub ranks: usize,
     /// positions along the fibres per yarn segment (graph vertex); default: 64, fewer
     /// when that would give a rank less than 32 segments to balance with
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub segment_nodes: Option<u32>,
     /// METIS algorithm
     #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]

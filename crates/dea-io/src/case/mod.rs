@@ -874,6 +874,7 @@ pub fn yarn_area(name: &str) -> Result<f64, CaseError> {
 
 /// Parses and validates case text; `source` names the file in errors.
 pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
+    let text = json_document(text, source)?;
     let deserializer = &mut serde_json::Deserializer::from_str(text);
     let case: Case = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let path = e.path().to_string();
@@ -883,6 +884,18 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     })?;
     case.validate().map_err(|e| CaseError { message: format!("{} (in {source})", e.message), ..e })?;
     Ok(case)
+}
+
+/// The JSON document of a case or campaign file's `text`: a UTF-8 byte-order mark (which some
+/// editors write) is skipped, and text that is not one JSON document (a syntax error, or
+/// anything after the document, such as a second case) is refused with its line and column
+/// before any field is looked at, so a syntax error is never reported as a field's.
+pub fn json_document<'a>(text: &'a str, source: &str) -> Result<&'a str, CaseError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    match serde_json::from_str::<serde::de::IgnoredAny>(text) {
+        Ok(_) => Ok(text),
+        Err(e) => Err(invalid(source, format!("not one JSON document: {e}"))),
+    }
 }
 
 /// Reads, parses and validates a case file; a relative mesh or cell file is taken relative to
