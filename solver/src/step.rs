@@ -119,6 +119,7 @@ impl Stage {
 pub struct StageSeconds(pub [f64; Stage::COUNT]);
 
 impl StageSeconds {
+    /// The seconds booked to `stage` [s].
     pub fn get(&self, stage: Stage) -> f64 {
         self.0[stage as usize]
     }
@@ -148,6 +149,7 @@ impl Serialize for StageSeconds {
 /// [`Self::start`]) to a stage.
 #[derive(Clone, Debug)]
 pub struct StageTimer {
+    /// the seconds booked to each stage so far
     pub seconds: StageSeconds,
     last: Instant,
 }

@@ -20,6 +20,7 @@ pub fn prefetch<T>(base: *const T, index: usize) {
 /// operations in the same order (Rust never fuses a multiply–add): the same bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Compilation {
+    /// the target's baseline instruction set (SSE2 on x86-64)
     Baseline,
     /// VEX's three operands spare SSE's register copies: 11 % fewer instructions in the
     /// fibre-contact sweep on the bench yarn

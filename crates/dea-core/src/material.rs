@@ -77,7 +77,10 @@ pub enum SectionInertia {
     /// I_inf = pi d_d^4 / 64 (5-8)
     Locked,
     /// I_e = w I_inf + (1 - w) I_0 (5-10) with `locked_share` w = (mu/k2)^k1 [-]
-    Weighted { locked_share: f64 },
+    Weighted {
+        /// w [-]
+        locked_share: f64,
+    },
     /// no bending stiffness
     None,
 }

@@ -10,6 +10,7 @@ use crate::FibreSection;
 pub struct PairData {
     /// contact distance: the mean of the two contact diameters [m]
     pub reach: f64,
+    /// the normal law's geometry of the pair (effective radius, length, radii sum)
     pub geometry: ContactGeometry,
 }
 
@@ -38,6 +39,7 @@ pub struct PairDataTable {
 }
 
 impl PairDataTable {
+    /// The data of every ordered pair of `sections`.
     pub fn new(sections: &[FibreSection]) -> Self {
         let data = sections.iter().flat_map(|a| sections.iter().map(move |b| PairData::new(a, b))).collect();
         Self { sections: sections.len(), data }

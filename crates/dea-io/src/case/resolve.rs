@@ -12,6 +12,7 @@ use dea_fabric::relax::RelaxOptions;
 /// hybrid disc's transition between two crossings, and the target's size in nodes.
 #[derive(Clone, Debug)]
 pub struct ResolvedCase {
+    /// the fibre material, the preset's with the case's overrides
     pub material: FibreMaterial,
     /// the normal contact law of fibre–fibre and fibre–projectile contact
     pub law: NormalLaw,
@@ -21,9 +22,11 @@ pub struct ResolvedCase {
     pub section_inertia: SectionInertia,
     /// fibre–projectile friction coefficient [-]
     pub projectile_friction_coefficient: f64,
+    /// the elements' tensile strength: none, one value, or Weibull draws
     pub strength: Strength,
     /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
     pub shear_strength: f64,
+    /// the projectile's body, mass, launch and material
     pub projectile: ResolvedProjectile,
     /// the target, with what set-up builds it from
     pub target: ResolvedTarget,
@@ -37,9 +40,19 @@ pub enum ResolvedTarget {
     /// a plain-woven panel, hybrid or not
     Woven(WovenTarget),
     /// a 3-D woven unit cell, for `dea-mpi fabric` to relax (it cannot be struck)
-    ThreeDCell { weave: ThreeDWeave, relaxation: RelaxOptions },
+    ThreeDCell {
+        /// the weave to lay out
+        weave: ThreeDWeave,
+        /// how to relax it
+        relaxation: RelaxOptions,
+    },
     /// a panel tiled from a 3-D woven cell
-    ThreeDPanel { cell: CellSource<ThreeDWeave>, layout: PanelLayout },
+    ThreeDPanel {
+        /// the cell to tile
+        cell: CellSource<ThreeDWeave>,
+        /// how the panel is stacked and held
+        layout: PanelLayout,
+    },
 }
 
 /// Straight fibres or yarns.
@@ -47,6 +60,7 @@ pub enum ResolvedTarget {
 pub struct StraightTarget {
     /// crossed layers and yarns per layer (none: one yarn)
     pub layers: Option<(usize, usize)>,
+    /// digital fibres in each yarn
     pub fibres_per_yarn: usize,
     /// each digital fibre's cross-section area: the yarn's over its fibres [m^2]
     pub fibre_area: f64,
@@ -63,21 +77,31 @@ pub struct WovenTarget {
     pub fine: CellSource<PlainWeave>,
     /// a hybrid panel's coarse yarns and where the fine ones are
     pub hybrid: Option<HybridTarget>,
+    /// how the panel is stacked and held
     pub layout: PanelLayout,
 }
 
 /// A hybrid woven panel's coarse part.
 #[derive(Clone, Debug)]
 pub struct HybridTarget {
+    /// the coarse yarns' cell
     pub coarse: CellSource<PlainWeave>,
+    /// where the yarns are fine: a band of whole yarns or a disc about the centre
     pub region: FineRegion,
 }
 
 /// Where a unit cell comes from: a relaxed cell file, or a weave to generate and relax.
 #[derive(Clone, Debug)]
 pub enum CellSource<W> {
+    /// a cell relaxed before, read from this file
     File(std::path::PathBuf),
-    Generate { weave: W, relaxation: RelaxOptions },
+    /// the weave to lay out, and how to relax it
+    Generate {
+        /// the weave
+        weave: W,
+        /// the relaxation's tolerance, iterations and springs at rest
+        relaxation: RelaxOptions,
+    },
 }
 
 /// How a panel is stacked and held.
@@ -85,11 +109,13 @@ pub enum CellSource<W> {
 pub struct PanelLayout {
     /// [m]
     pub side: f64,
+    /// layers, struck first at the top
     pub layers: usize,
     /// [m]
     pub layer_gap: f64,
     /// each layer's shift against the one above (x, y) [m]
     pub layer_shift: [f64; 2],
+    /// what holds the panel: fixed edges or a clamp
     pub boundary: Boundary,
 }
 
