@@ -214,7 +214,8 @@ fn target_fits(field: &str, fibres: f64, nodes_per_fibre: f64) -> Result<(), Set
 /// projectile's mesh and the fabric's cells).
 pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
-    let ResolvedCase { material, law, strength, shear_strength, .. } = resolved.clone();
+    let (material, law, strength, shear_strength) =
+        (resolved.material.clone(), resolved.law, resolved.strength.clone(), resolved.shear_strength);
     let deterministic = match strength {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,

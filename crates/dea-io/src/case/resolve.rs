@@ -449,9 +449,7 @@ impl Case {
             } => {
                 let fibre_area = yarn_area(yarn)? / *fibres_per_yarn as f64;
                 fibre_count(*fibres_per_yarn)?;
-                if *layers < 1 || *layers > 100 {
-                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
-                }
+                layer_count(*layers)?;
                 if *yarns_per_layer < 1 || *yarns_per_layer > 10_000 {
                     return Err(invalid(
                         "target.yarns_per_layer",
@@ -529,31 +527,9 @@ impl Case {
                     };
                     resolved_hybrid = Some(HybridTarget { coarse, region });
                 }
-                if *layers < 1 || *layers > 100 {
-                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
-                }
-                stacking(*layer_gap_m, layer_shift_m)?;
-                if let BoundarySpec::Clamp { opening_m } = boundary {
-                    positive("target.boundary.opening_m", *opening_m)?;
-                    if *opening_m >= *side_m {
-                        return Err(invalid(
-                            "target.boundary.opening_m",
-                            format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}"),
-                        ));
-                    }
-                }
+                let layout = panel_layout(*side_m, *layers, *layer_gap_m, layer_shift_m, boundary)?;
                 relaxation.validate()?;
-                ResolvedTarget::Woven(WovenTarget {
-                    fine: fine_cell,
-                    hybrid: resolved_hybrid,
-                    layout: PanelLayout {
-                        side: *side_m,
-                        layers: *layers,
-                        layer_gap: *layer_gap_m,
-                        layer_shift: *layer_shift_m,
-                        boundary: boundary.boundary(),
-                    },
-                })
+                ResolvedTarget::Woven(WovenTarget { fine: fine_cell, hybrid: resolved_hybrid, layout })
             }
             TargetSpec::ThreeDWeaveCell { weave: spec, relaxation } => {
                 let weave = spec.weave(section_inertia)?;
@@ -585,29 +561,8 @@ impl Case {
                 };
                 relaxation.validate()?;
                 positive("target.side_m", *side_m)?;
-                stacking(*layer_gap_m, layer_shift_m)?;
-                if *layers < 1 || *layers > 100 {
-                    return Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")));
-                }
-                if let BoundarySpec::Clamp { opening_m } = boundary {
-                    positive("target.boundary.opening_m", *opening_m)?;
-                    if *opening_m >= *side_m {
-                        return Err(invalid(
-                            "target.boundary.opening_m",
-                            format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}"),
-                        ));
-                    }
-                }
-                ResolvedTarget::ThreeDPanel {
-                    cell,
-                    layout: PanelLayout {
-                        side: *side_m,
-                        layers: *layers,
-                        layer_gap: *layer_gap_m,
-                        layer_shift: *layer_shift_m,
-                        boundary: boundary.boundary(),
-                    },
-                }
+                let layout = panel_layout(*side_m, *layers, *layer_gap_m, layer_shift_m, boundary)?;
+                ResolvedTarget::ThreeDPanel { cell, layout }
             }
         };
         match self.bending {
@@ -659,4 +614,41 @@ impl Case {
     pub fn validate(&self) -> Result<(), CaseError> {
         self.resolve().map(drop)
     }
+}
+
+/// A panel's or a cross-ply's layer count, checked.
+fn layer_count(layers: usize) -> Result<usize, CaseError> {
+    if (1..=100).contains(&layers) {
+        Ok(layers)
+    } else {
+        Err(invalid("target.layers", format!("must be in 1..=100, got {layers}")))
+    }
+}
+
+/// The layout of a panel `side_m` square [m]: its layer count, stacking and boundary checked.
+fn panel_layout(
+    side_m: f64,
+    layers: usize,
+    layer_gap_m: f64,
+    layer_shift_m: &[f64; 2],
+    boundary: &BoundarySpec,
+) -> Result<PanelLayout, CaseError> {
+    layer_count(layers)?;
+    stacking(layer_gap_m, layer_shift_m)?;
+    if let BoundarySpec::Clamp { opening_m } = boundary {
+        positive("target.boundary.opening_m", *opening_m)?;
+        if *opening_m >= side_m {
+            return Err(invalid(
+                "target.boundary.opening_m",
+                format!("must be smaller than the panel (side_m = {side_m}), got {opening_m}"),
+            ));
+        }
+    }
+    Ok(PanelLayout {
+        side: side_m,
+        layers,
+        layer_gap: layer_gap_m,
+        layer_shift: *layer_shift_m,
+        boundary: boundary.boundary(),
+    })
 }
