@@ -7,7 +7,7 @@
 //! Diagnostics, snapshots, checkpoints and the settle are in modules of their own.
 
 use dea_core::projectile::RigidShape;
-use dea_core::{Domain, DomainError, FibreId, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3, CHAIN_STENCIL};
+use dea_core::{Domain, DomainError, FibreId, GlobalNodeId, NodeMotion, Rank, Reaction, Vec3};
 use dea_partition::Partition;
 
 use crate::comm::agree;
@@ -94,10 +94,11 @@ impl<C: Comm> Distributed<C> {
         let me = comm.rank();
         let mut chain: std::collections::BTreeMap<Rank, Vec<u32>> = Default::default();
         let nodes = &domain.nodes;
+        let stencil = domain.chain_stencil();
         for i in 0..nodes.n_owned {
             let yarn = partition.yarn_of(nodes.fibre[i]);
             let along = nodes.along[i] as i64;
-            let mut needed_by: Vec<Rank> = (1..=CHAIN_STENCIL as i64)
+            let mut needed_by: Vec<Rank> = (1..=stencil as i64)
                 .flat_map(|d| [along - d, along + d])
                 .filter(|&a| a >= 0 && a < nodes_per_fibre[yarn] as i64)
                 .map(|a| partition.rank_of_position(yarn, a as u32))

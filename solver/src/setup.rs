@@ -216,6 +216,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
     let (material, law, strength, shear_strength) =
         (resolved.material.clone(), resolved.law, resolved.strength.clone(), resolved.shear_strength);
+    let resolved_shear_measure = resolved.shear_measure;
     let deterministic = match strength {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,
@@ -359,7 +360,11 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             contact.skin
         )));
     }
-    let failure = FailureParameters { shear_strength, enabled: !matches!(strength, Strength::None) };
+    let failure = FailureParameters {
+        shear_strength,
+        enabled: !matches!(strength, Strength::None),
+        shear_measure: resolved_shear_measure,
+    };
     let resolved = resolved.projectile.clone();
     // a node overlaps the surface closer than its contact radius, and is a candidate within
     // the skin of that; the seed splits the contact domain into cubes of 1.2-1.5 fibre

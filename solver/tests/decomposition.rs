@@ -149,15 +149,16 @@ fn the_verlet_skin_changes_no_result() {
 }
 
 /// Asserts that the rigid body of `case`'s deformable projectile mesh, run to `dir/rigid`,
-/// strikes like the deformable one did in `reference`: peak force within 2 %, residual
-/// velocity within 3 %.
+/// strikes like the deformable one did in `reference`: peak force within 3 % and not above
+/// the rigid body's (a compliant nose takes longer to load), residual velocity within 3 %.
 fn assert_strikes_like_the_rigid_body(case: &Case, reference: &Summary, dir: &Path) {
     let mut rigid = case.clone();
     rigid.projectile.deformable = None;
     let rigid = run_on(&rigid, 1, &dir.join("rigid"));
     let relative = |a: f64, b: f64| (a / b - 1.0).abs();
     assert!(
-        relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.02,
+        relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.03
+            && reference.max_projectile_force_n <= rigid.max_projectile_force_n,
         "{} vs {}",
         reference.max_projectile_force_n,
         rigid.max_projectile_force_n
@@ -305,6 +306,27 @@ fn a_hybrid_panel_with_a_fine_disc_gives_the_same_bits_on_any_ranks_and_after_a_
     );
     assert!(reference.max_projectile_force_n > 0.0, "the sphere struck");
     assert!(reference.energy_balance_error < 0.005, "energy balance {}", reference.energy_balance_error);
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A shear gauge 16 elements long each way (4 fibre diameters at l0/d = 0.25) widens the
+/// chain stencil from 3 to 19 ghosts: every rank decides its elements from the same window,
+/// on 1 and 3 ranks and after a restart on 2.
+#[test]
+fn a_long_shear_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
+    let mut value = serde_json::to_value(panel_case()).unwrap();
+    value["target"]["element_length_ratio"] = 0.25.into();
+    value["failure"]["shear_gauge_diameters"] = 4.0.into();
+    value["run"]["end_time_s"] = 1.2e-6.into();
+    let case: Case = serde_json::from_value(value).unwrap();
+    let dir = scratch("gauge");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.broken_elements_tension + reference.broken_elements_combined > 0, "elements break");
+    run_local(3, |comm| {
+        let state = build(&case, comm, Method::KWay, None).unwrap();
+        assert_eq!(state.domain.chain_stencil(), dea_core::CHAIN_STENCIL + 16);
+    });
     assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
     std::fs::remove_dir_all(&dir).unwrap();
 }

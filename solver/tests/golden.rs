@@ -2,6 +2,11 @@
 //! histories and summaries compared bit for bit with the copies checked in under
 //! `tests/golden/<case>/`. A change of any result fails here, whatever the rank count.
 //!
+//! Each case runs twice: as shipped (its results in `tests/golden/<case>/`) and with the seed's
+//! own shear measure, `failure.shear_measure` "element" (in `tests/golden/<case>/element/`:
+//! these are the results every case gave before the gauge measure became the default, kept to
+//! show that the named option reproduces them bit for bit).
+//!
 //! To re-bless after a change that is meant to change results, run
 //! `DEA_BLESS_GOLDEN=1 cargo test --release -p dea-mpi --test golden` and commit the new files
 //! with a message that says why the results moved. Never re-bless to make a refactor pass.
@@ -57,10 +62,19 @@ fn the_golden_cases_keep_their_bits() {
     let bless = std::env::var_os("DEA_BLESS_GOLDEN").is_some();
     let scratch = std::env::temp_dir().join(format!("dea-golden-{}", std::process::id()));
     let mut failures = Vec::new();
-    for case in CASES {
-        let out = scratch.join(case);
+    for (case, measure) in CASES.iter().flat_map(|&case| [(case, None), (case, Some("element"))]) {
+        let label = format!("{case}{}", measure.map(|m| format!("/{m}")).unwrap_or_default());
+        let out = scratch.join(case).join(measure.unwrap_or("shipped"));
         let _ = std::fs::remove_dir_all(&out);
-        let case_path = repository().join("cases").join(format!("{case}.json"));
+        std::fs::create_dir_all(&out).unwrap();
+        let mut case_path = repository().join("cases").join(format!("{case}.json"));
+        if let Some(measure) = measure {
+            let text = std::fs::read_to_string(&case_path).unwrap();
+            let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+            value["failure"]["shear_measure"] = serde_json::Value::from(measure);
+            case_path = scratch.join(format!("{case}-{measure}.json"));
+            std::fs::write(&case_path, serde_json::to_string_pretty(&value).unwrap()).unwrap();
+        }
         let run = Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
             .arg("run")
             .arg(&case_path)
@@ -68,8 +82,8 @@ fn the_golden_cases_keep_their_bits() {
             .arg(&out)
             .output()
             .expect("dea-mpi starts");
-        assert!(run.status.success(), "{case}: {}", String::from_utf8_lossy(&run.stderr));
-        let golden = repository().join("tests/golden").join(case);
+        assert!(run.status.success(), "{label}: {}", String::from_utf8_lossy(&run.stderr));
+        let golden = repository().join("tests/golden").join(case).join(measure.unwrap_or(""));
         let found = [
             ("history.csv", std::fs::read_to_string(out.join("history.csv")).expect("history.csv written")),
             (
@@ -84,10 +98,10 @@ fn the_golden_cases_keep_their_bits() {
                 continue;
             }
             let expected = std::fs::read_to_string(golden.join(file))
-                .unwrap_or_else(|e| panic!("{case}/{file}: {e} (bless with DEA_BLESS_GOLDEN=1)"));
+                .unwrap_or_else(|e| panic!("{label}/{file}: {e} (bless with DEA_BLESS_GOLDEN=1)"));
             if expected != text {
                 failures
-                    .push(format!("{case}/{file} differs from tests/golden, {}", first_difference(&expected, &text)));
+                    .push(format!("{label}/{file} differs from tests/golden, {}", first_difference(&expected, &text)));
             }
         }
     }

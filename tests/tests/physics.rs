@@ -6,6 +6,7 @@ use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
 use dea_core::material::InertiaModel;
 use dea_core::projectile::{RigidProjectile, RigidShape};
+use dea_core::shear_gauge::ShearMeasure;
 use dea_core::stability::stable_time_step;
 use dea_core::{Domain, FibreMaterial, Vec3};
 use dea_fabric::StraightFabric;
@@ -13,7 +14,7 @@ use dea_mpi::comm::local::LocalComm;
 use dea_mpi::distributed::Distributed;
 use nalgebra::{Rotation3, UnitQuaternion};
 
-const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false };
+const NO_FAILURE: FailureParameters = FailureParameters { shear_strength: 0.7672e9, enabled: false, shear_measure: ShearMeasure::Element };
 
 fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
     ContactParameters {

@@ -20,9 +20,10 @@ use crate::rod::{compute_element_tension, set_chain_forces};
 use crate::tie::{Tie, Ties};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
-/// Nodes on each side of an owned node that its step reads: tension and bending need 2, and
-/// the failure test of the element after a rank's last node (to book released energy once)
-/// needs 3.
+/// Nodes on each side of an owned node that its step reads with the seed's shear measure:
+/// tension and bending need 2, and the failure test of the element after a rank's last node
+/// (to book released energy once) needs 3. A gauge shear measure reads further
+/// ([`Domain::chain_stencil`]).
 pub const CHAIN_STENCIL: u32 = 3;
 
 /// Contact parameters of a case.
@@ -151,6 +152,8 @@ pub struct Domain {
     /// the fibre-contact sweep's running sums of each owned node
     running_contact_sums: Vec<RunningSums>,
     newly_broken: Vec<(u32, FailureMode)>,
+    /// the failure stage's gauge moments (scratch of [`failure::break_elements`]) [N m]
+    measured_moment: Vec<Vec3>,
     /// the last step's closing kick of the owned nodes, left for the next step's opening one
     /// to apply in the same pass ([`Self::defer_kick`]): its half step [s]. While it waits,
     /// `nodes.velocity` is half a step behind the positions, and [`Self::velocity`] gives
@@ -208,6 +211,7 @@ impl Domain {
             contact_stiffness: vec![0.0; n_owned],
             running_contact_sums: vec![RunningSums::default(); n_owned],
             newly_broken: Vec::new(),
+            measured_moment: Vec::new(),
             deferred_kick: None,
         }
     }
@@ -380,7 +384,7 @@ impl Domain {
     }
 
     fn build_neighbours(&mut self, build: fn(&mut NeighbourList, &Nodes, &[FibreSection])) -> Result<(), DomainError> {
-        if let Some((gid, along)) = self.nodes.missing_chain_neighbour(CHAIN_STENCIL) {
+        if let Some((gid, along)) = self.nodes.missing_chain_neighbour(self.chain_stencil()) {
             return Err(DomainError::MissingGhost { gid, along });
         }
         if let Some((gid, partner)) = self.ties.missing_end(self.nodes.n_owned) {
@@ -500,6 +504,13 @@ impl Domain {
         }
     }
 
+    /// Nodes on each side of an owned node that its step reads along its fibre: the
+    /// [`CHAIN_STENCIL`] and the reach of the failure stage's shear gauge. Every rank holds
+    /// these as ghosts (chosen by topology), so each decides its elements from the same window.
+    pub fn chain_stencil(&self) -> u32 {
+        CHAIN_STENCIL + self.failure.stencil_beyond_element(&self.sections)
+    }
+
     /// The failure stage ([`failure::break_elements`]); none while the target settles.
     pub fn break_elements(&mut self) {
         if self.phase != Phase::Shot {
@@ -515,6 +526,7 @@ impl Domain {
             &mut self.ledger.fracture_released,
             &mut self.broken,
             &mut self.newly_broken,
+            &mut self.measured_moment,
         );
     }
 

@@ -3,10 +3,11 @@
 //! and the failure stage of a step: which owned elements break now, and the strain and bending
 //! energy they release.
 
-use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
+use crate::bending::{max_shear_stress, spring_energy, BendingScratch};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
-use crate::{FibreMaterial, FibreSection};
+use crate::shear_gauge::{gauge_moments, ShearMeasure};
+use crate::{FibreMaterial, FibreSection, Vec3};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -15,6 +16,19 @@ pub struct FailureParameters {
     pub shear_strength: f64,
     /// false disables failure entirely (elastic verification runs)
     pub enabled: bool,
+    /// how an element's shear force is measured ([`ShearMeasure`])
+    pub shear_measure: ShearMeasure,
+}
+
+impl FailureParameters {
+    /// How many positions along a fibre, beyond the element's own two and the next element's,
+    /// the failure stage reads about an owned element: the widest gauge reach over `sections`.
+    pub fn stencil_beyond_element(&self, sections: &[FibreSection]) -> u32 {
+        if !self.enabled {
+            return 0;
+        }
+        sections.iter().map(|s| self.shear_measure.reach_in_nodes(s)).max().unwrap_or(0)
+    }
 }
 
 /// Classifies a state against (5-6); `None` while the element survives.
@@ -59,10 +73,11 @@ impl BrokenCount {
 }
 
 /// The failure stage: applies the combined criterion (5-6) to the owned elements with this
-/// step's strains (`elements`) and moments (`bending`), counts the broken ones in `broken`,
-/// books the strain and bending energy each releases in `fracture_released` [J] at its first
-/// node, and then marks them broken. `newly_broken` is scratch. The decisions read only this
-/// step's state, so every rank that holds an element's stencil decides it alike.
+/// step's strains (`elements`) and moments (`bending`, taken as the parameters' shear measure
+/// says into the scratch `measured_moment`), counts the broken ones in `broken`, books the
+/// strain and bending energy each releases in `fracture_released` [J] at its first node, and
+/// then marks them broken. `newly_broken` is scratch. The decisions read only this step's
+/// state, so every rank that holds an element's stencil decides it alike.
 #[allow(clippy::too_many_arguments)]
 pub fn break_elements(
     nodes: &Nodes,
@@ -74,14 +89,22 @@ pub fn break_elements(
     fracture_released: &mut [f64],
     broken: &mut BrokenCount,
     newly_broken: &mut Vec<(u32, FailureMode)>,
+    measured_moment: &mut Vec<Vec3>,
 ) {
     if !parameters.enabled {
         return;
     }
     newly_broken.clear();
+    let moment: &[Vec3] = match parameters.shear_measure {
+        ShearMeasure::Element => &bending.moment,
+        measure => {
+            gauge_moments(nodes, elements, &bending.moment, sections, measure, measured_moment);
+            measured_moment
+        }
+    };
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
     let breaks_now =
-        |elements: &Elements, i: usize| element_breaks(nodes, elements, bending, sections, modulus, shear_strength, i);
+        |elements: &Elements, i: usize| element_breaks(nodes, elements, moment, sections, modulus, shear_strength, i);
     let n_owned = nodes.n_owned;
     let mut i = 0;
     let mut book_if_broken = |i: usize| {
@@ -92,9 +115,9 @@ pub fn break_elements(
     };
     // almost no element is near breaking: four at a time are told so in lanes; a group reads
     // the moment after its last element
-    while i + 4 <= n_owned && i + 5 <= bending.moment.len() {
+    while i + 4 <= n_owned && i + 5 <= moment.len() {
         let Some(candidates) =
-            crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, bending, sections, modulus, shear_strength, i))
+            crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, moment, sections, modulus, shear_strength, i))
         else {
             break;
         };
@@ -128,11 +151,12 @@ pub fn break_elements(
 }
 
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
-/// shear stress of its shear force (5-4, 5-5), against its strengths [Pa].
+/// shear stress (5-5) of its shear force, the jump of `moment` [N m] along it (5-4: the
+/// springs' moments, or the gauge moments of [`gauge_moments`]), against its strengths [Pa].
 pub fn element_breaks(
     nodes: &Nodes,
     elements: &Elements,
-    bending: &BendingScratch,
+    moment: &[Vec3],
     sections: &[FibreSection],
     longitudinal_modulus: f64,
     shear_strength: f64,
@@ -143,7 +167,8 @@ pub fn element_breaks(
     }
     let sigma = longitudinal_modulus * elements.strain[i]; // (4-16)
     let area = sections[nodes.section[i] as usize].area;
-    let tau = max_shear_stress(element_shear_force(nodes, elements, bending, i), area);
+    let shear_force = (moment[i] - moment[nodes.next[i] as usize]).norm() / elements.rest_length[i]; // (5-4)
+    let tau = max_shear_stress(shear_force, area);
     combined_criterion(sigma, elements.tensile_strength[i], tau, shear_strength)
 }
 
@@ -157,7 +182,7 @@ pub fn element_breaks(
 fn may_break_in_lanes(
     nodes: &Nodes,
     elements: &Elements,
-    bending: &BendingScratch,
+    moment: &[Vec3],
     sections: &[FibreSection],
     longitudinal_modulus: f64,
     shear_strength: f64,
@@ -170,7 +195,7 @@ fn may_break_in_lanes(
     let sigma = F4::splat(longitudinal_modulus).mul(F4::load(&elements.strain, i));
     let tension = sigma.max_with(F4::splat(0.0)).div(F4::load(&elements.tensile_strength, i));
     // (5-4), (5-5): the shear force from the jump of the moment along the element
-    let jump = V4::load(&bending.moment, i).sub(V4::load(&bending.moment, i + 1));
+    let jump = V4::load(moment, i).sub(V4::load(moment, i + 1));
     let shear_force = jump.dot(jump).sqrt().div(F4::load(&elements.rest_length, i));
     let area = F4::gather(i, |k| sections[nodes.section[k] as usize].area);
     let shear = F4::splat(4.0).mul(shear_force).div(F4::splat(3.0).mul(area)).div(F4::splat(shear_strength));
@@ -264,7 +289,7 @@ mod tests {
             let bits = crate::in_avx2_lanes!(may_break_in_lanes(
                 &nodes,
                 &elements,
-                &bending,
+                &bending.moment,
                 &sections,
                 material.longitudinal_modulus,
                 shear_strength,
@@ -275,7 +300,7 @@ mod tests {
                 let breaks = element_breaks(
                     &nodes,
                     &elements,
-                    &bending,
+                    &bending.moment,
                     &sections,
                     material.longitudinal_modulus,
                     shear_strength,

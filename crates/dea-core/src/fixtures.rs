@@ -5,6 +5,7 @@ use crate::domain::{ContactParameters, Domain};
 use crate::failure::FailureParameters;
 use crate::material::InertiaModel;
 use crate::nodes::{Elements, FailureMode, Nodes};
+use crate::shear_gauge::ShearMeasure;
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3};
 
 /// A 7-fibre yarn squeezed below its contact diameter, to be shaken so that pairs touch
@@ -51,7 +52,7 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
         projectile_friction_coefficient: 0.0,
         skin: 0.5 * sections[0].contact_diameter,
     };
-    let failure = FailureParameters { shear_strength: 0.7672e9, enabled: false };
+    let failure = FailureParameters { shear_strength: 0.7672e9, enabled: false, shear_measure: ShearMeasure::Element };
     let mut domain = Domain::assemble(material, sections, nodes, elements, contact, failure, None, 1e-9);
     domain.rebuild_neighbours().unwrap();
     domain

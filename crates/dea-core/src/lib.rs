@@ -27,6 +27,7 @@ pub mod pair_data;
 pub mod projectile;
 pub mod projectile_contact;
 pub mod rod;
+pub mod shear_gauge;
 pub mod stability;
 pub mod surface;
 pub mod tie;

@@ -543,6 +543,14 @@ pub struct FailureSpec {
     pub tensile_strength_pa: Option<f64>,
     /// shear strength tau_u [Pa] (seed §5.2.2: 0.7672e9)
     pub shear_strength_pa: Option<f64>,
+    /// how an element's shear force (5-4) is measured: "gauge" (the default: the moment over a
+    /// gauge of `shear_gauge_diameters` digital fibre diameters, docs/theory.md I9b) or
+    /// "element" (the seed's form as written, which does not converge at a kink)
+    #[serde(default)]
+    pub shear_measure: Option<String>,
+    /// gauge length of the "gauge" shear measure in digital fibre diameters [-] (default 1)
+    #[serde(default)]
+    pub shear_gauge_diameters: Option<f64>,
     /// bimodal Weibull law (2-1) for mode "weibull"
     pub weibull: Option<WeibullSpec>,
     /// seed of the strength streams
@@ -953,6 +961,8 @@ pub fn default_case() -> Case {
             mode: "deterministic".into(),
             tensile_strength_pa: Some(3.8e9),
             shear_strength_pa: Some(0.7672e9),
+            shear_measure: None,
+            shear_gauge_diameters: None,
             weibull: None,
             seed: 1,
         },
@@ -1028,6 +1038,38 @@ mod tests {
         assert_eq!(e.path, "run.end_time_s");
         let e = parse_case("{ not json", "broken.json").unwrap_err();
         assert!(e.to_string().contains("broken.json"), "{e}");
+    }
+
+    #[test]
+    fn the_shear_measure_is_the_gauge_unless_the_seeds_element_form_is_asked_for() {
+        use dea_core::shear_gauge::ShearMeasure;
+        let measure = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = serde_json::to_value(default_case()).unwrap();
+            edit(&mut value);
+            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.shear_measure)
+        };
+        assert_eq!(measure(&|_| {}).unwrap(), ShearMeasure::Gauge { diameters: resolve::DEFAULT_SHEAR_GAUGE_DIAMETERS });
+        assert_eq!(measure(&|v| v["failure"]["shear_measure"] = "element".into()).unwrap(), ShearMeasure::Element);
+        assert_eq!(
+            measure(&|v| v["failure"]["shear_gauge_diameters"] = 2.5.into()).unwrap(),
+            ShearMeasure::Gauge { diameters: 2.5 }
+        );
+        let refused = |edit: &dyn Fn(&mut serde_json::Value), field: &str, words: &str| {
+            let e = measure(edit).unwrap_err();
+            assert_eq!(e.path, field, "{e}");
+            assert!(e.to_string().contains(words), "{e}");
+        };
+        refused(&|v| v["failure"]["shear_measure"] = "nodal".into(), "failure.shear_measure", "\"gauge\" or \"element\"");
+        refused(&|v| v["failure"]["shear_gauge_diameters"] = 0.0.into(), "failure.shear_gauge_diameters", "got 0");
+        refused(&|v| v["failure"]["shear_gauge_diameters"] = 50.0.into(), "failure.shear_gauge_diameters", "at most 8");
+        refused(
+            &|v| {
+                v["failure"]["shear_measure"] = "element".into();
+                v["failure"]["shear_gauge_diameters"] = 1.0.into();
+            },
+            "failure.shear_gauge_diameters",
+            "no gauge",
+        );
     }
 
     #[test]

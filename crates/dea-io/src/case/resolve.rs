@@ -4,7 +4,16 @@
 
 use super::*;
 use dea_fabric::panel::FineRegion;
+use dea_core::shear_gauge::ShearMeasure;
 use dea_fabric::relax::RelaxOptions;
+
+/// The gauge length of the default shear measure in digital fibre diameters (docs/theory.md I9b).
+pub const DEFAULT_SHEAR_GAUGE_DIAMETERS: f64 = 1.0;
+
+/// The longest shear gauge a case may ask for, in fibre diameters: each diameter adds
+/// `d / l0` chain ghosts on each side of a rank's nodes, and beyond a few the gauge averages
+/// away the bending a projectile's nose imposes.
+pub const MOST_SHEAR_GAUGE_DIAMETERS: f64 = 8.0;
 
 /// A case resolved: every value checked and given its default, the material's overrides
 /// applied, the weaves made. Set-up builds from this and the case's own fields, and checks
@@ -26,6 +35,8 @@ pub struct ResolvedCase {
     pub strength: Strength,
     /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
     pub shear_strength: f64,
+    /// how the failure criterion measures an element's shear force
+    pub shear_measure: ShearMeasure,
     /// the projectile's body, mass, launch and material
     pub projectile: ResolvedProjectile,
     /// the target, with what set-up builds it from
@@ -209,6 +220,38 @@ impl Case {
                 "failure.shear_strength_pa",
                 required("failure.shear_strength_pa", self.failure.shear_strength_pa)?,
             ),
+        }
+    }
+
+    /// The shear measure of the failure criterion: the gauge of `shear_gauge_diameters`
+    /// (default 1) digital fibre diameters unless "element" is asked for.
+    pub(super) fn shear_measure(&self) -> Result<ShearMeasure, CaseError> {
+        let diameters = self.failure.shear_gauge_diameters;
+        match self.failure.shear_measure.as_deref() {
+            None | Some("gauge") => {
+                let diameters = match diameters {
+                    None => DEFAULT_SHEAR_GAUGE_DIAMETERS,
+                    Some(d) => positive("failure.shear_gauge_diameters", d)?,
+                };
+                if diameters > MOST_SHEAR_GAUGE_DIAMETERS {
+                    return Err(invalid(
+                        "failure.shear_gauge_diameters",
+                        format!("must be at most {MOST_SHEAR_GAUGE_DIAMETERS} fibre diameters, got {diameters}"),
+                    ));
+                }
+                Ok(ShearMeasure::Gauge { diameters })
+            }
+            Some("element") => match diameters {
+                None => Ok(ShearMeasure::Element),
+                Some(_) => Err(invalid(
+                    "failure.shear_gauge_diameters",
+                    "applies only to failure.shear_measure \"gauge\"; the \"element\" measure has no gauge",
+                )),
+            },
+            Some(other) => Err(invalid(
+                "failure.shear_measure",
+                format!("must be \"gauge\" or \"element\", got \"{other}\""),
+            )),
         }
     }
 
@@ -409,6 +452,7 @@ impl Case {
         let law = self.normal_law(&material)?;
         let strength = self.strength()?;
         let shear_strength = self.shear_strength()?;
+        let shear_measure = self.shear_measure()?;
         let projectile = self.projectile()?;
         let friction_coefficient = non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
         // the friction coefficient weighs the bending rigidity (5-10) here, once
@@ -605,6 +649,7 @@ impl Case {
             projectile_friction_coefficient: self.contact.projectile_friction_coefficient,
             strength,
             shear_strength,
+            shear_measure,
             projectile,
             target,
         })
