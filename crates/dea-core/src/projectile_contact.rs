@@ -104,9 +104,14 @@ impl ProjectileContacts {
     }
 
     /// Chooses the owned nodes within the skin of touching the projectile's surface (a mesh
-    /// finds them through its cubes, whose reach covers the contact radius plus the skin).
-    /// A node that is not a candidate cannot touch, so the choice and its timing never
-    /// change a result: each rank refreshes on its own.
+    /// finds them through its cubes, whose reach covers the contact radius plus the skin),
+    /// and those a mesh cannot place: beyond its reach yet within its box, which may lie
+    /// deep inside the body (a node the projectile swallowed, as a clamped edge is under a
+    /// projectile wider than the panel's free span). Such a node is out of contact while the
+    /// mesh cannot reach it, but it may come within reach from inside without a skin of
+    /// motion, so it stays a candidate. A node that is not a candidate then lies a skin or
+    /// more outside and cannot touch before the next refresh, so the choice and its timing
+    /// never change a result: each rank refreshes on its own.
     pub fn refresh_candidates(
         &mut self,
         projectile: Option<&RigidProjectile>,
@@ -119,12 +124,22 @@ impl ProjectileContacts {
         let max_contact_radius = sections.iter().map(|s| 0.5 * s.contact_diameter).fold(0.0, f64::max);
         let reach = max_contact_radius + skin;
         let bounding = projectile.shape.bounding_radius() + reach;
+        // the body-frame box of a mesh: every point inside the body lies in it
+        let mesh_box = match &projectile.shape {
+            RigidShape::Mesh(mesh) => Some(crate::bounding_box(mesh.surface.vertices.iter().copied())),
+            _ => None,
+        };
+        let unplaced_may_be_inside =
+            |body: &Vec3| mesh_box.is_some_and(|(low, high)| (0..3).all(|k| body[k] >= low[k] && body[k] <= high[k]));
         contacts.candidates.clear();
         for i in 0..nodes.n_owned {
             let x = nodes.position[i];
-            if (x - projectile.position).norm_squared() < bounding * bounding
-                && projectile.shape.contact_point(&projectile.to_body(&x), contacts.triangle[i]).distance < reach
-            {
+            let near = (x - projectile.position).norm_squared() < bounding * bounding && {
+                let body = projectile.to_body(&x);
+                let distance = projectile.shape.contact_point(&body, contacts.triangle[i]).distance;
+                distance < reach || (distance == f64::INFINITY && unplaced_may_be_inside(&body))
+            };
+            if near {
                 contacts.candidates.push(LocalNodeId::of(i));
             } else {
                 // a node leaving the candidate set is out of contact
