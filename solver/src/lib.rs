@@ -10,6 +10,7 @@ pub mod deformable;
 pub mod diagnostics;
 pub mod distributed;
 pub mod fabric;
+pub mod output_dir;
 pub mod progress;
 pub mod run;
 pub mod settle;

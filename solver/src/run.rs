@@ -456,11 +456,14 @@ pub fn write_checkpoint<C: Comm>(
         return Err(prepared.err().unwrap_or_else(|| format!("{}: rank 0 could not create it", writing.display())));
     }
     let path = dea_io::checkpoint::part_path(&writing, run.comm.rank().0);
-    let part =
-        dea_io::checkpoint::write_part(&path, &run.checkpoint_part()).map_err(|e| format!("{}: {e}", path.display()));
+    let state = run.checkpoint_part();
+    let part = dea_io::checkpoint::write_part(&path, &state).map_err(|e| format!("{}: {e}", path.display()));
     if run.any(part.is_err()) {
         return Err(part.err().unwrap_or_else(|| "another rank could not write its checkpoint part".into()));
     }
+    // the manifest binds every part by its checksum (a u32 travels exactly in an f64)
+    let part_checksums: Vec<u32> =
+        run.comm.all_gather_f64(&[state.checksum() as f64]).into_iter().map(|c| c as u32).collect();
     let mut counts = [run.domain.nodes.n_owned as i64];
     run.comm.sum_i64(&mut counts);
     let broken = run.broken();
@@ -478,6 +481,7 @@ pub fn write_checkpoint<C: Comm>(
             list_builds: run.domain.pairs.builds,
             run_scalars: resume.scalars(),
             histories: resume.histories.clone(),
+            part_checksums,
         };
         let manifest = dea_io::checkpoint::manifest_path(&writing);
         placed = dea_io::checkpoint::write_manifest(&manifest, &global)

@@ -845,6 +845,13 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     let mut read = Ok(());
     for part in 0..global.parts {
         match read_part(&part_path(directory, part)) {
+            Ok(rows) if rows.checksum() != global.part_checksums[part as usize] => {
+                read = Err(SetupError::Checkpoint(format!(
+                    "{}: not the part this checkpoint's manifest was written with (a part of another checkpoint?)",
+                    part_path(directory, part).display()
+                )));
+                break;
+            }
             Ok(rows) => state.append_selected(&rows, owned),
             Err(e) => {
                 read = Err(SetupError::Checkpoint(e.to_string()));

@@ -459,3 +459,75 @@ fn zero_counts_on_the_command_line_are_usage_errors() {
         assert!(stderr.contains(args[args.len() - 2]), "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn an_output_directory_belongs_to_one_run_and_a_checkpoint_to_its_case() {
+    let dir = scratch("owned");
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    let mut case = case_file("single_fibre_short.json");
+    case["run"]["checkpoint_interval_steps"] = 200.into();
+    let case_path = dir.join("case.json");
+    std::fs::write(&case_path, case.to_string()).unwrap();
+    let c = case_path.to_str().unwrap();
+    let first = dea(&["run", c, "--out", o]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    // a part an earlier run on 3 ranks left behind
+    let stale = out.join("fields/ranks-00003-part-00002.h5");
+    std::fs::write(&stale, "stale").unwrap();
+    // a fresh run into the same directory is refused, naming what it found
+    let refused = stderr_of_exit(2, &["run", c, "--out", o]);
+    assert!(
+        refused.contains("summary.json") && refused.contains("fields") && refused.contains("--overwrite"),
+        "{refused}"
+    );
+    assert!(stale.exists(), "nothing was touched");
+    // --overwrite clears the earlier outputs first
+    let again = dea(&["run", c, "--out", o, "--overwrite"]);
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    assert!(!stale.exists() && out.join("summary.json").exists());
+    // a checkpoint continues its own case only
+    let checkpoint = out.join("checkpoint");
+    let k = checkpoint.to_str().unwrap();
+    let mut other = case.clone();
+    other["projectile"]["velocity_m_s"] = 123.0.into();
+    let other_path = dir.join("other.json");
+    std::fs::write(&other_path, other.to_string()).unwrap();
+    let wrong = stderr_of_exit(3, &["run", other_path.to_str().unwrap(), "--restart", k, "--out", o]);
+    assert!(wrong.contains("continues case"), "{wrong}");
+    let continued = dea(&["run", c, "--restart", k, "--out", o]);
+    assert!(continued.status.success(), "{}", String::from_utf8_lossy(&continued.stderr));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_spliced_checkpoint_is_refused() {
+    let dir = scratch("spliced");
+    let mut case = case_file("single_fibre_short.json");
+    case["run"]["checkpoint_interval_steps"] = 150.into();
+    let case_path = dir.join("case.json");
+    std::fs::write(&case_path, case.to_string()).unwrap();
+    // two checkpoints of one run: one written 150 steps before the other
+    let (early, late) = (dir.join("early"), dir.join("late"));
+    let steps = |out: &PathBuf| {
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        summary["steps"].as_u64().unwrap()
+    };
+    let full = dea(&["run", case_path.to_str().unwrap(), "--out", late.to_str().unwrap()]);
+    assert!(full.status.success(), "{}", String::from_utf8_lossy(&full.stderr));
+    let mut shorter = case.clone();
+    let end = case["run"]["end_time_s"].as_f64().unwrap();
+    shorter["run"]["end_time_s"] = (end * (steps(&late) - 160) as f64 / steps(&late) as f64).into();
+    let shorter_path = dir.join("shorter.json");
+    std::fs::write(&shorter_path, shorter.to_string()).unwrap();
+    let first = dea(&["run", shorter_path.to_str().unwrap(), "--out", early.to_str().unwrap()]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    // the late manifest over the early parts
+    std::fs::copy(late.join("checkpoint/manifest.h5"), early.join("checkpoint/manifest.h5")).unwrap();
+    let out = dea(&["run", "--restart", early.join("checkpoint").to_str().unwrap(), "--out", early.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(stderr.contains("part-00000.h5") && stderr.contains("not the part"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -325,8 +325,7 @@ fn a_projectile_wider_than_the_free_span_gives_the_same_bits_on_any_ranks() {
     run_on(&case, 1, &dir.join("1"));
     for ranks in [2, 3] {
         run_on(&case, ranks, &dir.join(ranks.to_string()));
-        let differences =
-            compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
+        let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
         assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
     }
     std::fs::remove_dir_all(&dir).unwrap();

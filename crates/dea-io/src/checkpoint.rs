@@ -16,7 +16,7 @@ use dea_core::Vec3;
 
 use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
 
-const FORMAT: &str = "dea-mpi checkpoint 4";
+const FORMAT: &str = "dea-mpi checkpoint 5";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -228,6 +228,9 @@ pub struct GlobalState {
     /// solver's order
     pub run_scalars: Vec<f64>,
     pub histories: Histories,
+    /// the checksum ([`NodeState::checksum`]) of each rank's part, in rank order: binds the
+    /// parts to this manifest, so a part of another checkpoint is refused
+    pub part_checksums: Vec<u32>,
 }
 
 impl GlobalState {
@@ -247,6 +250,7 @@ impl GlobalState {
             .vectors(&h.projectile_angular_velocity)
             .vectors(&h.projectile_force)
             .integers(h.broken_tension.iter().chain(&h.broken_shear).chain(&h.broken_combined).copied())
+            .integers(self.part_checksums.iter().map(|&c| c as u64))
             .value()
     }
 }
@@ -403,6 +407,7 @@ pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
         write_scalars(&file, "projectile", &global.projectile, "SI")?;
         write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
         write_histories(&file, &global.histories)?;
+        write_scalars(&file, "part_checksums", &global.part_checksums, "CRC-32 of each part, rank order")?;
         write_scalars(&file, "checksum", &[global.checksum()], "CRC-32")?;
         // the completion mark goes last: a manifest without it is refused
         write_text_attribute(&file, "complete", "yes")?;
@@ -437,7 +442,13 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
         projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
         run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
         histories: read_histories_from(&file).map_err(fail)?,
+        part_checksums: file.dataset("part_checksums").and_then(|d| d.read_raw()).map_err(|_| {
+            error(&path, "damaged: no checksums of its parts")
+        })?,
     };
+    if global.part_checksums.len() != global.parts as usize {
+        return Err(error(&path, "damaged: the checksums do not match the count of parts"));
+    }
     let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
     if stored != [global.checksum()] {
         return Err(error(&path, "checksum mismatch: the manifest is corrupt"));
@@ -534,6 +545,7 @@ mod tests {
             list_builds: 5,
             run_scalars: vec![1.5, 2.5],
             histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_angular_velocity: vec![Vec3::z()], broken_by_layer: vec![vec![1, 2, 3]], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
+            part_checksums: vec![7, 9],
         };
         write_manifest(&manifest_path(&dir), &global).unwrap();
         assert_eq!(read_manifest(&dir).unwrap(), global);

@@ -125,7 +125,7 @@ pub fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case),
 
 /// Rank 0 runs `load` and every rank gets its value, or the same error: a file missing on one
 /// node's file system cannot split the job.
-fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(
+pub fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(
     comm: &impl Comm,
     load: impl FnOnce() -> Result<T, (Exit, String)>,
 ) -> Result<T, (Exit, String)> {
@@ -147,6 +147,7 @@ fn from_rank0<T: serde::Serialize + serde::de::DeserializeOwned>(
     let text = String::from_utf8_lossy(payload).into_owned();
     match code {
         0 => serde_json::from_str(&text).map_err(|e| (Exit::BadCase, format!("from rank 0: {e}"))),
+        2 => Err((Exit::Usage, text)),
         3 => Err((Exit::BadCase, text)),
         _ => Err((Exit::File, text)),
     }

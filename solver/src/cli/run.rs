@@ -8,7 +8,9 @@ use dea_mpi::comm::Comm;
 use dea_mpi::run::{RunError, RunOptions};
 use dea_mpi::setup;
 
-use super::{fail, fail_all, load_shared, method_of, setup_exit, Exit, PartitionMethod};
+use dea_mpi::output_dir::{self, Intent};
+
+use super::{fail, fail_all, from_rank0, load_shared, method_of, setup_exit, Exit, PartitionMethod};
 
 pub const ABOUT: &str = "Run a case (none: the built-in default case) on the ranks of the job";
 pub const LONG_ABOUT: &str = "Run a case (no file: the built-in default case) on the ranks of the job. Writes
@@ -27,9 +29,14 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = PartitionMethod::Kway)]
     pub method: PartitionMethod,
     /// continue from a checkpoint directory (OUT/checkpoint of an earlier run), on any
-    /// number of ranks; the case comes from the checkpoint
-    #[arg(long, conflicts_with = "case")]
+    /// number of ranks; the case comes from the checkpoint (a CASE given too must be the
+    /// checkpoint's: a job script's leftover checkpoint cannot continue another case)
+    #[arg(long)]
     pub restart: Option<PathBuf>,
+    /// delete the outputs of an earlier run in OUT first (without it, a fresh run into a
+    /// directory holding another run's outputs is refused)
+    #[arg(long, conflicts_with = "restart")]
+    pub overwrite: bool,
     /// also write every rank's log to DIR/rank-NNNNN.log
     #[arg(long)]
     pub log_dir: Option<PathBuf>,
@@ -39,7 +46,7 @@ pub struct Args {
     pub panic_on_rank: Option<u32>,
 }
 
-pub fn main(Args { case, out, method, restart, log_dir, panic_on_rank }: Args) -> ExitCode {
+pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank }: Args) -> ExitCode {
     let (session, comm) = match MpiComm::initialize() {
         Ok(mpi) => mpi,
         Err(e) => return fail(Exit::Usage, e),
@@ -55,8 +62,39 @@ pub fn main(Args { case, out, method, restart, log_dir, panic_on_rank }: Args) -
         }
     }
     let ranks = comm.size();
+    // rank 0 holds the output directory's lock until the job ends
+    let mut lock = None;
+    let intent = if restart.is_some() { Intent::Continue } else { Intent::Fresh { overwrite } };
+    let claimed = from_rank0(&comm, || {
+        lock = Some(output_dir::claim(&out, intent).map_err(|e| (Exit::Usage, e.to_string()))?);
+        Ok(())
+    });
+    if let Err((code, message)) = claimed {
+        return fail_all(&session, code, message);
+    }
+    // a case given with --restart names the case the checkpoint must continue
+    let expected = match (&restart, &case) {
+        (Some(_), Some(_)) => match load_shared(&comm, case.as_ref()) {
+            Ok(case) => Some(case),
+            Err((code, message)) => return fail_all(&session, code, message),
+        },
+        _ => None,
+    };
     let (case, mut run, resume) = match restart {
         Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
+            Ok(restored) if expected.as_ref().is_some_and(|expected| *expected != restored.case) => {
+                return fail_all(
+                    &session,
+                    Exit::BadCase,
+                    format!(
+                        "{}: this checkpoint continues case {:?}, not the case of {} ({:?}); remove the checkpoint to start that case afresh",
+                        directory.display(),
+                        restored.case.name,
+                        case.as_ref().map_or(String::new(), |p| p.display().to_string()),
+                        expected.as_ref().map_or("", |c| c.name.as_str())
+                    ),
+                );
+            }
             Ok(restored) => {
                 let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                 if resume.is_none() {
