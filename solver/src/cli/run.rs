@@ -15,7 +15,8 @@ use super::{fail, fail_all, from_rank0, load_shared, method_of, setup_exit, Exit
 pub const ABOUT: &str = "Run a case (none: the built-in default case) on the ranks of the job";
 pub const LONG_ABOUT: &str = "Run a case (no file: the built-in default case) on the ranks of the job. Writes
 OUT/results.h5, OUT/summary.json, OUT/history.csv and field snapshots (docs/output.md). Checkpoints go to
-OUT/checkpoint (run.checkpoint_interval_*); SIGTERM or SIGUSR1 writes one and stops with exit code 75.";
+OUT/checkpoint (run.checkpoint_interval_*); SIGTERM, SIGUSR1 or Ctrl-C writes one and stops with exit code
+75 (under mpirun: send SIGUSR1 to mpirun for 75; after SIGTERM or Ctrl-C mpirun itself reports 1).";
 pub const EXAMPLES: &str = "Examples:\n  dea-mpi run\n  mpirun -np 2 dea-mpi run cases/four_layer_panel.json --out out/panel\n  mpirun -np 4 dea-mpi run --restart out/panel/checkpoint --out out/panel";
 
 #[derive(clap::Args)]
@@ -56,7 +57,13 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
         Err(e) => return fail(Exit::File, format!("logging: {e}")),
     };
     let stop_signal = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
+    // Ctrl-C (SIGINT) checkpoints like SIGTERM and SIGUSR1; a second Ctrl-C ends the run at
+    // once (conditional shutdown: registered first, it sees the flag the first one set)
+    let interrupt = signal_hook::consts::SIGINT;
+    if let Err(e) = signal_hook::flag::register_conditional_shutdown(interrupt, 130, stop_signal.clone()) {
+        return fail(Exit::Usage, format!("cannot handle signal {interrupt}: {e}"));
+    }
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1, interrupt] {
         if let Err(e) = signal_hook::flag::register(signal, stop_signal.clone()) {
             return fail(Exit::Usage, format!("cannot handle signal {signal}: {e}"));
         }

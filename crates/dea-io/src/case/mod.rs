@@ -1041,6 +1041,28 @@ mod tests {
     }
 
     #[test]
+    fn values_beyond_any_impact_are_refused_naming_their_field() {
+        let refused = |edit: &dyn Fn(&mut serde_json::Value), field: &str| {
+            let mut value = default_json();
+            edit(&mut value);
+            let e = parse_case(&value.to_string(), "case.json").and_then(|c| c.resolve().map(drop)).unwrap_err();
+            assert_eq!(e.path, field, "{e}");
+        };
+        refused(&|v| v["projectile"]["velocity_m_s"] = 1e200.into(), "projectile.velocity_m_s");
+        refused(&|v| v["contact"]["friction_coefficient"] = 1e308.into(), "contact.friction_coefficient");
+        refused(&|v| v["contact"]["friction_coefficient"] = 30.0.into(), "contact.friction_coefficient");
+        refused(&|v| v["contact"]["projectile_friction_coefficient"] = 5.0.into(), "contact.projectile_friction_coefficient");
+        refused(&|v| v["projectile"]["offset_m"] = serde_json::json!([5.0, 0.0]), "projectile.offset_m.x");
+        refused(&|v| v["target"]["layer_shift_m"] = serde_json::json!([0.0, 1.0]), "target.layer_shift_m.y");
+        refused(&|v| v["target"]["layer_gap_m"] = 1.0.into(), "target.layer_gap_m");
+        refused(&|v| v["run"]["end_time_s"] = 1.0.into(), "run.end_time_s");
+        // the built-in default and an aim point off centre on the panel are fine
+        let mut value = default_json();
+        value["projectile"]["offset_m"] = serde_json::json!([0.004, -0.002]);
+        parse_case(&value.to_string(), "case.json").unwrap().resolve().unwrap();
+    }
+
+    #[test]
     fn the_shear_measure_is_the_gauge_unless_the_seeds_element_form_is_asked_for() {
         use dea_core::shear_gauge::ShearMeasure;
         let measure = |edit: &dyn Fn(&mut serde_json::Value)| {

@@ -7,6 +7,26 @@ use dea_fabric::panel::FineRegion;
 use dea_core::shear_gauge::ShearMeasure;
 use dea_fabric::relax::RelaxOptions;
 
+/// The fastest striking speed a case may ask for [m/s]: beyond ballistic speeds, where the
+/// contact laws and strengths (quasi-static fits) say nothing.
+pub const MOST_STRIKING_SPEED: f64 = 3000.0;
+
+/// The largest friction coefficient a case may ask for [-]: fibre friction lies well below
+/// 1, and the stick spring `mu k_n` of a larger one shrinks the stable step in proportion.
+pub const MOST_FRICTION_COEFFICIENT: f64 = 2.0;
+
+/// The longest simulated time a case may ask for [s].
+pub const LONGEST_END_TIME: f64 = 1e-2;
+
+/// The side of a panel target [m], if the target is one.
+fn target_side(target: &ResolvedTarget) -> Option<f64> {
+    match target {
+        ResolvedTarget::Woven(woven) => Some(woven.layout.side),
+        ResolvedTarget::ThreeDPanel { layout, .. } => Some(layout.side),
+        _ => None,
+    }
+}
+
 /// The gauge length of the default shear measure in digital fibre diameters (docs/theory.md I9b).
 pub const DEFAULT_SHEAR_GAUGE_DIAMETERS: f64 = 1.0;
 
@@ -438,7 +458,7 @@ impl Case {
             deformable,
             body,
             mass,
-            speed: non_negative("projectile.velocity_m_s", p.velocity_m_s)?,
+            speed: ranged("projectile.velocity_m_s", p.velocity_m_s, 0.0, MOST_STRIKING_SPEED)?,
             offset: p.offset_m,
             obliquity: angle("projectile.obliquity_deg", p.obliquity_deg)?,
             yaw: angle("projectile.yaw_deg", p.yaw_deg)?,
@@ -454,7 +474,8 @@ impl Case {
         let shear_strength = self.shear_strength()?;
         let shear_measure = self.shear_measure()?;
         let projectile = self.projectile()?;
-        let friction_coefficient = non_negative("contact.friction_coefficient", self.contact.friction_coefficient)?;
+        let friction_coefficient =
+            ranged("contact.friction_coefficient", self.contact.friction_coefficient, 0.0, MOST_FRICTION_COEFFICIENT)?;
         // the friction coefficient weighs the bending rigidity (5-10) here, once
         let section_inertia = self.bending.with_friction(friction_coefficient);
         let target = match &self.target {
@@ -616,11 +637,32 @@ impl Case {
             }
             InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
         }
-        non_negative("contact.projectile_friction_coefficient", self.contact.projectile_friction_coefficient)?;
+        ranged(
+            "contact.projectile_friction_coefficient",
+            self.contact.projectile_friction_coefficient,
+            0.0,
+            MOST_FRICTION_COEFFICIENT,
+        )?;
         if let Some(skin) = self.contact.skin_m {
             positive("contact.skin_m", skin)?;
         }
         positive("run.end_time_s", self.run.end_time_s)?;
+        if self.run.end_time_s > LONGEST_END_TIME {
+            return Err(invalid(
+                "run.end_time_s",
+                format!("must be at most {LONGEST_END_TIME} s (an impact on armour is over in well under a millisecond), got {}", self.run.end_time_s),
+            ));
+        }
+        if let Some(side) = target_side(&target) {
+            for (axis, offset) in ["x", "y"].iter().zip(projectile.offset) {
+                if !(offset.is_finite() && offset.abs() <= 0.5 * side) {
+                    return Err(invalid(
+                        &format!("projectile.offset_m.{axis}"),
+                        format!("must aim at the panel (within half its side, {} m, of its centre), got {offset}", 0.5 * side),
+                    ));
+                }
+            }
+        }
         if let Some(settle) = &self.run.settle {
             ranged("run.settle.time_s", settle.time_s, 1e-9, 1e-3)?;
             if let Some(damping) = settle.damping_per_s {
@@ -680,6 +722,17 @@ fn panel_layout(
 ) -> Result<PanelLayout, CaseError> {
     layer_count(layers)?;
     stacking(layer_gap_m, layer_shift_m)?;
+    if layer_gap_m > side_m {
+        return Err(invalid("target.layer_gap_m", format!("must be at most the panel's side ({side_m} m), got {layer_gap_m}")));
+    }
+    for (axis, shift) in ["x", "y"].iter().zip(layer_shift_m) {
+        if shift.abs() > 0.5 * side_m {
+            return Err(invalid(
+                &format!("target.layer_shift_m.{axis}"),
+                format!("must be at most half the panel's side ({} m), got {shift}", 0.5 * side_m),
+            ));
+        }
+    }
     if let BoundarySpec::Clamp { opening_m } = boundary {
         positive("target.boundary.opening_m", *opening_m)?;
         if *opening_m >= side_m {
