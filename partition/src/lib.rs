@@ -430,7 +430,7 @@ mod tests {
             length,
             4.63e-8 / fibres as f64,
             0.5,
-            InertiaModel::Locked.with_friction(0.3),
+            InertiaModel::Locked {}.with_friction(0.3),
             3.8e9,
             &material,
         );

@@ -76,7 +76,7 @@ fn crossing_time(history: &[(f64, f64)], level: f64) -> f64 {
 
 #[test]
 fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
-    let mut run = single_fibre(0.5, false, InertiaModel::None);
+    let mut run = single_fibre(0.5, false, InertiaModel::None {});
     let domain = &mut run.domain;
     let n = domain.nodes.len();
     // pull the left end at constant speed: a huge mass is a prescribed velocity
@@ -111,9 +111,9 @@ fn longitudinal_wave_travels_at_bar_speed_and_doubles_at_a_fixed_end() {
 fn a_deferred_closing_kick_changes_no_bit_of_the_motion_or_the_energies() {
     // the fibre struck by the sphere, stepped with its closing kicks applied at once and with
     // them deferred to the next step's first pass (the production step's way)
-    let mut at_once = single_fibre(0.5, true, InertiaModel::Locked);
+    let mut at_once = single_fibre(0.5, true, InertiaModel::Locked {});
     at_once.domain.defer_closing_kick = false;
-    let mut deferred = single_fibre(0.5, true, InertiaModel::Locked);
+    let mut deferred = single_fibre(0.5, true, InertiaModel::Locked {});
     let bits = |vectors: &mut dyn Iterator<Item = Vec3>| {
         vectors.flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).collect::<Vec<u64>>()
     };
@@ -142,7 +142,7 @@ fn a_deferred_closing_kick_changes_no_bit_of_the_motion_or_the_energies() {
 
 #[test]
 fn elastic_frictionless_fibre_struck_by_sphere_conserves_energy() {
-    let mut run = single_fibre(0.5, true, InertiaModel::Locked);
+    let mut run = single_fibre(0.5, true, InertiaModel::Locked {});
     let initial = run.domain.energies().total();
     let mut worst: f64 = 0.0;
     let mut worst_of_exchanged: f64 = 0.0;
@@ -211,7 +211,7 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let bundle = StraightFabric {
         clamp_ends: false,
-        ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked.with_friction(0.3), 3.8e9)
+        ..StraightFabric::single_yarn(1.5e-3, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Locked {}.with_friction(0.3), 3.8e9)
     };
     let mut built = bundle.build_all(&material);
     // squeeze the section by 3% and bend the fibres: overlaps everywhere

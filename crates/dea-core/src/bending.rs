@@ -382,7 +382,7 @@ mod tests {
         let sections = vec![
             FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3)),
             FibreSection::new(&material, 1.2e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3)),
-            FibreSection::new(&material, 2.4e-9, l0, InertiaModel::None.with_friction(0.3)),
+            FibreSection::new(&material, 2.4e-9, l0, InertiaModel::None {}.with_friction(0.3)),
         ];
         let mut state = 99u64;
         let mut next = move || {

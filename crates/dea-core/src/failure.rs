@@ -238,7 +238,7 @@ mod tests {
         let l0 = 25e-6;
         let sections = vec![
             FibreSection::new(&material, 2.4e-9, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3)),
-            FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None.with_friction(0.3)),
+            FibreSection::new(&material, 1.2e-9, l0, InertiaModel::None {}.with_friction(0.3)),
         ];
         let (shear_strength, strength) = (0.7672e9, 3.4e9);
         let mut state = 5u64;

@@ -17,7 +17,7 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let l0 = 9e-6;
     let sections: Vec<_> = (0..sections)
-        .map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None.with_friction(0.3)))
+        .map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None {}.with_friction(0.3)))
         .collect();
     let pitch = 0.97 * sections[0].contact_diameter;
     let (mut nodes, mut elements) = (Nodes::default(), Elements::default());

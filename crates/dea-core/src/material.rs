@@ -40,16 +40,16 @@ impl FibreMaterial {
 
 /// Which moment of inertia the bending springs use (seed §5.2.3).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", tag = "model")]
+#[serde(rename_all = "snake_case", tag = "model", deny_unknown_fields)]
 pub enum InertiaModel {
     /// I_0 = n pi d_a^4 / 64, filaments bend independently (5-7)
-    Free,
+    Free {},
     /// I_inf = pi d_d^4 / 64, the bundle bends as one rod (5-8)
-    Locked,
+    Locked {},
     /// I_e = (mu/k2)^k1 I_inf + (1 - (mu/k2)^k1) I_0 (5-10); seed §5.3: k1 = 0.8, k2 = 1
     Effective { k1: f64, k2: f64 },
     /// no bending stiffness (the original DEA with frictionless pins)
-    None,
+    None {},
 }
 
 impl InertiaModel {
@@ -58,9 +58,9 @@ impl InertiaModel {
     /// the case is resolved (the friction coefficient travels no further).
     pub fn with_friction(self, mu: f64) -> SectionInertia {
         match self {
-            InertiaModel::Free => SectionInertia::Free,
-            InertiaModel::Locked => SectionInertia::Locked,
-            InertiaModel::None => SectionInertia::None,
+            InertiaModel::Free {} => SectionInertia::Free,
+            InertiaModel::Locked {} => SectionInertia::Locked,
+            InertiaModel::None {} => SectionInertia::None,
             // mu/k2 capped at 1: above k2 the bundle is locked (seed §5.2.3)
             InertiaModel::Effective { k1, k2 } => {
                 SectionInertia::Weighted { locked_share: (mu / k2).clamp(0.0, 1.0).powf(k1) }
@@ -173,8 +173,8 @@ mod tests {
     #[test]
     fn effective_inertia_interpolates_between_free_and_locked() {
         let (d, da, n) = (120e-6, 12e-6, 100.0);
-        let free = effective_moment_of_inertia(d, da, n, InertiaModel::Free.with_friction(0.3));
-        let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked.with_friction(0.3));
+        let free = effective_moment_of_inertia(d, da, n, InertiaModel::Free {}.with_friction(0.3));
+        let locked = effective_moment_of_inertia(d, da, n, InertiaModel::Locked {}.with_friction(0.3));
         // (5-9): I_inf / I_0 = A_d / A_a = n when the digital fibre carries n filaments' area
         assert!((locked / free - n).abs() / n < 1e-12);
         let at =

@@ -1299,7 +1299,7 @@ mod tests {
 
     fn random_cloud(n: usize, seed: u64) -> (Nodes, Vec<FibreSection>) {
         let material = FibreMaterial::kevlar_km2();
-        let section = FibreSection::new(&material, 1e-9, 18e-6, InertiaModel::None.with_friction(0.3));
+        let section = FibreSection::new(&material, 1e-9, 18e-6, InertiaModel::None {}.with_friction(0.3));
         let mut nodes = Nodes::default();
         let mut next = uniform(seed);
         for k in 0..n {

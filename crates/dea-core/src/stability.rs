@@ -82,14 +82,14 @@ mod tests {
     #[test]
     fn axial_limit_alone_is_element_length_over_wave_speed() {
         let material = FibreMaterial::kevlar_km2();
-        let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None.with_friction(0.0));
+        let section = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::None {}.with_friction(0.0));
         let no_contact = NormalLaw::Elastic { transverse_modulus: 0.0 };
         let dt =
             stable_time_step(&material, std::slice::from_ref(&section), &no_contact, 0.0, DESIGN_CONTACT_STRAIN, 1.0);
         let expected = section.element_length / material.wave_speed();
         assert!((dt - expected).abs() < 1e-12 * expected);
         // contact and bending only ever shorten it
-        let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked.with_friction(0.3));
+        let with_all = FibreSection::new(&material, 2e-9, 25e-6, InertiaModel::Locked {}.with_friction(0.3));
         assert!(
             stable_time_step(&material, &[with_all], &NormalLaw::ElastoPlasticKm2, 0.3, DESIGN_CONTACT_STRAIN, 1.0)
                 < dt

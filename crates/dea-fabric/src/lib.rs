@@ -440,7 +440,7 @@ mod tests {
     #[test]
     fn a_rank_builds_exactly_its_piece_of_the_whole() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None.with_friction(0.3), 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None {}.with_friction(0.3), 3.8e9, &material);
         let whole = fabric.build_all(&material);
         let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
         let piece = fabric.build(&material, keep);
@@ -462,7 +462,7 @@ mod tests {
     #[test]
     fn cross_ply_yarns_touch_without_overlapping() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None.with_friction(0.3), 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None {}.with_friction(0.3), 3.8e9, &material);
         let built = fabric.build_all(&material);
         let contact = built.sections[0].contact_diameter;
         let nodes = &built.nodes;

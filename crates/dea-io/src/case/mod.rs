@@ -413,8 +413,9 @@ impl Default for WeaveSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum BoundarySpec {
-    /// both ends of every fibre fixed
-    FixedEdges,
+    /// both ends of every fibre fixed (a struct variant, so that a stray field such as an
+    /// opening is refused rather than dropped)
+    FixedEdges {},
     /// every node outside a centred square opening fixed (seed §6.2.2: 12 in in 15 in fabric)
     Clamp {
         /// side of the opening [m]
@@ -423,7 +424,7 @@ pub enum BoundarySpec {
 }
 
 fn default_boundary() -> BoundarySpec {
-    BoundarySpec::FixedEdges
+    BoundarySpec::FixedEdges {}
 }
 
 /// When the relaxation of the unit cell stops.
@@ -510,7 +511,7 @@ impl BoundarySpec {
     /// The panel boundary.
     pub fn boundary(&self) -> Boundary {
         match *self {
-            BoundarySpec::FixedEdges => Boundary::FixedEdges,
+            BoundarySpec::FixedEdges {} => Boundary::FixedEdges,
             BoundarySpec::Clamp { opening_m } => Boundary::Clamp { opening_m },
         }
     }
@@ -946,7 +947,7 @@ pub fn default_case() -> Case {
             layers: 4,
             layer_gap_m: 0.0,
             layer_shift_m: [0.0, 0.0],
-            boundary: BoundarySpec::FixedEdges,
+            boundary: BoundarySpec::FixedEdges {},
             relaxation: RelaxationSpec::default(),
             hybrid: None,
         },
@@ -1036,6 +1037,11 @@ mod tests {
         assert_eq!(e.path, "failure.weibull");
         let e = error_for(|v| v["run"]["end_time_s"] = (-1.0).into());
         assert_eq!(e.path, "run.end_time_s");
+        // a stray field beside a variant without fields is refused, not dropped
+        let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "fixed_edges", "opening_m": 0.002 }));
+        assert!(e.message.contains("unknown field `opening_m`"), "{e}");
+        let e = error_for(|v| v["bending"] = serde_json::json!({ "model": "free", "k1": 0.8 }));
+        assert!(e.message.contains("unknown field `k1`"), "{e}");
         let e = parse_case("{ not json", "broken.json").unwrap_err();
         assert!(e.to_string().contains("broken.json"), "{e}");
     }

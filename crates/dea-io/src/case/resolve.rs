@@ -635,7 +635,7 @@ impl Case {
                 positive("bending.k1", k1)?;
                 positive("bending.k2", k2)?;
             }
-            InertiaModel::Free | InertiaModel::Locked | InertiaModel::None => {}
+            InertiaModel::Free {} | InertiaModel::Locked {} | InertiaModel::None {} => {}
         }
         ranged(
             "contact.projectile_friction_coefficient",
