@@ -272,9 +272,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, normal, options.fibres, back_face);
     let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
-    let balance = |histories: &Histories| {
-        histories.energy.last().map_or(0.0, |e| (e.total() - initial_energy).abs() / initial_energy)
-    };
+    let floor = energy_floor(run.domain.projectile.as_ref().map_or(0.0, |p| p.mass));
+    let balance = |histories: &Histories| energy_balance_error(histories, initial_energy, floor);
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
         let signalled =
@@ -361,7 +360,6 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let slowest =
         all_stages.iter().map(|s| StageSeconds(std::array::from_fn(|k| s[k])).computation()).fold(0.0, f64::max);
     let projectile = run.domain.projectile.as_ref().expect("runs have a projectile");
-    let final_energy = histories.energy.last().map_or(initial_energy, |e| e.total());
     let summary = Summary {
         case: options.case_name.to_string(),
         ranks,
@@ -377,7 +375,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         broken_elements_tension: broken.tension,
         broken_elements_shear: broken.shear,
         broken_elements_combined: broken.combined,
-        energy_balance_error: (final_energy - initial_energy).abs() / initial_energy,
+        energy_balance_error: energy_balance_error(&histories, initial_energy, floor),
         node_steps_per_s_per_core: (nodes as f64 * run.domain.step as f64) / wall / ranks as f64,
         stage_seconds: mean,
         halo_bytes_per_step: halo[0] as f64 / run.halo_steps.max(1) as f64,
@@ -502,6 +500,30 @@ pub fn write_checkpoint<C: Comm>(
         return Err(placed.err().unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));
     }
     Ok(target)
+}
+
+/// The energy balance error [-]: how far the total energy of the last history sample lies
+/// from the initial energy, relative to it, or to `floor` [J] when that is larger: a run that
+/// starts with (almost) no energy, as a projectile at rest does, would otherwise divide
+/// rounding noise by rounding noise.
+pub fn energy_balance_error(histories: &Histories, initial_energy: f64, floor: f64) -> f64 {
+    let Some(last) = histories.energy.last() else { return 0.0 };
+    let scale = if initial_energy.abs() >= floor { initial_energy.abs() } else { floor };
+    if scale > 0.0 {
+        (last.total() - initial_energy).abs() / scale
+    } else {
+        0.0
+    }
+}
+
+/// The speed whose kinetic energy is the floor of the energy balance [m/s]: about a hundredth
+/// of the slowest ballistic shot's, so a ten-thousandth of its energy.
+const FLOOR_SPEED: f64 = 1.0;
+
+/// The energy below which a run's energy balance is noise [J]: its projectile at
+/// [`FLOOR_SPEED`].
+pub fn energy_floor(projectile_mass: f64) -> f64 {
+    0.5 * projectile_mass * FLOOR_SPEED * FLOOR_SPEED
 }
 
 /// Why a run stopped early.

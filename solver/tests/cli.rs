@@ -531,3 +531,21 @@ fn a_spliced_checkpoint_is_refused() {
     assert!(stderr.contains("part-00000.h5") && stderr.contains("not the part"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_projectile_at_rest_has_a_meaningful_energy_balance() {
+    // nothing moves: the energies are rounding noise, which once made the balance 239
+    let dir = scratch("at-rest");
+    let mut case = case_file("single_fibre_short.json");
+    case["projectile"]["velocity_m_s"] = 0.0.into();
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dir.join("out");
+    let done = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let error = summary["energy_balance_error"].as_f64().expect("a number");
+    assert!(error < 1e-9, "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
