@@ -20,6 +20,11 @@ fn stderr_of_exit(code: i32, args: &[&str]) -> String {
     stderr
 }
 
+/// The summary.json a run wrote into `out`.
+fn summary_in(out: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -509,11 +514,7 @@ fn a_spliced_checkpoint_is_refused() {
     std::fs::write(&case_path, case.to_string()).unwrap();
     // two checkpoints of one run: one written 150 steps before the other
     let (early, late) = (dir.join("early"), dir.join("late"));
-    let steps = |out: &PathBuf| {
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-        summary["steps"].as_u64().unwrap()
-    };
+    let steps = |out: &PathBuf| summary_in(out)["steps"].as_u64().unwrap();
     let full = dea(&["run", case_path.to_str().unwrap(), "--out", late.to_str().unwrap()]);
     assert!(full.status.success(), "{}", String::from_utf8_lossy(&full.stderr));
     let mut shorter = case.clone();
@@ -543,9 +544,7 @@ fn a_projectile_at_rest_has_a_meaningful_energy_balance() {
     let out = dir.join("out");
     let done = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let error = summary["energy_balance_error"].as_f64().expect("a number");
+    let error = summary_in(&out)["energy_balance_error"].as_f64().expect("a number");
     assert!(error < 1e-9, "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -17,8 +17,8 @@ use std::process::Command;
 use dea_io::case::{parse_case, Case};
 use dea_io::results::compare_results;
 use dea_mpi::comm::local::run_local;
-use dea_mpi::run::{run, CheckpointPolicy, RunOptions};
-use dea_mpi::setup::{build, problem};
+use dea_mpi::run::{run, RunOptions};
+use dea_mpi::setup::build;
 use dea_partition::Method;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -89,24 +89,9 @@ fn random_case(rng: &mut ChaCha8Rng, index: u64) -> serde_json::Value {
 
 /// Runs `case` on `ranks` in process into `out`, as the binary would.
 fn run_in_process(case: &Case, json: &str, ranks: usize, out: &Path) {
-    let p = problem(case).unwrap();
-    let (fibres, layers) = (p.fibres(), p.layers());
     run_local(ranks, |comm| {
         let mut state = build(case, comm, Method::KWay, None).expect("set-up succeeds");
-        let options = RunOptions {
-            case_name: &case.name,
-            case_json: json,
-            end_time: case.run.end_time_s,
-            history_interval: case.run.history_interval_steps,
-            stop_when_decided: case.run.stop_on_perforation,
-            flight_direction: dea_mpi::setup::flight_direction(case.projectile.obliquity_deg.to_radians()),
-            out,
-            fibres,
-            layers,
-            snapshot_interval: case.run.snapshot_interval_steps,
-            checkpoints: CheckpointPolicy { every_steps: None, every_seconds: f64::INFINITY, stop_signal: None },
-            resume: None,
-        };
+        let options = RunOptions::for_case(case, json, out, &state, None, None);
         run(&mut state, &options).expect("the run succeeds");
     });
 }

@@ -407,7 +407,7 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
             })
             .map(|i| {
                 dea_core::bending::max_shear_stress(
-                    dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending, i),
+                    dea_core::bending::element_shear_force(nodes, &domain.elements, &domain.bending.moment, i),
                     area,
                 )
             })

@@ -246,11 +246,12 @@ fn atan_over_argument_in_lanes(x: crate::lanes::F4) -> crate::lanes::F4 {
     F4::splat(1.0).sub(odd.add(even))
 }
 
-/// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N].
+/// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N], from the
+/// springs' moments ([`BendingScratch::moment`]) or the failure stage's gauge moments.
 #[inline]
-pub fn element_shear_force(nodes: &Nodes, elements: &Elements, scratch: &BendingScratch, i: usize) -> f64 {
+pub fn element_shear_force(nodes: &Nodes, elements: &Elements, moment: &[Vec3], i: usize) -> f64 {
     let j = nodes.next[i] as usize;
-    (scratch.moment[i] - scratch.moment[j]).norm() / elements.rest_length[i]
+    (moment[i] - moment[j]).norm() / elements.rest_length[i]
 }
 
 /// Maximum shear stress of a circular section, seed (5-5): `tau = 4 Q / (3 A)` [Pa].

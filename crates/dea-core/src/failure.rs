@@ -3,7 +3,7 @@
 //! and the failure stage of a step: which owned elements break now, and the strain and bending
 //! energy they release.
 
-use crate::bending::{max_shear_stress, spring_energy, BendingScratch};
+use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
 use crate::shear_gauge::{gauge_moments, ShearMeasure};
@@ -167,8 +167,7 @@ pub fn element_breaks(
     }
     let sigma = longitudinal_modulus * elements.strain[i]; // (4-16)
     let area = sections[nodes.section[i] as usize].area;
-    let shear_force = (moment[i] - moment[nodes.next[i] as usize]).norm() / elements.rest_length[i]; // (5-4)
-    let tau = max_shear_stress(shear_force, area);
+    let tau = max_shear_stress(element_shear_force(nodes, elements, moment, i), area);
     combined_criterion(sigma, elements.tensile_strength[i], tau, shear_strength)
 }
 
