@@ -54,6 +54,8 @@ if design["kind"] == "bisection":
     shots = math.ceil(math.log2((design["high_m_s"] - design["low_m_s"]) / design["resolution_m_s"])) * replicates
 elif design["kind"] == "monte_carlo":
     shots = design["shots"]
+elif design["kind"] == "velocities":
+    shots = len(design["velocities_m_s"])
 else:
     shots = design["shots"] * replicates
 per_shot = nodes * steps * args.ns_per_node_step * 1e-9 / 3600.0

@@ -9,6 +9,8 @@
 //!   partial, when there is none.
 //! - Monte Carlo: velocities drawn uniformly within `centre ± spread`, independent of the
 //!   outcomes, each shot with its own strength realisation.
+//! - Velocities: the listed velocities, one shot each (a residual-velocity curve, a mesh
+//!   study at one striking speed), each shot with its own strength realisation.
 
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -48,18 +50,36 @@ pub enum Design {
         spread_m_s: f64,
         shots: usize,
     },
+    Velocities {
+        /// the striking velocities, one shot each, in this order [m/s]
+        velocities_m_s: Vec<f64>,
+    },
 }
 
 /// The bracket a bisection has reached: (highest partial, lowest complete) [m/s].
 pub fn bracket(low: f64, high: f64, shots: &[Shot]) -> (f64, f64) {
-    shots.iter().fold((low, high), |(lo, hi), s| if s.perforated { (lo, hi.min(s.velocity)) } else { (lo.max(s.velocity), hi) })
+    shots
+        .iter()
+        .fold((low, high), |(lo, hi), s| if s.perforated { (lo, hi.min(s.velocity)) } else { (lo.max(s.velocity), hi) })
 }
 
 impl Design {
     /// Checks the numbers; the error names the field (within `design`).
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("design.{name}: must be > 0, got {v}")) };
-        let shots = |n: usize| if (1..=10_000).contains(&n) { Ok(()) } else { Err(format!("design.shots: must be in 1..=10000, got {n}")) };
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("design.{name}: must be > 0, got {v}"))
+            }
+        };
+        let shots = |n: usize| {
+            if (1..=10_000).contains(&n) {
+                Ok(())
+            } else {
+                Err(format!("design.shots: must be in 1..=10000, got {n}"))
+            }
+        };
         let bracket = |low: f64, high: f64| {
             if low > 0.0 && high > low && high.is_finite() {
                 Ok(())
@@ -68,9 +88,22 @@ impl Design {
             }
         };
         match *self {
-            Design::Bisection { low_m_s, high_m_s, resolution_m_s } => bracket(low_m_s, high_m_s).and(positive("resolution_m_s", resolution_m_s)),
+            Design::Velocities { ref velocities_m_s } => {
+                shots(velocities_m_s.len()).map_err(|_| {
+                    format!("design.velocities_m_s: must list 1..=10000 velocities, got {}", velocities_m_s.len())
+                })?;
+                match velocities_m_s.iter().position(|&v| !(v.is_finite() && v > 0.0)) {
+                    Some(k) => Err(format!("design.velocities_m_s[{k}]: must be > 0, got {}", velocities_m_s[k])),
+                    None => Ok(()),
+                }
+            }
+            Design::Bisection { low_m_s, high_m_s, resolution_m_s } => {
+                bracket(low_m_s, high_m_s).and(positive("resolution_m_s", resolution_m_s))
+            }
             Design::Langlie { low_m_s, high_m_s, shots: n } => bracket(low_m_s, high_m_s).and(shots(n)),
-            Design::UpAndDown { start_m_s, step_m_s, shots: n } => positive("start_m_s", start_m_s).and(positive("step_m_s", step_m_s)).and(shots(n)),
+            Design::UpAndDown { start_m_s, step_m_s, shots: n } => {
+                positive("start_m_s", start_m_s).and(positive("step_m_s", step_m_s)).and(shots(n))
+            }
             Design::MonteCarlo { centre_m_s, spread_m_s, shots: n } => {
                 positive("centre_m_s", centre_m_s)?;
                 if !(spread_m_s >= 0.0 && spread_m_s < centre_m_s) {
@@ -83,12 +116,13 @@ impl Design {
 
     /// Whether every velocity is known before any shot (the shots can run at once).
     pub fn independent(&self) -> bool {
-        matches!(self, Design::MonteCarlo { .. })
+        matches!(self, Design::MonteCarlo { .. } | Design::Velocities { .. })
     }
 
     /// Velocity of shot `index` of an independent design (`None` past its last shot).
     pub fn planned(&self, index: usize, seed: u64) -> Option<f64> {
         match *self {
+            Design::Velocities { ref velocities_m_s } => velocities_m_s.get(index).copied(),
             Design::MonteCarlo { centre_m_s, spread_m_s, shots } if index < shots => {
                 let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
                 rng.set_stream(index as u64);
@@ -133,7 +167,7 @@ impl Design {
                 };
                 Some(0.5 * (last.velocity + partner))
             }
-            Design::MonteCarlo { .. } => self.planned(shots.len(), seed),
+            Design::MonteCarlo { .. } | Design::Velocities { .. } => self.planned(shots.len(), seed),
         }
     }
 }
@@ -193,15 +227,53 @@ mod tests {
         assert!(planned.iter().all(|v| (250.0..350.0).contains(v)));
         assert!(design.planned(20, 9).is_none());
         // the same whatever the outcomes
-        assert_eq!(fire(&design, 300.0).iter().map(|s| s.velocity).collect::<Vec<_>>(), (0..20).map(|k| design.planned(k, 1).unwrap()).collect::<Vec<_>>());
+        assert_eq!(
+            fire(&design, 300.0).iter().map(|s| s.velocity).collect::<Vec<_>>(),
+            (0..20).map(|k| design.planned(k, 1).unwrap()).collect::<Vec<_>>()
+        );
         assert_ne!(planned[0], design.planned(0, 10).unwrap());
     }
 
     #[test]
+    fn a_list_of_velocities_fires_each_once_in_order() {
+        let design = Design::Velocities { velocities_m_s: vec![400.0, 250.0, 325.0] };
+        assert!(design.independent());
+        assert_eq!(fire(&design, 300.0).iter().map(|s| s.velocity).collect::<Vec<_>>(), [400.0, 250.0, 325.0]);
+        assert_eq!(design.planned(2, 7), Some(325.0));
+        assert_eq!(design.planned(3, 7), None);
+        let design: Design = serde_json::from_str(r#"{ "kind": "velocities", "velocities_m_s": [400.0] }"#).unwrap();
+        assert_eq!(design, Design::Velocities { velocities_m_s: vec![400.0] });
+    }
+
+    #[test]
     fn bad_designs_name_their_field() {
-        assert!(Design::Bisection { low_m_s: 300.0, high_m_s: 200.0, resolution_m_s: 5.0 }.validate().unwrap_err().contains("low_m_s"));
-        assert!(Design::UpAndDown { start_m_s: 300.0, step_m_s: 0.0, shots: 5 }.validate().unwrap_err().contains("design.step_m_s"));
-        assert!(Design::MonteCarlo { centre_m_s: 300.0, spread_m_s: 400.0, shots: 5 }.validate().unwrap_err().contains("design.spread_m_s"));
-        assert!(Design::Langlie { low_m_s: 100.0, high_m_s: 200.0, shots: 0 }.validate().unwrap_err().contains("design.shots"));
+        assert!(Design::Velocities { velocities_m_s: vec![] }
+            .validate()
+            .unwrap_err()
+            .contains("design.velocities_m_s"));
+        assert!(Design::Velocities { velocities_m_s: vec![300.0, -1.0] }
+            .validate()
+            .unwrap_err()
+            .contains("design.velocities_m_s[1]"));
+        assert!(Design::Velocities { velocities_m_s: vec![f64::NAN] }
+            .validate()
+            .unwrap_err()
+            .contains("design.velocities_m_s[0]"));
+        assert!(Design::Bisection { low_m_s: 300.0, high_m_s: 200.0, resolution_m_s: 5.0 }
+            .validate()
+            .unwrap_err()
+            .contains("low_m_s"));
+        assert!(Design::UpAndDown { start_m_s: 300.0, step_m_s: 0.0, shots: 5 }
+            .validate()
+            .unwrap_err()
+            .contains("design.step_m_s"));
+        assert!(Design::MonteCarlo { centre_m_s: 300.0, spread_m_s: 400.0, shots: 5 }
+            .validate()
+            .unwrap_err()
+            .contains("design.spread_m_s"));
+        assert!(Design::Langlie { low_m_s: 100.0, high_m_s: 200.0, shots: 0 }
+            .validate()
+            .unwrap_err()
+            .contains("design.shots"));
     }
 }
