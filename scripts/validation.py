@@ -1,0 +1,345 @@
+#!/usr/bin/env python3
+"""The validation set against the seed's Table 6-1, run resumably, a shot at a time.
+
+    scripts/validation.py status                      # what is done, what is left, its core-hours
+    scripts/validation.py run [--ranks 2] [--max-shots N] [--only TEXT] [--commit]
+    scripts/validation.py summary                     # rewrite validation/summary.json only
+
+Each campaign of `jobs/campaigns/validation/` runs into `validation/<campaign name>/`; a
+finished shot leaves its record there (`shots/<id>.json`, written whole by `dea-mpi v50`),
+and with `--commit` the record, the campaign's `v50.json` and `provenance.json` and
+`validation/summary.json` are committed at once, one commit per shot. A later run on a fresh
+checkout skips every shot on record and goes on with the next; an interrupted shot resumes
+from its checkpoint when it is still on the machine (the run directories `shots/<id>/` are
+not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script's `mpirun`
+checkpoints the shot and ends the script with 75.
+
+Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
+campaign's finished shots (wall time x ranks) when it has any, otherwise the upper bound
+`nodes x steps to the end time x NS_PER_NODE_STEP` from `dea-mpi check` (shots stop when
+decided, so most cost less). NS_PER_NODE_STEP = 130 ns was MEASURED here on the 3 in panel
+(567,664 nodes, 1 rank, 3 us: 122 ns per node-step), not assumed.
+
+`validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
+laboratory scale", says what each field means).
+"""
+import argparse
+import glob
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CAMPAIGNS = os.path.join(ROOT, "jobs", "campaigns", "validation")
+RESULTS = os.path.join(ROOT, "validation")
+NS_PER_NODE_STEP = 130.0
+
+# The seed's Table 6-1 (17-grain FSP on KM2 shoot packs, mu = 0.3): V50 [m/s] by layers.
+TABLE_6_1_EXPERIMENT = {4: 245.0, 8: 287.0, 12: 416.0, 16: 441.0, 20: 511.0, 24: 506.0, 28: 549.0}
+TABLE_6_1_MODIFIED_DEA = {1: 135.0, 4: 305.0, 8: 407.0, 12: 435.0, 16: 475.0, 20: 505.0, 24: 525.0, 28: 545.0}
+# The seed's Table 5-2 (single 0.4 k KM2 yarn, 5.56 mm cylinder, mu = 0.3): V50 [m/s] by
+# digital fibres per yarn, with I = I0 and I = I_inf (the k1 = 0.8 value lies between).
+TABLE_5_2_I0 = {4: 255.0, 16: 215.0, 36: 185.0, 64: 155.0, 100: 135.0, 144: 125.0, 196: 115.0}
+TABLE_5_2_I_INF = {4: 45.0, 16: 45.0, 36: 55.0, 64: 78.0, 100: 85.0, 144: 95.0, 196: 95.0}
+
+
+def binary(args):
+    return args.binary or os.path.join(ROOT, "target", "release", "dea-mpi")
+
+
+def series_of(name):
+    for prefix, series in (("panel-", "panel_size"), ("mesh-", "mesh"), ("layers-", "layers"), ("yarn-", "single_yarn")):
+        if name.startswith(prefix):
+            return series
+    return "other"
+
+
+def planned_shots(design, replicates):
+    kind = design["kind"]
+    if kind == "bisection":
+        return max(1, math.ceil(math.log2((design["high_m_s"] - design["low_m_s"]) / design["resolution_m_s"]))) * replicates
+    if kind == "velocities":
+        return len(design["velocities_m_s"])
+    if kind == "monte_carlo":
+        return design["shots"]
+    return design["shots"] * replicates
+
+
+def records(name):
+    shots = []
+    for path in sorted(glob.glob(os.path.join(RESULTS, name, "shots", "*.json"))):
+        with open(path) as f:
+            shots.append(json.load(f))
+    return shots
+
+
+def check(args, campaign_path):
+    done = subprocess.run([binary(args), "check", campaign_path], capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{campaign_path}: dea-mpi check failed:\n{done.stderr.strip()}")
+    return json.loads(done.stdout)
+
+
+class Campaign:
+    def __init__(self, args, path):
+        self.path = path
+        with open(path) as f:
+            self.spec = json.load(f)
+        self.name = self.spec["name"]
+        checked = check(args, path)
+        self.case = checked["case"]
+        resolved = checked["resolved"]
+        steps = resolved["steps"]
+        settle = self.case["run"].get("settle")
+        if settle:
+            steps += math.ceil(settle["time_s"] / resolved["time_step_s"])
+        self.nodes = resolved["nodes"]
+        self.bound_core_hours = self.nodes * steps * NS_PER_NODE_STEP * 1e-9 / 3600.0
+        self.planned = planned_shots(self.spec["design"], self.spec.get("replicates", 1))
+        self.refresh()
+
+    def refresh(self):
+        self.shots = records(self.name)
+        self.complete = self.finished_design()
+
+    def finished_design(self):
+        design = self.spec["design"]
+        if design["kind"] == "bisection":
+            low, high = design["low_m_s"], design["high_m_s"]
+            for s in self.shots:
+                if s["perforated"]:
+                    high = min(high, s["velocity_m_s"])
+                else:
+                    low = max(low, s["velocity_m_s"])
+            return high - low <= design["resolution_m_s"]
+        return len(self.shots) >= self.planned
+
+    def per_shot_core_hours(self):
+        if self.shots:
+            return sum(s["wall_s"] * s["ranks"] for s in self.shots) / len(self.shots) / 3600.0, "measured"
+        return self.bound_core_hours, "bound"
+
+    def left(self):
+        return 0 if self.complete else max(1, self.planned - len(self.shots))
+
+
+def load(args):
+    paths = sorted(glob.glob(os.path.join(CAMPAIGNS, "*.json")))
+    campaigns = [Campaign(args, p) for p in paths]
+    if args.only:
+        campaigns = [c for c in campaigns if args.only in c.name]
+    # cheapest first: the small results come early, the long runs after
+    return sorted(campaigns, key=lambda c: (c.per_shot_core_hours()[0], c.name))
+
+
+def status(campaigns):
+    total = 0.0
+    print(f"{'campaign':<36} {'nodes':>9} {'shots':>7} {'left':>5} {'core-h/shot':>12}  state")
+    for c in campaigns:
+        per_shot, how = c.per_shot_core_hours()
+        total += c.left() * per_shot
+        state = "complete" if c.complete else "to run"
+        print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
+    print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours "
+          "(b: upper bound from the end time, m: mean of this campaign's finished shots)")
+
+
+def entry(c):
+    """One campaign's line of validation/summary.json."""
+    target = c.case["target"]
+    weave = target.get("weave") or {}
+    hybrid = target.get("hybrid") or {}
+    layers = target.get("layers", 1)
+    design = c.spec["design"]
+    v50 = low = high = None
+    method = None
+    report_path = os.path.join(RESULTS, c.name, "v50.json")
+    report = None
+    if os.path.exists(report_path):
+        with open(report_path) as f:
+            report = json.load(f)
+    if design["kind"] == "bisection":
+        lo, hi = design["low_m_s"], design["high_m_s"]
+        for s in c.shots:
+            if s["perforated"]:
+                hi = min(hi, s["velocity_m_s"])
+            else:
+                lo = max(lo, s["velocity_m_s"])
+        has_partial = any(not s["perforated"] for s in c.shots)
+        has_complete = any(s["perforated"] for s in c.shots)
+        if has_partial and has_complete:
+            v50, low, high = 0.5 * (lo + hi), lo, hi
+            method = "bisection bracket (highest partial, lowest complete)"
+        elif c.shots:
+            method = "bisection: no bracket yet (" + ("all perforated" if has_complete else "none perforated") + ")"
+    elif design["kind"] == "velocities":
+        method = "residual velocity at a fixed striking speed"
+    elif report is not None:
+        fit = report.get("logistic", {})
+        if "Ok" in fit:
+            f = fit["Ok"]["v50"]
+            v50, low, high = f["velocity"], f["low"], f["high"]
+            method = "logistic maximum likelihood, 95 % interval (delta method)"
+        else:
+            method = "logistic: " + str(fit.get("Err", "no fit"))
+    series = series_of(c.name)
+    fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
+    if series == "single_yarn":
+        experiment, seed_dea = None, None
+        seed_reference = {"table_5_2_i0_m_s": TABLE_5_2_I0.get(fibres), "table_5_2_i_inf_m_s": TABLE_5_2_I_INF.get(fibres)}
+    else:
+        experiment, seed_dea = TABLE_6_1_EXPERIMENT.get(layers), TABLE_6_1_MODIFIED_DEA.get(layers)
+        seed_reference = None
+    provenance_path = os.path.join(RESULTS, c.name, "provenance.json")
+    commit = None
+    if os.path.exists(provenance_path):
+        with open(provenance_path) as f:
+            commit = json.load(f).get("git_commit")
+    out = {
+        "name": c.name,
+        "series": series,
+        "layers": layers,
+        "side_m": target.get("side_m") or target.get("length_m"),
+        "fibres_per_yarn": fibres,
+        "fine_radius_m": hybrid.get("fine_radius_m"),
+        "coarse_fibres_per_yarn": hybrid.get("fibres_per_yarn"),
+        "element_length_ratio": weave.get("element_length_ratio") or target.get("element_length_ratio") or 0.5,
+        "projectile": c.case["projectile"].get("preset") or c.case["projectile"].get("shape"),
+        "shots": len(c.shots),
+        "complete": c.complete,
+        "v50_m_s": v50,
+        "v50_low_m_s": low,
+        "v50_high_m_s": high,
+        "method": method,
+        "experiment_m_s": experiment,
+        "seed_dea_m_s": seed_dea,
+        "shot_records": [
+            {k: s[k] for k in ("id", "velocity_m_s", "perforated", "residual_velocity_m_s", "stopped_by", "steps", "wall_s", "ranks")}
+            for s in sorted(c.shots, key=lambda s: s["id"])
+        ],
+        "core_hours": round(sum(s["wall_s"] * s["ranks"] for s in c.shots) / 3600.0, 3),
+        "git_commit": commit,
+    }
+    if seed_reference:
+        out["seed_reference"] = seed_reference
+    return out
+
+
+def write_summary(campaigns):
+    os.makedirs(RESULTS, exist_ok=True)
+    entries = [entry(c) for c in sorted(campaigns, key=lambda c: c.name)]
+    path = os.path.join(RESULTS, "summary.json")
+    with open(path + ".partial", "w") as f:
+        json.dump(entries, f, indent=1)
+        f.write("\n")
+    os.replace(path + ".partial", path)
+    return path
+
+
+def commit(c, new_ids):
+    paths = [os.path.join(RESULTS, c.name, "shots", f"{i}.json") for i in new_ids]
+    paths += [os.path.join(RESULTS, c.name, f) for f in ("v50.json", "provenance.json")]
+    paths.append(os.path.join(RESULTS, "summary.json"))
+    paths = [p for p in paths if os.path.exists(p)]
+    shots = {s["id"]: s for s in c.shots}
+    words = []
+    for i in new_ids:
+        s = shots[i]
+        outcome = f"perforated, {s['residual_velocity_m_s']:.1f} m/s left" if s["perforated"] else f"stopped ({s['stopped_by']})"
+        words.append(f"{s['velocity_m_s']:.1f} m/s {outcome}")
+    subject = f"validation: {c.name} " + "; ".join(words)
+    if len(subject) > 72:
+        subject = f"validation: {c.name}, {len(new_ids)} shot(s)"
+    body = "\n".join(f"{i}: {json.dumps(shots[i])}" for i in new_ids)
+    git_commit_paths(paths, subject, body)
+
+
+def git_commit_paths(paths, subject, body):
+    """Commits only `paths` (whatever else is staged stays staged), retrying while another
+    git command holds the index."""
+    for attempt in range(10):
+        added = subprocess.run(["git", "-C", ROOT, "add", "--", *paths])
+        if added.returncode == 0:
+            done = subprocess.run(["git", "-C", ROOT, "commit", "-q", "-m", subject, "-m", body, "--", *paths])
+            if done.returncode == 0:
+                return
+        time.sleep(2.0 * (attempt + 1))
+    sys.exit(f"could not commit {paths}")
+
+
+def commit_pending(campaigns):
+    """Commits shot records left uncommitted by an earlier run without --commit."""
+    for c in campaigns:
+        listed = subprocess.run(["git", "-C", ROOT, "ls-files", "--others", "--modified", "--exclude-standard", "--",
+                                 os.path.join(RESULTS, c.name, "shots")], capture_output=True, text=True).stdout.split()
+        new = sorted(os.path.basename(p)[:-5] for p in listed if p.endswith(".json"))
+        if new:
+            write_summary(campaigns)
+            commit(c, new)
+
+
+def run(args, campaigns):
+    fired = 0
+    for c in campaigns:
+        while not c.complete:
+            if args.max_shots is not None and fired >= args.max_shots:
+                print(f"stopped after --max-shots {args.max_shots}")
+                return 0
+            before = {s["id"] for s in c.shots}
+            command = ["mpirun", "-np", str(args.ranks)]
+            if args.ranks > os.cpu_count():
+                command.append("--oversubscribe")
+            command += [binary(args), "v50", c.path, "--out", os.path.join(RESULTS, c.name), "--shots-per-group", "1"]
+            print("+", " ".join(command), flush=True)
+            code = subprocess.run(command).returncode
+            c.refresh()
+            new = sorted({s["id"] for s in c.shots} - before)
+            if new:
+                write_summary(load_all(args))
+                if args.commit:
+                    commit(c, new)
+                fired += len(new)
+            if code != 0:
+                print(f"{c.name}: dea-mpi v50 exited {code}; the shots on record are kept", file=sys.stderr)
+                return code
+            if not new and not c.complete:
+                sys.exit(f"{c.name}: dea-mpi v50 fired no shot and the design is not complete")
+    print("every validation campaign is complete")
+    return 0
+
+
+def load_all(args):
+    saved, args.only = args.only, None
+    try:
+        return load(args)
+    finally:
+        args.only = saved
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("action", choices=["status", "run", "summary"])
+    parser.add_argument("--ranks", type=int, default=2, help="ranks per shot (mpirun -np)")
+    parser.add_argument("--max-shots", type=int, help="stop after this many new shots")
+    parser.add_argument("--only", help="only campaigns whose name contains this text")
+    parser.add_argument("--commit", action="store_true", help="commit each finished shot's record")
+    parser.add_argument("--binary", help="the dea-mpi to run (default: target/release/dea-mpi)")
+    args = parser.parse_args()
+    campaigns = load(args)
+    if args.action == "status":
+        status(campaigns)
+        return 0
+    if args.action == "summary":
+        print(write_summary(load_all(args)))
+        return 0
+    status(campaigns)
+    if args.commit:
+        commit_pending(load_all(args))
+    return run(args, campaigns)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
