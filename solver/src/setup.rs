@@ -706,6 +706,11 @@ pub fn build_adjusted<C: Comm>(
 ) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
     let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
+    if comm.rank() == Rank(0) {
+        for note in case.notes() {
+            tracing::warn!("case {:?}: {note}", case.name);
+        }
+    }
     if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
         // layers that start apart where the shot strikes are struck one by one
         if panel.layers > 1 && panel.fine_layer_gap() > 0.1 * panel.cell.thickness() {

@@ -110,6 +110,16 @@ fn check_prints_the_resolved_case() {
 }
 
 #[test]
+fn check_says_when_a_case_uses_unsourced_weibull_strengths() {
+    let out = dea(&["check", "../cases/v50_tiny_shot.json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(&format!("note: {}", dea_io::case::UNSOURCED_WEIBULL)), "{stderr}");
+    let out = dea(&["check", "../cases/default.json"]);
+    assert!(out.status.success() && !String::from_utf8_lossy(&out.stderr).contains("note:"));
+}
+
+#[test]
 fn run_writes_summary_and_hdf5_histories() {
     let dir = scratch("run");
     let out = dea(&["run", "../cases/single_fibre_short.json", "--out", dir.to_str().unwrap()]);

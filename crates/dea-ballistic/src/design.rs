@@ -50,6 +50,7 @@ pub enum Design {
         spread_m_s: f64,
         shots: usize,
     },
+    /// the listed velocities, one shot each, independent of the outcomes
     Velocities {
         /// the striking velocities, one shot each, in this order [m/s]
         velocities_m_s: Vec<f64>,

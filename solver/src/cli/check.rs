@@ -75,6 +75,9 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
     if let Some(campaign) = campaign {
         printed["campaign"] = serde_json::json!(campaign);
     }
+    for note in case.notes() {
+        eprintln!("note: {note}");
+    }
     println!("{}", serde_json::to_string_pretty(&printed).expect("case serialises"));
     ExitCode::SUCCESS
 }

@@ -16,7 +16,9 @@ use serde::{Deserialize, Serialize};
 
 mod resolve;
 
-pub use resolve::{CellSource, HybridTarget, PanelLayout, ResolvedCase, ResolvedTarget, StraightTarget, WovenTarget};
+pub use resolve::{
+    CellSource, HybridTarget, PanelLayout, ResolvedCase, ResolvedTarget, StraightTarget, WovenTarget, UNSOURCED_WEIBULL,
+};
 
 /// A case error: where and why.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -1038,7 +1040,8 @@ mod tests {
         let e = error_for(|v| v["run"]["end_time_s"] = (-1.0).into());
         assert_eq!(e.path, "run.end_time_s");
         // a stray field beside a variant without fields is refused, not dropped
-        let e = error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "fixed_edges", "opening_m": 0.002 }));
+        let e =
+            error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "fixed_edges", "opening_m": 0.002 }));
         assert!(e.message.contains("unknown field `opening_m`"), "{e}");
         let e = error_for(|v| v["bending"] = serde_json::json!({ "model": "free", "k1": 0.8 }));
         assert!(e.message.contains("unknown field `k1`"), "{e}");
@@ -1057,7 +1060,10 @@ mod tests {
         refused(&|v| v["projectile"]["velocity_m_s"] = 1e200.into(), "projectile.velocity_m_s");
         refused(&|v| v["contact"]["friction_coefficient"] = 1e308.into(), "contact.friction_coefficient");
         refused(&|v| v["contact"]["friction_coefficient"] = 30.0.into(), "contact.friction_coefficient");
-        refused(&|v| v["contact"]["projectile_friction_coefficient"] = 5.0.into(), "contact.projectile_friction_coefficient");
+        refused(
+            &|v| v["contact"]["projectile_friction_coefficient"] = 5.0.into(),
+            "contact.projectile_friction_coefficient",
+        );
         refused(&|v| v["projectile"]["offset_m"] = serde_json::json!([5.0, 0.0]), "projectile.offset_m.x");
         refused(&|v| v["target"]["layer_shift_m"] = serde_json::json!([0.0, 1.0]), "target.layer_shift_m.y");
         refused(&|v| v["target"]["layer_gap_m"] = 1.0.into(), "target.layer_gap_m");
@@ -1076,7 +1082,10 @@ mod tests {
             edit(&mut value);
             parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.shear_measure)
         };
-        assert_eq!(measure(&|_| {}).unwrap(), ShearMeasure::Gauge { diameters: resolve::DEFAULT_SHEAR_GAUGE_DIAMETERS });
+        assert_eq!(
+            measure(&|_| {}).unwrap(),
+            ShearMeasure::Gauge { diameters: resolve::DEFAULT_SHEAR_GAUGE_DIAMETERS }
+        );
         assert_eq!(measure(&|v| v["failure"]["shear_measure"] = "element".into()).unwrap(), ShearMeasure::Element);
         assert_eq!(
             measure(&|v| v["failure"]["shear_gauge_diameters"] = 2.5.into()).unwrap(),
@@ -1087,7 +1096,11 @@ mod tests {
             assert_eq!(e.path, field, "{e}");
             assert!(e.to_string().contains(words), "{e}");
         };
-        refused(&|v| v["failure"]["shear_measure"] = "nodal".into(), "failure.shear_measure", "\"gauge\" or \"element\"");
+        refused(
+            &|v| v["failure"]["shear_measure"] = "nodal".into(),
+            "failure.shear_measure",
+            "\"gauge\" or \"element\"",
+        );
         refused(&|v| v["failure"]["shear_gauge_diameters"] = 0.0.into(), "failure.shear_gauge_diameters", "got 0");
         refused(&|v| v["failure"]["shear_gauge_diameters"] = 50.0.into(), "failure.shear_gauge_diameters", "at most 8");
         refused(

@@ -3,8 +3,8 @@
 //! set-up builds from without checking again.
 
 use super::*;
-use dea_fabric::panel::FineRegion;
 use dea_core::shear_gauge::ShearMeasure;
+use dea_fabric::panel::FineRegion;
 use dea_fabric::relax::RelaxOptions;
 
 /// The fastest striking speed a case may ask for [m/s]: beyond ballistic speeds, where the
@@ -150,7 +150,20 @@ pub struct PanelLayout {
     pub boundary: Boundary,
 }
 
+/// What `notes` says of a case that draws Weibull strengths.
+pub const UNSOURCED_WEIBULL: &str = "failure.weibull: no published KM2 Weibull parameters could be read for this project (docs/theory.md I12), so these are unsourced: treat the results as a sensitivity study of strength scatter, not a prediction";
+
 impl Case {
+    /// Inputs the case uses that have no published source (docs/theory.md I12), one line each;
+    /// `check` prints them and a run logs them.
+    pub fn notes(&self) -> Vec<&'static str> {
+        let mut notes = Vec::new();
+        if self.failure.mode == "weibull" {
+            notes.push(UNSOURCED_WEIBULL);
+        }
+        notes
+    }
+
     /// Material with overrides applied.
     pub(super) fn material(&self) -> Result<FibreMaterial, CaseError> {
         let m = &self.material;
@@ -268,10 +281,9 @@ impl Case {
                     "applies only to failure.shear_measure \"gauge\"; the \"element\" measure has no gauge",
                 )),
             },
-            Some(other) => Err(invalid(
-                "failure.shear_measure",
-                format!("must be \"gauge\" or \"element\", got \"{other}\""),
-            )),
+            Some(other) => {
+                Err(invalid("failure.shear_measure", format!("must be \"gauge\" or \"element\", got \"{other}\"")))
+            }
         }
     }
 
@@ -658,7 +670,10 @@ impl Case {
                 if !(offset.is_finite() && offset.abs() <= 0.5 * side) {
                     return Err(invalid(
                         &format!("projectile.offset_m.{axis}"),
-                        format!("must aim at the panel (within half its side, {} m, of its centre), got {offset}", 0.5 * side),
+                        format!(
+                            "must aim at the panel (within half its side, {} m, of its centre), got {offset}",
+                            0.5 * side
+                        ),
                     ));
                 }
             }
@@ -723,7 +738,10 @@ fn panel_layout(
     layer_count(layers)?;
     stacking(layer_gap_m, layer_shift_m)?;
     if layer_gap_m > side_m {
-        return Err(invalid("target.layer_gap_m", format!("must be at most the panel's side ({side_m} m), got {layer_gap_m}")));
+        return Err(invalid(
+            "target.layer_gap_m",
+            format!("must be at most the panel's side ({side_m} m), got {layer_gap_m}"),
+        ));
     }
     for (axis, shift) in ["x", "y"].iter().zip(layer_shift_m) {
         if shift.abs() > 0.5 * side_m {
