@@ -28,5 +28,6 @@ check paraview-opens-the-cell xvfb /usr/bin/python3 scripts/paraview-cell.py "$w
 check fabric-of-a-3d-weave target/release/dea-mpi fabric cases/weave3d_km2_orthogonal_small.json --out "$work/weave3d"
 check paraview-opens-the-3d-cell xvfb /usr/bin/python3 scripts/paraview-cell.py "$work/weave3d"
 check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer panel_side; do test -s $work/panel/plots/\$f.png || exit 1; done"
+check campaign-plot bash -c "target/release/dea-mpi v50 cases/v50_tiny_monte_carlo.json --out $work/v50 >/dev/null 2>&1 && /usr/bin/python3 scripts/plot-campaign.py $work/v50 && test -s $work/v50/v50.png"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -16,6 +16,7 @@ use dea_ballistic::design::{bracket, Design};
 use dea_ballistic::fit::{fit, Fit, Link};
 use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
+use dea_ballistic::scatter::{Aim, Draws};
 use dea_ballistic::Shot;
 use dea_core::Rank;
 use dea_io::campaign::Campaign;
@@ -37,6 +38,9 @@ pub enum CampaignError {
     Run { id: String, error: RunError },
     #[error("{0}")]
     Output(String),
+    /// the campaign asks for what its case cannot give (a unit-cell aim on straight yarns)
+    #[error("{0}")]
+    Scatter(String),
 }
 
 /// One finished shot.
@@ -60,11 +64,24 @@ pub struct ShotRecord {
     pub wall_s: f64,
     pub ranks: usize,
     pub max_projectile_force_n: f64,
+    /// where the shot aimed: the case's `offset_m` plus its drawn shift (x, y) [m]
+    #[serde(default)]
+    pub aim_offset_m: [f64; 2],
+    /// yaw fired with: the case's plus the drawn deviation [deg]
+    #[serde(default)]
+    pub yaw_deg: f64,
+    /// obliquity fired with: the case's plus the drawn deviation [deg]
+    #[serde(default)]
+    pub obliquity_deg: f64,
 }
 
 impl ShotRecord {
     fn shot(&self) -> Shot {
-        Shot { velocity: self.velocity_m_s, perforated: self.perforated, residual_velocity: if self.perforated { self.residual_velocity_m_s.max(0.0) } else { 0.0 } }
+        Shot {
+            velocity: self.velocity_m_s,
+            perforated: self.perforated,
+            residual_velocity: if self.perforated { self.residual_velocity_m_s.max(0.0) } else { 0.0 },
+        }
     }
 }
 
@@ -93,20 +110,63 @@ fn finished(out: &Path, id: &str) -> Option<ShotRecord> {
     serde_json::from_str(&text).ok()
 }
 
-/// The case of one shot: the campaign's case at `velocity` with strength seed `seed`; it
-/// stops as soon as its outcome is decided.
-pub fn shot_case(case: &Case, campaign: &str, id: &str, velocity: f64, seed: u64) -> Case {
+/// The case of one shot: the campaign's case at `velocity` with strength seed `seed`, its
+/// aim, yaw and obliquity moved by `draws`; it stops as soon as its outcome is decided.
+pub fn shot_case(case: &Case, campaign: &str, id: &str, velocity: f64, seed: u64, draws: &Draws) -> Case {
     let mut shot = case.clone();
     shot.name = format!("{campaign}-{id}");
     shot.projectile.velocity_m_s = velocity;
     shot.failure.seed = seed;
+    for (offset, shift) in shot.projectile.offset_m.iter_mut().zip(draws.aim_shift_m) {
+        *offset += shift;
+    }
+    shot.projectile.yaw_deg += draws.yaw_deg;
+    shot.projectile.obliquity_deg += draws.obliquity_deg;
     shot.run.stop_on_perforation = true;
     shot
 }
 
+/// The size of the unit cell a scattered aim falls within [m].
+fn aim_cell(case: &Case) -> Result<[f64; 2], CampaignError> {
+    let problem =
+        crate::setup::problem(case).map_err(|error| CampaignError::Setup { id: "(unit cell)".into(), error })?;
+    problem.fabric.aim_cell().ok_or_else(|| {
+        CampaignError::Scatter(
+            "scatter.aim: the target is straight fibres or yarns, without a weave unit cell to aim within; give \"aim\": \"fixed\"".into(),
+        )
+    })
+}
+
+/// A shot already on record, checked against what the campaign asks of it now: a record of
+/// another velocity, seed, aim, yaw or obliquity means the campaign changed since it was
+/// fired, and its directory must not mix the two.
+fn on_record(out: &Path, id: &str, shot: &Case) -> Result<Option<ShotRecord>, CampaignError> {
+    let Some(record) = finished(out, id) else { return Ok(None) };
+    let p = &shot.projectile;
+    let asked = (p.velocity_m_s, shot.failure.seed, p.offset_m, p.yaw_deg, p.obliquity_deg);
+    let fired = (record.velocity_m_s, record.seed, record.aim_offset_m, record.yaw_deg, record.obliquity_deg);
+    let bits = |(v, s, [x, y], yaw, obliquity): (f64, u64, [f64; 2], f64, f64)| {
+        (v.to_bits(), s, x.to_bits(), y.to_bits(), yaw.to_bits(), obliquity.to_bits())
+    };
+    if bits(asked) != bits(fired) {
+        return Err(CampaignError::Output(format!(
+            "{}: shot {id} on record was fired at {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg, but the campaign now asks for {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg: the campaign changed since; give it another --out",
+            out.display(), fired.0, fired.1, fired.2, fired.3, fired.4, asked.0, asked.1, asked.2, asked.3, asked.4
+        )));
+    }
+    Ok(Some(record))
+}
+
 /// Runs one shot on the group (from its checkpoint when an earlier attempt left one) and
 /// gives back the communicator and, on every rank of the group, the record.
-fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index): (usize, usize), stop_signal: Option<Arc<AtomicBool>>) -> Result<(C, ShotRecord), CampaignError> {
+fn fire<C: Comm>(
+    comm: C,
+    case: &Case,
+    out: &Path,
+    id: &str,
+    (replicate, index): (usize, usize),
+    stop_signal: Option<Arc<AtomicBool>>,
+) -> Result<(C, ShotRecord), CampaignError> {
     let directory = shots_directory(out).join(id);
     let checkpoint = directory.join("checkpoint");
     let setup = |error| CampaignError::Setup { id: id.to_string(), error };
@@ -121,7 +181,11 @@ fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index):
     let options = RunOptions::for_case(&case, &json, &directory, &state, stop_signal, resume);
     let summary = run(&mut state, &options).map_err(|error| CampaignError::Run { id: id.to_string(), error })?;
     // the group's rank 0 has the summary; every rank needs the outcome for the next velocity
-    let outcome = state.from_rank0(summary.as_ref().map_or([0.0; 4], |s| [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s]));
+    let outcome = state.from_rank0(
+        summary
+            .as_ref()
+            .map_or([0.0; 4], |s| [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s]),
+    );
     let record = ShotRecord {
         id: id.to_string(),
         replicate,
@@ -135,13 +199,18 @@ fn fire<C: Comm>(comm: C, case: &Case, out: &Path, id: &str, (replicate, index):
         wall_s: outcome[3],
         ranks: state.comm.size(),
         max_projectile_force_n: summary.as_ref().map_or(0.0, |s| s.max_projectile_force_n),
+        aim_offset_m: case.projectile.offset_m,
+        yaw_deg: case.projectile.yaw_deg,
+        obliquity_deg: case.projectile.obliquity_deg,
     };
     if state.comm.rank() == Rank(0) {
         // written whole, then renamed: a record on disk is a finished shot
         let path = record_path(out, id);
         let partial = path.with_extension("json.partial");
         let text = serde_json::to_string_pretty(&record).expect("record serialises");
-        std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, &path)).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+        std::fs::write(&partial, text)
+            .and_then(|()| std::fs::rename(&partial, &path))
+            .map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
     }
     Ok((state.comm, record))
 }
@@ -159,22 +228,34 @@ pub enum Progress {
 /// `group.index + group.count`, …; the sequences (replicates) of a sequential design
 /// likewise. A shot with a record is not fired again; at most `max_shots` are fired (a job's
 /// share of a campaign spread over several jobs).
-pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Group, out: &Path, max_shots: Option<usize>, stop_signal: Option<Arc<AtomicBool>>) -> Result<Progress, CampaignError> {
-    std::fs::create_dir_all(shots_directory(out)).map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
+pub fn run_group<C: Comm>(
+    campaign: &Campaign,
+    case: &Case,
+    comm: C,
+    group: Group,
+    out: &Path,
+    max_shots: Option<usize>,
+    stop_signal: Option<Arc<AtomicBool>>,
+) -> Result<Progress, CampaignError> {
+    std::fs::create_dir_all(shots_directory(out))
+        .map_err(|e| CampaignError::Output(format!("{}: {e}", out.display())))?;
     let base_seed = case.failure.seed;
     let mut comm = comm;
     let mut budget = max_shots.unwrap_or(usize::MAX);
     let design = &campaign.design;
+    let scatter = campaign.scatter();
+    let cell = if scatter.aim == Aim::UnitCell { Some(aim_cell(case)?) } else { None };
     if design.independent() {
         let mut index = group.index;
         while let Some(velocity) = design.planned(index, base_seed) {
             let id = shot_id(0, index);
-            if finished(out, &id).is_none() {
+            let draws = scatter.draw(base_seed, 0, index, cell);
+            let shot = shot_case(case, &campaign.name, &id, velocity, base_seed.wrapping_add(index as u64), &draws);
+            if on_record(out, &id, &shot)?.is_none() {
                 if budget == 0 {
                     return Ok(Progress::Paused);
                 }
                 budget -= 1;
-                let shot = shot_case(case, &campaign.name, &id, velocity, base_seed.wrapping_add(index as u64));
                 comm = fire(comm, &shot, out, &id, (0, index), stop_signal.clone())?.0;
             }
             index += group.count;
@@ -187,14 +268,15 @@ pub fn run_group<C: Comm>(campaign: &Campaign, case: &Case, comm: C, group: Grou
         while let Some(velocity) = design.next(&history, seed) {
             let index = history.len();
             let id = shot_id(replicate, index);
-            let record = match finished(out, &id).filter(|r| r.velocity_m_s.to_bits() == velocity.to_bits() && r.seed == seed) {
+            let draws = scatter.draw(base_seed, replicate, index, cell);
+            let shot = shot_case(case, &campaign.name, &id, velocity, seed, &draws);
+            let record = match on_record(out, &id, &shot)? {
                 Some(record) => record,
                 None => {
                     if budget == 0 {
                         return Ok(Progress::Paused);
                     }
                     budget -= 1;
-                    let shot = shot_case(case, &campaign.name, &id, velocity, seed);
                     let (back, record) = fire(comm, &shot, out, &id, (replicate, index), stop_signal.clone())?;
                     comm = back;
                     record
@@ -228,12 +310,16 @@ pub struct CampaignReport {
 pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, CampaignError> {
     let directory = shots_directory(out);
     let mut shots: Vec<ShotRecord> = Vec::new();
-    let entries = std::fs::read_dir(&directory).map_err(|e| CampaignError::Output(format!("{}: {e}", directory.display())))?;
+    let entries =
+        std::fs::read_dir(&directory).map_err(|e| CampaignError::Output(format!("{}: {e}", directory.display())))?;
     for entry in entries.flatten() {
         let path = entry.path();
         if path.extension().is_some_and(|e| e == "json") {
-            let text = std::fs::read_to_string(&path).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
-            shots.push(serde_json::from_str(&text).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?);
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?;
+            shots.push(
+                serde_json::from_str(&text).map_err(|e| CampaignError::Output(format!("{}: {e}", path.display())))?,
+            );
         }
     }
     shots.sort_by(|a, b| a.id.cmp(&b.id));
@@ -241,7 +327,13 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
     let text = |e: dea_ballistic::EstimateError| e.to_string();
     let bisection_brackets = match campaign.design {
         Design::Bisection { low_m_s, high_m_s, .. } => (0..campaign.replicates)
-            .map(|r| bracket(low_m_s, high_m_s, &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>()))
+            .map(|r| {
+                bracket(
+                    low_m_s,
+                    high_m_s,
+                    &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>(),
+                )
+            })
             .collect(),
         _ => Vec::new(),
     };
@@ -252,7 +344,8 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
         completes: outcomes.iter().filter(|s| s.perforated).count(),
         logistic: fit(&outcomes, Link::Logistic).map_err(text),
         probit: fit(&outcomes, Link::Probit).map_err(text),
-        mil_std_662f: mil_std_662f(&outcomes, campaign.mil_std_662f.count, campaign.mil_std_662f.spread_m_s).map_err(text),
+        mil_std_662f: mil_std_662f(&outcomes, campaign.mil_std_662f.count, campaign.mil_std_662f.spread_m_s)
+            .map_err(text),
         lambert_jonas: lambert_jonas(&outcomes).map_err(text),
         bisection_brackets,
         shots,
@@ -264,9 +357,16 @@ pub const GIT_COMMIT: &str = env!("DEA_GIT_COMMIT");
 
 /// Writes `v50.json` and `provenance.json` (the campaign and case as loaded, the commit, and
 /// every shot's velocity, seed and outcome).
-pub fn write_report(report: &CampaignReport, campaign: &Campaign, case: &Case, campaign_text: &str, out: &Path) -> Result<(), CampaignError> {
+pub fn write_report(
+    report: &CampaignReport,
+    campaign: &Campaign,
+    case: &Case,
+    campaign_text: &str,
+    out: &Path,
+) -> Result<(), CampaignError> {
     let failed = |e: std::io::Error| CampaignError::Output(format!("{}: {e}", out.display()));
-    std::fs::write(out.join("v50.json"), serde_json::to_string_pretty(report).expect("report serialises")).map_err(failed)?;
+    std::fs::write(out.join("v50.json"), serde_json::to_string_pretty(report).expect("report serialises"))
+        .map_err(failed)?;
     let provenance = serde_json::json!({
         "git_commit": GIT_COMMIT,
         "campaign_file": campaign_text,
@@ -274,5 +374,9 @@ pub fn write_report(report: &CampaignReport, campaign: &Campaign, case: &Case, c
         "case": case,
         "shots": report.shots.iter().map(|s| serde_json::json!({ "id": s.id, "velocity_m_s": s.velocity_m_s, "seed": s.seed, "perforated": s.perforated, "residual_velocity_m_s": s.residual_velocity_m_s, "run": format!("shots/{}", s.id) })).collect::<Vec<_>>(),
     });
-    std::fs::write(out.join("provenance.json"), serde_json::to_string_pretty(&provenance).expect("provenance serialises")).map_err(failed)
+    std::fs::write(
+        out.join("provenance.json"),
+        serde_json::to_string_pretty(&provenance).expect("provenance serialises"),
+    )
+    .map_err(failed)
 }

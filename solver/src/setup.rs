@@ -706,10 +706,14 @@ pub fn build_adjusted<C: Comm>(
 ) -> Result<Distributed<C>, SetupError> {
     let problem = shared_problem(&comm, case)?;
     let hybrid = matches!(&problem.fabric, Fabric::Woven(panel) if panel.coarse.is_some());
-    if comm.rank() == Rank(0) {
-        for note in case.notes() {
-            tracing::warn!("case {:?}: {note}", case.name);
-        }
+    // said once per process: a campaign's shots share their case's inputs
+    static NOTED: std::sync::Once = std::sync::Once::new();
+    if comm.rank() == Rank(0) && !case.notes().is_empty() {
+        NOTED.call_once(|| {
+            for note in case.notes() {
+                tracing::warn!("case {:?}: {note}", case.name);
+            }
+        });
     }
     if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
         // layers that start apart where the shot strikes are struck one by one

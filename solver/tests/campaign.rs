@@ -21,8 +21,10 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 /// What must not depend on how the campaign was run.
-fn outcome(r: &ShotRecord) -> (String, u64, u64, bool, u64, u64) {
-    (r.id.clone(), r.velocity_m_s.to_bits(), r.seed, r.perforated, r.residual_velocity_m_s.to_bits(), r.steps)
+fn outcome(r: &ShotRecord) -> (String, u64, u64, bool, u64, u64, [u64; 4]) {
+    let drawn =
+        [r.aim_offset_m[0].to_bits(), r.aim_offset_m[1].to_bits(), r.yaw_deg.to_bits(), r.obliquity_deg.to_bits()];
+    (r.id.clone(), r.velocity_m_s.to_bits(), r.seed, r.perforated, r.residual_velocity_m_s.to_bits(), r.steps, drawn)
 }
 
 #[test]
@@ -33,8 +35,35 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     // uninterrupted, on 2 ranks
     run_local(2, |comm| run_group(&campaign, &case, comm, group, &dir.join("whole"), None, None).unwrap());
     let whole = report(&campaign, &dir.join("whole")).unwrap();
-    assert_eq!(whole.shots.len(), 12);
+    assert_eq!(whole.shots.len(), 16);
     assert!(whole.partials > 0 && whole.completes > 0, "the spread straddles the limit");
+    // shots that scatter in aim (and strength) leave a zone of mixed results, so the fits
+    // give a V50 with an interval
+    let lowest_complete =
+        whole.shots.iter().filter(|s| s.perforated).map(|s| s.velocity_m_s).fold(f64::INFINITY, f64::min);
+    let highest_partial = whole.shots.iter().filter(|s| !s.perforated).map(|s| s.velocity_m_s).fold(0.0, f64::max);
+    assert!(lowest_complete < highest_partial, "a mixed zone: {lowest_complete} < {highest_partial}");
+    for fit in [&whole.logistic, &whole.probit] {
+        let v50 = fit.as_ref().expect("a fitted V50").v50;
+        assert!(v50.low < v50.velocity && v50.velocity < v50.high && (145.0..205.0).contains(&v50.velocity), "{v50:?}");
+    }
+    // every shot lists what it drew: an aim within one unit cell of the centre
+    let aims: Vec<[f64; 2]> = whole.shots.iter().map(|s| s.aim_offset_m).collect();
+    assert!(
+        aims.iter().all(|a| a[0].abs() < 1e-3 && a[1].abs() < 1e-3) && aims.windows(2).all(|w| w[0] != w[1]),
+        "{aims:?}"
+    );
+    assert!(whole.shots.iter().all(|s| s.yaw_deg.abs() <= 3.0 && s.obliquity_deg == 0.0));
+    // two groups share the shots out and fire the same bits
+    let halves = dir.join("groups");
+    for index in [1, 0] {
+        run_local(1, |comm| run_group(&campaign, &case, comm, Group { index, count: 2 }, &halves, None, None).unwrap());
+    }
+    let split = report(&campaign, &halves).unwrap();
+    assert_eq!(
+        split.shots.iter().map(outcome).collect::<Vec<_>>(),
+        whole.shots.iter().map(outcome).collect::<Vec<_>>()
+    );
     // two shots, then a signal that stops the third in its first step (it checkpoints),
     // then the rest on 1 rank
     let out = dir.join("interrupted");
@@ -42,21 +71,52 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert_eq!(paused[0], Progress::Paused, "two shots fired, ten to go");
     let stop = Arc::new(AtomicBool::new(true));
     let first = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())));
-    assert!(matches!(first[0], Err(CampaignError::Run { error: RunError::Interrupted(_), .. })), "{:?}", first[0].as_ref().err().map(|e| e.to_string()));
+    assert!(
+        matches!(first[0], Err(CampaignError::Run { error: RunError::Interrupted(_), .. })),
+        "{:?}",
+        first[0].as_ref().err().map(|e| e.to_string())
+    );
     let checkpoint = out.join("shots/r000-00002/checkpoint");
     assert!(checkpoint.join("manifest.h5").exists(), "the third shot left a checkpoint");
     assert_eq!(report(&campaign, &out).unwrap().shots.len(), 2, "two shots on record");
     stop.store(false, Ordering::SeqCst);
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())).unwrap());
     let resumed = report(&campaign, &out).unwrap();
-    assert_eq!(resumed.shots.iter().map(outcome).collect::<Vec<_>>(), whole.shots.iter().map(outcome).collect::<Vec<_>>());
-    let differences = dea_io::results::compare_results(&dir.join("whole/shots/r000-00002/results.h5"), &out.join("shots/r000-00002/results.h5")).unwrap();
+    assert_eq!(
+        resumed.shots.iter().map(outcome).collect::<Vec<_>>(),
+        whole.shots.iter().map(outcome).collect::<Vec<_>>()
+    );
+    let differences = dea_io::results::compare_results(
+        &dir.join("whole/shots/r000-00002/results.h5"),
+        &out.join("shots/r000-00002/results.h5"),
+    )
+    .unwrap();
     assert!(differences.is_empty(), "the resumed shot: {differences:#?}");
     // a third run finds nothing to do
     let before = std::fs::metadata(out.join("shots/r000-00005.json")).unwrap().modified().unwrap();
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None).unwrap());
     assert_eq!(std::fs::metadata(out.join("shots/r000-00005.json")).unwrap().modified().unwrap(), before);
+    // a campaign changed since its shots were fired is refused, not mixed in
+    let mut changed = campaign.clone();
+    changed.scatter = Some(dea_ballistic::scatter::Scatter {
+        yaw_deg: dea_ballistic::scatter::Spread::Fixed {},
+        ..campaign.scatter()
+    });
+    let refused = run_local(1, |comm| run_group(&changed, &case, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("r000-00000") && message.contains("the campaign changed since"), "{message}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_unit_cell_aim_needs_a_woven_target() {
+    let (mut campaign, _) = load_campaign(&cases().join("v50_tiny_monte_carlo.json")).unwrap();
+    let case = dea_io::case::load_case(&cases().join("single_fibre_short.json")).unwrap();
+    campaign.scatter = Some(dea_ballistic::scatter::Scatter::default());
+    let refused = run_local(1, |comm| {
+        run_group(&campaign, &case, comm, Group { index: 0, count: 1 }, &scratch("straight"), None, None)
+    });
+    assert!(matches!(&refused[0], Err(CampaignError::Scatter(m)) if m.starts_with("scatter.aim")));
 }
 
 #[test]
@@ -67,6 +127,9 @@ fn a_bisection_closes_on_the_limit() {
     let result = report(&campaign, &dir).unwrap();
     let (low, high) = result.bisection_brackets[0];
     assert!(high - low <= 15.0 && high > low, "{low} {high}");
-    assert!(result.shots.iter().all(|s| s.perforated == (s.velocity_m_s >= high)), "one strength realisation: perforation is monotone in velocity");
+    assert!(
+        result.shots.iter().all(|s| s.perforated == (s.velocity_m_s >= high)),
+        "one strength realisation: perforation is monotone in velocity"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -6,12 +6,15 @@
 //! - [`mil_std_662f`]: the V50 of MIL-STD-662F, the mean of equal numbers of the highest
 //!   partial and the lowest complete penetrations within a velocity spread.
 //! - [`lambert_jonas`]: the residual-velocity fit `v_r = a (v^p - v_bl^p)^(1/p)`.
-//! - [`design`]: which velocity to shoot next (bisection, up-and-down, Langlie, Monte Carlo).
+//! - [`design`]: which velocity to shoot next (bisection, up-and-down, Langlie, Monte Carlo,
+//!   a list).
+//! - [`scatter`]: what else each shot draws: its aim within a unit cell, its yaw, obliquity.
 
 pub mod design;
 pub mod fit;
 pub mod lambert_jonas;
 pub mod mil_std_662f;
+pub mod scatter;
 
 use serde::{Deserialize, Serialize};
 

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use dea_ballistic::design::Design;
+use dea_ballistic::scatter::Scatter;
 use serde::{Deserialize, Serialize};
 
 use crate::case::{load_case, Case, CaseError};
@@ -30,6 +31,22 @@ pub struct Campaign {
     /// the MIL-STD-662F estimate: shots of each outcome and the velocity spread allowed
     #[serde(default)]
     pub mil_std_662f: MilStdSpec,
+    /// what each shot draws besides its strength seed: aim within a unit cell, yaw and
+    /// obliquity; default [`Scatter::default`], or none for a bisection
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scatter: Option<Scatter>,
+}
+
+impl Campaign {
+    /// The scatter the shots draw: as given, else none for a bisection (it assumes one
+    /// realisation) and [`Scatter::default`] for every other design.
+    pub fn scatter(&self) -> Scatter {
+        match (&self.scatter, &self.design) {
+            (Some(scatter), _) => *scatter,
+            (None, Design::Bisection { .. }) => Scatter::none(),
+            (None, _) => Scatter::default(),
+        }
+    }
 }
 
 fn one() -> usize {
@@ -77,6 +94,18 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
         let (field, reason) = message.split_once(": ").unwrap_or(("design", &message));
         invalid(field, format!("{reason} (in {source})"))
     })?;
+    if let Some(scatter) = &campaign.scatter {
+        scatter.validate().map_err(|message| {
+            let (field, reason) = message.split_once(": ").unwrap_or(("scatter", &message));
+            invalid(field, format!("{reason} (in {source})"))
+        })?;
+        if matches!(campaign.design, Design::Bisection { .. }) && !scatter.is_none() {
+            return Err(invalid(
+                "scatter",
+                format!("a bisection assumes one realisation, so its shots cannot scatter: give aim \"fixed\" and fixed angles, or choose another design (in {source})"),
+            ));
+        }
+    }
     if !(1..=1000).contains(&campaign.replicates) {
         return Err(invalid("replicates", format!("must be in 1..=1000, got {} (in {source})", campaign.replicates)));
     }
@@ -121,7 +150,7 @@ mod tests {
         let good = serde_json::json!({ "name": "c", "case_file": "shot.json", "design": { "kind": "bisection", "low_m_s": 100.0, "high_m_s": 600.0, "resolution_m_s": 10.0 } });
         let (campaign, loaded) = load_campaign(&write(&dir, "good.json", &good)).unwrap();
         assert_eq!(loaded, crate::case::default_case());
-        assert!(campaign.case_file.unwrap().is_absolute());
+        assert!(campaign.case_file.as_ref().unwrap().is_absolute());
         assert_eq!(campaign.replicates, 1);
         let error = |edit: &dyn Fn(&mut serde_json::Value)| {
             let mut value = good.clone();
@@ -134,6 +163,22 @@ mod tests {
         assert!(e.path.starts_with("design") && e.message.contains("guess"), "{e}");
         let e = error(&|v| v["shots"] = 3.into());
         assert_eq!(e.path, "shots");
+        assert_eq!(campaign.scatter(), Scatter::none(), "a bisection does not scatter");
+        let e = error(&|v| v["scatter"] = serde_json::json!({}));
+        assert_eq!(e.path, "scatter");
+        let e = error(&|v| {
+            v["design"] =
+                serde_json::json!({ "kind": "monte_carlo", "centre_m_s": 300.0, "spread_m_s": 50.0, "shots": 4 });
+            v["scatter"] = serde_json::json!({ "yaw_deg": { "kind": "normal", "std_dev": 5.0 } });
+        });
+        assert_eq!(e.path, "scatter.yaw_deg");
+        let mut monte_carlo = good.clone();
+        monte_carlo["design"] =
+            serde_json::json!({ "kind": "monte_carlo", "centre_m_s": 300.0, "spread_m_s": 50.0, "shots": 4 });
+        let (campaign, _) = load_campaign(&write(&dir, "mc.json", &monte_carlo)).unwrap();
+        assert_eq!(campaign.scatter(), Scatter::default());
+        let e = error(&|v| v["scatter"] = serde_json::json!({ "aim": "crossing" }));
+        assert!(e.path.starts_with("scatter"), "{e}");
         let e = error(&|v| v["case"] = case.clone());
         assert!(e.message.contains("exactly one"), "{e}");
         let e = error(&|v| {

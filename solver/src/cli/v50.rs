@@ -77,6 +77,7 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
     let code = match &result {
         Ok(_) => 0,
         Err(CampaignError::Setup { error, .. }) => setup_exit(error) as u8,
+        Err(CampaignError::Scatter(_)) => Exit::BadCase as u8,
         Err(CampaignError::Run { error: RunError::Numerical(_), .. }) => Exit::Numerical as u8,
         Err(CampaignError::Run { error: RunError::Interrupted(_), .. }) => Exit::Interrupted as u8,
         Err(CampaignError::Run { error: RunError::Output(_), .. }) | Err(CampaignError::Output(_)) => Exit::File as u8,
