@@ -58,7 +58,7 @@ pub struct ShotRecord {
     pub perforated: bool,
     /// [m/s]
     pub residual_velocity_m_s: f64,
-    /// why the run stopped: perforated, rebounded or end_time
+    /// why the run stopped: perforated, rebounded or stopped (partials), or end_time_s
     pub stopped_by: String,
     pub steps: u64,
     pub wall_s: f64,

@@ -71,6 +71,8 @@ enum Outcome {
     Undecided = 0,
     Perforated = 1,
     Rebounded = 2,
+    /// moving back along the normal while still in or on the target: the fabric stopped it
+    Stopped = 3,
 }
 
 /// Decides a shot against the panel, along its inward normal (-z) whatever the obliquity:
@@ -78,8 +80,9 @@ enum Outcome {
 /// forward along the normal, and nothing holds it back: every fibre it touches is broken
 /// somewhere (what hangs on it are loose fragments), or what still touches it resists with
 /// less than [`HELD_FRACTION`] of the peak force so far (fibres pushed aside along its flank);
-/// rebounded once it moves back along the normal, clear of the target and of contact.
-/// Every rank takes part in the reductions; rank 0 decides and tells the others.
+/// rebounded once it moves back along the normal, clear of the target and of contact;
+/// stopped (a partial too) as soon as it moves back along the normal at all, still in or on
+/// the target (docs/theory.md V1). Every rank takes part in the reductions; rank 0 decides and tells the others.
 struct Judge {
     /// the panel's inward normal
     direction: Vec3,
@@ -128,11 +131,16 @@ impl Judge {
                 && projectile.force.norm() == 0.0
             {
                 decision = Outcome::Rebounded;
+            } else if forward < 0.0 {
+                // its motion along the normal reversed: the fabric has taken all it had, and
+                // nothing behind the projectile can drive it forward again
+                decision = Outcome::Stopped;
             }
         }
         match run.from_rank0([decision as u8 as f64])[0] as u8 {
             1 => Outcome::Perforated,
             2 => Outcome::Rebounded,
+            3 => Outcome::Stopped,
             _ => Outcome::Undecided,
         }
     }

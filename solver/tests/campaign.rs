@@ -36,6 +36,12 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     run_local(2, |comm| run_group(&campaign, &case, comm, group, &dir.join("whole"), None, None).unwrap());
     let whole = report(&campaign, &dir.join("whole")).unwrap();
     assert_eq!(whole.shots.len(), 16);
+    // every shot decided: a partial as soon as the projectile turned back (docs/theory.md V1)
+    assert_eq!(whole.held_at_end, 0, "{:?}", whole.shots.iter().map(|s| &s.stopped_by).collect::<Vec<_>>());
+    for partial in whole.shots.iter().filter(|s| !s.perforated) {
+        assert!(partial.stopped_by == "stopped" || partial.stopped_by == "rebounded", "{partial:?}");
+        assert!(partial.residual_velocity_m_s <= 0.0, "moving back: {partial:?}");
+    }
     assert!(whole.partials > 0 && whole.completes > 0, "the spread straddles the limit");
     // shots that scatter in aim (and strength) leave a zone of mixed results, so the fits
     // give a V50 with an interval
@@ -131,5 +137,6 @@ fn a_bisection_closes_on_the_limit() {
         result.shots.iter().all(|s| s.perforated == (s.velocity_m_s >= high)),
         "one strength realisation: perforation is monotone in velocity"
     );
+    assert_eq!(result.held_at_end, 0, "every shot decided");
     std::fs::remove_dir_all(&dir).unwrap();
 }
