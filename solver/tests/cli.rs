@@ -99,6 +99,22 @@ fn missing_file_exits_4_and_usage_errors_exit_2() {
 }
 
 #[test]
+fn a_fifo_or_a_device_is_refused_not_waited_on() {
+    let dir = scratch("fifo");
+    let fifo = dir.join("case.json");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    std::os::unix::fs::symlink("/dev/urandom", dir.join("random.json")).unwrap();
+    for path in [fifo, dir.join("random.json")] {
+        let path = path.to_str().unwrap();
+        for args in [vec!["check", path], vec!["run", path, "--out", dir.join("out").to_str().unwrap()]] {
+            let stderr = stderr_of_exit(3, &args);
+            assert!(stderr.contains(path) && stderr.contains("not a regular file"), "{stderr}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn check_prints_the_resolved_case() {
     let out = dea(&["check", "../cases/single_fibre_short.json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

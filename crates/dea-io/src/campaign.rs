@@ -83,7 +83,7 @@ pub fn is_campaign(document: &serde_json::Value) -> bool {
 /// case file and its field.
 pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     let source = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
+    let text = crate::case::read_input(path)?;
     let text = crate::case::json_document(&text, &source)?;
     let deserializer = &mut serde_json::Deserializer::from_str(text);
     let mut campaign: Campaign = serde_path_to_error::deserialize(deserializer).map_err(|e| {

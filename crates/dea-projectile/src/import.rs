@@ -41,26 +41,52 @@ const GMSH_TETRAHEDRON: i64 = 4;
 /// hexahedron), and whether the type is a volume element.
 fn gmsh_element(kind: i64) -> Option<(usize, bool)> {
     match kind {
-        15 => Some((1, false)),         // point
-        1 => Some((2, false)),          // line
-        2 => Some((3, false)),          // triangle
-        3 => Some((4, false)),          // quadrangle
+        15 => Some((1, false)), // point
+        1 => Some((2, false)),  // line
+        2 => Some((3, false)),  // triangle
+        3 => Some((4, false)),  // quadrangle
         GMSH_TETRAHEDRON => Some((4, true)),
         GMSH_HEXAHEDRON => Some((8, true)),
-        6 => Some((6, true)),           // prism
-        7 => Some((5, true)),           // pyramid
+        6 => Some((6, true)), // prism
+        7 => Some((5, true)), // pyramid
         _ => None,
     }
+}
+
+/// The largest mesh file read [bytes]: a 2^24-element hexahedral mesh in ASCII is about
+/// 1.5 GB, far beyond any projectile a fibre-level shot can afford.
+pub const MAX_MESH_BYTES: u64 = 2 << 30;
+
+/// The bytes of a mesh file: a regular file (not a FIFO or a device, which could block or
+/// never end) of at most [`MAX_MESH_BYTES`].
+fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
+    let name = path.display().to_string();
+    let refuse = |message: String| ImportError { path: name.clone(), line: 0, message };
+    let metadata = std::fs::metadata(path).map_err(|e| refuse(format!("cannot read: {e}")))?;
+    if !metadata.is_file() {
+        return Err(refuse("not a regular file (a FIFO, a device or a directory cannot be a mesh)".into()));
+    }
+    if metadata.len() > MAX_MESH_BYTES {
+        return Err(refuse(format!(
+            "{} bytes: larger than the {MAX_MESH_BYTES} bytes a mesh may have",
+            metadata.len()
+        )));
+    }
+    std::fs::read(path).map_err(|e| refuse(format!("cannot read: {e}")))
 }
 
 /// Reads a mesh, choosing the format by the file's extension.
 pub fn read_mesh(path: &Path) -> Result<HexMesh, ImportError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| ImportError { path: name.clone(), line: 0, message: format!("cannot read: {e}") })?;
+    let bytes = read_file(path)?;
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("msh") => parse_gmsh(&bytes, &name),
         Some("inp") => parse_abaqus(&String::from_utf8_lossy(&bytes), &name),
-        _ => Err(ImportError { path: name, line: 0, message: "unknown mesh format: use .msh (Gmsh 4.1) or .inp (ABAQUS)".into() }),
+        _ => Err(ImportError {
+            path: name,
+            line: 0,
+            message: "unknown mesh format: use .msh (Gmsh 4.1) or .inp (ABAQUS)".into(),
+        }),
     }
 }
 
@@ -69,16 +95,23 @@ pub fn read_mesh(path: &Path) -> Result<HexMesh, ImportError> {
 /// Gmsh, tetrahedra). Vertices and triangles, normals out; closure is checked by the user.
 pub fn read_surface(path: &Path) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ImportError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| ImportError { path: name.clone(), line: 0, message: format!("cannot read: {e}") })?;
-    let (nodes, hexes, tetrahedra) = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("stl") => return parse_stl(&bytes, &name),
-        Some("msh") => gmsh_elements(&bytes, &name)?.finish_volume(&name)?,
-        Some("inp") => {
-            let mesh = parse_abaqus(&String::from_utf8_lossy(&bytes), &name)?;
-            (mesh.nodes, mesh.hexes, Vec::new())
-        }
-        _ => return Err(ImportError { path: name, line: 0, message: "unknown mesh format: use .msh (Gmsh 4.1), .inp (ABAQUS) or .stl".into() }),
-    };
+    let bytes = read_file(path)?;
+    let (nodes, hexes, tetrahedra) =
+        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("stl") => return parse_stl(&bytes, &name),
+            Some("msh") => gmsh_elements(&bytes, &name)?.finish_volume(&name)?,
+            Some("inp") => {
+                let mesh = parse_abaqus(&String::from_utf8_lossy(&bytes), &name)?;
+                (mesh.nodes, mesh.hexes, Vec::new())
+            }
+            _ => {
+                return Err(ImportError {
+                    path: name,
+                    line: 0,
+                    message: "unknown mesh format: use .msh (Gmsh 4.1), .inp (ABAQUS) or .stl".into(),
+                })
+            }
+        };
     let (vertices, _, triangles) = compact(&nodes, &outer_triangles(&hexes, &tetrahedra));
     Ok((vertices, triangles))
 }
@@ -102,23 +135,37 @@ impl Collected {
     fn index<const N: usize>(&self, tags: &[u64; N], line: usize, path: &str) -> Result<[u32; N], ImportError> {
         let mut nodes = [0u32; N];
         for (k, tag) in tags.iter().enumerate() {
-            nodes[k] = *self.node_index.get(tag).ok_or_else(|| ImportError { path: path.into(), line, message: format!("element refers to node {tag}, which is not defined") })?;
+            nodes[k] = *self.node_index.get(tag).ok_or_else(|| ImportError {
+                path: path.into(),
+                line,
+                message: format!("element refers to node {tag}, which is not defined"),
+            })?;
         }
         Ok(nodes)
     }
 
     /// Nodes, hexahedra and tetrahedra with dense indices; inverted elements refused.
     fn finish_volume(self, path: &str) -> Result<Volume, ImportError> {
-        let hexes: Vec<Hex> = self.hexes.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
-        let tetrahedra: Vec<[u32; 4]> = self.tetrahedra.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
+        let hexes: Vec<Hex> =
+            self.hexes.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
+        let tetrahedra: Vec<[u32; 4]> =
+            self.tetrahedra.iter().map(|(tags, line)| self.index(tags, *line, path)).collect::<Result<_, _>>()?;
         if hexes.is_empty() && tetrahedra.is_empty() {
-            return Err(ImportError { path: path.into(), line: 0, message: "no 8-node hexahedra or 4-node tetrahedra in the file".into() });
+            return Err(ImportError {
+                path: path.into(),
+                line: 0,
+                message: "no 8-node hexahedra or 4-node tetrahedra in the file".into(),
+            });
         }
         for (k, t) in tetrahedra.iter().enumerate() {
             let [a, b, c, d] = t.map(|n| self.nodes[n as usize]);
             let volume = (b - a).cross(&(c - a)).dot(&(d - a));
             if volume.is_nan() || volume <= 0.0 {
-                return Err(ImportError { path: path.into(), line: self.tetrahedra[k].1, message: format!("tetrahedron {k} (in file order) is inverted or degenerate") });
+                return Err(ImportError {
+                    path: path.into(),
+                    line: self.tetrahedra[k].1,
+                    message: format!("tetrahedron {k} (in file order) is inverted or degenerate"),
+                });
             }
         }
         let mesh = HexMesh { nodes: self.nodes, hexes };
@@ -150,7 +197,13 @@ impl Collected {
     fn finish(self, path: &str) -> Result<HexMesh, ImportError> {
         let (nodes, hexes, tetrahedra) = self.finish_volume(path)?;
         if !tetrahedra.is_empty() {
-            return Err(ImportError { path: path.into(), line: 0, message: "tetrahedra serve a rigid projectile's surface only: mesh this projectile with 8-node hexahedra".into() });
+            return Err(ImportError {
+                path: path.into(),
+                line: 0,
+                message:
+                    "tetrahedra serve a rigid projectile's surface only: mesh this projectile with 8-node hexahedra"
+                        .into(),
+            });
         }
         if hexes.is_empty() {
             return Err(ImportError { path: path.into(), line: 0, message: "no 8-node hexahedra in the file".into() });
@@ -186,6 +239,20 @@ impl<'a> Lines<'a> {
     }
 
     /// The next line as numbers.
+    /// The line that must close a section whose blocks were just read: a block that listed
+    /// more lines than it claimed, or a header whose total disagrees with its blocks', is an
+    /// error rather than a silently shorter mesh.
+    fn end(&mut self, marker: &str, head_line: usize, total: u64, claimed: u64, what: &str) -> Result<(), ImportError> {
+        let (line, text) = self.next()?;
+        if text != marker {
+            return Err(self.error(line, format!("expected {marker}: a block lists more {what} than its count says")));
+        }
+        if total != claimed {
+            return Err(self.error(head_line, format!("the header claims {claimed} {what}, its blocks hold {total}")));
+        }
+        Ok(())
+    }
+
     fn numbers<T: std::str::FromStr>(&mut self, expected: usize) -> Result<(usize, Vec<T>), ImportError> {
         let (line, text) = self.next()?;
         let values: Result<Vec<T>, _> = text.split_whitespace().map(str::parse).collect();
@@ -208,16 +275,29 @@ fn gmsh_elements(bytes: &[u8], path: &str) -> Result<Collected, ImportError> {
     let mut header = head.lines();
     let (first, format) = (header.next().unwrap_or("").trim(), header.next().unwrap_or("").trim().to_string());
     if first != "$MeshFormat" {
-        return Err(ImportError { path: path.into(), line: 1, message: "not a Gmsh mesh: expected $MeshFormat".into() });
+        return Err(ImportError {
+            path: path.into(),
+            line: 1,
+            message: "not a Gmsh mesh: expected $MeshFormat".into(),
+        });
     }
     let fields: Vec<&str> = format.split_whitespace().collect();
     if fields.first() != Some(&"4.1") {
-        return Err(ImportError { path: path.into(), line: 2, message: format!("MSH version {:?}: only 4.1 is read (save as Version 4 ASCII or binary)", fields.first().unwrap_or(&"")) });
+        return Err(ImportError {
+            path: path.into(),
+            line: 2,
+            message: format!(
+                "MSH version {:?}: only 4.1 is read (save as Version 4 ASCII or binary)",
+                fields.first().unwrap_or(&"")
+            ),
+        });
     }
     match fields.get(1) {
         Some(&"0") => parse_gmsh_ascii(&String::from_utf8_lossy(bytes), path),
         Some(&"1") => parse_gmsh_binary(bytes, path),
-        _ => Err(ImportError { path: path.into(), line: 2, message: "file type must be 0 (ASCII) or 1 (binary)".into() }),
+        _ => {
+            Err(ImportError { path: path.into(), line: 2, message: "file type must be 0 (ASCII) or 1 (binary)".into() })
+        }
     }
 }
 
@@ -227,14 +307,16 @@ fn parse_gmsh_ascii(text: &str, path: &str) -> Result<Collected, ImportError> {
     while let Ok((_, line)) = lines.next() {
         match line {
             "$Nodes" => {
-                let (_, head) = lines.numbers::<u64>(4)?;
+                let (head_line, head) = lines.numbers::<u64>(4)?;
+                let mut total = 0u64;
                 for _ in 0..head[0] {
                     let (line, block) = lines.numbers::<u64>(4)?;
-                    let (parametric, count) = (block[2] != 0, block[3] as usize);
+                    let (parametric, count) = (block[2] != 0, block[3]);
                     if parametric {
                         return Err(lines.error(line, "parametric node coordinates are not supported"));
                     }
-                    let mut tags = Vec::with_capacity(count);
+                    // no capacity from a count the file claims: a wrong one ends at the file's end
+                    let mut tags = Vec::new();
                     for _ in 0..count {
                         tags.push(lines.numbers::<u64>(1)?.1[0]);
                     }
@@ -242,22 +324,32 @@ fn parse_gmsh_ascii(text: &str, path: &str) -> Result<Collected, ImportError> {
                         let (line, x) = lines.numbers::<f64>(3)?;
                         collected.node(tag, Vec3::new(x[0], x[1], x[2]), path, line)?;
                     }
+                    total += count;
                 }
+                lines.end("$EndNodes", head_line, total, head[1], "nodes")?;
             }
             "$Elements" => {
-                let (_, head) = lines.numbers::<u64>(4)?;
+                let (head_line, head) = lines.numbers::<u64>(4)?;
+                let mut total = 0u64;
                 for _ in 0..head[0] {
                     let (line, block) = lines.numbers::<i64>(4)?;
-                    let (kind, count) = (block[2], block[3] as usize);
-                    let Some((nodes, volume)) = gmsh_element(kind) else { return Err(lines.error(line, format!("unknown element type {kind}"))) };
+                    let (kind, count) = (block[2], block[3].max(0) as u64);
+                    total += count;
+                    let Some((nodes, volume)) = gmsh_element(kind) else {
+                        return Err(lines.error(line, format!("unknown element type {kind}")));
+                    };
                     if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
-                        return Err(lines.error(line, format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
+                        return Err(lines.error(
+                            line,
+                            format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron"),
+                        ));
                     }
                     for _ in 0..count {
                         let (line, values) = lines.numbers::<u64>(1 + nodes)?;
                         collected.element(kind, &values[1..], line);
                     }
                 }
+                lines.end("$EndElements", head_line, total, head[1], "elements")?;
             }
             _ => {}
         }
@@ -278,7 +370,7 @@ impl Binary<'_> {
     }
 
     fn take(&mut self, n: usize) -> Result<&[u8], ImportError> {
-        if self.at + n > self.bytes.len() {
+        if n > self.bytes.len() - self.at {
             return Err(self.error("unexpected end of file"));
         }
         self.at += n;
@@ -343,9 +435,13 @@ fn parse_gmsh_binary(bytes: &[u8], path: &str) -> Result<Collected, ImportError>
     for _ in 0..blocks {
         let (_, _, kind) = (reader.int()?, reader.int()?, reader.int()? as i64);
         let count = reader.size()? as usize;
-        let Some((nodes, volume)) = gmsh_element(kind) else { return Err(reader.error(format!("unknown element type {kind}"))) };
+        let Some((nodes, volume)) = gmsh_element(kind) else {
+            return Err(reader.error(format!("unknown element type {kind}")));
+        };
         if volume && kind != GMSH_HEXAHEDRON && kind != GMSH_TETRAHEDRON {
-            return Err(reader.error(format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron")));
+            return Err(
+                reader.error(format!("element type {kind} is neither an 8-node hexahedron nor a 4-node tetrahedron"))
+            );
         }
         for _ in 0..count {
             let _tag = reader.size()?;
@@ -380,10 +476,19 @@ pub fn parse_abaqus(text: &str, path: &str) -> Result<HexMesh, ImportError> {
             section = match name.as_str() {
                 "NODE" => Section::Nodes,
                 "ELEMENT" => {
-                    let kind = upper.split(',').find_map(|p| p.trim().strip_prefix("TYPE").map(|t| t.trim_start_matches([' ', '=']).trim().to_string())).unwrap_or_default();
+                    let kind = upper
+                        .split(',')
+                        .find_map(|p| {
+                            p.trim().strip_prefix("TYPE").map(|t| t.trim_start_matches([' ', '=']).trim().to_string())
+                        })
+                        .unwrap_or_default();
                     match kind.as_str() {
                         "C3D8" | "C3D8R" | "C3D8I" => Section::Hexahedra,
-                        other if other.starts_with("C3D") => return Err(error(format!("element type {other} is not an 8-node hexahedron (C3D8, C3D8R or C3D8I)"))),
+                        other if other.starts_with("C3D") => {
+                            return Err(error(format!(
+                                "element type {other} is not an 8-node hexahedron (C3D8, C3D8R or C3D8I)"
+                            )))
+                        }
                         _ => Section::Other,
                     }
                 }
@@ -411,7 +516,11 @@ pub fn parse_abaqus(text: &str, path: &str) -> Result<HexMesh, ImportError> {
                 }
                 if pending.len() >= 9 {
                     if pending.len() > 9 {
-                        return Err(ImportError { path: path.into(), line: pending_line, message: format!("a C3D8 element has a tag and 8 nodes, got {} numbers", pending.len()) });
+                        return Err(ImportError {
+                            path: path.into(),
+                            line: pending_line,
+                            message: format!("a C3D8 element has a tag and 8 nodes, got {} numbers", pending.len()),
+                        });
                     }
                     let mut tags = [0u64; 8];
                     tags.copy_from_slice(&pending[1..9]);
@@ -423,7 +532,11 @@ pub fn parse_abaqus(text: &str, path: &str) -> Result<HexMesh, ImportError> {
         }
     }
     if !pending.is_empty() {
-        return Err(ImportError { path: path.into(), line: pending_line, message: "incomplete element at the end of the file".into() });
+        return Err(ImportError {
+            path: path.into(),
+            line: pending_line,
+            message: "incomplete element at the end of the file".into(),
+        });
     }
     collected.finish(path)
 }
@@ -441,7 +554,8 @@ pub fn parse_stl(bytes: &[u8], path: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>),
         })
     };
     let mut triangles = Vec::new();
-    let binary_count = (bytes.len() >= 84).then(|| u32::from_le_bytes(bytes[80..84].try_into().expect("4 bytes")) as usize);
+    let binary_count =
+        (bytes.len() >= 84).then(|| u32::from_le_bytes(bytes[80..84].try_into().expect("4 bytes")) as usize);
     if binary_count.is_some_and(|n| 84 + 50 * n == bytes.len()) {
         let mut reader = Binary { bytes, at: 84, path };
         for _ in 0..binary_count.unwrap_or(0) {
@@ -453,7 +567,8 @@ pub fn parse_stl(bytes: &[u8], path: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>),
             if facet.iter().any(|v| !v.is_finite()) {
                 return Err(reader.error("a facet has a coordinate that is not a finite number"));
             }
-            let corner = |k: usize| Vec3::new(facet[3 + 3 * k] as f64, facet[4 + 3 * k] as f64, facet[5 + 3 * k] as f64);
+            let corner =
+                |k: usize| Vec3::new(facet[3 + 3 * k] as f64, facet[4 + 3 * k] as f64, facet[5 + 3 * k] as f64);
             triangles.push([vertex(corner(0)), vertex(corner(1)), vertex(corner(2))]);
         }
     } else {
@@ -461,7 +576,8 @@ pub fn parse_stl(bytes: &[u8], path: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>),
         let mut lines = Lines::new(&text, path);
         let (line, first) = lines.next()?;
         if !first.starts_with("solid") {
-            return Err(lines.error(line, "neither ASCII STL (starts with \"solid\") nor binary STL (84 bytes plus 50 per facet)"));
+            return Err(lines
+                .error(line, "neither ASCII STL (starts with \"solid\") nor binary STL (84 bytes plus 50 per facet)"));
         }
         loop {
             let (line, text) = lines.next()?;
@@ -484,9 +600,12 @@ pub fn parse_stl(bytes: &[u8], path: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>),
             for corner in &mut corners {
                 let (line, text) = lines.next()?;
                 let values: Vec<&str> = text.split_whitespace().collect();
-                let numbers: Option<Vec<f64>> = values.get(1..).and_then(|v| v.iter().map(|x| x.parse().ok()).collect());
+                let numbers: Option<Vec<f64>> =
+                    values.get(1..).and_then(|v| v.iter().map(|x| x.parse().ok()).collect());
                 match (values.first(), numbers) {
-                    (Some(&"vertex"), Some(x)) if x.len() == 3 && x.iter().all(|v| v.is_finite()) => *corner = vertex(Vec3::new(x[0], x[1], x[2])),
+                    (Some(&"vertex"), Some(x)) if x.len() == 3 && x.iter().all(|v| v.is_finite()) => {
+                        *corner = vertex(Vec3::new(x[0], x[1], x[2]))
+                    }
                     _ => return Err(lines.error(line, format!("expected \"vertex x y z\", found {text:?}"))),
                 }
             }
@@ -552,21 +671,27 @@ mod tests {
         assert!(e.message.contains("expected \"endloop\"") && e.line == 7, "{e}");
         let e = parse_stl(b"not a mesh", "x.stl").unwrap_err();
         assert!(e.message.contains("neither ASCII STL"), "{e}");
-        let e = parse_stl(stl_ascii(&mesh).lines().take(9).collect::<Vec<_>>().join("\n").as_bytes(), "cut.stl").unwrap_err();
+        let e = parse_stl(stl_ascii(&mesh).lines().take(9).collect::<Vec<_>>().join("\n").as_bytes(), "cut.stl")
+            .unwrap_err();
         assert!(e.message.contains("end of file"), "{e}");
     }
 
     #[test]
     fn tetrahedra_give_a_rigid_surface_but_not_a_hexahedral_mesh() {
         // a unit cube of five tetrahedra, as Gmsh 4.1 ASCII
-        let corners: Vec<Vec3> = (0..8).map(|k| Vec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)).collect();
+        let corners: Vec<Vec3> =
+            (0..8).map(|k| Vec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)).collect();
         // corners in binary order 0..7 = (x, y, z) bits; positive tetrahedra
         let tetrahedra = [[0, 1, 2, 4], [1, 3, 2, 7], [1, 2, 4, 7], [1, 7, 4, 5], [2, 4, 7, 6]];
         let mut text = String::from("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 8 1 8\n3 1 0 8\n");
         text += &(1..=8).map(|k| format!("{k}\n")).collect::<String>();
         text += &corners.iter().map(|x| format!("{} {} {}\n", x.x, x.y, x.z)).collect::<String>();
         text += "$EndNodes\n$Elements\n1 5 1 5\n3 1 4 5\n";
-        text += &tetrahedra.iter().enumerate().map(|(k, t)| format!("{} {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1)).collect::<String>();
+        text += &tetrahedra
+            .iter()
+            .enumerate()
+            .map(|(k, t)| format!("{} {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1))
+            .collect::<String>();
         text += "$EndElements\n";
         let dir = std::env::temp_dir().join(format!("dea-tet-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -696,6 +821,21 @@ mod tests {
         let prisms = good.replace("\n3 1 5 ", "\n3 1 6 ");
         let e = parse_gmsh(prisms.as_bytes(), "prisms.msh").unwrap_err();
         assert!(e.message.contains("neither an 8-node hexahedron") && e.line > 0, "{e}");
+        // counts a file claims: no allocation from them, and every listed line is read
+        let n = mesh.nodes.len();
+        for claimed in ["1000000000000000000", "18446744073709551615"] {
+            let huge = good.replacen(&format!("\n3 1 0 {n}\n"), &format!("\n3 1 0 {claimed}\n"), 1);
+            assert_ne!(huge, good);
+            let e = parse_gmsh(huge.as_bytes(), "huge.msh").unwrap_err();
+            assert!(e.line > 0, "{e}");
+        }
+        let m = mesh.hexes.len();
+        let fewer = good.replacen(&format!("\n3 1 5 {m}\n"), &format!("\n3 1 5 {}\n", m - 1), 1);
+        let e = parse_gmsh(fewer.as_bytes(), "fewer.msh").unwrap_err();
+        assert!(e.message.contains("expected $EndElements"), "{e}");
+        let header = good.replacen(&format!("\n2 {} 1 {}\n", m + 1, m + 1), &format!("\n2 {} 1 {}\n", m + 5, m + 1), 1);
+        let e = parse_gmsh(header.as_bytes(), "header.msh").unwrap_err();
+        assert!(e.message.contains(&format!("claims {} elements, its blocks hold {}", m + 5, m + 1)), "{e}");
         // an old format version, a truncated binary file
         assert!(parse_gmsh(b"$MeshFormat\n2.2 0 8\n", "old.msh").unwrap_err().message.contains("only 4.1"));
         let binary = gmsh_binary(&mesh);
@@ -733,8 +873,18 @@ mod tests {
         let (vertices, triangles) = read_surface(&dir.join("p.stl")).unwrap();
         assert_eq!(triangles.len(), expected.1.len());
         assert_eq!(check_closed(&triangles), Ok(()));
-        assert!((MassProperties::of_surface(&vertices, &triangles).volume - MassProperties::of_surface(&expected.0, &expected.1).volume).abs() < 1e-12);
+        assert!(
+            (MassProperties::of_surface(&vertices, &triangles).volume
+                - MassProperties::of_surface(&expected.0, &expected.1).volume)
+                .abs()
+                < 1e-12
+        );
         assert!(read_mesh(&dir.join("none.msh")).unwrap_err().to_string().contains("cannot read"));
+        // a device or a FIFO would block or never end: refused before a byte is read
+        std::os::unix::fs::symlink("/dev/urandom", dir.join("random.msh")).unwrap();
+        assert!(read_mesh(&dir.join("random.msh")).unwrap_err().message.contains("not a regular file"));
+        assert!(std::process::Command::new("mkfifo").arg(dir.join("fifo.stl")).status().unwrap().success());
+        assert!(read_surface(&dir.join("fifo.stl")).unwrap_err().message.contains("not a regular file"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

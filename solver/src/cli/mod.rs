@@ -109,12 +109,21 @@ pub fn load(path: Option<&PathBuf>) -> Result<Case, (Exit, String)> {
     }
 }
 
+/// The text of an input file: a missing or unreadable file is a file error (4), a FIFO, a
+/// device or an oversized file a refused case (3).
+fn read_input(path: &Path) -> Result<String, (Exit, String)> {
+    if let Err(e) = std::fs::metadata(path) {
+        return Err((Exit::File, format!("{}: cannot read: {e}", path.display())));
+    }
+    dea_io::case::read_input(path).map_err(|e| (Exit::BadCase, e.to_string()))
+}
+
 /// A case file, or a campaign file (one naming its shot's `case` or `case_file`) with its
 /// shot's case.
 pub fn load_case_or_campaign(path: &PathBuf) -> Result<(Option<Campaign>, Case), (Exit, String)> {
+    let text = read_input(path)?;
     let text =
-        std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
-    let text = dea_io::case::json_document(&text, &path.display().to_string()).map_err(|e| (Exit::BadCase, e.to_string()))?;
+        dea_io::case::json_document(&text, &path.display().to_string()).map_err(|e| (Exit::BadCase, e.to_string()))?;
     let campaign = serde_json::from_str::<serde_json::Value>(text).is_ok_and(|document| is_campaign(&document));
     if campaign {
         load_campaign(path).map(|(campaign, case)| (Some(campaign), case)).map_err(|e| (Exit::BadCase, e.to_string()))
@@ -161,8 +170,7 @@ pub fn load_shared(comm: &impl Comm, path: Option<&PathBuf>) -> Result<Case, (Ex
 /// Rank 0 reads the campaign, its case and its text; every rank gets them.
 pub fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, Case, String), (Exit, String)> {
     from_rank0(comm, || {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| (Exit::File, format!("{}: cannot read: {e}", path.display())))?;
+        let text = read_input(path)?;
         let (campaign, case) = load_campaign(path).map_err(|e| (Exit::BadCase, e.to_string()))?;
         Ok((campaign, case, text))
     })

@@ -909,11 +909,30 @@ pub fn json_document<'a>(text: &'a str, source: &str) -> Result<&'a str, CaseErr
     }
 }
 
+/// The largest case or campaign file read [bytes]: a case is a page of JSON.
+pub const MAX_INPUT_BYTES: u64 = 16 << 20;
+
+/// The text of a case or campaign file: a regular file (a FIFO or a device such as
+/// /dev/urandom could block or never end) of at most [`MAX_INPUT_BYTES`], in UTF-8.
+pub fn read_input(path: &std::path::Path) -> Result<String, CaseError> {
+    let source = path.display().to_string();
+    let metadata = std::fs::metadata(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))?;
+    if !metadata.is_file() {
+        return Err(invalid(&source, "not a regular file (a FIFO, a device or a directory cannot be a case)"));
+    }
+    if metadata.len() > MAX_INPUT_BYTES {
+        return Err(invalid(
+            &source,
+            format!("{} bytes: larger than the {MAX_INPUT_BYTES} bytes a case or campaign may have", metadata.len()),
+        ));
+    }
+    std::fs::read_to_string(path).map_err(|e| invalid(&source, format!("cannot read: {e}")))
+}
+
 /// Reads, parses and validates a case file; a relative mesh or cell file is taken relative to
 /// the case file and made absolute (so that a checkpoint's copy of the case finds it too).
 pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| invalid(&path.display().to_string(), format!("cannot read: {e}")))?;
+    let text = read_input(path)?;
     let mut case = parse_case(&text, &path.display().to_string())?;
     let base = path.parent().map(std::path::Path::to_path_buf).unwrap_or_default();
     let (cell_file, coarse_cell_file) = match &mut case.target {
