@@ -629,12 +629,35 @@ pub fn memory_limit() -> Option<f64> {
     Some(group.map_or(host, |g| g.min(host)))
 }
 
+/// The address space one process may take (`ulimit -v`, RLIMIT_AS) [bytes]; `None` when
+/// unlimited.
+pub fn address_space_limit() -> Option<f64> {
+    let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: getrlimit writes the struct it is given and nothing else
+    let read = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } == 0;
+    (read && limit.rlim_cur != libc::RLIM_INFINITY).then_some(limit.rlim_cur as f64)
+}
+
 /// Refuses a job whose `ranks_here` ranks on this host could not hold their shares of a
-/// target of `nodes` nodes split over `ranks` ranks within `limit` bytes, before the
+/// target of `nodes` nodes split over `ranks` ranks within `limit` bytes, or whose share
+/// alone exceeds one process's address space ([`address_space_limit`]), before the
 /// partition and the nodes are made (either would exhaust the memory on the way).
 pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64>) -> Result<(), SetupError> {
-    let Some(limit) = limit else { return Ok(()) };
     let per_rank = nodes as f64 / ranks as f64 * BYTES_PER_NODE;
+    // the share comes on top of what the process has mapped already (MPI's own segments)
+    let mapped = std::fs::read_to_string("/proc/self/statm")
+        .ok()
+        .and_then(|text| text.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(0.0, |pages| pages * 4096.0);
+    if let Some(space) = address_space_limit().filter(|&space| mapped + per_rank > space) {
+        return Err(SetupError::Case(format!(
+            "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks they are split over ({BYTES_PER_NODE} bytes per node, measured), more than the {:.1} GB of address space a process may take here (ulimit -v) beside the {:.1} GB it has mapped already: raise the limit, run on more ranks, or strike a smaller target",
+            per_rank / 1e9,
+            space / 1e9,
+            mapped / 1e9
+        )));
+    }
+    let Some(limit) = limit else { return Ok(()) };
     if per_rank * ranks_here as f64 <= limit {
         return Ok(());
     }

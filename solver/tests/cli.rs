@@ -115,6 +115,28 @@ fn a_fifo_or_a_device_is_refused_not_waited_on() {
 }
 
 #[test]
+fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
+    // a 6 cm patch of the default case has 2.46 million nodes, 4.3 GB: a process
+    // limited to 2 GB of address space cannot hold it, whatever the host's memory
+    let dir = scratch("rlimit");
+    let mut case = case_file("default.json");
+    case["target"]["side_m"] = 0.06.into();
+    let path = dir.join("wide.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let command = format!(
+        "ulimit -v 2000000 && exec {} run {} --out {}",
+        env!("CARGO_BIN_EXE_dea-mpi"),
+        path.display(),
+        dir.join("out").display()
+    );
+    let out = Command::new("bash").args(["-c", &command]).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("address space a process may take here (ulimit -v)"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn check_prints_the_resolved_case() {
     let out = dea(&["check", "../cases/single_fibre_short.json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
