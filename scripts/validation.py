@@ -173,6 +173,10 @@ def entry(c):
         if has_partial and has_complete:
             v50, low, high = 0.5 * (lo + hi), lo, hi
             method = "bisection bracket (highest partial, lowest complete)"
+            held = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == lo and s["stopped_by"] == "end_time_s"]
+            if held:
+                method += (f"; the partial at {lo:.1f} m/s was undecided at the end time (still moving at "
+                           f"{held[0]['residual_velocity_m_s']:.1f} m/s), so the bracket's low end is not established")
         elif c.shots:
             method = "bisection: no bracket yet (" + ("all perforated" if has_complete else "none perforated") + ")"
     elif design["kind"] == "velocities":

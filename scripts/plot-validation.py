@@ -1,0 +1,86 @@
+#!/usr/bin/python3
+"""The validation set's V50s beside the seed's Table 6-1, from validation/summary.json only.
+
+    /usr/bin/python3 scripts/plot-validation.py [--out docs/img/validation-v50.png]
+
+Left: V50 (bracket or interval as an error bar) of the 4-layer panels against their side,
+with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers of a
+15 in panel. Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
+the layer series where it has results. A campaign without a V50 yet is listed under the
+plot with its state, not drawn. Residual velocities of the mesh series are printed, not
+plotted.
+"""
+import argparse
+import json
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TABLE_6_1_LAYERS = [4, 8, 12, 16, 20, 24, 28]
+TABLE_6_1_EXPERIMENT = [245, 287, 416, 441, 511, 506, 549]
+TABLE_6_1_MODIFIED_DEA = [305, 407, 435, 475, 505, 525, 545]
+
+parser = argparse.ArgumentParser()
+parser.add_argument("--out", default=os.path.join(ROOT, "docs", "img", "validation-v50.png"))
+args = parser.parse_args()
+with open(os.path.join(ROOT, "validation", "summary.json")) as f:
+    entries = json.load(f)
+
+figure, (size_axes, layer_axes) = plt.subplots(1, 2, figsize=(11.0, 4.4))
+pending = []
+
+
+def bar(axes, x, entry, colour, label):
+    v, low, high = entry["v50_m_s"], entry["v50_low_m_s"], entry["v50_high_m_s"]
+    axes.errorbar([x], [v], yerr=[[v - low], [high - v]], fmt="o", color=colour, capsize=5, label=label)
+
+
+panels = sorted((e for e in entries if e["series"] == "panel_size"), key=lambda e: e["side_m"])
+for k, e in enumerate(panels):
+    if e["v50_m_s"] is None:
+        pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
+        continue
+    bar(size_axes, 1000 * e["side_m"], e, "tab:blue", "dea-mpi, 4 layers (bisection bracket)" if k == 0 else None)
+size_axes.axhline(245, color="black", linestyle="--", label="experiment, 4 layers, 15 in panel (Table 6-1)")
+size_axes.axhline(305, color="tab:red", linestyle=":", label="seed modified DEA, 4 layers (Table 6-1)")
+size_axes.set_xscale("log")
+size_axes.set_xlabel("panel side [mm] (fixed edges)")
+size_axes.set_ylabel("V50 [m/s]")
+size_axes.set_title("17-grain FSP, 4 layers of KM2 706: V50 against panel size")
+size_axes.set_xlim(7, 420)
+size_axes.set_ylim(0, 450)
+size_axes.grid(alpha=0.3)
+handles, labels = size_axes.get_legend_handles_labels()
+size_axes.legend(fontsize=7, loc="upper left")
+
+layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_EXPERIMENT, "ks--", label="experiment (Table 6-1)")
+layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_MODIFIED_DEA, "r^:", label="seed modified DEA (Table 6-1)")
+layers = sorted((e for e in entries if e["series"] == "layers"), key=lambda e: e["layers"])
+drawn = False
+for e in layers:
+    if e["v50_m_s"] is None:
+        pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
+        continue
+    bar(layer_axes, e["layers"], e, "tab:blue", None if drawn else f"dea-mpi, {1000 * e['side_m']:.0f} mm panel")
+    drawn = True
+if not drawn:
+    layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
+layer_axes.set_xlabel("layers")
+layer_axes.set_ylabel("V50 [m/s]")
+layer_axes.set_title("V50 against layers")
+layer_axes.set_xlim(0, 30)
+layer_axes.set_ylim(0, 700)
+layer_axes.grid(alpha=0.3)
+layer_axes.legend(fontsize=7, loc="upper left")
+if pending:
+    figure.text(0.01, 0.01, "not yet decided: " + "; ".join(pending), fontsize=6, wrap=True)
+figure.tight_layout(rect=(0, 0.05 if pending else 0, 1, 1))
+figure.savefig(args.out, dpi=130)
+print(args.out)
+for e in (e for e in entries if e["series"] == "mesh"):
+    shots = ", ".join(f"{r['velocity_m_s']:.0f} m/s -> {r['residual_velocity_m_s']:.1f} m/s ({r['stopped_by']})" for r in e["shot_records"])
+    print(f"{e['name']}: {shots or 'not run'}")
