@@ -24,6 +24,7 @@ pub struct Summary {
     pub steps: u64,
     pub time_step_s: f64,
     pub simulated_time_s: f64,
+    /// wall time of the whole run, every segment of a restarted one included (rank 0) [s]
     pub wall_s: f64,
     /// the projectile passed the whole target and still moves on
     pub perforated: bool,
@@ -156,17 +157,25 @@ pub struct Resume {
     pub initial_energy: f64,
     /// lowest fibre node at time zero [m]
     pub back_face: f64,
+    /// wall time of the run's earlier segments, rank 0's clock [s]
+    pub wall_s: f64,
 }
 
 impl Resume {
     /// The scalars in the order of a checkpoint's `run_scalars`.
     pub fn scalars(&self) -> Vec<f64> {
-        vec![self.max_force, self.initial_energy, self.back_face]
+        vec![self.max_force, self.initial_energy, self.back_face, self.wall_s]
     }
 
+    /// The state a checkpoint holds; one written before the wall time was kept (three
+    /// scalars) resumes with its earlier wall time unknown, taken as 0.
     pub fn from_checkpoint(global: &dea_io::checkpoint::GlobalState) -> Option<Self> {
-        let [max_force, initial_energy, back_face] = global.run_scalars[..] else { return None };
-        Some(Self { histories: global.histories.clone(), max_force, initial_energy, back_face })
+        let (max_force, initial_energy, back_face, wall_s) = match global.run_scalars[..] {
+            [max_force, initial_energy, back_face] => (max_force, initial_energy, back_face, 0.0),
+            [max_force, initial_energy, back_face, wall_s] => (max_force, initial_energy, back_face, wall_s),
+            _ => return None,
+        };
+        Some(Self { histories: global.histories.clone(), max_force, initial_energy, back_face, wall_s })
     }
 }
 
@@ -262,6 +271,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let is_root = run.comm.rank() == Rank(0);
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
+    // a resumed run's rates count the wall time of every segment, as its steps do
+    let earlier_wall = options.resume.as_ref().map_or(0.0, |resume| resume.wall_s);
     let (mut histories, mut max_force, initial_energy, back_face) = match &options.resume {
         Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
         None => {
@@ -308,7 +319,13 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         let RunRequests { stop, checkpoint: due_by_time } = run.agreed;
         let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if stop || due_by_time || due_by_steps {
-            let resume = Resume { histories: histories.clone(), max_force, initial_energy, back_face: judge.back_face };
+            let resume = Resume {
+                histories: histories.clone(),
+                max_force,
+                initial_energy,
+                back_face: judge.back_face,
+                wall_s: earlier_wall + start.elapsed().as_secs_f64(),
+            };
             let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
             last_checkpoint = Instant::now();
             if stop {
@@ -333,7 +350,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     }
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);
-    let wall = start.elapsed().as_secs_f64();
+    let wall = earlier_wall + start.elapsed().as_secs_f64();
     run.timer.start();
     let mut written = [1.0];
     let mut write_error = None;

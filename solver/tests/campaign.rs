@@ -84,10 +84,16 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     );
     let checkpoint = out.join("shots/r000-00002/checkpoint");
     assert!(checkpoint.join("manifest.h5").exists(), "the third shot left a checkpoint");
+    let first_segment = dea_io::checkpoint::read_manifest(&checkpoint).unwrap().run_scalars[3];
+    assert!(first_segment > 0.0, "the checkpoint keeps the wall time so far");
     assert_eq!(report(&campaign, &out).unwrap().shots.len(), 2, "two shots on record");
     stop.store(false, Ordering::SeqCst);
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())).unwrap());
     let resumed = report(&campaign, &out).unwrap();
+    let third = &resumed.shots[2];
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("shots/r000-00002/summary.json")).unwrap()).unwrap();
+    assert!(third.wall_s >= first_segment && summary["wall_s"].as_f64() == Some(third.wall_s), "every segment counts");
     assert_eq!(
         resumed.shots.iter().map(outcome).collect::<Vec<_>>(),
         whole.shots.iter().map(outcome).collect::<Vec<_>>()
