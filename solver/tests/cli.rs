@@ -137,6 +137,37 @@ fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
 }
 
 #[test]
+fn an_error_found_while_building_names_the_case_file() {
+    let dir = scratch("built");
+    let mut case = case_file("single_fibre_short.json");
+    case["target"]["length_m"] = 1e19.into();
+    let path = dir.join("long.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    for args in [
+        vec!["check", path.to_str().unwrap()],
+        vec!["run", path.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()],
+    ] {
+        let stderr = stderr_of_exit(3, &args);
+        assert!(
+            stderr.contains("target.length_m") && stderr.contains("(in ") && stderr.contains("long.json"),
+            "{stderr}"
+        );
+    }
+    case["target"]["length_m"] = 0.01.into();
+    case["target"]["element_length_ratio"] = 5e-324.into();
+    std::fs::write(&path, case.to_string()).unwrap();
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
+    assert!(stderr.contains("target.element_length_ratio: must be in [0.01, 4]"), "{stderr}");
+    case["target"]["element_length_ratio"] = 0.5.into();
+    case["target"]["diameter_m"] = 5e-324.into();
+    std::fs::write(&path, case.to_string()).unwrap();
+    let stderr = stderr_of_exit(3, &["check", path.to_str().unwrap()]);
+    assert!(stderr.contains("target.diameter_m: must be in"), "{stderr}");
+    assert!(stderr_of_exit(2, &["partition", "--segment-nodes", "0"]).contains("--segment-nodes"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn check_prints_the_resolved_case() {
     let out = dea(&["check", "../cases/single_fibre_short.json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -572,9 +603,18 @@ fn a_spliced_checkpoint_is_refused() {
     std::fs::write(&shorter_path, shorter.to_string()).unwrap();
     let first = dea(&["run", shorter_path.to_str().unwrap(), "--out", early.to_str().unwrap()]);
     assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
-    // the late manifest over the early parts
+    // the late manifest over the early parts: its bytes no longer match the CRC-32 kept
+    // beside it...
     std::fs::copy(late.join("checkpoint/manifest.h5"), early.join("checkpoint/manifest.h5")).unwrap();
-    let out = dea(&["run", "--restart", early.join("checkpoint").to_str().unwrap(), "--out", early.to_str().unwrap()]);
+    let restart =
+        || dea(&["run", "--restart", early.join("checkpoint").to_str().unwrap(), "--out", early.to_str().unwrap()]);
+    let out = restart();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(stderr.contains("manifest.h5: damaged"), "{stderr}");
+    // ...and copied with it, the manifest does not know the early parts
+    std::fs::copy(late.join("checkpoint/manifest.h5.crc32"), early.join("checkpoint/manifest.h5.crc32")).unwrap();
+    let out = restart();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(4), "{stderr}");
     assert!(stderr.contains("part-00000.h5") && stderr.contains("not the part"), "{stderr}");

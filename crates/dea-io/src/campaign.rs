@@ -115,9 +115,19 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     }
     let case = match (&campaign.case_file, &campaign.case) {
         (Some(file), None) => {
+            if file.as_os_str().is_empty() {
+                return Err(invalid("case_file", format!("is empty: name the shot's case file (in {source})")));
+            }
             let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
             let file = base.join(file);
-            let case = load_case(&file)?;
+            // a file that cannot be read is the campaign's error; a bad field, the case file's
+            let case = load_case(&file).map_err(|e| {
+                if e.path == file.display().to_string() {
+                    invalid("case_file", format!("{}: {} (in {source})", file.display(), e.message))
+                } else {
+                    e
+                }
+            })?;
             campaign.case_file = Some(std::path::absolute(&file).unwrap_or(file));
             case
         }
@@ -188,7 +198,12 @@ mod tests {
         });
         assert_eq!(e.path, "case.run.end_time_s");
         let e = error(&|v| v["case_file"] = "missing.json".into());
-        assert!(e.path.ends_with("missing.json") && e.message.contains("cannot read"), "{e}");
+        assert!(
+            e.path == "case_file" && e.message.contains("missing.json: cannot read") && e.message.contains("bad.json"),
+            "{e}"
+        );
+        let e = error(&|v| v["case_file"] = "".into());
+        assert!(e.path == "case_file" && e.message.contains("is empty"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

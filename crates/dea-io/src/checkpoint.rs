@@ -14,7 +14,9 @@ use std::path::{Path, PathBuf};
 
 use dea_core::Vec3;
 
-use crate::results::{read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories};
+use crate::results::{
+    read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories,
+};
 
 const FORMAT: &str = "dea-mpi checkpoint 5";
 
@@ -79,7 +81,12 @@ pub struct NodeState {
 impl NodeState {
     /// Appends row `k` of `other`, whose contact entries are `entries` and retired
     /// contacts `retired`.
-    fn push_row(&mut self, other: &NodeState, k: usize, (entries, retired): (std::ops::Range<usize>, std::ops::Range<usize>)) {
+    fn push_row(
+        &mut self,
+        other: &NodeState,
+        k: usize,
+        (entries, retired): (std::ops::Range<usize>, std::ops::Range<usize>),
+    ) {
         self.gid.push(other.gid[k]);
         self.position.push(other.position[k]);
         self.velocity.push(other.velocity[k]);
@@ -110,11 +117,14 @@ impl NodeState {
     /// Contact entries and retired contacts of each row.
     fn row_ranges(&self) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
         let ranges = |lengths: &[u32]| -> Vec<std::ops::Range<usize>> {
-            lengths.iter().scan(0usize, |next, &l| {
-                let start = *next;
-                *next += l as usize;
-                Some(start..*next)
-            }).collect()
+            lengths
+                .iter()
+                .scan(0usize, |next, &l| {
+                    let start = *next;
+                    *next += l as usize;
+                    Some(start..*next)
+                })
+                .collect()
         };
         ranges(&self.row_length).into_iter().zip(ranges(&self.retired_length)).collect()
     }
@@ -240,7 +250,16 @@ impl GlobalState {
         let h = &self.histories;
         let mut c = Checksum::default();
         c.bytes(self.case_json.as_bytes())
-            .integers([self.parts as u64, self.nodes, self.step, self.broken[0], self.broken[1], self.broken[2], self.rebuilds, self.list_builds])
+            .integers([
+                self.parts as u64,
+                self.nodes,
+                self.step,
+                self.broken[0],
+                self.broken[1],
+                self.broken[2],
+                self.rebuilds,
+                self.list_builds,
+            ])
             .floats(&[self.time])
             .floats(&self.projectile)
             .floats(&self.run_scalars)
@@ -305,15 +324,47 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
     sync(path)
 }
 
-/// Forces a written file to stable storage.
+/// Forces a written file to stable storage, then writes the CRC-32 of its bytes beside it
+/// (`<file>.crc32`), so that a damaged file is refused before HDF5 parses it: the library
+/// can crash on a flipped bit in its own metadata (a fuzzed manifest ended in a segfault).
 fn sync(path: &Path) -> hdf5::Result<()> {
-    std::fs::File::open(path).and_then(|f| f.sync_all()).map_err(|e| hdf5::Error::from(format!("{}: {e}", path.display()).as_str()))
+    let failed = |e: std::io::Error| hdf5::Error::from(format!("{}: {e}", path.display()).as_str());
+    std::fs::File::open(path).and_then(|f| f.sync_all()).map_err(failed)?;
+    let bytes = std::fs::read(path).map_err(failed)?;
+    let sidecar = crc_path(path);
+    std::fs::write(&sidecar, format!("{:08x} {}\n", crc32fast::hash(&bytes), bytes.len()))
+        .and_then(|()| std::fs::File::open(&sidecar)?.sync_all())
+        .map_err(failed)
+}
+
+/// Where the CRC-32 of a checkpoint file is kept.
+fn crc_path(path: &Path) -> std::path::PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".crc32");
+    std::path::PathBuf::from(name)
+}
+
+/// Checks a checkpoint file's bytes against the CRC-32 kept beside it (a checkpoint written
+/// before these were kept has none, and is not checked).
+fn check_bytes(path: &Path) -> Result<(), CheckpointError> {
+    let Ok(kept) = std::fs::read_to_string(crc_path(path)) else { return Ok(()) };
+    let bytes = std::fs::read(path).map_err(|e| error(path, format!("cannot read: {e}")))?;
+    let actual = format!("{:08x} {}", crc32fast::hash(&bytes), bytes.len());
+    if kept.trim() == actual {
+        Ok(())
+    } else {
+        Err(error(
+            path,
+            format!("damaged: its CRC-32 and size are {actual}, the checkpoint recorded {:?}", kept.trim()),
+        ))
+    }
 }
 
 fn open(path: &Path) -> Result<hdf5::File, CheckpointError> {
     if !path.exists() {
         return Err(error(path, "missing"));
     }
+    check_bytes(path)?;
     let file = hdf5::File::open(path).map_err(|e| error(path, format!("cannot open (truncated or corrupt?): {e}")))?;
     let format: String = file
         .attr("format")
@@ -346,10 +397,16 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         plastic_dissipated: file.dataset("plastic_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
         fracture_released: file.dataset("fracture_released").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_anchor: vectors("projectile_anchor")?,
-        projectile_spring_stiffness: file.dataset("projectile_spring_stiffness").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_spring_stiffness: file
+            .dataset("projectile_spring_stiffness")
+            .and_then(|d| d.read_raw())
+            .map_err(fail)?,
         projectile_touching: file.dataset("projectile_touching").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_max_overlap: file.dataset("projectile_max_overlap").and_then(|d| d.read_raw()).map_err(fail)?,
-        projectile_anchor_triangle: file.dataset("projectile_anchor_triangle").and_then(|d| d.read_raw()).map_err(fail)?,
+        projectile_anchor_triangle: file
+            .dataset("projectile_anchor_triangle")
+            .and_then(|d| d.read_raw())
+            .map_err(fail)?,
         projectile_anchor_weights: vectors("projectile_anchor_weights")?,
         row_length: file.dataset("row_length").and_then(|d| d.read_raw()).map_err(fail)?,
         partner_gid: file.dataset("partner_gid").and_then(|d| d.read_raw()).map_err(fail)?,
@@ -382,10 +439,19 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.retired_length.len(),
     ];
     let entries: usize = part.row_length.iter().map(|&l| l as usize).sum();
-    let entry_lengths = [part.partner_gid.len(), part.anchor.len(), part.spring_stiffness.len(), part.touching.len(), part.max_overlap.len()];
+    let entry_lengths = [
+        part.partner_gid.len(),
+        part.anchor.len(),
+        part.spring_stiffness.len(),
+        part.touching.len(),
+        part.max_overlap.len(),
+    ];
     let retired: usize = part.retired_length.iter().map(|&l| l as usize).sum();
     let retired_lengths = [part.retired_gid.len(), part.retired_max_overlap.len()];
-    if node_lengths.iter().any(|&l| l != n) || entry_lengths.iter().any(|&l| l != entries) || retired_lengths.iter().any(|&l| l != retired) {
+    if node_lengths.iter().any(|&l| l != n)
+        || entry_lengths.iter().any(|&l| l != entries)
+        || retired_lengths.iter().any(|&l| l != retired)
+    {
         return Err(error(path, "arrays of different lengths: the part is damaged"));
     }
     let stored: Vec<u32> = file.dataset("checksum").and_then(|d| d.read_raw()).map_err(fail)?;
@@ -401,8 +467,22 @@ pub fn write_manifest(path: &Path, global: &GlobalState) -> hdf5::Result<()> {
         let file = hdf5::File::create(path)?;
         write_text_attribute(&file, "format", FORMAT)?;
         write_text_attribute(&file, "case", &global.case_json)?;
-        let counters = [global.parts as u64, global.nodes, global.step, global.broken[0], global.broken[1], global.broken[2], global.rebuilds, global.list_builds];
-        write_scalars(&file, "counters", &counters, "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds")?;
+        let counters = [
+            global.parts as u64,
+            global.nodes,
+            global.step,
+            global.broken[0],
+            global.broken[1],
+            global.broken[2],
+            global.rebuilds,
+            global.list_builds,
+        ];
+        write_scalars(
+            &file,
+            "counters",
+            &counters,
+            "parts, nodes, step, broken tension/shear/combined, rebuilds, list builds",
+        )?;
         write_scalars(&file, "time", &[global.time], "s")?;
         write_scalars(&file, "projectile", &global.projectile, "SI")?;
         write_scalars(&file, "run_scalars", &global.run_scalars, "SI")?;
@@ -424,7 +504,8 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
     if file.attr("complete").is_err() {
         return Err(error(&path, "incomplete (the writer stopped before finishing it)"));
     }
-    let case_json = file.attr("case").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map_err(fail)?.to_string();
+    let case_json =
+        file.attr("case").and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>()).map_err(fail)?.to_string();
     let counters: Vec<u64> = file.dataset("counters").and_then(|d| d.read_raw()).map_err(fail)?;
     let reals: Vec<f64> = file.dataset("time").and_then(|d| d.read_raw()).map_err(fail)?;
     if counters.len() != 8 || reals.len() != 1 {
@@ -442,9 +523,10 @@ pub fn read_manifest(directory: &Path) -> Result<GlobalState, CheckpointError> {
         projectile: file.dataset("projectile").and_then(|d| d.read_raw()).map_err(fail)?,
         run_scalars: file.dataset("run_scalars").and_then(|d| d.read_raw()).map_err(fail)?,
         histories: read_histories_from(&file).map_err(fail)?,
-        part_checksums: file.dataset("part_checksums").and_then(|d| d.read_raw()).map_err(|_| {
-            error(&path, "damaged: no checksums of its parts")
-        })?,
+        part_checksums: file
+            .dataset("part_checksums")
+            .and_then(|d| d.read_raw())
+            .map_err(|_| error(&path, "damaged: no checksums of its parts"))?,
     };
     if global.part_checksums.len() != global.parts as usize {
         return Err(error(&path, "damaged: the checksums do not match the count of parts"));
@@ -524,12 +606,21 @@ mod tests {
             values[4] += 1e-9;
             dataset.write_raw(&values).unwrap();
         }
+        // ...by the CRC-32 of its bytes kept beside it, before HDF5 reads it
+        let message = read_part(&path).unwrap_err().to_string();
+        assert!(message.contains("part-00003.h5: damaged: its CRC-32"), "{message}");
+        // ...and, without that, by the checksum of its contents
+        std::fs::remove_file(crc_path(&path)).unwrap();
         let message = read_part(&path).unwrap_err().to_string();
         assert!(message.contains("checksum mismatch"), "{message}");
         write_part(&path, &original).unwrap();
-        // a truncated part is refused with its name
+        assert_eq!(read_part(&path).unwrap(), original);
+        // a truncated part is refused with its name, with its CRC-32 or by HDF5
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        let message = read_part(&path).unwrap_err().to_string();
+        assert!(message.contains("part-00003.h5") && message.contains("damaged"), "{message}");
+        std::fs::remove_file(crc_path(&path)).unwrap();
         let message = read_part(&path).unwrap_err().to_string();
         assert!(message.contains("part-00003.h5") && message.contains("truncated"), "{message}");
         // a manifest round-trips; one without its completion mark is refused
@@ -544,7 +635,18 @@ mod tests {
             rebuilds: 4,
             list_builds: 5,
             run_scalars: vec![1.5, 2.5],
-            histories: Histories { time: vec![0.0], projectile_position: vec![Vec3::x()], projectile_velocity: vec![Vec3::y()], projectile_angular_velocity: vec![Vec3::z()], broken_by_layer: vec![vec![1, 2, 3]], projectile_force: vec![Vec3::z()], energy: vec![Default::default()], broken_tension: vec![0], broken_shear: vec![0], broken_combined: vec![0] },
+            histories: Histories {
+                time: vec![0.0],
+                projectile_position: vec![Vec3::x()],
+                projectile_velocity: vec![Vec3::y()],
+                projectile_angular_velocity: vec![Vec3::z()],
+                broken_by_layer: vec![vec![1, 2, 3]],
+                projectile_force: vec![Vec3::z()],
+                energy: vec![Default::default()],
+                broken_tension: vec![0],
+                broken_shear: vec![0],
+                broken_combined: vec![0],
+            },
             part_checksums: vec![7, 9],
         };
         write_manifest(&manifest_path(&dir), &global).unwrap();
@@ -553,6 +655,8 @@ mod tests {
             let file = hdf5::File::create(manifest_path(&dir)).unwrap();
             write_text_attribute(&file, "format", FORMAT).unwrap();
         }
+        assert!(read_manifest(&dir).unwrap_err().to_string().contains("damaged"), "the bytes changed");
+        std::fs::remove_file(crc_path(&manifest_path(&dir))).unwrap();
         assert!(read_manifest(&dir).unwrap_err().to_string().contains("incomplete"));
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use dea_mpi::setup;
 
-use super::{fail, load_case_or_campaign, setup_exit, Exit};
+use super::{fail, in_file, load_case_or_campaign, setup_exit, Exit};
 
 pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved, without running";
 pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
@@ -33,7 +33,7 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
         let material = resolved.material.clone();
         let cell = match setup::laid_out_cell(weave, &material) {
             Ok(cell) => cell,
-            Err(e) => return fail(setup_exit(&e), e),
+            Err(e) => return fail(setup_exit(&e), in_file(&e, Some(&path))),
         };
         let printed = serde_json::json!({
             "case": case,
@@ -44,7 +44,7 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
     }
     let problem = match setup::problem(&case) {
         Ok(problem) => problem,
-        Err(e) => return fail(setup_exit(&e), e),
+        Err(e) => return fail(setup_exit(&e), in_file(&e, Some(&path))),
     };
     let projectile = &problem.projectile;
     let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;

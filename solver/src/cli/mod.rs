@@ -193,6 +193,18 @@ pub fn method_of(method: PartitionMethod) -> dea_partition::Method {
     }
 }
 
+/// A set-up error as the user reads it: one about the case names the case file it came from
+/// (the resolver's own errors already do; those found while building do not know it).
+pub fn in_file(error: &SetupError, path: Option<&PathBuf>) -> String {
+    let message = error.to_string();
+    match (error, path) {
+        (SetupError::Case(_), Some(path)) if !message.contains(&path.display().to_string()) => {
+            format!("{message} (in {})", path.display())
+        }
+        _ => message,
+    }
+}
+
 pub fn setup_exit(error: &SetupError) -> Exit {
     match error {
         SetupError::Partition(_) => Exit::Usage,

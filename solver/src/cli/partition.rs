@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use dea_mpi::setup;
 
-use super::{fail, load, method_of, setup_exit, Exit, PartitionMethod};
+use super::{fail, in_file, load, method_of, setup_exit, Exit, PartitionMethod};
 
 pub const ABOUT: &str = "Partition a case over N ranks with METIS and report its quality, without running";
 pub const LONG_ABOUT: &str = "Partition a case over N ranks with METIS and report its quality (owned and ghost nodes,
@@ -35,13 +35,17 @@ pub fn main(Args { case, ranks, segment_nodes, method, json }: Args) -> ExitCode
     if ranks == 0 {
         return fail(Exit::Usage, "--ranks must be at least 1");
     }
+    if segment_nodes == Some(0) {
+        return fail(Exit::Usage, "--segment-nodes must be at least 1");
+    }
+    let case_path = case.clone();
     let case = match load(case.as_ref()) {
         Ok(case) => case,
         Err((code, message)) => return fail(code, message),
     };
     let problem = match setup::problem(&case) {
         Ok(problem) => problem,
-        Err(e) => return fail(setup_exit(&e), e),
+        Err(e) => return fail(setup_exit(&e), in_file(&e, case_path.as_ref())),
     };
     let graph = setup::segment_graph(&problem, ranks, segment_nodes);
     let partition = match dea_partition::partition(&graph, ranks, method_of(method)) {

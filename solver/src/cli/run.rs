@@ -10,7 +10,7 @@ use dea_mpi::setup;
 
 use dea_mpi::output_dir::{self, Intent};
 
-use super::{fail, fail_all, from_rank0, load_shared, method_of, setup_exit, Exit, PartitionMethod};
+use super::{fail, fail_all, from_rank0, in_file, load_shared, method_of, setup_exit, Exit, PartitionMethod};
 
 pub const ABOUT: &str = "Run a case (none: the built-in default case) on the ranks of the job";
 pub const LONG_ABOUT: &str = "Run a case (no file: the built-in default case) on the ranks of the job. Writes
@@ -87,6 +87,7 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
         },
         _ => None,
     };
+    let case_path = case.clone();
     let (case, mut run, resume) = match restart {
         Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
             Ok(restored) if expected.as_ref().is_some_and(|expected| *expected != restored.case) => {
@@ -122,7 +123,7 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
             };
             match setup::build(&case, comm, method_of(method), None) {
                 Ok(run) => (case, run, None),
-                Err(e) => return fail_all(&session, setup_exit(&e), e),
+                Err(e) => return fail_all(&session, setup_exit(&e), in_file(&e, case_path.as_ref())),
             }
         }
     };

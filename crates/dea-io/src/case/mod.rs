@@ -867,12 +867,20 @@ fn finer_than_mesh_allows(path: &str, radius: f64, diameter: f64) -> Result<(), 
     }
 }
 
+/// An element length in fibre diameters: from a hundredth (finer than any convergence study
+/// needs; below it a fibre's node count is the case's size rather than its physics) to 4.
 fn ratio(path: &str, value: f64) -> Result<f64, CaseError> {
-    if value.is_finite() && value > 0.0 && value <= 4.0 {
+    if value.is_finite() && (0.01..=4.0).contains(&value) {
         Ok(value)
     } else {
-        Err(invalid(path, format!("must be in (0, 4], got {value}")))
+        Err(invalid(path, format!("must be in [0.01, 4], got {value}")))
     }
+}
+
+/// The diameter of a single digital fibre: from a micrometre (finer than any filament) to
+/// 10 mm [m].
+pub(crate) fn fibre_diameter(path: &str, value: f64) -> Result<f64, CaseError> {
+    ranged(path, value, 1e-6, 1e-2)
 }
 
 /// Cross-section area of a yarn preset [m^2].

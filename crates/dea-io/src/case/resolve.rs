@@ -174,13 +174,15 @@ impl Case {
             }
         };
         if let Some(v) = m.longitudinal_modulus_pa {
-            material.longitudinal_modulus = positive("material.longitudinal_modulus_pa", v)?;
+            // from soft polymer fibres (0.1 GPa) to carbon nanotubes (2 TPa)
+            material.longitudinal_modulus = super::ranged("material.longitudinal_modulus_pa", v, 1e8, 2e12)?;
         }
         if let Some(v) = m.transverse_modulus_pa {
-            material.transverse_modulus = positive("material.transverse_modulus_pa", v)?;
+            material.transverse_modulus = super::ranged("material.transverse_modulus_pa", v, 1e6, 2e12)?;
         }
         if let Some(v) = m.density_kg_m3 {
-            material.density = positive("material.density_kg_m3", v)?;
+            // from foams to tungsten
+            material.density = super::ranged("material.density_kg_m3", v, 100.0, 25_000.0)?;
         }
         if let Some(v) = m.compressive_stiffness_ratio {
             if !(0.0..=1.0).contains(&v) {
@@ -189,7 +191,8 @@ impl Case {
             material.compressive_stiffness_ratio = v;
         }
         if let Some(v) = m.filament_diameter_m {
-            material.filament_diameter = positive("material.filament_diameter_m", v)?;
+            // from nanofibres (0.1 um) to monofilaments (1 mm)
+            material.filament_diameter = super::ranged("material.filament_diameter_m", v, 1e-7, 1e-3)?;
         }
         Ok(material)
     }
@@ -493,7 +496,7 @@ impl Case {
         let target = match &self.target {
             TargetSpec::SingleFibre { length_m, diameter_m, element_length_ratio } => {
                 positive("target.length_m", *length_m)?;
-                positive("target.diameter_m", *diameter_m)?;
+                super::fibre_diameter("target.diameter_m", *diameter_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
                 ResolvedTarget::Straight(StraightTarget {
                     layers: None,
