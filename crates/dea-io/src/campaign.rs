@@ -88,7 +88,13 @@ pub fn load_campaign(path: &Path) -> Result<(Campaign, Case), CaseError> {
     let deserializer = &mut serde_json::Deserializer::from_str(text);
     let mut campaign: Campaign = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let field = e.path().to_string();
-        invalid(if field == "." { &source } else { &field }, format!("{} (in {source})", e.into_inner()))
+        let inner = e.into_inner().to_string();
+        match crate::case::locate_field::<Campaign>(text, &field).filter(|_| field != ".") {
+            Some(located) => {
+                invalid(&located, format!("{} (in {source})", crate::case::relocated(&inner, text, &located)))
+            }
+            None => invalid(if field == "." { &source } else { &field }, format!("{inner} (in {source})")),
+        }
     })?;
     campaign.design.validate().map_err(|message| {
         let (field, reason) = message.split_once(": ").unwrap_or(("design", &message));
@@ -169,6 +175,8 @@ mod tests {
         };
         let e = error(&|v| v["design"]["high_m_s"] = 50.0.into());
         assert_eq!(e.path, "design.low_m_s");
+        let e = error(&|v| v["design"]["resolution_m_s"] = "fine".into());
+        assert_eq!(e.path, "design.resolution_m_s", "{e}");
         let e = error(&|v| v["design"]["kind"] = "guess".into());
         assert!(e.path.starts_with("design") && e.message.contains("guess"), "{e}");
         let e = error(&|v| v["shots"] = 3.into());

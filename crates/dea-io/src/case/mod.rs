@@ -897,12 +897,100 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     let deserializer = &mut serde_json::Deserializer::from_str(text);
     let case: Case = serde_path_to_error::deserialize(deserializer).map_err(|e| {
         let path = e.path().to_string();
-        let inner = e.into_inner();
-        let path = if path == "." { source.to_string() } else { path };
-        CaseError { path, message: format!("{inner} (in {source})") }
+        let inner = e.into_inner().to_string();
+        if path == "." {
+            return CaseError { path: source.to_string(), message: format!("{inner} (in {source})") };
+        }
+        match locate_field::<Case>(text, &path) {
+            Some(field) => {
+                CaseError { message: format!("{} (in {source})", relocated(&inner, text, &field)), path: field }
+            }
+            None => CaseError { path, message: format!("{inner} (in {source})") },
+        }
     })?;
     case.validate().map_err(|e| CaseError { message: format!("{} (in {source})", e.message), ..e })?;
     Ok(case)
+}
+
+/// The field an error inside an internally tagged enum is about. serde reads such an enum
+/// (a `target`, a `design`, a `boundary`) whole before it looks at its fields, so its errors
+/// carry only the enum's own path. The culprit is the deepest field under `path` whose
+/// removal, or replacement by a plain value of some type, makes the whole document read;
+/// `None` when no single field does (two errors, or a wrong word the probes cannot mend: the
+/// enum's path is then the best there is).
+pub(crate) fn locate_field<T: serde::de::DeserializeOwned>(text: &str, path: &str) -> Option<String> {
+    let document: serde_json::Value = serde_json::from_str(text).ok()?;
+    let mut node = &document;
+    for key in path.split('.') {
+        node = match node {
+            serde_json::Value::Object(map) => map.get(key)?,
+            serde_json::Value::Array(items) => items.get(key.parse::<usize>().ok()?)?,
+            _ => return None,
+        };
+    }
+    let mut candidates: Vec<Vec<String>> = Vec::new();
+    fn walk(value: &serde_json::Value, prefix: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+        if let serde_json::Value::Object(map) = value {
+            for (key, child) in map {
+                // the tag: without it every variant is wrong
+                if key == "kind" {
+                    continue;
+                }
+                prefix.push(key.clone());
+                out.push(prefix.clone());
+                walk(child, prefix, out);
+                prefix.pop();
+            }
+        }
+    }
+    walk(node, &mut Vec::new(), &mut candidates);
+    candidates.sort_by_key(|c| std::cmp::Reverse(c.len()));
+    let base: Vec<&str> = path.split('.').collect();
+    candidates.into_iter().find_map(|relative| {
+        let edited = &document;
+        let key = relative.last()?;
+        let probes = [
+            None,
+            Some(serde_json::json!(0)),
+            Some(serde_json::json!(1)),
+            Some(serde_json::json!(0.5)),
+            Some(serde_json::json!("")),
+            Some(serde_json::json!(false)),
+            Some(serde_json::json!([])),
+            Some(serde_json::json!({})),
+            Some(serde_json::Value::Null),
+        ];
+        let fixed = probes.into_iter().any(|probe| {
+            let mut trial = edited.clone();
+            let mut node = &mut trial;
+            for step in base.iter().copied().chain(relative[..relative.len() - 1].iter().map(String::as_str)) {
+                node = match node {
+                    serde_json::Value::Object(map) => map.get_mut(step).expect("walked"),
+                    serde_json::Value::Array(items) => &mut items[step.parse::<usize>().expect("walked")],
+                    _ => unreachable!("walked"),
+                };
+            }
+            let map = node.as_object_mut().expect("a field's parent is an object");
+            match probe {
+                None => map.remove(key),
+                Some(value) => map.insert(key.clone(), value),
+            };
+            serde_json::from_value::<T>(trial).is_ok()
+        });
+        fixed.then(|| format!("{path}.{}", relative.join(".")))
+    })
+}
+
+/// An error `message` moved to `field`: serde's position (the end of the enclosing enum)
+/// is replaced by the line of the field's key when the key occurs once in the text.
+pub(crate) fn relocated(message: &str, text: &str, field: &str) -> String {
+    let bare = message.rsplit_once(" at line ").map_or(message, |(head, _)| head);
+    let key = format!("\"{}\"", field.rsplit('.').next().unwrap_or(field));
+    let mut found = text.match_indices(&key);
+    match (found.next(), found.next()) {
+        (Some((at, _)), None) => format!("{bare} at line {}", text[..at].lines().count().max(1)),
+        _ => bare.to_string(),
+    }
 }
 
 /// The JSON document of a case or campaign file's `text`: a UTF-8 byte-order mark (which some
@@ -1022,6 +1110,30 @@ mod tests {
         let mut value = default_json();
         edit(&mut value);
         parse_case(&value.to_string(), "case.json").unwrap_err()
+    }
+
+    #[test]
+    fn an_error_inside_a_tagged_enum_names_its_field_and_line() {
+        let e = error_for(|v| v["target"]["weave"]["fibres_per_yarn"] = "x".into());
+        assert_eq!(e.path, "target.weave.fibres_per_yarn", "{e}");
+        let e =
+            error_for(|v| v["target"]["boundary"] = serde_json::json!({ "kind": "fixed_edges", "opening_m": 0.002 }));
+        assert_eq!(e.path, "target.boundary.opening_m", "{e}");
+        let e = error_for(|v| v["bending"]["k1"] = serde_json::json!([]));
+        assert_eq!(e.path, "bending.k1", "{e}");
+        // the line is the key's, not the end of the enclosing object's
+        let mut value = default_json();
+        value["target"]["layer_gap_m"] = "thin".into();
+        let text = serde_json::to_string_pretty(&value).unwrap();
+        let line = text.lines().position(|l| l.contains("\"layer_gap_m\"")).unwrap() + 1;
+        let e = parse_case(&text, "case.json").unwrap_err();
+        assert_eq!(e.path, "target.layer_gap_m", "{e}");
+        assert!(e.message.contains(&format!("at line {line} (in case.json)")), "{e}");
+        // a field that is missing is named by its parent and the message
+        let e = error_for(|v| {
+            v["target"]["weave"].as_object_mut().unwrap().remove("fibres_per_yarn");
+        });
+        assert!(e.path.starts_with("target") && e.message.contains("missing field `fibres_per_yarn`"), "{e}");
     }
 
     #[test]
@@ -1205,9 +1317,12 @@ mod tests {
                 edit(v);
             })
         };
-        // serde reads a tagged target whole, so an unknown pattern is placed at the target
+        // serde reads a tagged target whole; the error is placed at its field all the same
         let e = weave(&|v| v["target"]["weave"]["pattern"] = "satin".into());
-        assert!(e.path == "target" && e.message.contains("satin") && e.message.contains("layer_to_layer"), "{e}");
+        assert!(
+            e.path == "target.weave.pattern" && e.message.contains("satin") && e.message.contains("layer_to_layer"),
+            "{e}"
+        );
         let e =
             weave(&|v| v["target"]["weave"]["columns"] = serde_json::json!([[{ "role": "binder", "gaps": [3, 0] }]]));
         assert_eq!(
