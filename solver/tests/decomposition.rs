@@ -789,11 +789,17 @@ fn a_restart_from_a_checkpoint_gives_the_same_bits_on_the_same_or_other_rank_cou
     let differences =
         compare_results(&dir.join("reference/results.h5"), &dir.join("restarted-from-1/results.h5")).unwrap();
     assert!(differences.is_empty(), "restart of a 1-rank checkpoint on 2 ranks: {differences:#?}");
-    // a damaged part is refused on every rank, naming the file
+    // a damaged part is refused on every rank, naming the file: by the CRC-32 kept beside
+    // it, and without that, by HDF5
     let part = dea_io::checkpoint::part_path(&checkpoint, 1);
     let bytes = std::fs::read(&part).unwrap();
     std::fs::write(&part, &bytes[..bytes.len() / 3]).unwrap();
     let error = restart_on(&checkpoint, 2, &dir.join("refused")).unwrap_err();
+    assert!(error.contains("part-00001.h5: damaged"), "{error}");
+    let mut sidecar = part.clone().into_os_string();
+    sidecar.push(".crc32");
+    std::fs::remove_file(sidecar).unwrap();
+    let error = restart_on(&checkpoint, 2, &dir.join("refused-by-hdf5")).unwrap_err();
     assert!(error.contains("part-00001.h5") && error.contains("truncated"), "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
