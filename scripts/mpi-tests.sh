@@ -100,7 +100,7 @@ check default-case-on-two-ranks bash -c 'mpi 2 run --out $work/default && grep -
 # rank alone; a bisection on one group of two ranks; a group size that does not divide
 check v50-groups-give-the-same-shots bash -c 'mpi 1 v50 cases/v50_tiny_monte_carlo.json --out $work/mc1 && mpi 2 v50 cases/v50_tiny_monte_carlo.json --out $work/mc2 --ranks-per-shot 1 \
     && for shot in $work/mc1/shots/*/; do $bin compare $shot/results.h5 $work/mc2/shots/$(basename $shot)/results.h5 >/dev/null || exit 1; done \
-    && test $(ls $work/mc2/shots/*.json | wc -l) -eq 12 && grep -q git_commit $work/mc2/provenance.json'
+    && test $(ls $work/mc2/shots/*.json | wc -l) -eq 16 && grep -q git_commit $work/mc2/provenance.json'
 check v50-bisection-two-ranks-per-shot bash -c 'mpi 2 v50 cases/v50_tiny_bisection.json --out $work/bisection --ranks-per-shot 2 | tee $work/bisection.log && grep -q "bisection 0: between" $work/bisection.log'
 # two groups of one rank on this host shoot at once: the host must hold both shots' targets
 /usr/bin/python3 -c 'import json, sys; c = json.load(open("cases/v50_tiny_shot.json")); c["target"]["side_m"] = 10.0; json.dump(c, sys.stdout)' >"$work/v50_huge_shot.json"
