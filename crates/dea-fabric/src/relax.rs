@@ -323,6 +323,7 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
     let mut residual = initial;
     let mut history = vec![(0, initial)];
     let mut iteration = 0;
+    let (started, mut last_word) = (std::time::Instant::now(), std::time::Instant::now());
     while residual > options.tolerance * initial {
         if iteration == options.max_iterations {
             return Err(RelaxError::NotConverged { iterations: iteration, reduction: residual / initial, tolerance: options.tolerance });
@@ -363,6 +364,18 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
         }
         if iteration % 1000 == 0 {
             history.push((iteration, residual));
+        }
+        // a large cell relaxes for minutes: say how far it is, every 10 s of it
+        if iteration % 50 == 0 && last_word.elapsed().as_secs_f64() >= 10.0 {
+            last_word = std::time::Instant::now();
+            tracing::info!(
+                "relaxing the unit cell ({} nodes): iteration {iteration} of at most {}, largest force down to {:.1e} of its start (to reach {:.0e}), {:.0} s so far",
+                count,
+                options.max_iterations,
+                residual / initial,
+                options.tolerance,
+                started.elapsed().as_secs_f64()
+            );
         }
     }
     for fibre in 0..cell.fibres() {

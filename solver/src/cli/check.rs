@@ -20,6 +20,8 @@ pub struct Args {
 }
 
 pub fn main(Args { case: path }: Args) -> ExitCode {
+    // a long set-up (a large cell relaxing) says how far it is, on stderr
+    let _logging = dea_mpi::progress::init_logging(0, None);
     let (campaign, case) = match load_case_or_campaign(&path) {
         Ok(loaded) => loaded,
         Err((code, message)) => return fail(code, message),
