@@ -739,6 +739,21 @@ pub fn build_adjusted<C: Comm>(
         });
     }
     if let (Fabric::Woven(panel), Rank(0)) = (&problem.fabric, comm.rank()) {
+        // a projectile as wide as the free span strikes the holding itself (issue 34: such
+        // panels once swallowed their clamped nodes)
+        let span = match panel.boundary {
+            dea_fabric::panel::Boundary::FixedEdges => panel.side(),
+            dea_fabric::panel::Boundary::Clamp { opening_m } => opening_m.min(panel.side()),
+        };
+        let across = 2.0 * problem.projectile.shape.bounding_radius();
+        if across >= span {
+            tracing::warn!(
+                "case {:?}: the projectile's bounding sphere ({:.1} mm across) is as wide as the panel's free span ({:.1} mm): the fabric is held right beside the projectile, and the outcome says more about the holding than the fabric",
+                case.name,
+                1e3 * across,
+                1e3 * span
+            );
+        }
         // layers that start apart where the shot strikes are struck one by one
         if panel.layers > 1 && panel.fine_layer_gap() > 0.1 * panel.cell.thickness() {
             tracing::warn!(

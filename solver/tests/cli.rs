@@ -168,6 +168,21 @@ fn an_error_found_while_building_names_the_case_file() {
 }
 
 #[test]
+fn a_projectile_as_wide_as_the_free_span_is_warned_of() {
+    let dir = scratch("narrow");
+    let mut case = case_file("default.json");
+    case["target"]["side_m"] = 0.006.into();
+    case["target"]["layers"] = 1.into();
+    case["run"]["end_time_s"] = 2e-8.into();
+    let path = dir.join("narrow.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["run", path.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.contains("as wide as the panel's free span (6.0 mm)"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn check_prints_the_resolved_case() {
     let out = dea(&["check", "../cases/single_fibre_short.json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

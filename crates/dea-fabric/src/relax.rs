@@ -11,8 +11,8 @@
 //! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
 
 use dea_core::bending::torsional_spring;
-use dea_core::rod::axial_force;
 use dea_core::contact::{ContactGeometry, NormalLaw};
+use dea_core::rod::axial_force;
 use dea_core::stability::stable_time_step;
 use dea_core::{FibreMaterial, Vec3};
 
@@ -107,7 +107,11 @@ fn periodic_pairs(cell: &PeriodicCell, reach: f64) -> Vec<PeriodicPair> {
     let (low, high) = cell.z_range();
     let layers = (((high - low) / reach).floor() as i64 + 1).max(1);
     let bin_of = |p: &Vec3| {
-        let wrap = |v: f64, axis: usize| ((v - period[axis] * (v / period[axis]).floor()) / period[axis] * bins[axis] as f64).floor().clamp(0.0, (bins[axis] - 1) as f64) as i64;
+        let wrap = |v: f64, axis: usize| {
+            ((v - period[axis] * (v / period[axis]).floor()) / period[axis] * bins[axis] as f64)
+                .floor()
+                .clamp(0.0, (bins[axis] - 1) as f64) as i64
+        };
         (wrap(p.x, 0), wrap(p.y, 1), (((p.z - low) / reach).floor() as i64).clamp(0, layers - 1))
     };
     let index = |x: i64, y: i64, z: i64| ((z * bins[1] + y) * bins[0] + x) as usize;
@@ -234,7 +238,15 @@ struct ChainScratch {
     length: Vec<f64>,
 }
 
-fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, rods: Rods, pairs: &[PeriodicPair], chain: &mut ChainScratch, force: &mut [Vec3]) -> (usize, f64) {
+fn cell_forces(
+    cell: &PeriodicCell,
+    material: &FibreMaterial,
+    law: &NormalLaw,
+    rods: Rods,
+    pairs: &[PeriodicPair],
+    chain: &mut ChainScratch,
+    force: &mut [Vec3],
+) -> (usize, f64) {
     let section = &cell.section;
     force.fill(Vec3::zeros());
     for fibre in 0..cell.fibres() {
@@ -264,7 +276,14 @@ fn cell_forces(cell: &PeriodicCell, material: &FibreMaterial, law: &NormalLaw, r
         if rods != (Rods::Tension { bending: false }) && section.torsional_stiffness > 0.0 {
             for k in 0..n {
                 let previous = (k + n - 1) % n;
-                let (on_prev, on_next, _, _) = torsional_spring(direction[previous], 1.0 / length[previous], direction[k], 1.0 / length[k], section.torsional_stiffness, cell.rest_angles[base + k]);
+                let (on_prev, on_next, _, _) = torsional_spring(
+                    direction[previous],
+                    1.0 / length[previous],
+                    direction[k],
+                    1.0 / length[k],
+                    section.torsional_stiffness,
+                    cell.rest_angles[base + k],
+                );
                 force[base + previous] += on_prev;
                 force[base + (k + 1) % n] += on_next;
                 force[base + k] -= on_prev + on_next;
@@ -299,7 +318,12 @@ fn largest_force(force: &[Vec3]) -> f64 {
 /// loading curve), then gives every fibre the rest length at which its rods carry that
 /// tension in the relaxed shape, so the relaxed cell is in equilibrium as the solver will see
 /// it. The section (nominal element length, contact diameter, spring rigidity) stays.
-pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw, options: &RelaxOptions) -> Result<RelaxReport, RelaxError> {
+pub fn relax(
+    cell: &mut PeriodicCell,
+    material: &FibreMaterial,
+    law: &NormalLaw,
+    options: &RelaxOptions,
+) -> Result<RelaxReport, RelaxError> {
     let law = *law;
     let bending = options.bending_at_rest == BendingAtRest::Straight;
     cell.rest_angles.fill(0.0);
@@ -326,7 +350,11 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
     let (started, mut last_word) = (std::time::Instant::now(), std::time::Instant::now());
     while residual > options.tolerance * initial {
         if iteration == options.max_iterations {
-            return Err(RelaxError::NotConverged { iterations: iteration, reduction: residual / initial, tolerance: options.tolerance });
+            return Err(RelaxError::NotConverged {
+                iterations: iteration,
+                reduction: residual / initial,
+                tolerance: options.tolerance,
+            });
         }
         iteration += 1;
         // FIRE: steer the velocity towards the force while the motion goes downhill
@@ -379,7 +407,8 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
         }
     }
     for fibre in 0..cell.fibres() {
-        cell.rest_lengths[fibre] = tensioned_rest_length(cell, material, cell.fibre_length(fibre), cell.fibre_nodes(fibre).len());
+        cell.rest_lengths[fibre] =
+            tensioned_rest_length(cell, material, cell.fibre_length(fibre), cell.fibre_nodes(fibre).len());
     }
     if !bending {
         cell.rest_angles = turning_angles(cell);
@@ -389,7 +418,16 @@ pub fn relax(cell: &mut PeriodicCell, material: &FibreMaterial, law: &NormalLaw,
     let (contacts, largest_overlap) = cell_forces(cell, material, &law, Rods::Rest, &pairs, &mut chain, &mut force);
     residual = largest_force(&force);
     history.push((iteration, residual));
-    Ok(RelaxReport { iterations: iteration, initial_residual_n: initial, final_residual_n: residual, contacts, largest_overlap_ratio: largest_overlap, history, before, after: cell.statistics(material) })
+    Ok(RelaxReport {
+        iterations: iteration,
+        initial_residual_n: initial,
+        final_residual_n: residual,
+        contacts,
+        largest_overlap_ratio: largest_overlap,
+        history,
+        before,
+        after: cell.statistics(material),
+    })
 }
 
 #[cfg(test)]
@@ -406,7 +444,9 @@ mod tests {
         let mut expected = Vec::new();
         for i in 0..cell.positions.len() {
             for j in i + 1..cell.positions.len() {
-                if i / n != j / n && minimum_image(cell.positions[j] - cell.positions[i], cell.periodic.period).norm() < reach {
+                if i / n != j / n
+                    && minimum_image(cell.positions[j] - cell.positions[i], cell.periodic.period).norm() < reach
+                {
                     expected.push((i as u32, j as u32));
                 }
             }
@@ -421,7 +461,13 @@ mod tests {
         let law = NormalLaw::ElastoPlasticKm2;
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
         let (crimp, thickness) = (cell.crimp(), cell.thickness());
-        let report = relax(&mut cell, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
+        let report = relax(
+            &mut cell,
+            &material,
+            &law,
+            &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() },
+        )
+        .unwrap();
         assert!(report.final_residual_n <= 1e-6 * report.initial_residual_n, "{report:?}");
         // the solver's forces on the relaxed cell are the converged ones
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
@@ -431,18 +477,30 @@ mod tests {
         // tension pulls the yarns straighter and flatter; no contact is compressed beyond the
         // strain the stable time step is designed for
         assert!(cell.crimp() < crimp && cell.thickness() < thickness);
-        assert!(report.contacts > 0 && report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN, "{}", report.largest_overlap_ratio);
+        assert!(
+            report.contacts > 0 && report.largest_overlap_ratio < dea_core::stability::DESIGN_CONTACT_STRAIN,
+            "{}",
+            report.largest_overlap_ratio
+        );
         // style 706: 180 g/m^2 (DuPont), within 2 %
         assert!((cell.areal_density(&material) / 0.180 - 1.0).abs() < 0.02, "{}", cell.areal_density(&material));
         // every element carries the fibre tension on average
         let n = cell.nodes_per_period as usize;
         for fibre in 0..cell.fibres() {
             let strain = cell.fibre_length(fibre) / (n as f64 * cell.rest_lengths[fibre]) - 1.0;
-            assert!((strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension - 1.0).abs() < 1e-9);
+            assert!(
+                (strain * material.longitudinal_modulus * cell.section.area / cell.fibre_tension - 1.0).abs() < 1e-9
+            );
         }
         // the same bits every time
         let mut again = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        relax(&mut again, &material, &law, &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() }).unwrap();
+        relax(
+            &mut again,
+            &material,
+            &law,
+            &RelaxOptions { tolerance: 1e-6, max_iterations: 100_000, ..Default::default() },
+        )
+        .unwrap();
         assert_eq!(again, cell);
     }
 
@@ -450,7 +508,13 @@ mod tests {
     fn a_relaxation_that_cannot_finish_says_so() {
         let material = FibreMaterial::kevlar_km2();
         let mut cell = PlainWeave::km2_style_706(4).unit_cell(&material).unwrap();
-        let error = relax(&mut cell, &material, &NormalLaw::ElastoPlasticKm2, &RelaxOptions { tolerance: 1e-6, max_iterations: 10, ..Default::default() }).unwrap_err();
+        let error = relax(
+            &mut cell,
+            &material,
+            &NormalLaw::ElastoPlasticKm2,
+            &RelaxOptions { tolerance: 1e-6, max_iterations: 10, ..Default::default() },
+        )
+        .unwrap_err();
         assert!(matches!(error, RelaxError::NotConverged { iterations: 10, .. }));
     }
 
@@ -465,7 +529,8 @@ mod tests {
         let pairs = periodic_pairs(&cell, 1.5 * cell.section.contact_diameter);
         let mut force = vec![Vec3::zeros(); cell.positions.len()];
         let law = NormalLaw::Elastic { transverse_modulus: material.transverse_modulus };
-        let (contacts, _) = cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
+        let (contacts, _) =
+            cell_forces(&cell, &material, &law, Rods::Rest, &pairs, &mut ChainScratch::default(), &mut force);
         assert!(contacts > 0);
         let total: Vec3 = force.iter().sum();
         let scale = largest_force(&force);
