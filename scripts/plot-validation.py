@@ -19,10 +19,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TABLE_6_1_LAYERS = [4, 8, 12, 16, 20, 24, 28]
-TABLE_6_1_EXPERIMENT = [245, 287, 416, 441, 511, 506, 549]
-TABLE_6_1_MODIFIED_DEA = [305, 407, 435, 475, 505, 525, 545]
+import validation  # noqa: E402  (scripts/validation.py: the seed's tables, kept once)
+
+ROOT = validation.ROOT
+TABLE_6_1_LAYERS = sorted(validation.TABLE_6_1_EXPERIMENT)
+TABLE_6_1_EXPERIMENT = [validation.TABLE_6_1_EXPERIMENT[n] for n in TABLE_6_1_LAYERS]
+TABLE_6_1_MODIFIED_DEA = [validation.TABLE_6_1_MODIFIED_DEA[n] for n in TABLE_6_1_LAYERS]
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--out", default=os.path.join(ROOT, "docs", "img", "validation-v50.png"))
@@ -39,12 +41,21 @@ def bar(axes, x, entry, colour, label):
     axes.errorbar([x], [v], yerr=[[v - low], [high - v]], fmt="o", color=colour, capsize=5, label=label)
 
 
+def draw(axes, chosen, x, label):
+    """Draws the entries that have a V50 (the label on the first), lists the others; whether
+    any was drawn."""
+    drawn = False
+    for e in chosen:
+        if e["v50_m_s"] is None:
+            pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
+            continue
+        bar(axes, x(e), e, "tab:blue", None if drawn else label(e))
+        drawn = True
+    return drawn
+
+
 panels = sorted((e for e in entries if e["series"] == "panel_size"), key=lambda e: e["side_m"])
-for k, e in enumerate(panels):
-    if e["v50_m_s"] is None:
-        pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
-        continue
-    bar(size_axes, 1000 * e["side_m"], e, "tab:blue", "dea-mpi, 4 layers (bisection bracket)" if k == 0 else None)
+draw(size_axes, panels, lambda e: 1000 * e["side_m"], lambda e: "dea-mpi, 4 layers (bisection bracket)")
 size_axes.axhline(245, color="black", linestyle="--", label="experiment, 4 layers, 15 in panel (Table 6-1)")
 size_axes.axhline(305, color="tab:red", linestyle=":", label="seed modified DEA, 4 layers (Table 6-1)")
 size_axes.set_xscale("log")
@@ -54,20 +65,12 @@ size_axes.set_title("17-grain FSP, 4 layers of KM2 706: V50 against panel size")
 size_axes.set_xlim(7, 420)
 size_axes.set_ylim(0, 450)
 size_axes.grid(alpha=0.3)
-handles, labels = size_axes.get_legend_handles_labels()
 size_axes.legend(fontsize=7, loc="upper left")
 
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_EXPERIMENT, "ks--", label="experiment (Table 6-1)")
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_MODIFIED_DEA, "r^:", label="seed modified DEA (Table 6-1)")
 layers = sorted((e for e in entries if e["series"] == "layers"), key=lambda e: e["layers"])
-drawn = False
-for e in layers:
-    if e["v50_m_s"] is None:
-        pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
-        continue
-    bar(layer_axes, e["layers"], e, "tab:blue", None if drawn else f"dea-mpi, {1000 * e['side_m']:.0f} mm panel")
-    drawn = True
-if not drawn:
+if not draw(layer_axes, layers, lambda e: e["layers"], lambda e: f"dea-mpi, {1000 * e['side_m']:.0f} mm panel"):
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 layer_axes.set_xlabel("layers")
 layer_axes.set_ylabel("V50 [m/s]")

@@ -68,6 +68,17 @@ def planned_shots(design, replicates):
     return design["shots"] * replicates
 
 
+def bisection_bracket(design, shots):
+    """(highest partial, lowest complete) within the design's [low, high] [m/s]."""
+    low, high = design["low_m_s"], design["high_m_s"]
+    for s in shots:
+        if s["perforated"]:
+            high = min(high, s["velocity_m_s"])
+        else:
+            low = max(low, s["velocity_m_s"])
+    return low, high
+
+
 def records(name):
     shots = []
     for path in sorted(glob.glob(os.path.join(RESULTS, name, "shots", "*.json"))):
@@ -108,12 +119,7 @@ class Campaign:
     def finished_design(self):
         design = self.spec["design"]
         if design["kind"] == "bisection":
-            low, high = design["low_m_s"], design["high_m_s"]
-            for s in self.shots:
-                if s["perforated"]:
-                    high = min(high, s["velocity_m_s"])
-                else:
-                    low = max(low, s["velocity_m_s"])
+            low, high = bisection_bracket(design, self.shots)
             return high - low <= design["resolution_m_s"]
         return len(self.shots) >= self.planned
 
@@ -162,12 +168,7 @@ def entry(c):
         with open(report_path) as f:
             report = json.load(f)
     if design["kind"] == "bisection":
-        lo, hi = design["low_m_s"], design["high_m_s"]
-        for s in c.shots:
-            if s["perforated"]:
-                hi = min(hi, s["velocity_m_s"])
-            else:
-                lo = max(lo, s["velocity_m_s"])
+        lo, hi = bisection_bracket(design, c.shots)
         has_partial = any(not s["perforated"] for s in c.shots)
         has_complete = any(s["perforated"] for s in c.shots)
         if has_partial and has_complete:

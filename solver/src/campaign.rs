@@ -128,9 +128,9 @@ pub fn shot_case(case: &Case, campaign: &str, id: &str, velocity: f64, seed: u64
 
 /// The size of the unit cell a scattered aim falls within [m].
 fn aim_cell(case: &Case) -> Result<[f64; 2], CampaignError> {
-    let problem =
-        crate::setup::problem(case).map_err(|error| CampaignError::Setup { id: "(unit cell)".into(), error })?;
-    problem.fabric.aim_cell().ok_or_else(|| {
+    let cell =
+        crate::setup::aim_cell(case).map_err(|error| CampaignError::Setup { id: "(unit cell)".into(), error })?;
+    cell.ok_or_else(|| {
         CampaignError::Scatter(
             "scatter.aim: the target is straight fibres or yarns, without a weave unit cell to aim within; give \"aim\": \"fixed\"".into(),
         )

@@ -119,6 +119,25 @@ fn relaxed_cell(
     Ok((cell, Some(report)))
 }
 
+/// Size of the struck layer's periodic unit cell along x and y, where a campaign's scattered
+/// aim falls [m], from the weave's spacing or the cell file, without relaxing the cell (the
+/// period is the relaxation's boundary, so relaxing keeps it); `None` for straight fibres and
+/// yarns.
+pub fn aim_cell(case: &Case) -> Result<Option<[f64; 2]>, SetupError> {
+    let resolved = case.resolve().map_err(|e| SetupError::Case(e.to_string()))?;
+    Ok(match &resolved.target {
+        ResolvedTarget::Straight(_) | ResolvedTarget::ThreeDCell { .. } => None,
+        ResolvedTarget::Woven(woven) => Some(match &woven.fine {
+            CellSource::File(path) => read_cell(path).map_err(SetupError::Mesh)?.periodic.period,
+            CellSource::Generate { weave, .. } => [2.0 * weave.yarn_spacing; 2],
+        }),
+        ResolvedTarget::ThreeDPanel { cell, .. } => Some(match cell {
+            CellSource::File(path) => dea_io::cell::read_periodic(path).map_err(SetupError::Mesh)?.1.period,
+            CellSource::Generate { weave, .. } => laid_out_cell(weave, &resolved.material)?.period,
+        }),
+    })
+}
+
 /// The 3-D cell `weave` describes, laid out and not yet relaxed.
 pub fn laid_out_cell(weave: &ThreeDWeave, material: &FibreMaterial) -> Result<PeriodicCell, SetupError> {
     weave.unit_cell(material).map_err(|e| SetupError::Case(e.in_case()))

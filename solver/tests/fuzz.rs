@@ -108,18 +108,18 @@ fn paths(value: &serde_json::Value, prefix: &str, out: &mut Vec<String>) {
     }
 }
 
-fn at<'a>(value: &'a mut serde_json::Value, path: &str) -> (&'a mut serde_json::Value, String) {
-    let mut parts: Vec<&str> = path.split('.').collect();
-    let last = parts.pop().unwrap().to_string();
-    let mut node = value;
-    for part in parts {
-        node = match node {
-            serde_json::Value::Object(map) => map.get_mut(part).unwrap(),
-            serde_json::Value::Array(items) => &mut items[part.parse::<usize>().unwrap()],
-            _ => unreachable!(),
-        };
-    }
-    (node, last)
+/// A dotted path as a JSON pointer.
+fn pointer(path: &str) -> String {
+    path.split('.').map(|key| format!("/{key}")).collect()
+}
+
+/// The object holding the value at `path`, when it is held by an object (not an array).
+fn parent<'a>(
+    value: &'a mut serde_json::Value,
+    path: &str,
+) -> Option<&'a mut serde_json::Map<String, serde_json::Value>> {
+    let parent = path.rsplit_once('.').map_or(String::new(), |(parent, _)| pointer(parent));
+    value.pointer_mut(&parent)?.as_object_mut()
 }
 
 /// Values a careless or hostile user puts where a number, a word or an object belongs.
@@ -154,26 +154,18 @@ fn mutate_json(base: &serde_json::Value, draw: &mut Draw) -> (String, String) {
     match draw.below(6) {
         0..=2 => {
             let new = hostile(draw);
-            let (parent, key) = at(&mut value, &path);
-            match parent {
-                serde_json::Value::Object(map) => {
-                    map.insert(key, new.clone());
-                }
-                serde_json::Value::Array(items) => items[key.parse::<usize>().unwrap()] = new.clone(),
-                _ => unreachable!(),
-            }
+            *value.pointer_mut(&pointer(&path)).unwrap() = new.clone();
             (value.to_string(), format!("{path} = {new}"))
         }
         3 => {
-            let (parent, key) = at(&mut value, &path);
-            if let serde_json::Value::Object(map) = parent {
-                map.remove(&key);
+            let key = path.rsplit('.').next().unwrap();
+            if let Some(map) = parent(&mut value, &path) {
+                map.remove(key);
             }
             (value.to_string(), format!("{path} removed"))
         }
         4 => {
-            let (parent, _) = at(&mut value, &path);
-            if let serde_json::Value::Object(map) = parent {
+            if let Some(map) = parent(&mut value, &path) {
                 map.insert("unknown_field".into(), serde_json::json!(1));
             }
             (value.to_string(), format!("unknown field beside {path}"))

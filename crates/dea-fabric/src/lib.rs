@@ -266,16 +266,6 @@ pub enum Fabric {
 }
 
 impl Fabric {
-    /// Size of the struck layer's periodic unit cell along x and y, where a shot's aim may
-    /// fall anywhere within one (none for straight fibres and yarns) [m].
-    pub fn aim_cell(&self) -> Option<[f64; 2]> {
-        match self {
-            Fabric::Straight(_) => None,
-            Fabric::Woven(p) => Some(p.cell.periodic.period),
-            Fabric::Tiled(p) => Some(p.cell.period),
-        }
-    }
-
     /// Yarns of the target.
     pub fn yarn_count(&self) -> usize {
         match self {

@@ -920,14 +920,9 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
 /// enum's path is then the best there is).
 pub(crate) fn locate_field<T: serde::de::DeserializeOwned>(text: &str, path: &str) -> Option<String> {
     let document: serde_json::Value = serde_json::from_str(text).ok()?;
-    let mut node = &document;
-    for key in path.split('.') {
-        node = match node {
-            serde_json::Value::Object(map) => map.get(key)?,
-            serde_json::Value::Array(items) => items.get(key.parse::<usize>().ok()?)?,
-            _ => return None,
-        };
-    }
+    // a dotted path as a JSON pointer (field names hold neither '/' nor '~')
+    let pointer = |dotted: &[&str]| dotted.iter().map(|key| format!("/{key}")).collect::<String>();
+    let base: Vec<&str> = path.split('.').collect();
     let mut candidates: Vec<Vec<String>> = Vec::new();
     fn walk(value: &serde_json::Value, prefix: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
         if let serde_json::Value::Object(map) = value {
@@ -943,12 +938,12 @@ pub(crate) fn locate_field<T: serde::de::DeserializeOwned>(text: &str, path: &st
             }
         }
     }
-    walk(node, &mut Vec::new(), &mut candidates);
+    walk(document.pointer(&pointer(&base))?, &mut Vec::new(), &mut candidates);
     candidates.sort_by_key(|c| std::cmp::Reverse(c.len()));
-    let base: Vec<&str> = path.split('.').collect();
     candidates.into_iter().find_map(|relative| {
-        let edited = &document;
-        let key = relative.last()?;
+        let (key, parents) = relative.split_last()?;
+        let parent: Vec<&str> = base.iter().copied().chain(parents.iter().map(String::as_str)).collect();
+        let parent = pointer(&parent);
         let probes = [
             None,
             Some(serde_json::json!(0)),
@@ -961,16 +956,8 @@ pub(crate) fn locate_field<T: serde::de::DeserializeOwned>(text: &str, path: &st
             Some(serde_json::Value::Null),
         ];
         let fixed = probes.into_iter().any(|probe| {
-            let mut trial = edited.clone();
-            let mut node = &mut trial;
-            for step in base.iter().copied().chain(relative[..relative.len() - 1].iter().map(String::as_str)) {
-                node = match node {
-                    serde_json::Value::Object(map) => map.get_mut(step).expect("walked"),
-                    serde_json::Value::Array(items) => &mut items[step.parse::<usize>().expect("walked")],
-                    _ => unreachable!("walked"),
-                };
-            }
-            let map = node.as_object_mut().expect("a field's parent is an object");
+            let mut trial = document.clone();
+            let Some(map) = trial.pointer_mut(&parent).and_then(serde_json::Value::as_object_mut) else { return false };
             match probe {
                 None => map.remove(key),
                 Some(value) => map.insert(key.clone(), value),
