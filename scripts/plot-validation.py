@@ -37,21 +37,29 @@ pending = []
 
 
 def bar(axes, x, entry, colour, label):
+    """A V50 with its bracket or interval; hollow when the bracket's low end is a shot that was
+    still undecided at its end time (scripts/validation.py says so in `method`)."""
     v, low, high = entry["v50_m_s"], entry["v50_low_m_s"], entry["v50_high_m_s"]
-    axes.errorbar([x], [v], yerr=[[v - low], [high - v]], fmt="o", color=colour, capsize=5, label=label)
+    axes.errorbar([x], [v], yerr=[[v - low], [high - v]], fmt="o", color=colour, capsize=5,
+                  mfc="white" if undecided(entry) else colour, linestyle="none", label=label)
+
+
+def undecided(entry):
+    return "not established" in (entry["method"] or "")
 
 
 def draw(axes, chosen, x, label):
-    """Draws the entries that have a V50 (the label on the first), lists the others; whether
-    any was drawn."""
-    drawn = False
+    """Draws the entries that have a V50 (each kind of marker labelled once), lists the
+    others; whether any was drawn."""
+    labelled = set()
     for e in chosen:
         if e["v50_m_s"] is None:
             pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
             continue
-        bar(axes, x(e), e, "tab:blue", None if drawn else label(e))
-        drawn = True
-    return drawn
+        text = label(e) + (" (hollow: the bracket's low end was undecided)" if undecided(e) else "")
+        bar(axes, x(e), e, "tab:blue", None if text in labelled else text)
+        labelled.add(text)
+    return bool(labelled)
 
 
 panels = sorted((e for e in entries if e["series"] == "panel_size"), key=lambda e: e["side_m"])
