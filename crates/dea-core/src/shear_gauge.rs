@@ -79,25 +79,47 @@ pub fn gauge_moments(
         // l0 M_j / L, the hat's height at j's distance applied below
         let scale = section.element_length / gauge;
         let mut sum = moment[i] * scale;
-        // the nodes one way along the fibre, up to the reach, the gauge or a broken element:
-        // `neighbour` gives the next node that way and the element between
-        let mut add_side = |neighbour: &dyn Fn(usize) -> Option<(usize, usize)>| {
-            let (mut j, mut distance) = (i, 0.0);
-            for _ in 0..reach {
-                let Some((next, element)) = neighbour(j).filter(|&(_, e)| elements.is_intact(nodes, e)) else { break };
-                distance += elements.rest_length[element];
-                if distance >= gauge {
-                    break;
-                }
-                j = next;
-                sum += moment[j] * (scale * (1.0 - distance / gauge));
-            }
-        };
         // towards lower positions, then higher ones
-        add_side(&|j| (nodes.prev[j] != NONE).then(|| (nodes.prev[j] as usize, nodes.prev[j] as usize)));
-        add_side(&|j| (nodes.next[j] != NONE).then(|| (nodes.next[j] as usize, j)));
+        let hat = Hat { nodes, elements, moment, from: i, reach, gauge, scale };
+        hat.add_side(&mut sum, |j| (nodes.prev[j] != NONE).then(|| (nodes.prev[j] as usize, nodes.prev[j] as usize)));
+        hat.add_side(&mut sum, |j| (nodes.next[j] != NONE).then(|| (nodes.next[j] as usize, j)));
         sum
     }));
+}
+
+/// The hat window of one node: what [`gauge_moments`] sums along each side of it.
+struct Hat<'a> {
+    nodes: &'a Nodes,
+    elements: &'a Elements,
+    moment: &'a [Vec3],
+    /// the node the window is centred on
+    from: usize,
+    /// nodes reached at most each way
+    reach: u32,
+    /// half-width L [m]
+    gauge: f64,
+    /// l0 / L [-]
+    scale: f64,
+}
+
+impl Hat<'_> {
+    /// Adds to `sum` the hat-weighted moments one way along the fibre, up to the reach, the
+    /// gauge or a broken element; `neighbour` gives the next node that way and the element
+    /// between (a generic, so the step's hot loop calls it without dynamic dispatch).
+    fn add_side(&self, sum: &mut Vec3, neighbour: impl Fn(usize) -> Option<(usize, usize)>) {
+        let (mut j, mut distance) = (self.from, 0.0);
+        for _ in 0..self.reach {
+            let Some((next, element)) = neighbour(j).filter(|&(_, e)| self.elements.is_intact(self.nodes, e)) else {
+                break;
+            };
+            distance += self.elements.rest_length[element];
+            if distance >= self.gauge {
+                break;
+            }
+            j = next;
+            *sum += self.moment[j] * (self.scale * (1.0 - distance / self.gauge));
+        }
+    }
 }
 
 #[cfg(test)]
