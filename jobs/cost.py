@@ -38,7 +38,10 @@ else:
     handle, case_path = tempfile.mkstemp(suffix=".json")
     with os.fdopen(handle, "w") as f:
         json.dump(campaign["case"], f)
-checked = subprocess.run([os.path.join(root, "target/release/dea-mpi"), "check", case_path], capture_output=True, text=True)
+# a shot's ranks, each share on a host at least as large as this one (check refuses what
+# run on them would)
+command = [os.path.join(root, "target/release/dea-mpi"), "check", case_path, "--ranks", str(args.ranks_per_shot), "--ranks-per-host", "1"]
+checked = subprocess.run(command, capture_output=True, text=True)
 if checked.returncode != 0:
     sys.exit(checked.stderr.strip())
 checked = json.loads(checked.stdout)

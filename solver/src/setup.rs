@@ -488,8 +488,7 @@ fn deformable_body(
     let (vertices, triangles) = mesh.boundary();
     let body = DeformableProjectile::new(mesh, resolved.mass, youngs_modulus, poisson_ratio, model)
         .map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
-    let (mut shape, _) =
-        MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mut shape, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| surface_error(&source, e))?;
     let (centre, _) = body.body.centre_of_mass();
     let mut surface = Vec::new();
     body.surface_from(&centre, &mut surface);
@@ -534,6 +533,15 @@ fn projectile_spans(path: &Path, vertices: &[Vec3]) -> Result<(), SetupError> {
     )))
 }
 
+/// A surface that cannot be used: a fault of its file, or (too large for the contact
+/// search against this fibre) of the case, refused before the search is made.
+fn surface_error(source: &str, error: dea_core::surface::SurfaceError) -> SetupError {
+    match error {
+        dea_core::surface::SurfaceError::TooLarge { .. } => SetupError::Case(format!("projectile: {source}: {error}")),
+        _ => SetupError::Mesh(format!("{source}: {error}")),
+    }
+}
+
 /// The projectile's surface: closed form, generated or read from a file (scaled to metres),
 /// queried within `reach` through cubes of edge `cell` [m].
 fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShape, SetupError> {
@@ -550,8 +558,7 @@ fn rigid_shape(body: &ProjectileBody, reach: f64, cell: f64) -> Result<RigidShap
             (vertices, triangles, path.display().to_string())
         }
     };
-    let (mesh, _) =
-        MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| SetupError::Mesh(format!("{source}: {e}")))?;
+    let (mesh, _) = MeshShape::new(&vertices, triangles, reach, cell).map_err(|e| surface_error(&source, e))?;
     Ok(RigidShape::Mesh(Arc::new(mesh)))
 }
 

@@ -123,16 +123,74 @@ fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
     case["target"]["side_m"] = 0.06.into();
     let path = dir.join("wide.json");
     std::fs::write(&path, case.to_string()).unwrap();
-    let command = format!(
-        "ulimit -v 2000000 && exec {} run {} --out {}",
-        env!("CARGO_BIN_EXE_dea-mpi"),
-        path.display(),
-        dir.join("out").display()
-    );
-    let out = Command::new("bash").args(["-c", &command]).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(3), "{stderr}");
-    assert!(stderr.contains("address space a process may take here (ulimit -v)"), "{stderr}");
+    // `check` refuses what `run` refuses
+    for verb in
+        [format!("run {} --out {}", path.display(), dir.join("out").display()), format!("check {}", path.display())]
+    {
+        let command = format!("ulimit -v 2000000 && exec {} {verb}", env!("CARGO_BIN_EXE_dea-mpi"));
+        let out = Command::new("bash").args(["-c", &command]).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{verb}: {stderr}");
+        assert!(stderr.contains("address space a process may take here (ulimit -v)"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn check_refuses_what_run_on_the_meant_ranks_would() {
+    // side_m 0.6 where 0.006 was meant: 248 million nodes, 430 GB on one rank; `check`
+    // accepted it with exit 0 while `run` refused it (issue 34)
+    let dir = scratch("meant-ranks");
+    let mut case = case_file("default.json");
+    case["target"]["side_m"] = 0.6.into();
+    let path = dir.join("wide.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let path = path.to_str().unwrap();
+    for args in [vec!["check", path], vec!["run", path, "--out", dir.join("out").to_str().unwrap()]] {
+        let stderr = stderr_of_exit(3, &args);
+        assert!(stderr.contains("248249472 nodes need about 429.5 GB on each of the 1 ranks"), "{stderr}");
+    }
+    // 4 of 64 ranks on a host: 27 GB, more than a CI machine's 24 GiB
+    let stderr = stderr_of_exit(3, &["check", path, "--ranks", "64", "--ranks-per-host", "4"]);
+    assert!(stderr.contains("--ranks N --ranks-per-host M") && stderr.contains("here 64, 4 per host"), "{stderr}");
+    // one share of 256 per host: 1.7 GB, checked and described
+    let out = dea(&["check", path, "--ranks", "256", "--ranks-per-host", "1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let memory = &printed["resolved"]["memory"];
+    assert_eq!((memory["ranks"].as_u64(), memory["ranks_per_host"].as_u64()), (Some(256), Some(1)));
+    let share = memory["bytes_per_rank"].as_f64().unwrap();
+    assert!((share / (248249472.0 * 1730.0 / 256.0) - 1.0).abs() < 1e-12, "{share}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_meshed_projectile_too_large_for_the_fibre_is_refused_before_its_search_is_made() {
+    // a 0.1 m cube (one hexahedron in a Gmsh file) against a 12 um fibre: its contact
+    // search would have listed the surface 7e8 times, 24 GB and minutes (issue 34)
+    let dir = scratch("huge-mesh");
+    let corners = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]];
+    let mut mesh = String::from("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 8 1 8\n3 1 0 8\n");
+    mesh += &(1..=8).map(|k| format!("{k}\n")).collect::<String>();
+    mesh += &corners
+        .iter()
+        .map(|c| format!("{} {} {}\n", 0.1 * c[0] as f64 - 0.05, 0.1 * c[1] as f64 - 0.05, 0.1 * c[2] as f64))
+        .collect::<String>();
+    mesh += "$EndNodes\n$Elements\n1 1 1 1\n3 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n";
+    std::fs::write(dir.join("cube.msh"), mesh).unwrap();
+    let mut case = case_file("single_fibre_short.json");
+    case["target"]["diameter_m"] = 12e-6.into();
+    case["projectile"] =
+        serde_json::json!({ "shape": "file", "mesh_file": "cube.msh", "mass_kg": 0.5, "velocity_m_s": 100.0 });
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let path = path.to_str().unwrap();
+    for args in [vec!["check", path], vec!["run", path, "--out", dir.join("out").to_str().unwrap()]] {
+        let started = std::time::Instant::now();
+        let stderr = stderr_of_exit(3, &args);
+        assert!(stderr.contains("cube.msh") && stderr.contains("contact search") && stderr.contains("GB"), "{stderr}");
+        assert!(started.elapsed().as_secs() < 20, "{args:?} took {:?}", started.elapsed());
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -148,7 +148,14 @@ impl CellGrid {
     }
 
     fn new(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64) -> Self {
-        let mut grid = Self { cell, cells: FxHashMap::default(), entries: Vec::new(), occupancy_low: [0; 3], occupancy_size: [0; 3], occupancy: Vec::new() };
+        let mut grid = Self {
+            cell,
+            cells: FxHashMap::default(),
+            entries: Vec::new(),
+            occupancy_low: [0; 3],
+            occupancy_size: [0; 3],
+            occupancy: Vec::new(),
+        };
         // (cube, distance of the triangle from the cube's centre, triangle): each cube's list
         // runs nearest first, so a query soon has a close triangle to prune the others with
         let mut listed: Vec<([i32; 3], u64, u32)> = Vec::new();
@@ -215,7 +222,9 @@ impl CellGrid {
     #[inline]
     fn near(&self, p: &Vec3) -> &[u32] {
         let key = self.key(p);
-        if !self.occupancy.is_empty() && self.occupancy_bit(key).is_none_or(|bit| self.occupancy[bit / 64] & (1 << (bit % 64)) == 0) {
+        if !self.occupancy.is_empty()
+            && self.occupancy_bit(key).is_none_or(|bit| self.occupancy[bit / 64] & (1 << (bit % 64)) == 0)
+        {
             return &[];
         }
         self.cells.get(&key).map_or(&[], |&(a, b)| &self.entries[a as usize..b as usize])
@@ -231,6 +240,41 @@ pub enum SurfaceError {
     Degenerate(usize),
     #[error("the enclosed volume is {0} m^3: the normals must point out of the solid")]
     InsideOut(f64),
+    /// The contact search would list the surface in more (cube, triangle) entries than
+    /// [`MOST_SEARCH_ENTRIES`]: a surface large against the fibre it meets.
+    #[error("its {area:.3e} m^2 of surface would be listed about {entries:.2e} times in the contact search's cubes of {cell:.2e} m (sized by the fibre it meets), about {gigabytes:.1} GB, and at most {most:.2e} listings are made: a smaller projectile, or a thicker fibre")]
+    TooLarge { area: f64, entries: f64, cell: f64, gigabytes: f64, most: f64 },
+}
+
+/// The most (cube, triangle) listings the contact search of one surface may make, counted
+/// before any is made: 2^27 listings take about 3 GB while they are sorted, where a 0.1 m
+/// cube against a 12 um filament would take 24 GB and minutes (issue 34). A 17-grain FSP
+/// against the finest shipped fibre needs about 10^6.
+pub const MOST_SEARCH_ENTRIES: f64 = (1u64 << 27) as f64;
+
+/// Bytes per listing while the search's cubes are built (cube, distance and triangle).
+const BYTES_PER_LISTING: f64 = 24.0;
+
+/// How many listings the search of `triangles` makes, from the volume within `reach` plus a
+/// cube's half-diagonal of each triangle (Steiner's formula for a flat convex set:
+/// `2 h A + (pi/2) P h^2 + (4/3) pi h^3`) over a cube's volume, and how many boxes the
+/// rival search bins (counted exactly, each triangle's box in cubes of `rival_cell`). Cheap,
+/// and made before either structure is.
+fn search_listings(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64, rival_cell: f64) -> (f64, f64) {
+    let h = 0.5 * cell * 3f64.sqrt() + reach;
+    let (mut listed, mut binned) = (0.0, 0.0);
+    for t in triangles {
+        let [a, b, c] = t.map(|v| vertices[v as usize]);
+        let area = 0.5 * (b - a).cross(&(c - a)).norm();
+        let perimeter = (b - a).norm() + (c - b).norm() + (a - c).norm();
+        let volume = 2.0 * h * area
+            + std::f64::consts::FRAC_PI_2 * perimeter * h * h
+            + 4.0 / 3.0 * std::f64::consts::PI * h.powi(3);
+        listed += volume / cell.powi(3);
+        let (low, high) = (cube_of(&a.inf(&b).inf(&c), rival_cell), cube_of(&a.sup(&b).sup(&c), rival_cell));
+        binned += (0..3).map(|k| (high[k] as f64 - low[k] as f64 + 1.0)).product::<f64>();
+    }
+    (listed, binned)
 }
 
 /// Checks that triangles form a closed, consistently oriented surface: every directed edge
@@ -306,6 +350,22 @@ impl TriangleSurface {
         if volume.is_nan() || volume <= 0.0 {
             return Err(SurfaceError::InsideOut(volume));
         }
+        let (listed, binned) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
+        let entries = listed.max(binned);
+        if !(entries <= MOST_SEARCH_ENTRIES) {
+            let area = triangles
+                .iter()
+                .map(|t| t.map(|v| vertices[v as usize]))
+                .map(|[a, b, c]| 0.5 * (b - a).cross(&(c - a)).norm())
+                .sum();
+            return Err(SurfaceError::TooLarge {
+                area,
+                entries,
+                cell,
+                gigabytes: entries * BYTES_PER_LISTING / 1e9,
+                most: MOST_SEARCH_ENTRIES,
+            });
+        }
         // the triangle across each edge (a closed surface has exactly one)
         let mut owner: HashMap<(u32, u32), u32> = HashMap::new();
         for (k, t) in triangles.iter().enumerate() {
@@ -333,7 +393,10 @@ impl TriangleSurface {
             margin: 0.0,
         };
         surface.update_geometry();
-        let (low, high) = surface.vertices.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), v| (l.inf(v), h.sup(v)));
+        let (low, high) = surface
+            .vertices
+            .iter()
+            .fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), v| (l.inf(v), h.sup(v)));
         let extent = (high - low).norm();
         surface.find_rivals(PLANE_TOLERANCE * extent);
         // a triangle that is no rival is farther by at least the margin squared in squared
@@ -365,15 +428,18 @@ impl TriangleSurface {
                 }
                 let side = |x: &Vec3| (x - from).dot(&across) / length;
                 let (mine, theirs) = (own.map(|x| side(&x)), others.map(|x| side(&x)));
-                (mine.iter().all(|&d| d >= -tolerance) && theirs.iter().all(|&d| d <= tolerance)) || (mine.iter().all(|&d| d <= tolerance) && theirs.iter().all(|&d| d >= -tolerance))
+                (mine.iter().all(|&d| d >= -tolerance) && theirs.iter().all(|&d| d <= tolerance))
+                    || (mine.iter().all(|&d| d <= tolerance) && theirs.iter().all(|&d| d >= -tolerance))
             };
-            others.iter().all(|x| (x - own[0]).dot(&normal) <= tolerance) && (0..3).any(|e| parted(&own[e], &own[(e + 1) % 3]) || parted(&others[e], &others[(e + 1) % 3]))
+            others.iter().all(|x| (x - own[0]).dot(&normal) <= tolerance)
+                && (0..3).any(|e| parted(&own[e], &own[(e + 1) % 3]) || parted(&others[e], &others[(e + 1) % 3]))
         };
         // pairs whose bounding boxes come within the rival reach: boxes binned in cubes of
         // that edge, each triangle meeting those in the cubes its box, one cube wider, meets
         let cell = RIVAL_REACH * self.reach;
         let key = |x: &Vec3| cube_of(x, cell);
-        let boxes: Vec<(Vec3, Vec3)> = corners.iter().map(|c| (c[0].inf(&c[1]).inf(&c[2]), c[0].sup(&c[1]).sup(&c[2]))).collect();
+        let boxes: Vec<(Vec3, Vec3)> =
+            corners.iter().map(|c| (c[0].inf(&c[1]).inf(&c[2]), c[0].sup(&c[1]).sup(&c[2]))).collect();
         let mut binned: Vec<([i32; 3], u32)> = Vec::new();
         for (t, (low, high)) in boxes.iter().enumerate() {
             let (low, high) = (key(low), key(high));
@@ -432,7 +498,10 @@ impl TriangleSurface {
             let n = self.face_normals[k];
             for e in 0..3 {
                 let (v, next, previous) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
-                let (p, q) = (vertices[next as usize] - vertices[v as usize], vertices[previous as usize] - vertices[v as usize]);
+                let (p, q) = (
+                    vertices[next as usize] - vertices[v as usize],
+                    vertices[previous as usize] - vertices[v as usize],
+                );
                 self.vertex_normals[v as usize] += n * p.angle(&q);
                 self.edge_normals[k][e] = n + self.face_normals[self.across[k][e] as usize];
             }
@@ -464,7 +533,8 @@ impl TriangleSurface {
     pub fn set_vertices(&mut self, vertices: &[Vec3]) {
         self.vertices.copy_from_slice(vertices);
         self.update_geometry();
-        let moved = self.vertices.iter().zip(&self.grid_vertices).map(|(v, g)| (v - g).norm_squared()).fold(0.0, f64::max);
+        let moved =
+            self.vertices.iter().zip(&self.grid_vertices).map(|(v, g)| (v - g).norm_squared()).fold(0.0, f64::max);
         if moved > self.margin * self.margin {
             self.grid = CellGrid::new(&self.vertices, &self.triangles, self.reach + self.margin, self.grid.cell);
             self.grid_vertices.clone_from(&self.vertices);
@@ -491,7 +561,9 @@ impl TriangleSurface {
             }
             let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
             let squared = (p - q).norm_squared();
-            if squared <= self.reach * self.reach && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u)) {
+            if squared <= self.reach * self.reach
+                && best.is_none_or(|(d, u, ..)| squared < d || (squared == d && t < u))
+            {
                 best = Some((squared, t, q, weights, feature));
                 limit = squared.sqrt();
             }
@@ -522,7 +594,8 @@ impl TriangleSurface {
         let t = hint as usize;
         let [a, b, c] = self.triangles[t].map(|v| self.vertices[v as usize]);
         let (q, weights, feature) = closest_point_on_triangle(p, &a, &b, &c);
-        let inside_edges = weights.iter().fold(f64::INFINITY, |m, &w| m.min(w)) * self.shortest_height[t] >= self.face_margin;
+        let inside_edges =
+            weights.iter().fold(f64::INFINITY, |m, &w| m.min(w)) * self.shortest_height[t] >= self.face_margin;
         let height = (p - a).dot(&self.face_normals[t]);
         if feature != Feature::Face || !inside_edges || height < self.face_margin || height > 2.0 * self.reach {
             return None;
@@ -551,7 +624,15 @@ impl TriangleSurface {
     /// The answer for `p` whose closest point, at `squared` distance, is `point` of triangle
     /// `t` at `weights` on `feature`: signed by the feature's pseudonormal.
     #[inline]
-    fn surface_point(&self, p: &Vec3, squared: f64, t: u32, point: Vec3, weights: [f64; 3], feature: Feature) -> SurfacePoint {
+    fn surface_point(
+        &self,
+        p: &Vec3,
+        squared: f64,
+        t: u32,
+        point: Vec3,
+        weights: [f64; 3],
+        feature: Feature,
+    ) -> SurfacePoint {
         let pseudonormal = match feature {
             Feature::Face => self.face_normals[t as usize],
             Feature::Edge(k) => self.edge_normals[t as usize][k as usize],
@@ -617,7 +698,10 @@ mod tests {
             features.insert(format!("{feature:?}").chars().next().unwrap());
             // the point is the weighted vertices, the weights a partition of unity in [0, 1]
             assert!((a * weights[0] + b * weights[1] + c * weights[2] - q).norm() < 1e-12);
-            assert!((weights.iter().sum::<f64>() - 1.0).abs() < 1e-12 && weights.iter().all(|&w| (-1e-12..=1.0 + 1e-12).contains(&w)));
+            assert!(
+                (weights.iter().sum::<f64>() - 1.0).abs() < 1e-12
+                    && weights.iter().all(|&w| (-1e-12..=1.0 + 1e-12).contains(&w))
+            );
             // no sampled point is closer (the sample spacing bounds the error)
             let (exact, sampled) = ((q - p).norm(), brute_force(&p, &a, &b, &c));
             let spacing = ((b - a).norm() + (c - a).norm()) / 200.0;
@@ -647,10 +731,14 @@ mod tests {
 /// Box [-a, a] x [-b, b] x [-c, c]: 8 vertices, 12 triangles, normals out.
 #[cfg(test)]
 pub(crate) fn boxed(a: f64, b: f64, c: f64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let vertices = (0..8).map(|k| Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-        (vertices, triangles)
+    let vertices = (0..8)
+        .map(|k| {
+            Vec3::new(if k & 1 == 0 { -a } else { a }, if k & 2 == 0 { -b } else { b }, if k & 4 == 0 { -c } else { c })
+        })
+        .collect();
+    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let triangles = quads.iter().flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+    (vertices, triangles)
 }
 
 #[cfg(test)]
@@ -673,7 +761,19 @@ mod surface_tests {
             // the box's own signed distance
             let q = p.abs() - Vec3::new(a, b, c);
             let exact = if q.max() > 0.0 { q.sup(&Vec3::zeros()).norm() } else { q.max() };
-            let brute = triangles.iter().map(|t| (p - closest_point_on_triangle(&p, &vertices[t[0] as usize], &vertices[t[1] as usize], &vertices[t[2] as usize]).0).norm()).fold(f64::INFINITY, f64::min);
+            let brute = triangles
+                .iter()
+                .map(|t| {
+                    (p - closest_point_on_triangle(
+                        &p,
+                        &vertices[t[0] as usize],
+                        &vertices[t[1] as usize],
+                        &vertices[t[2] as usize],
+                    )
+                    .0)
+                        .norm()
+                })
+                .fold(f64::INFINITY, f64::min);
             assert!((exact.abs() - brute).abs() < 1e-12);
             match surface.closest(&p) {
                 Some(found) => {
@@ -681,7 +781,11 @@ mod surface_tests {
                     assert!((found.normal.norm() - 1.0).abs() < 1e-12);
                     // the normal leads from the surface point to an outside point
                     assert!((found.point + found.normal * found.distance - p).norm() < 1e-12);
-                    if found.distance < 0.0 { inside += 1 } else { outside += 1 }
+                    if found.distance < 0.0 {
+                        inside += 1
+                    } else {
+                        outside += 1
+                    }
                 }
                 None => {
                     assert!(brute > reach, "{p:?} is within reach ({brute}) but was not found");
@@ -697,7 +801,8 @@ mod surface_tests {
     /// edges wherever a vertex sits lower than its neighbours.
     fn bumpy_sphere(levels: usize, bump: f64, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         let mut vertices = vec![Vec3::x(), -Vec3::x(), Vec3::y(), -Vec3::y(), Vec3::z(), -Vec3::z()];
-        let mut triangles: Vec<[u32; 3]> = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+        let mut triangles: Vec<[u32; 3]> =
+            vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
         for _ in 0..levels {
             let mut middle: HashMap<(u32, u32), u32> = HashMap::new();
             let mut split = |a: u32, b: u32, vertices: &mut Vec<Vec3>| {
@@ -709,7 +814,8 @@ mod surface_tests {
             triangles = triangles
                 .iter()
                 .flat_map(|&[a, b, c]| {
-                    let (ab, bc, ca) = (split(a, b, &mut vertices), split(b, c, &mut vertices), split(c, a, &mut vertices));
+                    let (ab, bc, ca) =
+                        (split(a, b, &mut vertices), split(b, c, &mut vertices), split(c, a, &mut vertices));
                     [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
                 })
                 .collect();
@@ -725,7 +831,11 @@ mod surface_tests {
     fn an_answer_over_a_face_is_the_searched_answer_on_convex_and_bumpy_surfaces() {
         let reach = 0.12;
         let (box_vertices, box_triangles) = boxed(1.0, 0.6, 0.3);
-        let meshes = [("box", box_vertices, box_triangles), ("sphere", bumpy_sphere(3, 0.0, 1).0, bumpy_sphere(3, 0.0, 1).1), ("bumpy sphere", bumpy_sphere(3, 0.04, 2).0, bumpy_sphere(3, 0.04, 2).1)];
+        let meshes = [
+            ("box", box_vertices, box_triangles),
+            ("sphere", bumpy_sphere(3, 0.0, 1).0, bumpy_sphere(3, 0.0, 1).1),
+            ("bumpy sphere", bumpy_sphere(3, 0.04, 2).0, bumpy_sphere(3, 0.04, 2).1),
+        ];
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         for (name, vertices, triangles) in meshes {
             let surface = TriangleSurface::new(vertices, triangles, reach, 0.05).unwrap();
@@ -767,11 +877,13 @@ mod surface_tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for step in 1..=30 {
             // a growing shear and a drift: the cubes are rebuilt now and then
-            let moved: Vec<Vec3> = vertices.iter().map(|v| v + Vec3::new(0.01 * step as f64 * v.z, 0.004 * step as f64, 0.0)).collect();
+            let moved: Vec<Vec3> =
+                vertices.iter().map(|v| v + Vec3::new(0.01 * step as f64 * v.z, 0.004 * step as f64, 0.0)).collect();
             moving.set_vertices(&moved);
             let fresh = TriangleSurface::new(moved, triangles.clone(), reach, 0.07).unwrap();
             for _ in 0..300 {
-                let p = Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-0.9..1.0), rng.random_range(-0.6..0.6));
+                let p =
+                    Vec3::new(rng.random_range(-1.5..1.5), rng.random_range(-0.9..1.0), rng.random_range(-0.6..0.6));
                 assert_eq!(moving.closest(&p), fresh.closest(&p), "step {step}, {p:?}");
             }
         }
@@ -789,20 +901,57 @@ mod surface_tests {
         assert!((properties.volume - volume).abs() < 1e-14);
         assert!((properties.centroid - shift).norm() < 1e-12);
         let (x, y, z) = (2.0 * a, 2.0 * b, 2.0 * c);
-        let principal = Matrix3::from_diagonal(&Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y)) * (volume / 12.0);
+        let principal =
+            Matrix3::from_diagonal(&Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y)) * (volume / 12.0);
         let expected = rotation.matrix() * principal * rotation.matrix().transpose();
-        assert!((properties.inertia - expected).norm() < 1e-12 * expected.norm(), "{:?} vs {expected:?}", properties.inertia);
+        assert!(
+            (properties.inertia - expected).norm() < 1e-12 * expected.norm(),
+            "{:?} vs {expected:?}",
+            properties.inertia
+        );
     }
 
     #[test]
     fn open_inside_out_and_degenerate_surfaces_are_refused() {
         let (vertices, mut triangles) = boxed(1.0, 1.0, 1.0);
         let flipped: Vec<[u32; 3]> = triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
-        assert!(matches!(TriangleSurface::new(vertices.clone(), flipped, 0.1, 0.1), Err(SurfaceError::InsideOut(v)) if v < 0.0));
+        assert!(
+            matches!(TriangleSurface::new(vertices.clone(), flipped, 0.1, 0.1), Err(SurfaceError::InsideOut(v)) if v < 0.0)
+        );
         let mut flat = vertices.clone();
         flat.iter_mut().for_each(|v| v.z = 0.0);
         assert!(matches!(TriangleSurface::new(flat, triangles.clone(), 0.1, 0.1), Err(SurfaceError::Degenerate(_))));
         triangles.pop();
         assert!(matches!(TriangleSurface::new(vertices, triangles, 0.1, 0.1), Err(SurfaceError::Open(..))));
+    }
+
+    #[test]
+    fn the_search_listings_are_estimated_before_they_are_made() {
+        // a box turned off the axes (slanted faces) and an axis-aligned one: the estimate
+        // is within a factor of two of the listings the grid makes
+        let (vertices, triangles) = boxed(0.5, 0.3, 0.2);
+        let turn = nalgebra::Rotation3::from_euler_angles(0.3, 0.5, 0.7);
+        for vertices in [vertices.clone(), vertices.iter().map(|v| turn * v).collect()] {
+            let (reach, cell) = (0.02, 0.03);
+            let (listed, _) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
+            let made = CellGrid::new(&vertices, &triangles, reach, cell).entries.len() as f64;
+            assert!((0.5..2.0).contains(&(listed / made)), "estimated {listed}, made {made}");
+        }
+        // a 0.1 m box against a 12 um filament (reach and cube of the contact search): about
+        // 10^9 listings, refused at once instead of taking tens of GB
+        let tiny = 12e-6;
+        let (vertices, triangles) = boxed(0.05, 0.05, 0.05);
+        let started = std::time::Instant::now();
+        let refused = TriangleSurface::new(vertices.clone(), triangles.clone(), 0.75 * tiny, 1.3 * tiny);
+        match refused {
+            Err(SurfaceError::TooLarge { entries, gigabytes, .. }) => {
+                assert!(entries > 1e8 && gigabytes > 1.0, "{entries} {gigabytes}");
+            }
+            other => panic!("not refused: {other:?}"),
+        }
+        assert!(started.elapsed().as_secs_f64() < 1.0, "the refusal comes before the work");
+        // a 17-grain FSP's size (a 5.5 mm box) against the same filament is accepted
+        let small: Vec<Vec3> = vertices.iter().map(|v| v * 0.055).collect();
+        assert!(TriangleSurface::new(small, triangles, 0.75 * tiny, 1.3 * tiny).is_ok());
     }
 }

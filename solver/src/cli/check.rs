@@ -11,15 +11,22 @@ pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved
 pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
 sections, projectile, nodes, time step, steps, skin), without running.";
 pub const EXAMPLES: &str =
-    "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json";
+    "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json\n  dea-mpi check cases/km2_706_28_layer_disc.json --ranks 64 --ranks-per-host 32";
 
 #[derive(clap::Args)]
 pub struct Args {
     /// case or campaign file (JSON, SI units)
     pub case: PathBuf,
+    /// the ranks the case is meant to run on: `check` refuses what `run` on them would (a
+    /// share of the target too large for this host's memory or a process's address space)
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub ranks: u32,
+    /// how many of those ranks share one host like this one (default: all of them)
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub ranks_per_host: Option<u32>,
 }
 
-pub fn main(Args { case: path }: Args) -> ExitCode {
+pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     // a long set-up (a large cell relaxing) says how far it is, on stderr
     let _logging = dea_mpi::progress::init_logging(0, None);
     let (campaign, case) = match load_case_or_campaign(&path) {
@@ -48,6 +55,15 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
         Ok(problem) => problem,
         Err(e) => return fail(setup_exit(&e), in_file(&e, Some(&path))),
     };
+    // the refusal `run` makes before its partition, on the ranks the user means to use
+    let ranks_per_host = ranks_per_host.unwrap_or(ranks).min(ranks);
+    let nodes = problem.fabric.node_count();
+    if let Err(e) = setup::shares_fit(nodes, ranks as usize, ranks_per_host as usize, setup::memory_limit()) {
+        let hint = format!(
+            "; `check --ranks N --ranks-per-host M` checks the ranks meant (here {ranks}, {ranks_per_host} per host)"
+        );
+        return fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint);
+    }
     let projectile = &problem.projectile;
     let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
     let mut printed = serde_json::json!({
@@ -59,7 +75,13 @@ pub fn main(Args { case: path }: Args) -> ExitCode {
             "yarns": problem.fabric.yarn_count(),
             "relaxation": problem.relaxation,
             "fibres": fibres,
-            "nodes": problem.fabric.node_count(),
+            "nodes": nodes,
+            "memory": {
+                "ranks": ranks,
+                "ranks_per_host": ranks_per_host,
+                "bytes_per_rank": nodes as f64 / ranks as f64 * setup::BYTES_PER_NODE,
+                "host_bytes": setup::memory_limit(),
+            },
             "time_step_s": problem.time_step,
             "steps": (case.run.end_time_s / problem.time_step).ceil(),
             "skin_m": problem.contact.skin,
