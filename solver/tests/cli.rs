@@ -618,6 +618,33 @@ fn zero_counts_on_the_command_line_are_usage_errors() {
 }
 
 #[test]
+fn compare_names_a_damaged_part_and_refuses_what_is_not_results() {
+    let dir = scratch("compare");
+    let mut case = case_file("single_fibre_short.json");
+    case["run"]["checkpoint_interval_steps"] = 200.into();
+    let case_path = dir.join("case.json");
+    std::fs::write(&case_path, case.to_string()).unwrap();
+    for name in ["a", "b"] {
+        let out = dea(&["run", case_path.to_str().unwrap(), "--out", dir.join(name).to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let (a, b) = (dir.join("a/results.h5"), dir.join("b/results.h5"));
+    assert!(dea(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]).status.success());
+    // a checkpoint's manifest is not a run's results: named, not compared
+    let manifest = dir.join("b/checkpoint/manifest.h5");
+    let stderr = stderr_of_exit(4, &["compare", a.to_str().unwrap(), manifest.to_str().unwrap()]);
+    assert!(stderr.contains("manifest.h5: not a run's results"), "{stderr}");
+    // a field part cut short is named, not the results file beside it
+    let part = dir.join("b/fields/ranks-00001-part-00000.h5");
+    let bytes = std::fs::read(&part).unwrap();
+    std::fs::write(&part, &bytes[..bytes.len() / 2]).unwrap();
+    let stderr = stderr_of_exit(4, &["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
+    assert!(stderr.contains("field part") && stderr.contains("ranks-00001-part-00000.h5"), "{stderr}");
+    assert!(!stderr.contains("results.h5"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn an_output_directory_belongs_to_one_run_and_a_checkpoint_to_its_case() {
     let dir = scratch("owned");
     let out = dir.join("out");

@@ -51,7 +51,18 @@ pub const ENERGY_KINDS: [&str; 10] = [
 ];
 
 fn energy_fields(e: &EnergyReport) -> [f64; 10] {
-    [e.fibre_kinetic, e.projectile_kinetic, e.projectile_strain, e.axial, e.bending, e.contact, e.friction_stored, e.friction_dissipated, e.plastic_dissipated, e.fracture_released]
+    [
+        e.fibre_kinetic,
+        e.projectile_kinetic,
+        e.projectile_strain,
+        e.axial,
+        e.bending,
+        e.contact,
+        e.friction_stored,
+        e.friction_dissipated,
+        e.plastic_dissipated,
+        e.fracture_released,
+    ]
 }
 
 pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
@@ -61,7 +72,12 @@ pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], un
     write_text_attribute(&dataset, "units", unit)
 }
 
-pub(crate) fn write_scalars<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str, values: &[T], unit: &str) -> hdf5::Result<()> {
+pub(crate) fn write_scalars<T: hdf5::H5Type + Copy>(
+    group: &hdf5::Group,
+    name: &str,
+    values: &[T],
+    unit: &str,
+) -> hdf5::Result<()> {
     let dataset = group.new_dataset::<T>().shape([values.len()]).create(name)?;
     dataset.write_raw(values)?;
     write_text_attribute(&dataset, "units", unit)
@@ -104,7 +120,12 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     use std::fmt::Write as _;
     let layers = histories.broken_by_layer.first().map_or(0, Vec::len);
     let mut text = String::from("time_s");
-    for (name, unit) in [("projectile_position", "m"), ("projectile_velocity", "m_s"), ("projectile_angular_velocity", "rad_s"), ("projectile_force", "N")] {
+    for (name, unit) in [
+        ("projectile_position", "m"),
+        ("projectile_velocity", "m_s"),
+        ("projectile_angular_velocity", "rad_s"),
+        ("projectile_force", "N"),
+    ] {
         for axis in ["x", "y", "z"] {
             let _ = write!(text, ",{name}_{axis}_{unit}");
         }
@@ -119,14 +140,23 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     text.push('\n');
     for s in 0..histories.time.len() {
         let _ = write!(text, "{:?}", histories.time[s]);
-        for v in [histories.projectile_position[s], histories.projectile_velocity[s], histories.projectile_angular_velocity[s], histories.projectile_force[s]] {
+        for v in [
+            histories.projectile_position[s],
+            histories.projectile_velocity[s],
+            histories.projectile_angular_velocity[s],
+            histories.projectile_force[s],
+        ] {
             let _ = write!(text, ",{:?},{:?},{:?}", v.x, v.y, v.z);
         }
         let e = &histories.energy[s];
         for value in energy_fields(e).iter().chain(&[e.total()]) {
             let _ = write!(text, ",{value:?}");
         }
-        let _ = write!(text, ",{},{},{}", histories.broken_tension[s], histories.broken_shear[s], histories.broken_combined[s]);
+        let _ = write!(
+            text,
+            ",{},{},{}",
+            histories.broken_tension[s], histories.broken_shear[s], histories.broken_combined[s]
+        );
         for count in &histories.broken_by_layer[s] {
             let _ = write!(text, ",{count}");
         }
@@ -135,10 +165,14 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     std::fs::write(path, text)
 }
 
+/// The `format` attribute of a results file.
+pub const RESULTS_FORMAT: &str = "dea-mpi results 1";
+
 /// Writes a complete results file.
+
 pub fn write_results(path: &std::path::Path, case_json: &str, histories: &Histories) -> hdf5::Result<()> {
     let file = hdf5::File::create(path)?;
-    write_text_attribute(&file, "format", "dea-mpi results 1")?;
+    write_text_attribute(&file, "format", RESULTS_FORMAT)?;
     write_text_attribute(&file, "case", case_json)?;
     write_histories(&file, histories)?;
     file.flush()
@@ -155,7 +189,10 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
         let flat: Vec<f64> = file.dataset(name)?.read_raw()?;
         Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
     };
-    let energies: Vec<Vec<f64>> = ENERGY_KINDS.iter().map(|k| file.dataset(&format!("history/energy/{k}"))?.read_raw()).collect::<hdf5::Result<_>>()?;
+    let energies: Vec<Vec<f64>> = ENERGY_KINDS
+        .iter()
+        .map(|k| file.dataset(&format!("history/energy/{k}"))?.read_raw())
+        .collect::<hdf5::Result<_>>()?;
     let time: Vec<f64> = file.dataset("history/time")?.read_raw()?;
     let energy = (0..time.len())
         .map(|s| {
@@ -183,7 +220,11 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
             let dataset = file.dataset("history/broken/by_layer")?;
             let layers = dataset.shape().get(1).copied().unwrap_or(0);
             let flat: Vec<u64> = dataset.read_raw()?;
-            if layers == 0 { vec![Vec::new(); dataset.shape()[0]] } else { flat.chunks_exact(layers).map(<[u64]>::to_vec).collect() }
+            if layers == 0 {
+                vec![Vec::new(); dataset.shape()[0]]
+            } else {
+                flat.chunks_exact(layers).map(<[u64]>::to_vec).collect()
+            }
         },
         broken_tension: file.dataset("history/broken/tension")?.read_raw()?,
         broken_shear: file.dataset("history/broken/shear")?.read_raw()?,
@@ -222,7 +263,26 @@ fn dataset_bits(dataset: &hdf5::Dataset) -> hdf5::Result<Vec<u64>> {
 /// Differences between two results files, dataset by dataset and bit for bit. Empty when
 /// the runs are identical.
 pub fn compare_results(a: &std::path::Path, b: &std::path::Path) -> hdf5::Result<Vec<String>> {
-    let (file_a, file_b) = (hdf5::File::open(a)?, hdf5::File::open(b)?);
+    let open = |path: &std::path::Path| -> hdf5::Result<hdf5::File> {
+        let named = |e: hdf5::Error| -> hdf5::Error { format!("{}: {e}", path.display()).as_str().into() };
+        let file = hdf5::File::open(path).map_err(named)?;
+        // a checkpoint's manifest or a field part is not a run's results
+        let format = file
+            .attr("format")
+            .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
+            .map(|f| f.to_string())
+            .unwrap_or_else(|_| "no format".into());
+        if format != RESULTS_FORMAT {
+            return Err(format!(
+                "{}: not a run's results ({RESULTS_FORMAT:?}) but {format:?}: compare two runs' OUT/results.h5",
+                path.display()
+            )
+            .as_str()
+            .into());
+        }
+        Ok(file)
+    };
+    let (file_a, file_b) = (open(a)?, open(b)?);
     let (mut paths_a, mut paths_b) = (Vec::new(), Vec::new());
     dataset_paths(&file_a, "", &mut paths_a)?;
     dataset_paths(&file_b, "", &mut paths_b)?;
@@ -264,7 +324,10 @@ mod tests {
             projectile_angular_velocity: vec![Vec3::x() * 2.0, Vec3::zeros()],
             projectile_force: vec![Vec3::y(), Vec3::z()],
             broken_by_layer: vec![vec![0, 0], vec![1, 5]],
-            energy: vec![EnergyReport { axial: 1.0, ..Default::default() }, EnergyReport { plastic_dissipated: 2.0, ..Default::default() }],
+            energy: vec![
+                EnergyReport { axial: 1.0, ..Default::default() },
+                EnergyReport { plastic_dissipated: 2.0, ..Default::default() },
+            ],
             broken_tension: vec![0, 1],
             broken_shear: vec![0, 2],
             broken_combined: vec![0, 3],
@@ -278,13 +341,23 @@ mod tests {
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(header.len(), 1 + 12 + 11 + 3 + 2);
-        assert!(header.contains(&"projectile_velocity_x_m_s") && header.contains(&"energy_axial_J") && header.contains(&"broken_layer_1"));
+        assert!(
+            header.contains(&"projectile_velocity_x_m_s")
+                && header.contains(&"energy_axial_J")
+                && header.contains(&"broken_layer_1")
+        );
         for (s, line) in lines.enumerate() {
             let row: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
             let column = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
             assert_eq!(column("time_s").to_bits(), histories.time[s].to_bits());
-            assert_eq!(column("projectile_angular_velocity_x_rad_s").to_bits(), histories.projectile_angular_velocity[s].x.to_bits());
-            assert_eq!(column("energy_plastic_dissipated_J").to_bits(), histories.energy[s].plastic_dissipated.to_bits());
+            assert_eq!(
+                column("projectile_angular_velocity_x_rad_s").to_bits(),
+                histories.projectile_angular_velocity[s].x.to_bits()
+            );
+            assert_eq!(
+                column("energy_plastic_dissipated_J").to_bits(),
+                histories.energy[s].plastic_dissipated.to_bits()
+            );
             assert_eq!(column("broken_layer_1") as u64, histories.broken_by_layer[s][1]);
         }
         // a copy compares equal; one changed bit does not
@@ -294,7 +367,10 @@ mod tests {
         let mut changed = histories.clone();
         changed.projectile_position[1].y = f64::from_bits(changed.projectile_position[1].y.to_bits() + 1);
         write_results(&other, "{\"name\":\"t\"}", &changed).unwrap();
-        assert_eq!(compare_results(&path, &other).unwrap(), vec!["history/projectile_position: 1 of 6 values differ, first at flat index 4".to_string()]);
+        assert_eq!(
+            compare_results(&path, &other).unwrap(),
+            vec!["history/projectile_position: 1 of 6 values differ, first at flat index 4".to_string()]
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -58,7 +58,8 @@ fn group_name(step: u64) -> String {
 /// step and time (a restart after a crash writes again what followed its checkpoint).
 fn snapshot_group(out: &Path, name: &str, step: u64, time: f64) -> hdf5::Result<(hdf5::File, hdf5::Group)> {
     let directory = fields_directory(out);
-    std::fs::create_dir_all(&directory).map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
+    std::fs::create_dir_all(&directory)
+        .map_err(|e| hdf5::Error::from(format!("{}: {e}", directory.display()).as_str()))?;
     let file = hdf5::File::append(directory.join(name))?;
     let group_name = group_name(step);
     if file.link_exists(&group_name) {
@@ -100,7 +101,13 @@ const PROJECTILE_FILE: &str = "projectile.h5";
 
 /// Writes (or replaces) the projectile's surface at `step`: world positions of its vertices
 /// and its triangles, for `projectile.xdmf`.
-pub fn write_projectile(out: &Path, step: u64, time: f64, vertices: &[Vec3], triangles: &[[u32; 3]]) -> hdf5::Result<()> {
+pub fn write_projectile(
+    out: &Path,
+    step: u64,
+    time: f64,
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+) -> hdf5::Result<()> {
     let (file, group) = snapshot_group(out, PROJECTILE_FILE, step, time)?;
     write_vectors(&group, "position", vertices, "m")?;
     write_rows(&group, "triangles", triangles, "vertex index")?;
@@ -126,7 +133,8 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
         }
         let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
         let (points, triangles) = (group.dataset("position")?.shape()[0], group.dataset("triangles")?.shape()[0]);
-        let _ = writeln!(x, "      <Grid Name=\"step {step}\" GridType=\"Uniform\">\n        <Time Value=\"{time:e}\" />");
+        let _ =
+            writeln!(x, "      <Grid Name=\"step {step}\" GridType=\"Uniform\">\n        <Time Value=\"{time:e}\" />");
         let _ = writeln!(x, "        <Topology TopologyType=\"Triangle\" NumberOfElements=\"{triangles}\">");
         let _ = writeln!(x, "          <DataItem Dimensions=\"{triangles} 3\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">fields/projectile.h5:/{name}/triangles</DataItem>");
         let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
@@ -134,7 +142,8 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
         let _ = writeln!(x, "        </Geometry>\n      </Grid>");
     }
     x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
-    std::fs::write(out.join("projectile.xdmf"), x).map_err(|e| hdf5::Error::from(format!("{}: {e}", out.join("projectile.xdmf").display()).as_str()))
+    std::fs::write(out.join("projectile.xdmf"), x)
+        .map_err(|e| hdf5::Error::from(format!("{}: {e}", out.join("projectile.xdmf").display()).as_str()))
 }
 
 /// One part of one snapshot on disk.
@@ -157,30 +166,56 @@ pub struct IndexedSnapshot {
     pub parts: Vec<IndexedPart>,
 }
 
+/// The first value of a one-value dataset of `group` (a damaged part may hold none).
+fn first_value<T: hdf5::H5Type + Copy>(group: &hdf5::Group, name: &str) -> hdf5::Result<T> {
+    let values: Vec<T> = group.dataset(name)?.read_raw()?;
+    values.first().copied().ok_or_else(|| format!("{}/{name}: empty", group.name()).as_str().into())
+}
+
+/// An error met reading a field part, naming the part.
+fn in_part(path: &Path, error: hdf5::Error) -> hdf5::Error {
+    format!("field part {}: {error}", path.display()).as_str().into()
+}
+
 /// Every snapshot in `out`'s fields directory up to `last_step`, ascending step. When two
 /// runs (a crash and its restart on another rank count) wrote the same step, the parts of
 /// `ranks` win.
 pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<IndexedSnapshot>> {
     let directory = fields_directory(out);
     let mut names: Vec<String> = match std::fs::read_dir(&directory) {
-        Ok(entries) => entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with("ranks-") && n.ends_with(".h5")).collect(),
+        Ok(entries) => entries
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("ranks-") && n.ends_with(".h5"))
+            .collect(),
         Err(_) => return Ok(Vec::new()),
     };
     names.sort();
     let mut by_step: BTreeMap<u64, BTreeMap<usize, IndexedSnapshot>> = BTreeMap::new();
     for name in names {
         let Some(writer_ranks) = name.get(6..11).and_then(|r| r.parse::<usize>().ok()) else { continue };
-        let file = hdf5::File::open(directory.join(&name))?;
-        for group_name in file.member_names()? {
-            let group = file.group(&group_name)?;
-            let step: u64 = group.dataset("step")?.read_raw::<u64>()?[0];
+        let path = directory.join(&name);
+        let read = || -> hdf5::Result<Vec<(u64, f64, usize, usize)>> {
+            let file = hdf5::File::open(&path)?;
+            let mut snapshots = Vec::new();
+            for group_name in file.member_names()? {
+                let group = file.group(&group_name)?;
+                let step: u64 = first_value(&group, "step")?;
+                let time: f64 = first_value(&group, "time")?;
+                snapshots.push((step, time, group.dataset("gid")?.size(), group.dataset("element_gid")?.size()));
+            }
+            Ok(snapshots)
+        };
+        for (step, time, points, cells) in read().map_err(|e| in_part(&path, e))? {
             if step > last_step {
                 continue;
             }
-            let time: f64 = group.dataset("time")?.read_raw::<f64>()?[0];
-            let points = group.dataset("gid")?.size();
-            let cells = group.dataset("element_gid")?.size();
-            let entry = by_step.entry(step).or_default().entry(writer_ranks).or_insert_with(|| IndexedSnapshot { step, time, ranks: writer_ranks, parts: Vec::new() });
+            let entry = by_step.entry(step).or_default().entry(writer_ranks).or_insert_with(|| IndexedSnapshot {
+                step,
+                time,
+                ranks: writer_ranks,
+                parts: Vec::new(),
+            });
             entry.parts.push(IndexedPart { file: name.clone(), points, cells });
         }
     }
@@ -209,7 +244,10 @@ pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<
         for part in snapshot.parts.iter().filter(|p| p.points > 0 && p.cells > 0) {
             let (points, cells, step, file) = (part.points, part.cells, snapshot.step, part.file.as_str());
             let _ = writeln!(x, "      <Grid Name=\"{}\" GridType=\"Uniform\">", file.trim_end_matches(".h5"));
-            let _ = writeln!(x, "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{cells}\">");
+            let _ = writeln!(
+                x,
+                "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{cells}\">"
+            );
             item(&mut x, file, step, "connectivity", &format!("{cells} 2"), "UInt", 4);
             let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
             item(&mut x, file, step, "position", &format!("{points} 3"), "Float", 8);
@@ -259,23 +297,42 @@ pub fn merged(out: &Path, snapshot: &IndexedSnapshot) -> hdf5::Result<MergedSnap
     let mut points = Vec::new();
     let mut cells = Vec::new();
     for part in &snapshot.parts {
-        let file = hdf5::File::open(fields_directory(out).join(&part.file))?;
-        let group = file.group(&group_name(snapshot.step))?;
-        let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> { Ok(group.dataset(name)?.read_raw::<f64>()?.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()) };
-        let (position, velocity) = (vectors("position")?, vectors("velocity")?);
-        let gid: Vec<u64> = group.dataset("gid")?.read_raw()?;
-        let layer: Vec<u32> = group.dataset("layer")?.read_raw()?;
-        let yarn: Vec<u32> = group.dataset("yarn")?.read_raw()?;
-        for k in 0..gid.len() {
-            points.push((gid[k], bits(&position[k]), bits(&velocity[k]), layer[k], yarn[k]));
-        }
-        let element_gid: Vec<u64> = group.dataset("element_gid")?.read_raw()?;
-        let strain: Vec<f64> = group.dataset("strain")?.read_raw()?;
-        let stress: Vec<f64> = group.dataset("stress")?.read_raw()?;
-        let failure: Vec<u8> = group.dataset("failure")?.read_raw()?;
-        for k in 0..element_gid.len() {
-            cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
-        }
+        let path = fields_directory(out).join(&part.file);
+        let mut read = || -> hdf5::Result<()> {
+            let file = hdf5::File::open(&path)?;
+            let group = file.group(&group_name(snapshot.step))?;
+            let vectors = |name: &str| -> hdf5::Result<Vec<Vec3>> {
+                Ok(group
+                    .dataset(name)?
+                    .read_raw::<f64>()?
+                    .chunks_exact(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]))
+                    .collect())
+            };
+            let (position, velocity) = (vectors("position")?, vectors("velocity")?);
+            let gid: Vec<u64> = group.dataset("gid")?.read_raw()?;
+            let layer: Vec<u32> = group.dataset("layer")?.read_raw()?;
+            let yarn: Vec<u32> = group.dataset("yarn")?.read_raw()?;
+            let element_gid: Vec<u64> = group.dataset("element_gid")?.read_raw()?;
+            let strain: Vec<f64> = group.dataset("strain")?.read_raw()?;
+            let stress: Vec<f64> = group.dataset("stress")?.read_raw()?;
+            let failure: Vec<u8> = group.dataset("failure")?.read_raw()?;
+            // a damaged part may list fewer values of one kind than of another
+            let (n, m) = (gid.len(), element_gid.len());
+            if [position.len(), velocity.len(), layer.len(), yarn.len()].iter().any(|&l| l != n)
+                || [strain.len(), stress.len(), failure.len()].iter().any(|&l| l != m)
+            {
+                return Err(format!("step {}: its datasets disagree in length", snapshot.step).as_str().into());
+            }
+            for k in 0..n {
+                points.push((gid[k], bits(&position[k]), bits(&velocity[k]), layer[k], yarn[k]));
+            }
+            for k in 0..m {
+                cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
+            }
+            Ok(())
+        };
+        read().map_err(|e| in_part(&path, e))?;
     }
     points.sort();
     points.dedup();
@@ -295,8 +352,10 @@ pub fn compare_snapshots(a: &Path, b: &Path) -> hdf5::Result<Vec<String>> {
     for (x, y) in left.iter().zip(&right) {
         let (mx, my) = (merged(a, x)?, merged(b, y)?);
         if mx != my {
-            let points = mx.points.iter().zip(&my.points).filter(|(p, q)| p != q).count() + mx.points.len().abs_diff(my.points.len());
-            let cells = mx.cells.iter().zip(&my.cells).filter(|(p, q)| p != q).count() + mx.cells.len().abs_diff(my.cells.len());
+            let points = mx.points.iter().zip(&my.points).filter(|(p, q)| p != q).count()
+                + mx.points.len().abs_diff(my.points.len());
+            let cells = mx.cells.iter().zip(&my.cells).filter(|(p, q)| p != q).count()
+                + mx.cells.len().abs_diff(my.cells.len());
             differences.push(format!("snapshot at step {}: {points} points and {cells} elements differ", x.step));
         }
     }
@@ -337,7 +396,10 @@ mod tests {
         write_part(&out, 1, 0, 20, 20e-9, &part(0, 0)).unwrap();
         write_part(&out, 1, 0, 30, 30e-9, &part(0, 0)).unwrap();
         let snapshots = index(&out, 1, 25).unwrap();
-        assert_eq!(snapshots.iter().map(|s| (s.step, s.ranks, s.parts.len())).collect::<Vec<_>>(), vec![(10, 2, 2), (20, 1, 1)]);
+        assert_eq!(
+            snapshots.iter().map(|s| (s.step, s.ranks, s.parts.len())).collect::<Vec<_>>(),
+            vec![(10, 2, 2), (20, 1, 1)]
+        );
         let merged_10 = merged(&out, &snapshots[0]).unwrap();
         // node 1 is in both parts (the far end of rank 0's element): kept once
         assert_eq!(merged_10.points.iter().map(|p| p.0).collect::<Vec<_>>(), vec![0, 1, 2]);

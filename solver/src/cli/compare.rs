@@ -17,6 +17,7 @@ pub struct Args {
 }
 
 pub fn main(Args { first, second }: Args) -> ExitCode {
+    // every error names the file it met (a results file, or a field part beside it)
     match dea_io::results::compare_results(&first, &second).and_then(|mut differences| {
         differences.extend(dea_io::snapshot::compare_snapshots(
             first.parent().unwrap_or(Path::new(".")),
@@ -38,6 +39,6 @@ pub fn main(Args { first, second }: Args) -> ExitCode {
             }
             ExitCode::from(1)
         }
-        Err(e) => fail(Exit::File, format!("{} / {}: {e}", first.display(), second.display())),
+        Err(e) => fail(Exit::File, e),
     }
 }
