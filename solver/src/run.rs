@@ -244,9 +244,17 @@ impl<'a> RunOptions<'a> {
     }
 }
 
-/// Samples the histories: every rank joins the reductions, rank 0 records.
-fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usize) {
+/// Samples the histories: every rank joins the reductions, rank 0 records. Energies that are
+/// not finite end the run on every rank alike (the reduction gives each rank the same sums).
+fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usize) -> Result<(), RunError> {
     let energy = run.energies();
+    let kinds = energy.non_finite_kinds();
+    if !kinds.is_empty() {
+        return Err(RunError::Numerical(dea_core::DomainError::NonFiniteEnergy {
+            step: run.domain.step,
+            kinds: kinds.join(", "),
+        }));
+    }
     let broken = run.broken();
     let by_layer = run.broken_by_layer(layers);
     if run.comm.rank() == Rank(0) {
@@ -263,6 +271,7 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
         histories.broken_shear.push(broken.shear);
         histories.broken_combined.push(broken.combined);
     }
+    Ok(())
 }
 
 /// Runs to the end time (or until the outcome is decided) on every rank and writes the
@@ -277,7 +286,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         Some(resume) => (resume.histories.clone(), resume.max_force, resume.initial_energy, Some(resume.back_face)),
         None => {
             let mut histories = Histories::default();
-            sample(run, &mut histories, options.layers);
+            sample(run, &mut histories, options.layers)?;
             if options.snapshot_interval.is_some() {
                 write_snapshot(run, options).map_err(RunError::Output)?;
             }
@@ -308,7 +317,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             write_snapshot(run, options).map_err(RunError::Output)?;
         }
         if run.domain.step.is_multiple_of(options.history_interval) {
-            sample(run, &mut histories, options.layers);
+            sample(run, &mut histories, options.layers)?;
             decided = judge.outcome(run, max_force);
             run.timer.stamp(Stage::Output);
             if options.stop_when_decided && decided != Outcome::Undecided {
@@ -338,7 +347,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         run.timer.stamp(Stage::Output);
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {
-        sample(run, &mut histories, options.layers);
+        sample(run, &mut histories, options.layers)?;
         decided = judge.outcome(run, max_force);
     }
     // the final state is the last snapshot, written by each rank for its own nodes

@@ -743,6 +743,36 @@ fn a_non_finite_value_on_one_rank_stops_every_rank_with_the_same_error() {
 }
 
 #[test]
+fn energies_that_are_not_finite_stop_every_rank_with_the_same_error() {
+    // a projectile at 1e200 m/s: finite state, infinite kinetic energy, which no node check
+    // sees (it has not reached the fabric); the run ends on every rank alike (exit 5)
+    let case = stretched_case();
+    let json = serde_json::to_string(&case).unwrap();
+    let dir = scratch("infinite-energy");
+    let errors: Vec<Vec<String>> = [1, 3]
+        .iter()
+        .map(|&ranks| {
+            let out = dir.join(format!("{ranks}"));
+            run_local(ranks, |comm| {
+                let mut state = build(&case, comm, Method::KWay, None).expect("set-up succeeds");
+                if let Some(projectile) = state.domain.projectile.as_mut() {
+                    projectile.velocity.z = -1e200;
+                }
+                match run(&mut state, &options(&case, &json, &out, None, None)) {
+                    Err(e @ dea_mpi::run::RunError::Numerical(DomainError::NonFiniteEnergy { .. })) => e.to_string(),
+                    Err(other) => panic!("unexpected error {other}"),
+                    Ok(_) => panic!("an infinite energy must stop the run"),
+                }
+            })
+        })
+        .collect();
+    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
+    assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
+    assert!(errors[0][0].contains("not finite (projectile_kinetic)"), "{}", errors[0][0]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_time_step_too_long_for_the_contact_stiffness_stops_every_rank_with_the_same_error() {
     let mut case = stretched_case();
     case.run.time_step_safety = 1.0;

@@ -52,6 +52,10 @@ pub enum DomainError {
     ProjectileInverted { step: u64, element: usize },
     #[error("node {} is tied to node {} of a hybrid yarn's transition, which is not present: a ghost is missing, so its forces cannot be computed", gid.0, partner.0)]
     MissingTiePartner { gid: GlobalNodeId, partner: GlobalNodeId },
+    /// The whole problem's energies (summed over the ranks, the same on each) are not all
+    /// finite: a state no node check saw, such as the projectile's.
+    #[error("the energies of step {step} are not finite ({kinds}): the run diverged (a time step too large, an unstable contact, or a state beyond the model)")]
+    NonFiniteEnergy { step: u64, kinds: String },
 }
 
 /// Everything a rank needs to know of a node another rank owns.

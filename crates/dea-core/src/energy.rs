@@ -36,6 +36,23 @@ pub struct EnergyReport {
 }
 
 impl EnergyReport {
+    /// The names of the terms that are not finite (none in a sound run).
+    pub fn non_finite_kinds(&self) -> Vec<&'static str> {
+        let terms = [
+            ("fibre_kinetic", self.fibre_kinetic),
+            ("projectile_kinetic", self.projectile_kinetic),
+            ("projectile_strain", self.projectile_strain),
+            ("axial", self.axial),
+            ("bending", self.bending),
+            ("contact", self.contact),
+            ("friction_stored", self.friction_stored),
+            ("friction_dissipated", self.friction_dissipated),
+            ("plastic_dissipated", self.plastic_dissipated),
+            ("fracture_released", self.fracture_released),
+        ];
+        terms.iter().filter(|(_, value)| !value.is_finite()).map(|&(name, _)| name).collect()
+    }
+
     /// Sum of every term: constant for a closed system up to the integration error.
     pub fn total(&self) -> f64 {
         self.fibre_kinetic

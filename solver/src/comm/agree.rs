@@ -17,6 +17,8 @@ pub fn agree<C: Comm>(comm: &C, local: Result<(), DomainError>, step: u64, time_
         Err(DomainError::TimeStep { gid, .. }) => (3 << 60) | gid.0,
         Err(DomainError::ProjectileInverted { element, .. }) => (4 << 60) | *element as u64,
         Err(DomainError::MissingTiePartner { gid, .. }) => (5 << 60) | gid.0,
+        // found from sums every rank holds alike, so usually agreed already
+        Err(DomainError::NonFiniteEnergy { .. }) => 6 << 60,
     };
     let mut agreed = [code];
     comm.min_u64(&mut agreed);
@@ -38,6 +40,13 @@ pub fn agree<C: Comm>(comm: &C, local: Result<(), DomainError>, step: u64, time_
         2 => Err(DomainError::MissingGhost { gid, along: detail[0] as u32 }),
         4 => Err(DomainError::ProjectileInverted { step, element: gid.0 as usize }),
         5 => Err(DomainError::MissingTiePartner { gid, partner: GlobalNodeId(detail[0]) }),
+        6 => Err(DomainError::NonFiniteEnergy {
+            step,
+            kinds: match local {
+                Err(DomainError::NonFiniteEnergy { kinds, .. }) => kinds,
+                _ => "found on another rank".into(),
+            },
+        }),
         _ => Err(DomainError::TimeStep { step, gid, time_step, limit: f64::from_bits(detail[0]) }),
     }
 }
