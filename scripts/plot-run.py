@@ -38,7 +38,10 @@ speed.set_ylabel("projectile velocity along the shot [m/s]")
 force.plot(time_us, (results["history/projectile_force"][()] ** 2).sum(axis=1) ** 0.5)
 force.set_ylabel("contact force on the projectile [N]")
 force.set_xlabel("time [µs]")
-speed.set_title(f"{summary['case']}: residual {summary['residual_velocity_m_s']:.1f} m/s, perforated: {summary['perforated']}")
+# a residual velocity only for a perforation; otherwise the state and the velocity at the end
+outcome = summary.get("outcome", "perforated" if summary["perforated"] else "undecided")
+words = "residual" if outcome == "perforated" else f"{outcome}, at end time"
+speed.set_title(f"{summary['case']}: {words} {summary['residual_velocity_m_s']:.1f} m/s along the line of flight")
 save(figure, "projectile.png")
 
 figure, axes = plt.subplots(figsize=(7, 5))

@@ -28,8 +28,13 @@ pub struct Summary {
     pub wall_s: f64,
     /// the projectile passed the whole target and still moves on
     pub perforated: bool,
+    /// the shot's state at the end, judged along the panel's normal: `perforated`,
+    /// `stopped` (moving back while still in or on the target: a partial), `rebounded`
+    /// (moving back clear of it) or `undecided` (still in the target at the end time)
+    pub outcome: String,
     /// the projectile's velocity at the end along the initial line of flight (negative:
-    /// moving back), as chronographs on the line of fire measure it [m/s]
+    /// moving back), as chronographs on the line of fire measure it: the residual velocity
+    /// when `outcome` is `perforated`, otherwise only the velocity at the end time [m/s]
     pub residual_velocity_m_s: f64,
     /// the projectile's velocity at the end along the panel's inward normal (-z), the
     /// direction the outcome is judged in; the same as the residual velocity for a normal shot [m/s]
@@ -403,6 +408,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         simulated_time_s: run.domain.time,
         wall_s: wall,
         perforated: decided == Outcome::Perforated,
+        outcome: format!("{decided:?}").to_lowercase(),
         residual_velocity_m_s: projectile.velocity.dot(&options.flight_direction),
         normal_velocity_m_s: projectile.velocity.dot(&normal),
         max_projectile_force_n: max_force,

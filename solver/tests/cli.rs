@@ -563,6 +563,16 @@ fn an_oblique_shot_reports_its_residual_velocity_along_the_line_of_flight() {
         (residual - normal).abs() > 0.01 * residual.abs(),
         "an oblique shot's two components differ: {residual} and {normal}"
     );
+    // the shot ends mid-penetration: no residual velocity is claimed, in the summary's
+    // outcome or in the closing line
+    assert_eq!(summary["outcome"], "undecided");
+    let stdout = String::from_utf8_lossy(&status.stdout);
+    assert!(
+        stdout.contains(&format!(
+            "undecided at the end time (still in the target; a longer run.end_time_s decides it): velocity at end time {residual:.2} m/s along the line of flight (normal component {normal:.2} m/s)"
+        )) && !stdout.contains("residual velocity"),
+        "{stdout}"
+    );
 }
 
 /// A file that is not one JSON document is refused with the line and column of the fault

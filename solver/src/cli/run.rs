@@ -144,15 +144,14 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
     match dea_mpi::run::run(&mut run, &options) {
         Ok(Some(summary)) => {
             println!(
-                "{}: {} nodes on {} rank(s), {} steps, {:.3e} s simulated in {:.1} s; perforated: {}; residual velocity {:.2} m/s; peak force {:.1} N; broken elements {}; {:.3e} node-steps/s/core; results in {}",
+                "{}: {} nodes on {} rank(s), {} steps, {:.3e} s simulated in {:.1} s; {}; peak force {:.1} N; broken elements {}; {:.3e} node-steps/s/core; results in {}",
                 summary.case,
                 summary.nodes,
                 summary.ranks,
                 summary.steps,
                 summary.simulated_time_s,
                 summary.wall_s,
-                summary.perforated,
-                summary.residual_velocity_m_s,
+                outcome_words(&summary),
                 summary.max_projectile_force_n,
                 summary.broken_elements_tension + summary.broken_elements_shear + summary.broken_elements_combined,
                 summary.node_steps_per_s_per_core,
@@ -177,5 +176,22 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
         Err(e @ RunError::Numerical(_)) => fail_all(&session, Exit::Numerical, e),
         Err(e @ RunError::Output(_)) => fail_all(&session, Exit::File, e),
         Err(e @ RunError::Interrupted(_)) => fail_all(&session, Exit::Interrupted, e),
+    }
+}
+
+/// The outcome in words that mean what they say: a residual velocity only for a
+/// perforation, otherwise the velocity at the end time and the state it was in.
+fn outcome_words(summary: &dea_mpi::run::Summary) -> String {
+    let along = summary.residual_velocity_m_s;
+    let normal = if (summary.normal_velocity_m_s - along).abs() > 1e-9 * along.abs().max(1.0) {
+        format!(" (normal component {:.2} m/s)", summary.normal_velocity_m_s)
+    } else {
+        String::new()
+    };
+    match summary.outcome.as_str() {
+        "perforated" => format!("perforated: residual velocity {along:.2} m/s along the line of flight{normal}"),
+        "stopped" => format!("stopped by the target (a partial): velocity at end time {along:.2} m/s along the line of flight{normal}"),
+        "rebounded" => format!("rebounded: velocity at end time {along:.2} m/s along the line of flight{normal}"),
+        _ => format!("undecided at the end time (still in the target; a longer run.end_time_s decides it): velocity at end time {along:.2} m/s along the line of flight{normal}"),
     }
 }
