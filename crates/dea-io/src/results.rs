@@ -260,29 +260,40 @@ fn dataset_bits(dataset: &hdf5::Dataset) -> hdf5::Result<Vec<u64>> {
     })
 }
 
-/// Differences between two results files, dataset by dataset and bit for bit. Empty when
-/// the runs are identical.
+/// Differences between two results files (or two relaxed cells, `dea-mpi fabric`'s
+/// `cell.h5`), dataset by dataset and bit for bit. Empty when they are identical. Anything
+/// else (a checkpoint's manifest, a field part, one of each kind) is refused by name.
 pub fn compare_results(a: &std::path::Path, b: &std::path::Path) -> hdf5::Result<Vec<String>> {
-    let open = |path: &std::path::Path| -> hdf5::Result<hdf5::File> {
+    let comparable = [RESULTS_FORMAT, crate::cell::CELL_FORMAT];
+    let open = |path: &std::path::Path| -> hdf5::Result<(hdf5::File, String)> {
         let named = |e: hdf5::Error| -> hdf5::Error { format!("{}: {e}", path.display()).as_str().into() };
         let file = hdf5::File::open(path).map_err(named)?;
-        // a checkpoint's manifest or a field part is not a run's results
         let format = file
             .attr("format")
             .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>())
             .map(|f| f.to_string())
             .unwrap_or_else(|_| "no format".into());
-        if format != RESULTS_FORMAT {
+        if !comparable.contains(&format.as_str()) {
             return Err(format!(
-                "{}: not a run's results ({RESULTS_FORMAT:?}) but {format:?}: compare two runs' OUT/results.h5",
-                path.display()
+                "{}: not a run's results ({RESULTS_FORMAT:?}) or a relaxed cell ({:?}) but {format:?}: compare two runs' OUT/results.h5",
+                path.display(),
+                crate::cell::CELL_FORMAT
             )
             .as_str()
             .into());
         }
-        Ok(file)
+        Ok((file, format))
     };
-    let (file_a, file_b) = (open(a)?, open(b)?);
+    let ((file_a, format_a), (file_b, format_b)) = (open(a)?, open(b)?);
+    if format_a != format_b {
+        return Err(format!(
+            "{} is {format_a:?} and {} is {format_b:?}: compare two of a kind",
+            a.display(),
+            b.display()
+        )
+        .as_str()
+        .into());
+    }
     let (mut paths_a, mut paths_b) = (Vec::new(), Vec::new());
     dataset_paths(&file_a, "", &mut paths_a)?;
     dataset_paths(&file_b, "", &mut paths_b)?;
