@@ -10,4 +10,5 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "setup: cargo (Rust toolchain) not found; install Rust from https://rustup.rs first" >&2
     exit 1
 fi
-cargo build --release --locked 2>&1 | tail -n 3
+# cargo's own output: the first build takes minutes and shows what it compiles as it goes
+cargo build --release --locked

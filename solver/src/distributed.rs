@@ -225,6 +225,16 @@ impl<C: Comm> Distributed<C> {
         } else if rebuild {
             self.rebuild()?;
         }
+        if rebuild {
+            let pairs = &self.domain.pairs;
+            tracing::debug!(
+                "step {}: neighbour lists rebuilt (rebuild {}; largest motion since the last {:.3e} m; {:.1} % of the nodes relisted so far)",
+                self.domain.step,
+                self.rebuilds,
+                largest.since_build,
+                100.0 * pairs.searched_nodes as f64 / pairs.held_nodes.max(1) as f64
+            );
+        }
         self.timer.stamp(Stage::ErrorAgreement);
         Ok(())
     }

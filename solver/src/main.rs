@@ -15,5 +15,12 @@ fn main() -> ExitCode {
             let _ = signal_hook::low_level::emulate_default_handler(signal_hook::consts::SIGPIPE);
         })
     };
-    cli::Cli::parse().command.main()
+    let cli = cli::Cli::parse();
+    // a RUST_LOG that cannot be read is a usage error, found before any rank starts work
+    if let Err(e) = dea_mpi::progress::log_filter() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    dea_mpi::progress::set_verbosity(i32::from(cli.verbose) - i32::from(cli.quiet));
+    cli.command.main()
 }

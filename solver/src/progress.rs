@@ -44,10 +44,21 @@ impl Progress {
     pub fn new(out: &std::path::Path, start_time: f64, end_time: f64) -> Self {
         let bar = std::io::stderr().is_terminal().then(|| {
             let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
-            bar.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]").expect("a valid template"));
+            bar.set_style(
+                ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]")
+                    .expect("a valid template"),
+            );
             bar
         });
-        Self { start: Instant::now(), start_time, end_time, last_report: None, last_bar: None, bar, path: out.join("progress.json") }
+        Self {
+            start: Instant::now(),
+            start_time,
+            end_time,
+            last_report: None,
+            last_bar: None,
+            bar,
+            path: out.join("progress.json"),
+        }
     }
 
     /// Reports the state after a step; cheap unless a report is due.
@@ -56,7 +67,10 @@ impl Progress {
         if let Some(bar) = self.bar.as_ref().filter(|_| self.last_bar.is_none_or(|last| last.elapsed() >= BAR_EVERY)) {
             self.last_bar = Some(Instant::now());
             bar.set_position((1000.0 * (time / self.end_time).clamp(0.0, 1.0)) as u64);
-            bar.set_message(format!("step {step}, t = {time:.3e} s, projectile {projectile_speed:.1} m/s, energy balance {:.2}%", 100.0 * energy_balance_error));
+            bar.set_message(format!(
+                "step {step}, t = {time:.3e} s, projectile {projectile_speed:.1} m/s, energy balance {:.2}%",
+                100.0 * energy_balance_error
+            ));
         }
         if self.last_report.is_some_and(|last| last.elapsed() < REPORT_EVERY) {
             return;
@@ -104,14 +118,60 @@ impl Progress {
     }
 }
 
+/// How much more (positive) or less (negative) than usual the logs say on stderr: `-v`
+/// and `-q` counted ([`set_verbosity`]).
+static VERBOSITY: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
+
+/// The filter RUST_LOG asks for, if it is set; an error naming it when it cannot be read.
+pub fn log_filter() -> Result<Option<tracing_subscriber::EnvFilter>, String> {
+    match std::env::var("RUST_LOG") {
+        Ok(spec) if !spec.trim().is_empty() => tracing_subscriber::EnvFilter::try_new(&spec)
+            .map(Some)
+            .map_err(|e| format!("RUST_LOG={spec:?}: {e} (e.g. RUST_LOG=debug, RUST_LOG=dea_fabric=debug)")),
+        _ => Ok(None),
+    }
+}
+
+/// Sets the verbosity [`init_logging`] gives stderr: +1 per `-v`, -1 per `-q`.
+pub fn set_verbosity(verbosity: i32) {
+    VERBOSITY.store(verbosity, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// Sets up rank-tagged logging: rank 0 logs to stderr; with `log_directory`, every rank also
 /// writes its own `rank-NNNNN.log` there. Returns the span to hold for the job's duration.
 pub fn init_logging(rank: u32, log_directory: Option<&std::path::Path>) -> Result<tracing::span::EnteredSpan, String> {
+    use tracing::level_filters::LevelFilter;
     use tracing_subscriber::prelude::*;
-    let stderr_level = if rank == 0 { tracing::level_filters::LevelFilter::INFO } else { tracing::level_filters::LevelFilter::WARN };
-    let stderr = tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_ansi(std::io::stderr().is_terminal()).with_target(false).without_time().with_filter(stderr_level);
+    // rank 0 tells the user how the run goes, the others only what goes wrong; -v and -q
+    // move both by a level, and RUST_LOG, when set, decides instead (every rank alike)
+    let levels = [
+        LevelFilter::OFF,
+        LevelFilter::ERROR,
+        LevelFilter::WARN,
+        LevelFilter::INFO,
+        LevelFilter::DEBUG,
+        LevelFilter::TRACE,
+    ];
+    let base = if rank == 0 { 3 } else { 2 };
+    let level = levels[(base + VERBOSITY.load(std::sync::atomic::Ordering::Relaxed)).clamp(1, 5) as usize];
+    let filter = match log_filter()? {
+        Some(filter) => filter,
+        None => tracing_subscriber::EnvFilter::default().add_directive(level.into()),
+    };
+    let stderr = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_target(false)
+        .without_time()
+        .with_filter(filter);
     // a field formatter of its own type, so the file never reuses the terminal's colours
-    let plain_fields = tracing_subscriber::fmt::format::debug_fn(|writer, field, value| if field.name() == "message" { write!(writer, "{value:?}") } else { write!(writer, "{field}={value:?}") });
+    let plain_fields = tracing_subscriber::fmt::format::debug_fn(|writer, field, value| {
+        if field.name() == "message" {
+            write!(writer, "{value:?}")
+        } else {
+            write!(writer, "{field}={value:?}")
+        }
+    });
     let file = match log_directory {
         Some(directory) => {
             std::fs::create_dir_all(directory).map_err(|e| format!("{}: {e}", directory.display()))?;

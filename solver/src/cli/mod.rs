@@ -50,6 +50,13 @@ Exit codes: 0 done (a perforation is a result), 1 compare found differences, 2 u
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// less on stderr: warnings and errors only (-q), errors only (-qq)
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub quiet: u8,
+    /// more on stderr: debug messages (-v), trace (-vv); RUST_LOG, when set, decides instead
+    /// (e.g. RUST_LOG=debug, RUST_LOG=dea_fabric=debug)
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
 }
 
 #[derive(Subcommand)]
