@@ -112,5 +112,11 @@ check v50-ranks-per-shot-must-divide bash -c 'mpi 2 v50 cases/v50_tiny_bisection
 check bench-on-two-ranks bash -c 'mpi 2 bench --json --nodes 20000 --steps 40 >$work/bench.json && cat $work/bench.json \
     && for key in nodes steps ranks wall_s ns_per_node_step ns_per_contact_pair ns_per_contact_pair_packed ns_per_node_rods ns_per_node_rebuild contacts_per_node halo_share ghost_fraction; do
            grep -q "\"$key\"" $work/bench.json || { echo "bench lacks $key"; exit 1; }; done && grep -q "\"ranks\":2" $work/bench.json'
+# the reference-shot benchmark's script, on a 2 cm cut of its panel for a few steps: its
+# paired mode runs the binary against itself and reports every key (no timing is judged)
+check bench-shot-keys bash -c '/usr/bin/python3 scripts/bench-shot.py --ranks 2 --window-us 0.05 --side-m 0.02 --binary $bin --baseline $bin --pairs 1 --json >$work/shot.json \
+    && /usr/bin/python3 -c "import json, sys; r = json.load(open(sys.argv[1]))[\"runs\"][0]; m = r[\"pairs\"][0][\"new\"]
+missing = [k for k in (\"core_s_per_simulated_us\", \"ns_per_node_step\", \"rebuilds_per_1000_steps\", \"relisted_share\", \"stage_seconds\", \"ranks\", \"nodes\") if k not in m]
+assert not missing and m[\"ranks\"] == 2 and r[\"median_ratio\"] > 0 and 0 < m[\"relisted_share\"] <= 1, (missing, m)" $work/shot.json'
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

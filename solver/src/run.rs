@@ -56,6 +56,10 @@ pub struct Summary {
     /// slowest rank's compute time (integration, forces, failure, rebuild) / the mean [-]
     pub load_imbalance: f64,
     pub neighbour_rebuilds: u64,
+    /// the share of the nodes held whose neighbour rows a rebuild searched afresh, over every
+    /// rebuild of this run segment and every rank (1 where each rebuild relists everything;
+    /// below it where one rank rebuilds only around the nodes that moved) [-]
+    pub relisted_share: f64,
     /// energy each layer holds or has dissipated at the end (kinetic, strain, bending,
     /// contact, friction, plasticity, fracture), layer 0 struck first [J]
     pub energy_absorbed_by_layer_j: Vec<f64>,
@@ -283,6 +287,9 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
 /// results on rank 0, which returns the summary.
 pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Option<Summary>, RunError> {
     let is_root = run.comm.rank() == Rank(0);
+    // the stages of this run's steps, as its wall time counts them (not the set-up's build
+    // or the settle's steps, which report their own time)
+    run.timer.reset();
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
     // a resumed run's rates count the wall time of every segment, as its steps do
@@ -389,7 +396,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut n = [run.domain.nodes.n_owned as i64, run.ghosts() as i64];
     run.comm.sum_i64(&mut n);
     let (nodes, ghosts) = (n[0] as u64, n[1] as u64);
-    let mut halo = [run.halo_bytes as i64];
+    let pairs = &run.domain.pairs;
+    let mut halo = [run.halo_bytes as i64, pairs.searched_nodes as i64, pairs.held_nodes as i64];
     run.comm.sum_i64(&mut halo);
     let broken = run.broken();
     let all_stages = run.comm.gather_f64(&run.timer.seconds.0);
@@ -422,6 +430,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         ghost_fraction: ghosts as f64 / nodes as f64,
         load_imbalance: if mean.computation() > 0.0 { slowest / mean.computation() } else { 1.0 },
         neighbour_rebuilds: run.rebuilds,
+        relisted_share: if halo[2] > 0 { halo[1] as f64 / halo[2] as f64 } else { 0.0 },
         energy_absorbed_by_layer_j: energy_by_layer,
         broken_elements_by_layer: broken_by_layer,
         stopped_by,

@@ -644,6 +644,13 @@ fn compare_names_a_damaged_part_and_refuses_what_is_not_results() {
     let manifest = dir.join("b/checkpoint/manifest.h5");
     let stderr = stderr_of_exit(4, &["compare", a.to_str().unwrap(), manifest.to_str().unwrap()]);
     assert!(stderr.contains("manifest.h5: not a run's results"), "{stderr}");
+    // relaxed cells compare (the fabric tests use it), but not against a run's results
+    let fabric = dea(&["fabric", "--out", dir.join("fabric").to_str().unwrap()]);
+    assert!(fabric.status.success(), "{}", String::from_utf8_lossy(&fabric.stderr));
+    let cell = dir.join("fabric/cell.h5");
+    assert!(dea(&["compare", cell.to_str().unwrap(), cell.to_str().unwrap()]).status.success());
+    let stderr = stderr_of_exit(4, &["compare", cell.to_str().unwrap(), a.to_str().unwrap()]);
+    assert!(stderr.contains("compare two of a kind"), "{stderr}");
     // a field part cut short is named, not the results file beside it
     let part = dir.join("b/fields/ranks-00001-part-00000.h5");
     let bytes = std::fs::read(&part).unwrap();
@@ -651,6 +658,41 @@ fn compare_names_a_damaged_part_and_refuses_what_is_not_results() {
     let stderr = stderr_of_exit(4, &["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
     assert!(stderr.contains("field part") && stderr.contains("ranks-00001-part-00000.h5"), "{stderr}");
     assert!(!stderr.contains("results.h5"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn quiet_verbose_and_rust_log_set_what_the_log_says() {
+    let dir = scratch("verbosity");
+    let case = "../cases/single_fibre_short.json";
+    let run = |flags: &[&str], rust_log: Option<&str>, name: &str| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_dea-mpi"));
+        command.current_dir(env!("CARGO_MANIFEST_DIR")).env_remove("RUST_LOG");
+        if let Some(spec) = rust_log {
+            command.env("RUST_LOG", spec);
+        }
+        let out = dir.join(name);
+        command.args(flags).args(["run", case, "--out", out.to_str().unwrap()]).output().unwrap()
+    };
+    let lines = |output: &Output, level: &str| String::from_utf8_lossy(&output.stderr).matches(level).count();
+    let plain = run(&[], None, "plain");
+    assert!(plain.status.success() && lines(&plain, "INFO") > 0 && lines(&plain, "DEBUG") == 0);
+    let quiet = run(&["-q"], None, "quiet");
+    assert!(quiet.status.success() && lines(&quiet, "INFO") == 0, "{}", String::from_utf8_lossy(&quiet.stderr));
+    // each rebuild of the neighbour lists is a debug message
+    for (flags, rust_log, name) in [(&["-v"][..], None, "verbose"), (&[][..], Some("debug"), "rust-log")] {
+        let output = run(flags, rust_log, name);
+        assert!(
+            output.status.success() && lines(&output, "DEBUG") > 0,
+            "{name}: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(String::from_utf8_lossy(&output.stderr).contains("neighbour lists rebuilt"));
+    }
+    let bad = run(&[], Some("dea_core=[loud"), "bad");
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("RUST_LOG=\"dea_core=[loud\""), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

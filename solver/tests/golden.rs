@@ -21,8 +21,10 @@ use std::process::Command;
 const CASES: [&str; 4] =
     ["four_layer_fsp", "woven_two_layer_clamp", "hybrid_disc_two_layer_settle", "four_layer_deformable_sphere"];
 
-/// Summary fields that measure the machine, not the physics: never compared.
-const TIMING_FIELDS: [&str; 4] = ["wall_s", "node_steps_per_s_per_core", "stage_seconds", "load_imbalance"];
+/// Summary fields that measure the machine or how the work was split (`relisted_share`),
+/// not the physics: never compared.
+const TIMING_FIELDS: [&str; 5] =
+    ["wall_s", "node_steps_per_s_per_core", "stage_seconds", "load_imbalance", "relisted_share"];
 
 fn repository() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")

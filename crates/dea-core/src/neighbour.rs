@@ -62,6 +62,12 @@ pub struct NeighbourList {
     pub skin: f64,
     /// number of builds so far
     pub builds: u64,
+    /// nodes whose rows were searched afresh, summed over the builds so far (all of them at a
+    /// full build, the moved ones at a build around moved nodes)
+    pub searched_nodes: u64,
+    /// nodes held, summed over the builds so far: `searched_nodes / held_nodes` is the share
+    /// re-listed per build
+    pub held_nodes: u64,
     scratch: BuildScratch,
     motion: RelativeMotion,
 }
@@ -544,6 +550,8 @@ impl NeighbourList {
     /// positions, carrying the history of pairs that persist (matched by partner global id).
     pub fn rebuild(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
         let n = nodes.len();
+        self.searched_nodes += n as u64;
+        self.held_nodes += n as u64;
         let (max_cutoff, coarse_reach) = self.reaches(sections);
         self.reference_position.clear();
         self.reference_position.extend_from_slice(&nodes.position);
@@ -620,6 +628,8 @@ impl NeighbourList {
             self.scratch = scratch;
             return self.rebuild(nodes, sections);
         }
+        self.searched_nodes += moved_count as u64;
+        self.held_nodes += n as u64;
         let (max_cutoff, coarse_reach) = self.reaches(sections);
         let mut references = std::mem::take(&mut self.reference_position);
         for (i, _) in scratch.moved.iter().enumerate().filter(|(_, &m)| m) {
