@@ -352,8 +352,7 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
     })
 }
 
-/// The commit the binary was built from (`git rev-parse HEAD` at build time).
-pub const GIT_COMMIT: &str = env!("DEA_GIT_COMMIT");
+pub use crate::provenance::GIT_COMMIT;
 
 /// Writes `v50.json` and `provenance.json` (the campaign and case as loaded, the commit, and
 /// every shot's velocity, seed and outcome).

@@ -12,6 +12,7 @@ pub mod distributed;
 pub mod fabric;
 pub mod output_dir;
 pub mod progress;
+pub mod provenance;
 pub mod run;
 pub mod settle;
 pub mod setup;

@@ -6,8 +6,10 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 
 /// What a run writes into its output directory (docs/output.md), the lock aside.
-pub const RUN_OUTPUTS: [&str; 8] = [
+pub const RUN_OUTPUTS: [&str; 10] = [
     "results.h5",
+    "provenance.json",
+    "README.txt",
     "history.csv",
     "summary.json",
     "progress.json",

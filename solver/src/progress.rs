@@ -26,6 +26,11 @@ pub struct ProgressReport {
     pub projectile_speed_m_s: f64,
     /// |E - E0| / E0 at the last history sample [-]
     pub energy_balance_error: f64,
+    /// `running`, or `finished` once the run has taken its last step
+    pub state: &'static str,
+    /// when finished: the outcome (`perforated`, `stopped`, `rebounded`, `undecided`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outcome: Option<String>,
 }
 
 /// Rank 0's progress display.
@@ -37,6 +42,8 @@ pub struct Progress {
     last_bar: Option<Instant>,
     bar: Option<ProgressBar>,
     path: PathBuf,
+    /// set by [`Self::finish`]: the run's outcome
+    finished: Option<String>,
 }
 
 impl Progress {
@@ -58,6 +65,7 @@ impl Progress {
             last_bar: None,
             bar,
             path: out.join("progress.json"),
+            finished: None,
         }
     }
 
@@ -83,11 +91,19 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            eta_s: if fraction > 0.0 { elapsed * (1.0 - fraction) / fraction } else { f64::NAN },
+            eta_s: if self.finished.is_some() {
+                0.0
+            } else if fraction > 0.0 {
+                elapsed * (1.0 - fraction) / fraction
+            } else {
+                f64::NAN
+            },
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
+            state: if self.finished.is_some() { "finished" } else { "running" },
+            outcome: self.finished.clone(),
         };
-        if self.bar.is_none() {
+        if self.bar.is_none() && self.finished.is_none() {
             tracing::info!(
                 "step {} t = {:.3e} s ({:.1}%), elapsed {:.0} s, ETA {:.0} s, projectile {:.1} m/s, energy balance {:.2}%",
                 report.step,
@@ -107,8 +123,10 @@ impl Progress {
         }
     }
 
-    /// Clears the bar and writes the final `progress.json`.
-    pub fn finish(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
+    /// Clears the bar and writes the final `progress.json`: finished, with the run's
+    /// `outcome`, nothing left to wait for.
+    pub fn finish(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64, outcome: &str) {
+        self.finished = Some(outcome.to_string());
         self.last_report = None;
         self.last_bar = None;
         self.update(step, time, projectile_speed, energy_balance_error);

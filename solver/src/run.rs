@@ -290,6 +290,19 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     // the stages of this run's steps, as its wall time counts them (not the set-up's build
     // or the settle's steps, which report their own time)
     run.timer.reset();
+    // rank 0 records what made the outputs; every rank learns whether it could
+    let mut recorded = [1.0];
+    let mut record_error = None;
+    if is_root {
+        let restarted_at = options.resume.as_ref().map(|_| run.domain.step);
+        if let Err(e) = crate::provenance::record(options.out, options.case_json, run.comm.size(), restarted_at) {
+            recorded[0] = 0.0;
+            record_error = Some(format!("{}: {e}", options.out.join(crate::provenance::PROVENANCE_FILE).display()));
+        }
+    }
+    if run.from_rank0(recorded)[0] == 0.0 {
+        return Err(RunError::Output(record_error.unwrap_or_else(|| "rank 0 could not record the provenance".into())));
+    }
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
     // a resumed run's rates count the wall time of every segment, as its steps do
@@ -367,7 +380,13 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         write_snapshot(run, options).map_err(RunError::Output)?;
     }
     if let Some(progress) = &mut progress {
-        progress.finish(run.domain.step, run.domain.time, speed(run), balance(&histories));
+        progress.finish(
+            run.domain.step,
+            run.domain.time,
+            speed(run),
+            balance(&histories),
+            &format!("{decided:?}").to_lowercase(),
+        );
     }
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);

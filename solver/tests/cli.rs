@@ -71,7 +71,7 @@ fn check_resolves_a_campaign_and_its_shot_case_and_names_a_bad_design_field() {
 #[test]
 fn a_target_too_large_for_the_host_exits_3_before_it_is_made() {
     let dir = scratch("huge");
-    let mut case = case_file("default.json");
+    let mut case = case_file("km2_706_patch.json");
     // 6.9e10 nodes: a case, but not one for this machine
     case["target"]["side_m"] = 10.0.into();
     let path = dir.join("huge.json");
@@ -116,10 +116,10 @@ fn a_fifo_or_a_device_is_refused_not_waited_on() {
 
 #[test]
 fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
-    // a 6 cm patch of the default case has 2.46 million nodes, 4.3 GB: a process
+    // a 6 cm panel of the 10 mm patch case has 2.46 million nodes, 4.3 GB: a process
     // limited to 2 GB of address space cannot hold it, whatever the host's memory
     let dir = scratch("rlimit");
-    let mut case = case_file("default.json");
+    let mut case = case_file("km2_706_patch.json");
     case["target"]["side_m"] = 0.06.into();
     let path = dir.join("wide.json");
     std::fs::write(&path, case.to_string()).unwrap();
@@ -141,7 +141,7 @@ fn check_refuses_what_run_on_the_meant_ranks_would() {
     // side_m 0.6 where 0.006 was meant: 248 million nodes, 430 GB on one rank; `check`
     // accepted it with exit 0 while `run` refused it (issue 34)
     let dir = scratch("meant-ranks");
-    let mut case = case_file("default.json");
+    let mut case = case_file("km2_706_patch.json");
     case["target"]["side_m"] = 0.6.into();
     let path = dir.join("wide.json");
     std::fs::write(&path, case.to_string()).unwrap();
@@ -228,7 +228,7 @@ fn an_error_found_while_building_names_the_case_file() {
 #[test]
 fn a_projectile_as_wide_as_the_free_span_is_warned_of() {
     let dir = scratch("narrow");
-    let mut case = case_file("default.json");
+    let mut case = case_file("km2_706_patch.json");
     case["target"]["side_m"] = 0.006.into();
     case["target"]["layers"] = 1.into();
     case["run"]["end_time_s"] = 2e-8.into();
@@ -282,6 +282,19 @@ fn run_writes_summary_and_hdf5_histories() {
     assert!(summary["steps"].as_u64().unwrap() > 100);
     assert!(summary["max_projectile_force_n"].as_f64().unwrap() > 0.0, "the sphere reached the fibre");
     assert!(summary["energy_balance_error"].as_f64().unwrap() < 1e-3);
+    // progress.json ends finished, with the outcome and nothing left to wait for
+    let progress: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("progress.json")).unwrap()).unwrap();
+    assert_eq!((progress["state"].as_str(), progress["eta_s"].as_f64()), (Some("finished"), Some(0.0)), "{progress}");
+    assert_eq!(progress["outcome"], summary["outcome"]);
+    // what made the outputs, and what each file is
+    let provenance: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("provenance.json")).unwrap()).unwrap();
+    assert_eq!(provenance["case"]["name"], summary["case"]);
+    let segment = &provenance["segments"][0];
+    assert!(segment["git_commit"].is_string() && segment["host"].is_string() && segment["ranks"] == 1, "{segment}");
+    assert!(segment["started_utc"].as_str().is_some_and(|t| t.len() == 20 && t.ends_with('Z')), "{segment}");
+    assert!(std::fs::read_to_string(dir.join("README.txt")).unwrap().contains("summary.json"));
     let file = hdf5::File::open(dir.join("results.h5")).unwrap();
     let time: Vec<f64> = file.dataset("history/time").unwrap().read_raw().unwrap();
     assert!(time.len() > 2);
