@@ -1026,8 +1026,10 @@ mod tests {
     fn a_target_too_large_to_number_or_hold_or_a_skin_of_metres_is_refused_naming_its_field() {
         let refusal = |case: &Case| problem(case).err().expect("refused").to_string();
         // a 1 km panel: 6.9e14 nodes, refused before its description is made
-        let mut panel = dea_io::case::default_case();
-        let TargetSpec::WovenPanel { side_m, .. } = &mut panel.target else { unreachable!("the default is woven") };
+        // the 10 mm style 706 patch: one woven cell, no hybrid region
+        let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/km2_706_patch.json");
+        let mut panel = dea_io::case::load_case(&patch).unwrap();
+        let TargetSpec::WovenPanel { side_m, .. } = &mut panel.target else { unreachable!("the patch is woven") };
         *side_m = 1e3;
         let error = refusal(&panel);
         assert!(error.contains("target.side_m") && error.contains("6.881e14 nodes"), "{error}");

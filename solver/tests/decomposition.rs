@@ -316,7 +316,7 @@ fn a_hybrid_panel_with_a_fine_disc_gives_the_same_bits_on_any_ranks_and_after_a_
 /// refresh, so 1, 2 and 3 ranks differed from 10.3 µs on: issue 34).
 #[test]
 fn a_projectile_wider_than_the_free_span_gives_the_same_bits_on_any_ranks() {
-    let mut value = serde_json::to_value(case_file("default.json")).unwrap();
+    let mut value = serde_json::to_value(case_file("km2_706_patch.json")).unwrap();
     value["target"]["side_m"] = 0.006.into();
     value["target"]["layers"] = 2.into();
     value["run"]["end_time_s"] = 1.2e-5.into();

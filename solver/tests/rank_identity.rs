@@ -31,9 +31,9 @@ fn setting(name: &str, default: u64) -> u64 {
     std::env::var(name).ok().map_or(default, |v| v.parse().unwrap_or_else(|_| panic!("{name}={v} is not a count")))
 }
 
-/// A small random case drawn from `rng`, as JSON: the built-in default case changed.
+/// A small random case drawn from `rng`, as JSON: the 10 mm style 706 patch changed.
 fn random_case(rng: &mut ChaCha8Rng, index: u64) -> serde_json::Value {
-    let text = std::fs::read_to_string(repository().join("cases/default.json")).unwrap();
+    let text = std::fs::read_to_string(repository().join("cases/km2_706_patch.json")).unwrap();
     let mut case: serde_json::Value = serde_json::from_str(&text).unwrap();
     case["name"] = format!("rank-identity-{index}").into();
     let side = rng.random_range(4.5e-3..7.5e-3);

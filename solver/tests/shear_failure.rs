@@ -61,9 +61,9 @@ fn a_blunt_sphere_below_its_perforation_speed_breaks_nothing_in_shear_at_any_ele
 
 #[test]
 fn the_17_grain_fsps_edge_still_cuts_in_shear() {
-    // the built-in default case (a 10 mm patch of style 706 under the 17-grain FSP at 400 m/s),
-    // two layers, the first 3 µs
-    let ([_, shear, _], _) = run("default.json", "fsp", |v| {
+    // a 10 mm patch of style 706 under the 17-grain FSP at 400 m/s (the built-in default case
+    // until session 27), two layers, the first 3 µs
+    let ([_, shear, _], _) = run("km2_706_patch.json", "fsp", |v| {
         v["target"]["layers"] = 2.into();
         v["run"]["end_time_s"] = 3e-6.into();
     });

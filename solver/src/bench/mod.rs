@@ -92,6 +92,11 @@ pub fn bench_case(min_nodes: usize) -> Case {
     case.failure.mode = "none".into();
     case.projectile =
         ProjectileSpec { preset: Some("table_4_2_sphere".into()), velocity_m_s: 50.0, ..Default::default() };
+    // the run settings of the default case the bench was defined on (session 27 gave the
+    // default a settle and a longer end): no settle, the same histories
+    case.run.settle = None;
+    case.run.end_time_s = 30e-6;
+    case.run.history_interval_steps = 50;
     case
 }
 

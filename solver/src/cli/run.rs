@@ -170,6 +170,9 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
                 summary.ghost_fraction,
                 summary.load_imbalance
             );
+            if case_path.is_none() && case == dea_io::case::default_case() {
+                println!("{}", default_case_context());
+            }
             ExitCode::SUCCESS
         }
         Ok(None) => ExitCode::SUCCESS,
@@ -194,4 +197,44 @@ fn outcome_words(summary: &dea_mpi::run::Summary) -> String {
         "rebounded" => format!("rebounded: velocity at end time {along:.2} m/s along the line of flight{normal}"),
         _ => format!("undecided at the end time (still in the target; a longer run.end_time_s decides it): velocity at end time {along:.2} m/s along the line of flight{normal}"),
     }
+}
+
+/// Where the built-in default case stands among the validation set's results (issue 31): it
+/// is the first shot of the 1 in panel series, and the V50 each panel size gave is read from
+/// `validation/summary.json` beside the sources (or in the working directory) when there is
+/// one, so the words never outlive the results.
+fn default_case_context() -> String {
+    let mut text = String::from(
+        "default case: the first shot of the validation set's 1 in panel series (jobs/campaigns/validation/panel-1in-4-layers.json)",
+    );
+    let candidates = [
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../validation/summary.json"),
+        std::path::PathBuf::from("validation/summary.json"),
+    ];
+    let entries: Option<Vec<serde_json::Value>> =
+        candidates.iter().find_map(|path| serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok());
+    let sizes: Vec<String> = entries
+        .unwrap_or_default()
+        .iter()
+        .filter(|e| e["series"] == "panel_size" && e["v50_low_m_s"].is_number() && e["v50_high_m_s"].is_number())
+        .map(|e| {
+            let undecided = e["method"].as_str().is_some_and(|m| m.contains("undecided"));
+            format!(
+                "{:.1} mm {:.0}-{:.0} m/s{}",
+                1e3 * e["side_m"].as_f64().unwrap_or(f64::NAN),
+                e["v50_low_m_s"].as_f64().unwrap_or(f64::NAN),
+                e["v50_high_m_s"].as_f64().unwrap_or(f64::NAN),
+                if undecided { " (low end undecided)" } else { "" }
+            )
+        })
+        .collect();
+    if sizes.is_empty() {
+        text += "; its results and the comparison with the seed's Table 6-1 are in docs/validation.md";
+    } else {
+        text += &format!(
+            "; the model's V50 of 4 layers by panel side (validation/summary.json): {}; the seed's Table 6-1 measured 245 m/s for 4 layers of a larger panel (its modified DEA: 305 m/s); docs/validation.md says how far off and why",
+            sizes.join(", ")
+        );
+    }
+    text
 }
