@@ -23,8 +23,10 @@ reader.UpdatePipeline()
 data = servermanager.Fetch(reader)
 points, cells = data.GetNumberOfPoints(), data.GetNumberOfCells()
 arrays = {data.GetPointData().GetArrayName(k) for k in range(data.GetPointData().GetNumberOfArrays())}
-# a panel's cell has 4 yarns of equal fibres; a 3-D weave's report counts its fibres
-fibres = 4 * report["panel"]["fibres"] // report["panel"]["yarns"] if "panel" in report else report["fibres"]
+# a panel's (fine) cell has 4 yarns of `cell_fibres_per_yarn` fibres (a hybrid panel's
+# coarse yarns have fewer, so the panel's average is not the cell's); a 3-D weave's report
+# counts its fibres
+fibres = 4 * report["cell_fibres_per_yarn"] if "panel" in report else report["fibres"]
 if points == 0 or cells != points - fibres or not {"fibre", "direction"} <= arrays:
     sys.exit(f"cell.xdmf: {points} points, {cells} segments for {fibres} fibres, arrays {sorted(arrays)}")
 bounds = data.GetBounds()

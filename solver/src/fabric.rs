@@ -78,6 +78,8 @@ pub struct FabricReport {
     pub relaxation_s: f64,
     /// the cell as the panel uses it
     pub cell: dea_fabric::weave::CellStatistics,
+    /// digital fibres per yarn of that cell (a hybrid panel's fine yarns)
+    pub cell_fibres_per_yarn: usize,
     /// a hybrid panel's coarse cell: its relaxation and statistics
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coarse_relaxation: Option<RelaxReport>,
@@ -347,6 +349,7 @@ pub fn fabric<C: Comm>(case: &Case, comm: C, method: Method, out: &Path) -> Resu
         relaxation,
         relaxation_s,
         cell: cell.statistics(&material),
+        cell_fibres_per_yarn: cell.fibres_per_yarn,
         coarse_relaxation,
         coarse_cell: panel.coarse.as_ref().map(|c| c.cell.statistics(&material)),
         panel: statistics,

@@ -8,6 +8,8 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
+/// Wall seconds of stepping before the first estimate of the time left.
+const FIRST_ESTIMATE_AFTER_S: f64 = 5.0;
 /// Seconds between two plain lines and two `progress.json` updates.
 const REPORT_EVERY: Duration = Duration::from_secs(30);
 /// Time between two redraws of the bar (its message is formatted only then).
@@ -91,9 +93,11 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
+            // a rate from the first steps alone (set-up caches, the first list build) is
+            // no rate: no estimate before a few seconds of stepping
             eta_s: if self.finished.is_some() {
                 0.0
-            } else if fraction > 0.0 {
+            } else if fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S {
                 elapsed * (1.0 - fraction) / fraction
             } else {
                 f64::NAN
@@ -104,13 +108,17 @@ impl Progress {
             outcome: self.finished.clone(),
         };
         if self.bar.is_none() && self.finished.is_none() {
+            let eta = if report.eta_s.is_finite() {
+                format!("{:.0} s to the end time (a decided shot stops sooner)", report.eta_s)
+            } else {
+                "not yet known".into()
+            };
             tracing::info!(
-                "step {} t = {:.3e} s ({:.1}%), elapsed {:.0} s, ETA {:.0} s, projectile {:.1} m/s, energy balance {:.2}%",
+                "step {} t = {:.3e} s ({:.1}%), elapsed {:.0} s, ETA {eta}, projectile {:.1} m/s, energy balance {:.2}%",
                 report.step,
                 report.simulated_time_s,
                 report.percent,
                 report.elapsed_s,
-                report.eta_s,
                 report.projectile_speed_m_s,
                 100.0 * report.energy_balance_error
             );

@@ -567,6 +567,14 @@ pub fn write_checkpoint<C: Comm>(
     if run.any(placed.is_err()) {
         return Err(placed.err().unwrap_or_else(|| "rank 0 could not complete the checkpoint".into()));
     }
+    if is_root {
+        tracing::info!(
+            "checkpoint written at step {}, t = {:.4e} s: {} (continue with --restart on any number of ranks)",
+            run.domain.step,
+            run.domain.time,
+            target.display()
+        );
+    }
     Ok(target)
 }
 

@@ -1042,8 +1042,9 @@ pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
 /// beyond (the unit cells relaxed on the spot), every fibre end fixed, settled for 5 us, then
 /// struck at its centre by the 17-grain FSP (meshed, its measured edge radii resolved) until
 /// it is through (about 36 us) or 100 us have passed. It is that campaign's first shot, bit
-/// for bit (snapshots aside), so its outcome is one of the validation set's results
-/// (docs/validation.md). The 10 mm patch it replaces is `cases/km2_706_patch.json`.
+/// for bit (snapshots and the end time, never reached, aside), so its outcome is one of the
+/// validation set's results (docs/validation.md). The 10 mm patch it replaces is
+/// `cases/km2_706_patch.json`.
 pub fn default_case() -> Case {
     Case {
         name: "default-km2-706-1in-panel".into(),
