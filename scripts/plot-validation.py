@@ -5,7 +5,8 @@
 
 Left: V50 (bracket or interval as an error bar) of the 4-layer panels against their side,
 with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers of a
-15 in panel. Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
+15 in panel; a campaign whose every shot so far perforated is drawn as an upper bound (a
+hollow downward triangle at its slowest shot, an arrow beneath). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
 the layer series where it has results. A campaign without a V50 yet is listed under the
 plot with its state, not drawn. Residual velocities of the mesh series are printed, not
 plotted.
@@ -54,6 +55,18 @@ def draw(axes, chosen, x, label):
     labelled = set()
     for e in chosen:
         if e["v50_m_s"] is None:
+            # every shot so far went through: the V50 lies below the slowest of them, drawn as
+            # an upper bound (a downward triangle at that speed, an arrow beneath)
+            shots = e.get("shot_records") or []
+            if shots and all(r["perforated"] for r in shots):
+                slowest = min(r["velocity_m_s"] for r in shots)
+                text = "dea-mpi: every shot perforated, V50 below the slowest"
+                axes.errorbar([x(e)], [slowest], yerr=[[40.0], [0.0]], uplims=False, lolims=False, fmt="v",
+                              color="tab:blue", mfc="white", capsize=0, linestyle="none",
+                              label=None if text in labelled else text)
+                axes.annotate("", xy=(x(e), slowest - 45.0), xytext=(x(e), slowest),
+                              arrowprops=dict(arrowstyle="->", color="tab:blue"))
+                labelled.add(text)
             pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
             continue
         text = label(e) + (" (hollow: the bracket's low end was undecided)" if undecided(e) else "")
