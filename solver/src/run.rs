@@ -85,6 +85,18 @@ enum Outcome {
     Stopped = 3,
 }
 
+impl Outcome {
+    /// The name `summary.json`, `progress.json` and the shot records use.
+    fn name(self) -> &'static str {
+        match self {
+            Outcome::Undecided => "undecided",
+            Outcome::Perforated => "perforated",
+            Outcome::Rebounded => "rebounded",
+            Outcome::Stopped => "stopped",
+        }
+    }
+}
+
 /// Decides a shot against the panel, along its inward normal (-z) whatever the obliquity:
 /// perforated once the projectile has passed the target's initial back face, still moves
 /// forward along the normal, and nothing holds it back: every fibre it touches is broken
@@ -257,11 +269,11 @@ impl<'a> RunOptions<'a> {
 /// not finite end the run on every rank alike (the reduction gives each rank the same sums).
 fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usize) -> Result<(), RunError> {
     let energy = run.energies();
-    let kinds = energy.non_finite_kinds();
-    if !kinds.is_empty() {
+    // no allocation unless a value is wrong: this runs every history interval
+    if !energy.values().iter().all(|value| value.is_finite()) {
         return Err(RunError::Numerical(dea_core::DomainError::NonFiniteEnergy {
             step: run.domain.step,
-            kinds: kinds.join(", "),
+            kinds: energy.non_finite_kinds().join(", "),
         }));
     }
     let broken = run.broken();
@@ -291,18 +303,11 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     // or the settle's steps, which report their own time)
     run.timer.reset();
     // rank 0 records what made the outputs; every rank learns whether it could
-    let mut recorded = [1.0];
-    let mut record_error = None;
-    if is_root {
-        let restarted_at = options.resume.as_ref().map(|_| run.domain.step);
-        if let Err(e) = crate::provenance::record(options.out, options.case_json, run.comm.size(), restarted_at) {
-            recorded[0] = 0.0;
-            record_error = Some(format!("{}: {e}", options.out.join(crate::provenance::PROVENANCE_FILE).display()));
-        }
-    }
-    if run.from_rank0(recorded)[0] == 0.0 {
-        return Err(RunError::Output(record_error.unwrap_or_else(|| "rank 0 could not record the provenance".into())));
-    }
+    let restarted_at = options.resume.as_ref().map(|_| run.domain.step);
+    rank0_writes(run, "record the provenance", || {
+        crate::provenance::record(options.out, options.case_json, run.comm.size(), restarted_at)
+            .map_err(|e| format!("{}: {e}", options.out.join(crate::provenance::PROVENANCE_FILE).display()))
+    })?;
     let start = Instant::now();
     let mut last_checkpoint = Instant::now();
     // a resumed run's rates count the wall time of every segment, as its steps do
@@ -346,7 +351,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             decided = judge.outcome(run, max_force);
             run.timer.stamp(Stage::Output);
             if options.stop_when_decided && decided != Outcome::Undecided {
-                stopped_by = format!("{decided:?}").to_lowercase();
+                stopped_by = decided.name().to_string();
                 break;
             }
         }
@@ -380,37 +385,22 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         write_snapshot(run, options).map_err(RunError::Output)?;
     }
     if let Some(progress) = &mut progress {
-        progress.finish(
-            run.domain.step,
-            run.domain.time,
-            speed(run),
-            balance(&histories),
-            &format!("{decided:?}").to_lowercase(),
-        );
+        progress.finish(run.domain.step, run.domain.time, speed(run), balance(&histories), decided.name());
     }
     let energy_by_layer = run.energy_by_layer(options.layers);
     let broken_by_layer = run.broken_by_layer(options.layers);
     let wall = earlier_wall + start.elapsed().as_secs_f64();
     run.timer.start();
-    let mut written = [1.0];
-    let mut write_error = None;
-    if is_root {
+    rank0_writes(run, "write the results", || {
         let path = options.out.join("results.h5");
         let csv = options.out.join("history.csv");
-        let outcome = std::fs::create_dir_all(options.out)
+        std::fs::create_dir_all(options.out)
             .map_err(|e| format!("{}: {e}", options.out.display()))
             .and_then(|()| {
                 write_results(&path, options.case_json, &histories).map_err(|e| format!("{}: {e}", path.display()))
             })
-            .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())));
-        if let Err(e) = outcome {
-            written[0] = 0.0;
-            write_error = Some(e);
-        }
-    }
-    if run.from_rank0(written)[0] == 0.0 {
-        return Err(RunError::Output(write_error.unwrap_or_else(|| "rank 0 could not write the results".into())));
-    }
+            .and_then(|()| write_histories_csv(&csv, &histories).map_err(|e| format!("{}: {e}", csv.display())))
+    })?;
     run.timer.stamp(Stage::Output);
     let mut n = [run.domain.nodes.n_owned as i64, run.ghosts() as i64];
     run.comm.sum_i64(&mut n);
@@ -435,7 +425,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         simulated_time_s: run.domain.time,
         wall_s: wall,
         perforated: decided == Outcome::Perforated,
-        outcome: format!("{decided:?}").to_lowercase(),
+        outcome: decided.name().to_string(),
         residual_velocity_m_s: projectile.velocity.dot(&options.flight_direction),
         normal_velocity_m_s: projectile.velocity.dot(&normal),
         max_projectile_force_n: max_force,
@@ -459,6 +449,23 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     std::fs::write(options.out.join("summary.json"), text + "\n")
         .map_err(|e| RunError::Output(format!("{}: {e}", options.out.join("summary.json").display())))?;
     Ok(Some(summary))
+}
+
+/// Rank 0 runs `write` (files only it writes); every rank learns whether it succeeded and
+/// returns the same error if not (`what`: what rank 0 could not do, for the other ranks).
+fn rank0_writes<C: Comm>(
+    run: &Distributed<C>,
+    what: &str,
+    write: impl FnOnce() -> Result<(), String>,
+) -> Result<(), RunError> {
+    let mut outcome = Ok(());
+    if run.comm.rank() == Rank(0) {
+        outcome = write();
+    }
+    if run.from_rank0([if outcome.is_ok() { 1.0 } else { 0.0 }])[0] == 0.0 {
+        return Err(RunError::Output(outcome.err().unwrap_or_else(|| format!("rank 0 could not {what}"))));
+    }
+    Ok(())
 }
 
 /// Writes every rank's part of a field snapshot, then rank 0 rewrites the XDMF file that

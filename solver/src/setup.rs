@@ -664,12 +664,17 @@ pub fn address_space_limit() -> Option<f64> {
     (read && limit.rlim_cur != libc::RLIM_INFINITY).then_some(limit.rlim_cur as f64)
 }
 
+/// The memory one of `ranks` ranks needs for its share of `nodes` nodes [bytes].
+pub fn share_bytes(nodes: u64, ranks: usize) -> f64 {
+    nodes as f64 / ranks as f64 * BYTES_PER_NODE
+}
+
 /// Refuses a job whose `ranks_here` ranks on this host could not hold their shares of a
 /// target of `nodes` nodes split over `ranks` ranks within `limit` bytes, or whose share
 /// alone exceeds one process's address space ([`address_space_limit`]), before the
 /// partition and the nodes are made (either would exhaust the memory on the way).
 pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64>) -> Result<(), SetupError> {
-    let per_rank = nodes as f64 / ranks as f64 * BYTES_PER_NODE;
+    let per_rank = share_bytes(nodes, ranks);
     // the share comes on top of what the process has mapped already (MPI's own segments)
     let mapped = std::fs::read_to_string("/proc/self/statm")
         .ok()

@@ -715,31 +715,34 @@ fn a_missing_ghost_is_reported_on_every_rank_not_computed_around() {
     assert_eq!(results[1], Err(message), "both ranks end with the same message");
 }
 
+/// The error `fail` ends a job with (the ranks, and the job's rank count, given), on 1 and on
+/// 3 ranks: every rank of a job must end with the same message, and the rank count must not
+/// change it. Returns that message.
+fn one_error_on_one_and_three_ranks(fail: impl Fn(LocalComm, usize) -> String + Sync) -> String {
+    let errors: Vec<Vec<String>> = [1, 3].iter().map(|&ranks| run_local(ranks, |comm| fail(comm, ranks))).collect();
+    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
+    assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
+    errors[0][0].clone()
+}
+
 #[test]
 fn a_non_finite_value_on_one_rank_stops_every_rank_with_the_same_error() {
     let case = stretched_case();
-    let errors: Vec<Vec<String>> = [1, 3]
-        .iter()
-        .map(|&ranks| {
-            run_local(ranks, |comm| {
-                let poison = |nodes: &mut dea_core::Nodes| {
-                    for i in 0..nodes.len() {
-                        if nodes.gid[i] == GlobalNodeId(1000) {
-                            nodes.position[i].x = f64::NAN;
-                        }
-                    }
-                };
-                match build_adjusted(&case, comm, Method::KWay, None, poison) {
-                    Err(SetupError::Numerical(e @ DomainError::NonFinite { .. })) => e.to_string(),
-                    Err(other) => panic!("unexpected error {other}"),
-                    Ok(_) => panic!("a NaN position must stop the run"),
+    let error = one_error_on_one_and_three_ranks(|comm, _| {
+        let poison = |nodes: &mut dea_core::Nodes| {
+            for i in 0..nodes.len() {
+                if nodes.gid[i] == GlobalNodeId(1000) {
+                    nodes.position[i].x = f64::NAN;
                 }
-            })
-        })
-        .collect();
-    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
-    assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
-    assert!(errors[0][0].contains("non-finite"), "{}", errors[0][0]);
+            }
+        };
+        match build_adjusted(&case, comm, Method::KWay, None, poison) {
+            Err(SetupError::Numerical(e @ DomainError::NonFinite { .. })) => e.to_string(),
+            Err(other) => panic!("unexpected error {other}"),
+            Ok(_) => panic!("a NaN position must stop the run"),
+        }
+    });
+    assert!(error.contains("non-finite"), "{error}");
 }
 
 #[test]
@@ -749,26 +752,19 @@ fn energies_that_are_not_finite_stop_every_rank_with_the_same_error() {
     let case = stretched_case();
     let json = serde_json::to_string(&case).unwrap();
     let dir = scratch("infinite-energy");
-    let errors: Vec<Vec<String>> = [1, 3]
-        .iter()
-        .map(|&ranks| {
-            let out = dir.join(format!("{ranks}"));
-            run_local(ranks, |comm| {
-                let mut state = build(&case, comm, Method::KWay, None).expect("set-up succeeds");
-                if let Some(projectile) = state.domain.projectile.as_mut() {
-                    projectile.velocity.z = -1e200;
-                }
-                match run(&mut state, &options(&case, &json, &out, None, None)) {
-                    Err(e @ dea_mpi::run::RunError::Numerical(DomainError::NonFiniteEnergy { .. })) => e.to_string(),
-                    Err(other) => panic!("unexpected error {other}"),
-                    Ok(_) => panic!("an infinite energy must stop the run"),
-                }
-            })
-        })
-        .collect();
-    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
-    assert_eq!(errors[0][0], errors[1][0], "the message does not depend on the rank count");
-    assert!(errors[0][0].contains("not finite (projectile_kinetic)"), "{}", errors[0][0]);
+    let error = one_error_on_one_and_three_ranks(|comm, ranks| {
+        let out = dir.join(format!("{ranks}"));
+        let mut state = build(&case, comm, Method::KWay, None).expect("set-up succeeds");
+        if let Some(projectile) = state.domain.projectile.as_mut() {
+            projectile.velocity.z = -1e200;
+        }
+        match run(&mut state, &options(&case, &json, &out, None, None)) {
+            Err(e @ dea_mpi::run::RunError::Numerical(DomainError::NonFiniteEnergy { .. })) => e.to_string(),
+            Err(other) => panic!("unexpected error {other}"),
+            Ok(_) => panic!("an infinite energy must stop the run"),
+        }
+    });
+    assert!(error.contains("not finite (projectile_kinetic)"), "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -779,19 +775,13 @@ fn a_time_step_too_long_for_the_contact_stiffness_stops_every_rank_with_the_same
     // the layers pushed into each other to a tenth of their spacing: contacts far deeper than the
     // 30 % transverse strain the time step was chosen for
     let crush = |nodes: &mut dea_core::Nodes| nodes.position.iter_mut().for_each(|p| p.z *= 0.1);
-    let errors: Vec<Vec<String>> = [1, 3]
-        .iter()
-        .map(|&ranks| {
-            run_local(ranks, |comm| match build_adjusted(&case, comm, Method::KWay, None, crush) {
-                Err(SetupError::Numerical(e @ DomainError::TimeStep { .. })) => e.to_string(),
-                Err(other) => panic!("unexpected error {other}"),
-                Ok(_) => panic!("the crushed panel must violate the time step"),
-            })
-        })
-        .collect();
-    assert!(errors[1].iter().all(|e| *e == errors[1][0]), "{:?}", errors[1]);
-    assert_eq!(errors[0][0], errors[1][0]);
-    assert!(errors[0][0].contains("time step violated"), "{}", errors[0][0]);
+    let error =
+        one_error_on_one_and_three_ranks(|comm, _| match build_adjusted(&case, comm, Method::KWay, None, crush) {
+            Err(SetupError::Numerical(e @ DomainError::TimeStep { .. })) => e.to_string(),
+            Err(other) => panic!("unexpected error {other}"),
+            Ok(_) => panic!("the crushed panel must violate the time step"),
+        });
+    assert!(error.contains("time step violated"), "{error}");
 }
 
 #[test]

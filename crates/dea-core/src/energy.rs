@@ -36,21 +36,39 @@ pub struct EnergyReport {
 }
 
 impl EnergyReport {
+    /// The names of the terms, in field order (the results' dataset names).
+    pub const KINDS: [&'static str; 10] = [
+        "fibre_kinetic",
+        "projectile_kinetic",
+        "projectile_strain",
+        "axial",
+        "bending",
+        "contact",
+        "friction_stored",
+        "friction_dissipated",
+        "plastic_dissipated",
+        "fracture_released",
+    ];
+
+    /// The terms' values, in the order of [`Self::KINDS`] [J].
+    pub fn values(&self) -> [f64; 10] {
+        [
+            self.fibre_kinetic,
+            self.projectile_kinetic,
+            self.projectile_strain,
+            self.axial,
+            self.bending,
+            self.contact,
+            self.friction_stored,
+            self.friction_dissipated,
+            self.plastic_dissipated,
+            self.fracture_released,
+        ]
+    }
+
     /// The names of the terms that are not finite (none in a sound run).
     pub fn non_finite_kinds(&self) -> Vec<&'static str> {
-        let terms = [
-            ("fibre_kinetic", self.fibre_kinetic),
-            ("projectile_kinetic", self.projectile_kinetic),
-            ("projectile_strain", self.projectile_strain),
-            ("axial", self.axial),
-            ("bending", self.bending),
-            ("contact", self.contact),
-            ("friction_stored", self.friction_stored),
-            ("friction_dissipated", self.friction_dissipated),
-            ("plastic_dissipated", self.plastic_dissipated),
-            ("fracture_released", self.fracture_released),
-        ];
-        terms.iter().filter(|(_, value)| !value.is_finite()).map(|&(name, _)| name).collect()
+        Self::KINDS.iter().zip(self.values()).filter(|(_, value)| !value.is_finite()).map(|(&name, _)| name).collect()
     }
 
     /// Sum of every term: constant for a closed system up to the integration error.

@@ -258,11 +258,18 @@ const BYTES_PER_LISTING: f64 = 24.0;
 /// How many listings the search of `triangles` makes, from the volume within `reach` plus a
 /// cube's half-diagonal of each triangle (Steiner's formula for a flat convex set:
 /// `2 h A + (pi/2) P h^2 + (4/3) pi h^3`) over a cube's volume, and how many boxes the
-/// rival search bins (counted exactly, each triangle's box in cubes of `rival_cell`). Cheap,
-/// and made before either structure is.
-fn search_listings(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: f64, rival_cell: f64) -> (f64, f64) {
+/// rival search bins (counted exactly, each triangle's box in cubes of `rival_cell`), with
+/// the surface's area [m^2] the first sum needs anyway. Cheap, and made before either
+/// structure is.
+fn search_listings(
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    reach: f64,
+    cell: f64,
+    rival_cell: f64,
+) -> (f64, f64, f64) {
     let h = 0.5 * cell * 3f64.sqrt() + reach;
-    let (mut listed, mut binned) = (0.0, 0.0);
+    let (mut listed, mut binned, mut total_area) = (0.0, 0.0, 0.0);
     for t in triangles {
         let [a, b, c] = t.map(|v| vertices[v as usize]);
         let area = 0.5 * (b - a).cross(&(c - a)).norm();
@@ -271,10 +278,11 @@ fn search_listings(vertices: &[Vec3], triangles: &[[u32; 3]], reach: f64, cell: 
             + std::f64::consts::FRAC_PI_2 * perimeter * h * h
             + 4.0 / 3.0 * std::f64::consts::PI * h.powi(3);
         listed += volume / cell.powi(3);
+        total_area += area;
         let (low, high) = (cube_of(&a.inf(&b).inf(&c), rival_cell), cube_of(&a.sup(&b).sup(&c), rival_cell));
         binned += (0..3).map(|k| (high[k] as f64 - low[k] as f64 + 1.0)).product::<f64>();
     }
-    (listed, binned)
+    (listed, binned, total_area)
 }
 
 /// Checks that triangles form a closed, consistently oriented surface: every directed edge
@@ -350,14 +358,9 @@ impl TriangleSurface {
         if volume.is_nan() || volume <= 0.0 {
             return Err(SurfaceError::InsideOut(volume));
         }
-        let (listed, binned) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
+        let (listed, binned, area) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
         let entries = listed.max(binned);
         if !(entries <= MOST_SEARCH_ENTRIES) {
-            let area = triangles
-                .iter()
-                .map(|t| t.map(|v| vertices[v as usize]))
-                .map(|[a, b, c]| 0.5 * (b - a).cross(&(c - a)).norm())
-                .sum();
             return Err(SurfaceError::TooLarge {
                 area,
                 entries,
@@ -933,7 +936,7 @@ mod surface_tests {
         let turn = nalgebra::Rotation3::from_euler_angles(0.3, 0.5, 0.7);
         for vertices in [vertices.clone(), vertices.iter().map(|v| turn * v).collect()] {
             let (reach, cell) = (0.02, 0.03);
-            let (listed, _) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
+            let (listed, ..) = search_listings(&vertices, &triangles, reach, cell, RIVAL_REACH * reach);
             let made = CellGrid::new(&vertices, &triangles, reach, cell).entries.len() as f64;
             assert!((0.5..2.0).contains(&(listed / made)), "estimated {listed}, made {made}");
         }

@@ -37,33 +37,7 @@ pub struct Histories {
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
-pub const ENERGY_KINDS: [&str; 10] = [
-    "fibre_kinetic",
-    "projectile_kinetic",
-    "projectile_strain",
-    "axial",
-    "bending",
-    "contact",
-    "friction_stored",
-    "friction_dissipated",
-    "plastic_dissipated",
-    "fracture_released",
-];
-
-fn energy_fields(e: &EnergyReport) -> [f64; 10] {
-    [
-        e.fibre_kinetic,
-        e.projectile_kinetic,
-        e.projectile_strain,
-        e.axial,
-        e.bending,
-        e.contact,
-        e.friction_stored,
-        e.friction_dissipated,
-        e.plastic_dissipated,
-        e.fracture_released,
-    ]
-}
+pub const ENERGY_KINDS: [&str; 10] = EnergyReport::KINDS;
 
 pub(crate) fn write_vectors(group: &hdf5::Group, name: &str, values: &[Vec3], unit: &str) -> hdf5::Result<()> {
     let flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
@@ -98,7 +72,7 @@ pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5:
     write_vectors(&history, "projectile_force", &histories.projectile_force, "N")?;
     let energy = history.create_group("energy")?;
     for (k, name) in ENERGY_KINDS.iter().enumerate() {
-        let values: Vec<f64> = histories.energy.iter().map(|e| energy_fields(e)[k]).collect();
+        let values: Vec<f64> = histories.energy.iter().map(|e| e.values()[k]).collect();
         write_scalars(&energy, name, &values, "J")?;
     }
     let total: Vec<f64> = histories.energy.iter().map(EnergyReport::total).collect();
@@ -149,7 +123,7 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
             let _ = write!(text, ",{:?},{:?},{:?}", v.x, v.y, v.z);
         }
         let e = &histories.energy[s];
-        for value in energy_fields(e).iter().chain(&[e.total()]) {
+        for value in e.values().iter().chain(&[e.total()]) {
             let _ = write!(text, ",{value:?}");
         }
         let _ = write!(

@@ -79,7 +79,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             "memory": {
                 "ranks": ranks,
                 "ranks_per_host": ranks_per_host,
-                "bytes_per_rank": nodes as f64 / ranks as f64 * setup::BYTES_PER_NODE,
+                "bytes_per_rank": setup::share_bytes(nodes, ranks as usize),
                 "host_bytes": setup::memory_limit(),
             },
             "time_step_s": problem.time_step,
