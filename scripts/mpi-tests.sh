@@ -67,6 +67,20 @@ check sigusr1-through-mpirun bash -c '$MPIRUN_LINE -np 2 $bin run $work/long.jso
 # reaches the ranks as SIGTERM (they checkpoint), though mpirun then reports 1 (docs/output.md)
 check sigint-checkpoints-and-exits-75 bash -c '$bin run $work/long.json --out $work/int & runner=$!; sleep 3; \
     kill -INT $runner; wait $runner; code=$?; echo "exit $code"; test $code -eq 75 && test -f $work/int/checkpoint/manifest.h5'
+# under mpirun at a terminal (script(1) gives mpirun one) rank 0 draws its bar; asked for
+# lines, it writes plain lines and no bar
+check bar-under-mpirun-at-a-terminal bash -c 'script -qec "$MPIRUN_LINE -np 2 $bin run cases/four_layer_fsp.json --out $work/bar" $work/bar.tty >/dev/null \
+    && grep -aq "m/s, balance" $work/bar.tty \
+    && script -qec "$MPIRUN_LINE -np 2 $bin run cases/four_layer_fsp.json --out $work/lines --progress lines" $work/lines.tty >/dev/null \
+    && ! grep -aq "m/s, balance" $work/lines.tty && grep -aq "results in" $work/lines.tty'
+# the batch scripts' wrapper: a checkpoint stop under mpirun reads as one line, not mpirun's
+# boxed abort report
+check requeue-wrapper-reports-a-checkpoint-in-one-line bash -c 'source jobs/requeue.sh; \
+    (sleep 3; pkill -USR1 -f "^mpirun.* --out $work/requeue") & \
+    run_requeueable $MPIRUN_LINE -np 2 $bin run $work/long.json --out $work/requeue 2>$work/requeue.err; code=$?; sleep 1; \
+    cat $work/requeue.err; test $code -eq 75 && grep -q "every rank wrote its checkpoint part and stopped" $work/requeue.err \
+    && ! grep -q "Primary job" $work/requeue.err && grep -q "checkpoint written at step" $work/requeue.err \
+    && grep -q "^stopped: a signal asked the run to stop" $work/requeue.err'
 check sigterm-to-mpirun-checkpoints bash -c '$MPIRUN_LINE -np 2 $bin run $work/long.json --out $work/mpiterm & runner=$!; sleep 3; \
     kill -TERM $runner; wait $runner; echo "exit $?"; test -f $work/mpiterm/checkpoint/manifest.h5 \
     && $bin run $work/long.json --restart $work/mpiterm/checkpoint --out $work/mpiterm'

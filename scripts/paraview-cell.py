@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """Opens the relaxed unit cell that `dea-mpi fabric` wrote (OUT/cell.xdmf) in ParaView
 (Debian's paraview, headless), checks its fibres against OUT/fabric.json and renders it
-coloured by direction to a PNG. Run under xvfb-run:
+coloured by direction to a PNG. Without a display it runs on its own Xvfb
+(scripts/virtual_display.py):
 
-    xvfb-run -a /usr/bin/python3 scripts/paraview-cell.py OUT [IMAGE.png]
+    /usr/bin/python3 scripts/paraview-cell.py OUT [IMAGE.png]
 
 Exits non-zero with a message when something is missing.
 """
@@ -11,6 +12,9 @@ import json
 import os
 import sys
 
+from virtual_display import ensure_display
+
+ensure_display()  # before ParaView looks for a display
 from paraview.simple import ColorBy, GetActiveViewOrCreate, Render, SaveScreenshot, Show, XDMFReader
 from paraview import servermanager
 

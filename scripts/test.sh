@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up and runs every test: unit and physics tests (cargo), the command-line tests, and
-# the runs under mpirun, the results opened in ParaView and plotted, and the SLURM scripts on
+# the runs under mpirun, the results opened in ParaView and plotted, the README's tour (its
+# quick commands, in order), and the SLURM scripts on
 # a single-node SLURM stood up for the purpose; and it counts the contact sweep's
 # instructions, so that measurement keeps working.
 set -euo pipefail
@@ -10,5 +11,10 @@ source scripts/mpi-env.sh
 cargo test --release --locked --workspace
 scripts/mpi-tests.sh
 scripts/viz-tests.sh
+# the README's tour: its block is the script's list, and its quick commands run in order
+scripts/tour.sh --check-readme
+tour_dir=$(mktemp -d)
+TOUR_DIR=$tour_dir scripts/tour.sh --short
+rm -rf "$tour_dir"
 scripts/slurm-test.sh
 scripts/count-instructions.sh

@@ -2,9 +2,11 @@
 """Seed chapter 3: the relaxed KM2 style 706 unit cell for 1, 4, 7 and 19 digital fibres per
 yarn (`dea-mpi fabric` on each), against the style's published figures: 180 g/m^2 (DuPont,
 as PHYSICS.md §6 quotes it) and a thickness usually quoted near 0.23 mm (unverified here,
-docs/theory.md F1). The table goes into docs/validation.md between the fabric markers.
+docs/theory.md F1). The table is printed and written to OUT/table.md; with --update-docs it
+also replaces the one in docs/validation.md between the fabric markers (a tracked file: a
+maintainer's step, not a newcomer's).
 
-    python3 scripts/validate-fabric.py [--out out/validate-fabric]
+    python3 scripts/validate-fabric.py [--out out/validate-fabric] [--update-docs]
 """
 import argparse
 import json
@@ -15,6 +17,7 @@ root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 binary = os.path.join(root, "target/release/dea-mpi")
 parser = argparse.ArgumentParser()
 parser.add_argument("--out", default=os.path.join(root, "out/validate-fabric"))
+parser.add_argument("--update-docs", action="store_true", help="also rewrite the table in docs/validation.md")
 args = parser.parse_args()
 os.makedirs(args.out, exist_ok=True)
 
@@ -50,10 +53,15 @@ lines = [
     "",
     "<!-- fabric:end -->",
 ]
+block = "\n".join(lines)
+with open(os.path.join(args.out, "table.md"), "w") as f:
+    f.write(block + "\n")
+print(f"written to {os.path.join(args.out, 'table.md')}")
+if not args.update_docs:
+    raise SystemExit(0)
 validation = os.path.join(root, "docs/validation.md")
 with open(validation) as f:
     text = f.read()
-block = "\n".join(lines)
 begin, end = text.find("<!-- fabric:begin"), text.find("<!-- fabric:end -->")
 text = text[:begin] + block + text[end + len("<!-- fabric:end -->"):] if begin >= 0 else text.rstrip() + "\n\n" + block + "\n"
 with open(validation, "w") as f:

@@ -103,6 +103,8 @@ impl<C: Comm> Distributed<C> {
         if state.gid.len() != n || domain.nodes.gid[..n].iter().zip(&state.gid).any(|(a, &b)| a.0 != b) {
             return Err(RestoreError::Mismatch("the checkpoint's nodes are not those of the case".into()));
         }
+        // displacements are measured from the positions as generated, which these are
+        let as_built = domain.nodes.position[..n].to_vec();
         for i in 0..n {
             domain.nodes.position[i] = state.reference_position[i];
             domain.elements.failure[i] = FailureMode::from_code(state.failure[i]).ok_or_else(|| {
@@ -115,6 +117,7 @@ impl<C: Comm> Distributed<C> {
         }
         let mut restored = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         restored.reactions = reactions;
+        restored.as_built = as_built;
         let d = &mut restored.domain;
         // the lists rebuilt from the same positions are the interrupted run's lists
         let mut entry = 0usize;

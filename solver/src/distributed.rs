@@ -41,7 +41,7 @@ pub struct Distributed<C: Comm> {
     /// owned nodes each rank needs for its chain stencil, by rank (static: the partition
     /// never changes), ascending rank
     chain_send: Vec<(Rank, Vec<u32>)>,
-    halo: HaloPlan,
+    pub(crate) halo: HaloPlan,
     /// the one timer of this rank's stages
     pub timer: StageTimer,
     /// bytes of forward halo received so far
@@ -68,6 +68,11 @@ pub struct Distributed<C: Comm> {
     surface: Vec<Vec3>,
     /// how the target settled before the shot (none: no settle, or a restart)
     pub(crate) settled: Option<crate::settle::SettleReport>,
+    /// each owned node's position as built, before any settle (displacements are measured
+    /// from it) [m]
+    pub(crate) as_built: Vec<Vec3>,
+    /// where the back-face deflection is measured
+    pub(crate) back_face: crate::deflection::BackFaceProbe,
 }
 
 impl Distributed<LocalComm> {
@@ -76,7 +81,12 @@ impl Distributed<LocalComm> {
     /// step on hand-made targets.
     pub fn whole(domain: Domain) -> Result<Self, DomainError> {
         let reach = domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max) + domain.pairs.skin;
-        Self::new(LocalComm::alone(), domain, Partition::one_rank(), &[u32::MAX], reach, None)
+        let axis =
+            domain.projectile.as_ref().map(|p| (p.position, p.velocity.try_normalize(0.0).unwrap_or(-Vec3::z())));
+        let mut whole = Self::new(LocalComm::alone(), domain, Partition::one_rank(), &[u32::MAX], reach, None)?;
+        let (point, direction) = axis.unwrap_or((Vec3::zeros(), -Vec3::z()));
+        whole.locate_back_face(point, direction);
+        Ok(whole)
     }
 }
 
@@ -151,7 +161,10 @@ impl<C: Comm> Distributed<C> {
             projectile_words: Vec::new(),
             surface: Vec::new(),
             settled: None,
+            as_built: Vec::new(),
+            back_face: Default::default(),
         };
+        distributed.as_built = distributed.domain.nodes.position[..distributed.domain.nodes.n_owned].to_vec();
         distributed.rebuild()?;
         Ok(distributed)
     }

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod campaign;
 pub mod checkpoint;
 pub mod comm;
+pub mod deflection;
 pub mod deformable;
 pub mod diagnostics;
 pub mod distributed;

@@ -6,7 +6,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 
 /// What a run writes into its output directory (docs/output.md), the lock aside.
-pub const RUN_OUTPUTS: [&str; 10] = [
+pub const RUN_OUTPUTS: [&str; 11] = [
     "results.h5",
     "provenance.json",
     "README.txt",
@@ -14,6 +14,7 @@ pub const RUN_OUTPUTS: [&str; 10] = [
     "summary.json",
     "progress.json",
     "fields.xdmf",
+    "broken-elements.xdmf",
     "projectile.xdmf",
     "fields",
     "checkpoint",

@@ -1,5 +1,8 @@
-//! What a running job tells its user (rank 0): a progress bar with ETA on a terminal; in a
+//! What a running job tells its user (rank 0): a progress bar with ETA on a terminal (also
+//! under mpirun when mpirun itself writes to one, or when asked with `--progress bar`); in a
 //! batch log a plain line every 30 s; `progress.json` beside the results, rewritten as often.
+//! Besides the time to the end time, it estimates when the shot will be decided (the
+//! projectile stops or its top passes the back face), at the deceleration seen lately.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -15,6 +18,73 @@ const REPORT_EVERY: Duration = Duration::from_secs(30);
 /// Time between two redraws of the bar (its message is formatted only then).
 const BAR_EVERY: Duration = Duration::from_millis(200);
 
+/// How rank 0 shows progress (`run --progress`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProgressMode {
+    /// a bar when stderr is a terminal, or when the job runs under mpirun whose own stderr
+    /// is one (rank 0 on mpirun's host); plain lines otherwise
+    #[default]
+    Auto,
+    /// a bar whatever stderr is (e.g. under mpirun on another host, or a terminal the
+    /// check cannot see)
+    Bar,
+    /// a plain line every 30 s
+    Lines,
+}
+
+impl ProgressMode {
+    /// Whether this process draws a bar.
+    pub fn draws_bar(self) -> bool {
+        match self {
+            Self::Bar => true,
+            Self::Lines => false,
+            Self::Auto => std::io::stderr().is_terminal() || launcher_writes_to_a_terminal(),
+        }
+    }
+}
+
+/// Whether this process runs under mpirun (Open MPI names the job's size) and its parent,
+/// mpirun on its own host, writes its stderr to a terminal: then what rank 0 writes reaches
+/// that terminal through mpirun's pipes, and a bar draws there.
+fn launcher_writes_to_a_terminal() -> bool {
+    if std::env::var_os("OMPI_COMM_WORLD_SIZE").is_none() {
+        return false;
+    }
+    let parent = std::os::unix::process::parent_id();
+    std::fs::read_link(format!("/proc/{parent}/fd/2"))
+        .is_ok_and(|target| target.starts_with("/dev/pts") || target.starts_with("/dev/tty"))
+}
+
+/// Simulated time until the shot is decided [s], if the projectile keeps its deceleration
+/// `deceleration` [m/s^2] (not positive: none, it keeps its speed): it stops (its forward
+/// speed `forward` [m/s] reaches zero) or its top passes the back face `to_exit` [m]
+/// further on, whichever comes first. Zero once either has happened.
+pub fn time_to_decision(forward: f64, deceleration: f64, to_exit: f64) -> f64 {
+    if forward <= 0.0 || to_exit <= 0.0 {
+        return 0.0;
+    }
+    if deceleration <= 0.0 {
+        return to_exit / forward;
+    }
+    let stopping_distance = forward * forward / (2.0 * deceleration);
+    if stopping_distance <= to_exit {
+        forward / deceleration
+    } else {
+        // the root of to_exit = u t - a t^2 / 2 before the stop, in the form that does not
+        // cancel when a is small
+        2.0 * to_exit / (forward + (forward * forward - 2.0 * deceleration * to_exit).sqrt())
+    }
+}
+
+/// Where the projectile stands with respect to the decision, at one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Flight {
+    /// its speed along the panel's inward normal [m/s]
+    pub forward: f64,
+    /// how far its top still is from passing the back face (with the contact margin) [m]
+    pub to_exit: f64,
+}
+
 /// The content of `progress.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct ProgressReport {
@@ -23,8 +93,11 @@ pub struct ProgressReport {
     pub end_time_s: f64,
     pub percent: f64,
     pub elapsed_s: f64,
-    /// by the simulated-time rate since the start of this job
+    /// to the end time, by the simulated-time rate since the start of this job
     pub eta_s: f64,
+    /// to the decision (stopped or through the back face) at the projectile's deceleration
+    /// since the last report and the same rate; 0 once finished
+    pub decision_eta_s: f64,
     pub projectile_speed_m_s: f64,
     /// |E - E0| / E0 at the last history sample [-]
     pub energy_balance_error: f64,
@@ -46,17 +119,21 @@ pub struct Progress {
     path: PathBuf,
     /// set by [`Self::finish`]: the run's outcome
     finished: Option<String>,
+    /// simulated time and forward speed at the last report (for the deceleration)
+    last_flight: Option<(f64, f64)>,
+    /// the latest estimate of the wall time to the decision [s]
+    decision_eta: f64,
 }
 
 impl Progress {
     /// `start_time` is the simulated time this job begins at (after a restart, not zero).
-    pub fn new(out: &std::path::Path, start_time: f64, end_time: f64) -> Self {
-        let bar = std::io::stderr().is_terminal().then(|| {
-            let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
-            bar.set_style(
-                ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}, ETA {eta}]")
-                    .expect("a valid template"),
-            );
+    pub fn new(out: &std::path::Path, start_time: f64, end_time: f64, mode: ProgressMode) -> Self {
+        let bar = mode.draws_bar().then(|| {
+            // drawn on stderr whatever it is (indicatif's own stderr target hides itself
+            // when stderr is not a terminal, as under mpirun)
+            let target = ProgressDrawTarget::term_like_with_hz(Box::new(console::Term::stderr()), 5);
+            let bar = ProgressBar::with_draw_target(Some(1000), target);
+            bar.set_style(ProgressStyle::with_template("{bar:12} {percent:>3}% {msg}").expect("a valid template"));
             bar
         });
         Self {
@@ -68,17 +145,32 @@ impl Progress {
             bar,
             path: out.join("progress.json"),
             finished: None,
+            last_flight: None,
+            decision_eta: f64::NAN,
         }
     }
 
     /// Reports the state after a step; cheap unless a report is due.
-    pub fn update(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64) {
+    pub fn update(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64, flight: Flight) {
         let fraction = ((time - self.start_time) / (self.end_time - self.start_time)).clamp(0.0, 1.0);
         if let Some(bar) = self.bar.as_ref().filter(|_| self.last_bar.is_none_or(|last| last.elapsed() >= BAR_EVERY)) {
             self.last_bar = Some(Instant::now());
             bar.set_position((1000.0 * (time / self.end_time).clamp(0.0, 1.0)) as u64);
+            // within 80 columns: mpirun's terminal may be narrow, and its width is unknown here
+            let elapsed = self.start.elapsed().as_secs_f64();
+            let eta = if fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S {
+                let to_end = elapsed * (1.0 - fraction) / fraction;
+                let decision = if self.decision_eta.is_finite() {
+                    format!(" (decided ~{:.0} s)", self.decision_eta.min(to_end))
+                } else {
+                    String::new()
+                };
+                format!(", end in {to_end:.0} s{decision}")
+            } else {
+                String::new()
+            };
             bar.set_message(format!(
-                "step {step}, t = {time:.3e} s, projectile {projectile_speed:.1} m/s, energy balance {:.2}%",
+                "{time:.2e} s, {projectile_speed:.0} m/s, balance {:.2}%{eta}",
                 100.0 * energy_balance_error
             ));
         }
@@ -87,6 +179,21 @@ impl Progress {
         }
         self.last_report = Some(Instant::now());
         let elapsed = self.start.elapsed().as_secs_f64();
+        let estimating = fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S;
+        // the deceleration since the last report, and the wall time per simulated second
+        let deceleration = self
+            .last_flight
+            .filter(|&(then, _)| time > then)
+            .map_or(0.0, |(then, forward)| (forward - flight.forward) / (time - then));
+        self.last_flight = Some((time, flight.forward));
+        let wall_per_simulated = elapsed / (time - self.start_time);
+        self.decision_eta = if self.finished.is_some() {
+            0.0
+        } else if estimating {
+            time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
+        } else {
+            f64::NAN
+        };
         let report = ProgressReport {
             step,
             simulated_time_s: time,
@@ -97,11 +204,12 @@ impl Progress {
             // no rate: no estimate before a few seconds of stepping
             eta_s: if self.finished.is_some() {
                 0.0
-            } else if fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S {
+            } else if estimating {
                 elapsed * (1.0 - fraction) / fraction
             } else {
                 f64::NAN
             },
+            decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
             state: if self.finished.is_some() { "finished" } else { "running" },
@@ -109,7 +217,11 @@ impl Progress {
         };
         if self.bar.is_none() && self.finished.is_none() {
             let eta = if report.eta_s.is_finite() {
-                format!("{:.0} s to the end time (a decided shot stops sooner)", report.eta_s)
+                format!(
+                    "{:.0} s to the end time, about {:.0} s to the decision at the present deceleration",
+                    report.eta_s,
+                    report.decision_eta_s.min(report.eta_s)
+                )
             } else {
                 "not yet known".into()
             };
@@ -137,7 +249,7 @@ impl Progress {
         self.finished = Some(outcome.to_string());
         self.last_report = None;
         self.last_bar = None;
-        self.update(step, time, projectile_speed, energy_balance_error);
+        self.update(step, time, projectile_speed, energy_balance_error, Flight::default());
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }
@@ -216,4 +328,34 @@ pub fn init_logging(rank: u32, log_directory: Option<&std::path::Path>) -> Resul
     };
     tracing_subscriber::registry().with(stderr).with(file).try_init().map_err(|e| e.to_string())?;
     Ok(tracing::info_span!("rank", r = rank).entered())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_time_to_the_decision_follows_constant_deceleration() {
+        // stops before the back face: t = u / a, where it has gone u^2 / 2a
+        assert_eq!(time_to_decision(100.0, 1e7, 1.0), 1e-5);
+        // passes it: the earlier root of d = u t - a t^2 / 2
+        let (u, a, d) = (300.0, 1e7, 2e-3);
+        let t = time_to_decision(u, a, d);
+        assert!((u * t - 0.5 * a * t * t - d).abs() < 1e-15, "{t}");
+        assert!(t > d / u && t < u / a);
+        // a tiny deceleration does not cancel the root away
+        let t = time_to_decision(300.0, 1e-6, 3e-3);
+        assert!((t - 1e-5).abs() < 1e-15, "{t}");
+        // no deceleration: at the present speed; decided already: now
+        assert_eq!(time_to_decision(200.0, 0.0, 1e-3), 5e-6);
+        assert_eq!(time_to_decision(200.0, -5e6, 1e-3), 5e-6);
+        assert_eq!(time_to_decision(-1.0, 1e7, 1e-3), 0.0);
+        assert_eq!(time_to_decision(200.0, 1e7, -1e-4), 0.0);
+    }
+
+    #[test]
+    fn lines_or_bar_as_asked() {
+        assert!(ProgressMode::Bar.draws_bar());
+        assert!(!ProgressMode::Lines.draws_bar());
+    }
 }

@@ -57,11 +57,13 @@ const README: &str = "What each file of this run directory is (docs/output.md ha
   summary.json     the outcome (perforated, stopped, rebounded or undecided), residual
                    velocity, peak force, broken elements, energy balance, timings
   results.h5       the histories (time, projectile state and force, energies by kind,
-                   broken elements by mode and layer) and the case as run
+                   broken elements by mode and layer, back-face deflection) and the case
   history.csv      the same histories as a table with units in the column names
   fields.xdmf      the fabric's field snapshots for ParaView (open this file): nodes with
-                   position, velocity, layer and yarn; elements with strain, stress and
-                   failure (threshold failure = 0 to hide broken elements)
+                   position, velocity, displacement (from as built), layer and yarn; the
+                   intact elements with strain, stress and failure
+  broken-elements.xdmf  the broken elements alone (their two nodes fly apart; open it
+                   beside fields.xdmf to see where the fabric failed, coloured by failure)
   fields/          the HDF5 parts of the snapshots, one per rank and rank count
   projectile.xdmf  the projectile's surface over time, for ParaView
   progress.json    the last progress report (step, time, ETA, energy balance)

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::comm::Comm;
 use crate::distributed::{Distributed, RunRequests};
-use crate::progress::Progress;
+use crate::progress::{Flight, Progress, ProgressMode};
 use crate::setup::{projectile_bottom, projectile_top};
 use crate::step::{Stage, StageSeconds};
 
@@ -128,6 +128,14 @@ impl Judge {
         }
     }
 
+    /// Where the projectile stands with respect to the decision (rank 0's progress).
+    fn flight(&self, projectile: &RigidProjectile) -> Flight {
+        Flight {
+            forward: projectile.velocity.dot(&self.direction),
+            to_exit: projectile_top(projectile) - (self.back_face - self.margin),
+        }
+    }
+
     fn outcome<C: Comm>(&self, run: &Distributed<C>, max_force: f64) -> Outcome {
         let broken = run.fibres_with_broken_elements(self.fibres);
         let domain = &run.domain;
@@ -231,6 +239,8 @@ pub struct RunOptions<'a> {
     pub checkpoints: CheckpointPolicy,
     /// the run loop's state when restarting from a checkpoint
     pub resume: Option<Resume>,
+    /// how rank 0 shows progress
+    pub progress: ProgressMode,
 }
 
 impl<'a> RunOptions<'a> {
@@ -261,6 +271,7 @@ impl<'a> RunOptions<'a> {
                 stop_signal,
             },
             resume,
+            progress: ProgressMode::Auto,
         }
     }
 }
@@ -278,6 +289,7 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
     }
     let broken = run.broken();
     let by_layer = run.broken_by_layer(layers);
+    let [largest, at_axis] = run.back_face_deflection();
     if run.comm.rank() == Rank(0) {
         let domain = &run.domain;
         let projectile = domain.projectile.as_ref().expect("runs have a projectile");
@@ -291,6 +303,8 @@ fn sample<C: Comm>(run: &Distributed<C>, histories: &mut Histories, layers: usiz
         histories.broken_tension.push(broken.tension);
         histories.broken_shear.push(broken.shear);
         histories.broken_combined.push(broken.combined);
+        histories.back_face_largest.push(largest);
+        histories.back_face_at_axis.push(at_axis);
     }
     Ok(())
 }
@@ -329,7 +343,7 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, normal, options.fibres, back_face);
-    let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time));
+    let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time, options.progress));
     let floor = energy_floor(run.domain.projectile.as_ref().map_or(0.0, |p| p.mass));
     let balance = |histories: &Histories| energy_balance_error(histories, initial_energy, floor);
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
@@ -372,7 +386,8 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             }
         }
         if let Some(progress) = &mut progress {
-            progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories));
+            let flight = run.domain.projectile.as_ref().map_or(Flight::default(), |p| judge.flight(p));
+            progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories), flight);
         }
         run.timer.stamp(Stage::Output);
     }
@@ -616,6 +631,6 @@ pub enum RunError {
     Numerical(dea_core::DomainError),
     #[error("cannot write results: {0}")]
     Output(String),
-    #[error("stopped by a signal after writing the checkpoint {}", .0.display())]
+    #[error("a signal asked the run to stop; the checkpoint {} holds it", .0.display())]
     Interrupted(std::path::PathBuf),
 }

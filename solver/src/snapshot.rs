@@ -1,6 +1,7 @@
 //! This rank's part of a field snapshot: its owned nodes and elements, and the ghosts its
 //! elements reach (written per rank, joined by one XDMF file; docs/output.md).
 
+use dea_core::nodes::FailureMode;
 use dea_io::snapshot::SnapshotPart;
 
 use crate::comm::Comm;
@@ -12,6 +13,7 @@ impl<C: Comm> Distributed<C> {
     #[allow(clippy::needless_range_loop)]
     pub fn snapshot_part(&mut self) -> SnapshotPart {
         self.refresh_ghost_velocities();
+        let ghost_displacements = self.halo.forward_vectors(&self.comm, |i| self.displacement(i));
         let me = self.comm.rank().0;
         let d = &self.domain;
         let nodes = &d.nodes;
@@ -22,6 +24,7 @@ impl<C: Comm> Distributed<C> {
         let add_point = |part: &mut SnapshotPart, i: usize, rank: u32| {
             part.position.push(nodes.position[i]);
             part.velocity.push(d.velocity(i));
+            part.displacement.push(if i < n { self.displacement(i) } else { ghost_displacements[i - n] });
             part.gid.push(nodes.gid[i].0);
             part.layer.push(self.layer_of(nodes.fibre[i]));
             part.yarn.push(self.partition.yarn_of(nodes.fibre[i]) as u32);
@@ -45,11 +48,9 @@ impl<C: Comm> Distributed<C> {
                     (part.gid.len() - 1) as u32
                 })
             };
-            part.connectivity.push([i as u32, point]);
-            part.element_gid.push(nodes.gid[i].0);
-            part.strain.push(d.elements.strain[i]);
-            part.stress.push(stress[i]);
-            part.failure.push(d.elements.failure[i] as u8);
+            let failure = d.elements.failure[i];
+            let cells = if failure == FailureMode::Intact { &mut part.intact } else { &mut part.broken };
+            cells.push([i as u32, point], nodes.gid[i].0, d.elements.strain[i], stress[i], failure as u8);
         }
         part
     }

@@ -801,3 +801,69 @@ fn a_projectile_at_rest_has_a_meaningful_energy_balance() {
     assert!(error < 1e-9, "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn broken_elements_are_drawn_apart_and_displacements_and_the_back_face_are_measured() {
+    let dir = scratch("back-face");
+    let mut case = case_file("four_layer_fsp.json");
+    case["run"]["snapshot_interval_steps"] = 200.into();
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dir.join("out");
+    let status = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let summary = summary_in(&out);
+    let snapshots = dea_io::snapshot::index(&out, 1, u64::MAX).unwrap();
+    let (first, last) = (snapshots.first().unwrap(), snapshots.last().unwrap());
+    let (start, end) = (dea_io::snapshot::merged(&out, first).unwrap(), dea_io::snapshot::merged(&out, last).unwrap());
+    // no settle: nothing has moved at the first snapshot, and the last one's displacement is
+    // the motion since, to the bit
+    assert!(start.points.iter().all(|p| p.3 == [0; 3]));
+    for (a, b) in start.points.iter().zip(&end.points) {
+        assert_eq!(a.0, b.0);
+        for k in 0..3 {
+            assert_eq!((f64::from_bits(b.1[k]) - f64::from_bits(a.1[k])).to_bits(), b.3[k], "node {}", a.0);
+        }
+    }
+    // the broken elements are drawn apart from the intact ones, each element once
+    let broken = ["broken_elements_tension", "broken_elements_shear", "broken_elements_combined"]
+        .iter()
+        .map(|k| summary[k].as_u64().unwrap() as usize)
+        .sum::<usize>();
+    assert!(broken > 0, "the FSP broke nothing");
+    let (intact_cells, broken_cells) = last.parts.iter().fold((0, 0), |(i, b), p| (i + p.cells, b + p.broken_cells));
+    assert_eq!((broken_cells, intact_cells + broken_cells), (broken, end.cells.len()));
+    assert_eq!(end.cells.iter().filter(|c| c.3 != 0).count(), broken);
+    let part = hdf5::File::open(out.join("fields").join(&last.parts[0].file)).unwrap();
+    let group = part.group(&format!("snapshot-{:010}", last.step)).unwrap();
+    let failure: Vec<u8> = group.dataset("failure").unwrap().read_raw().unwrap();
+    let broken_failure: Vec<u8> = group.dataset("broken/failure").unwrap().read_raw().unwrap();
+    assert!(failure.iter().all(|&f| f == 0) && broken_failure.iter().all(|&f| f != 0));
+    let drawn = std::fs::read_to_string(out.join("fields.xdmf")).unwrap();
+    let broken_view = std::fs::read_to_string(out.join("broken-elements.xdmf")).unwrap();
+    assert!(drawn.contains("/displacement<") && !drawn.contains("/broken/"));
+    assert!(broken_view.contains(&format!("snapshot-{:010}/broken/connectivity", last.step)));
+    // the back face: at rest at first; it moves toward the back; the largest deflection is at
+    // least the axis node's while the back layer is whole; the axis node is never ahead of
+    // the projectile, which pushes it through the layers above
+    let results = hdf5::File::open(out.join("results.h5")).unwrap();
+    let read = |name: &str| -> Vec<f64> { results.dataset(name).unwrap().read_raw().unwrap() };
+    let (largest, at_axis) = (read("history/back_face/largest"), read("history/back_face/at_axis"));
+    let projectile: Vec<f64> = read("history/projectile_position");
+    let by_layer: Vec<u64> = results.dataset("history/broken/by_layer").unwrap().read_raw().unwrap();
+    assert_eq!((largest[0].to_bits(), at_axis[0].to_bits()), (0, 0));
+    assert!(*at_axis.last().unwrap() > 1e-5, "the back face did not move: {at_axis:?}");
+    for s in 0..largest.len() {
+        let travel = projectile[2] - projectile[3 * s + 2];
+        assert!(
+            at_axis[s] < travel.max(0.0) + 1e-9,
+            "sample {s}: back face {} ahead of the projectile's {travel}",
+            at_axis[s]
+        );
+        if by_layer[4 * s + 3] == 0 {
+            assert!(largest[s] >= at_axis[s], "sample {s}: largest {} < at the axis {}", largest[s], at_axis[s]);
+        }
+    }
+    let csv = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",back_face_largest_m,back_face_at_axis_m"));
+}

@@ -54,6 +54,7 @@ fn options<'a>(
         snapshot_interval: case.run.snapshot_interval_steps,
         checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None },
         resume,
+        progress: dea_mpi::progress::ProgressMode::Lines,
     }
 }
 

@@ -280,7 +280,7 @@ fn search_listings(
         listed += volume / cell.powi(3);
         total_area += area;
         let (low, high) = (cube_of(&a.inf(&b).inf(&c), rival_cell), cube_of(&a.sup(&b).sup(&c), rival_cell));
-        binned += (0..3).map(|k| (high[k] as f64 - low[k] as f64 + 1.0)).product::<f64>();
+        binned += (0..3).map(|k| high[k] as f64 - low[k] as f64 + 1.0).product::<f64>();
     }
     (listed, binned, total_area)
 }

@@ -18,7 +18,7 @@ use crate::results::{
     read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories,
 };
 
-const FORMAT: &str = "dea-mpi checkpoint 5";
+const FORMAT: &str = "dea-mpi checkpoint 6";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -646,6 +646,8 @@ mod tests {
                 broken_tension: vec![0],
                 broken_shear: vec![0],
                 broken_combined: vec![0],
+                back_face_largest: vec![1e-3],
+                back_face_at_axis: vec![2e-3],
             },
             part_checksums: vec![7, 9],
         };

@@ -5,7 +5,8 @@
 //! - `history/time` [s], `history/projectile_position` (n x 3) [m],
 //!   `history/projectile_velocity` (n x 3) [m/s], `history/projectile_angular_velocity`
 //!   (n x 3) [rad/s], `history/projectile_force` (n x 3) [N], `history/energy/<kind>` [J],
-//!   `history/broken/{tension,shear,combined}` [-], `history/broken/by_layer` (n x layers)
+//!   `history/broken/{tension,shear,combined}` [-], `history/broken/by_layer` (n x layers),
+//!   `history/back_face/{largest,at_axis}` [m]
 //!
 //! Field data, the final state included, are in the per-rank snapshots (`snapshot.rs`):
 //! no rank ever gathers every node.
@@ -34,6 +35,11 @@ pub struct Histories {
     pub broken_combined: Vec<u64>,
     /// cumulative broken elements of each layer (one row per sample)
     pub broken_by_layer: Vec<Vec<u64>>,
+    /// the last layer's largest deflection along the panel's inward normal, over its nodes
+    /// still joined to both fibre neighbours; NaN if none [m]
+    pub back_face_largest: Vec<f64>,
+    /// the deflection of its node nearest the impact axis as built [m]
+    pub back_face_at_axis: Vec<f64>,
 }
 
 /// Names of the energy datasets, in [`EnergyReport`] field order.
@@ -85,7 +91,10 @@ pub(crate) fn write_histories(file: &hdf5::File, histories: &Histories) -> hdf5:
     let flat: Vec<u64> = histories.broken_by_layer.iter().flatten().copied().collect();
     let by_layer = broken.new_dataset::<u64>().shape([histories.broken_by_layer.len(), layers]).create("by_layer")?;
     by_layer.write_raw(&flat)?;
-    write_text_attribute(&by_layer, "units", "elements (sample x layer)")
+    write_text_attribute(&by_layer, "units", "elements (sample x layer)")?;
+    let back_face = history.create_group("back_face")?;
+    write_scalars(&back_face, "largest", &histories.back_face_largest, "m")?;
+    write_scalars(&back_face, "at_axis", &histories.back_face_at_axis, "m")
 }
 
 /// Writes the histories as CSV, units in the column names; numbers in the shortest form
@@ -111,7 +120,7 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
     for layer in 0..layers {
         let _ = write!(text, ",broken_layer_{layer}");
     }
-    text.push('\n');
+    text.push_str(",back_face_largest_m,back_face_at_axis_m\n");
     for s in 0..histories.time.len() {
         let _ = write!(text, "{:?}", histories.time[s]);
         for v in [
@@ -134,7 +143,7 @@ pub fn write_histories_csv(path: &std::path::Path, histories: &Histories) -> std
         for count in &histories.broken_by_layer[s] {
             let _ = write!(text, ",{count}");
         }
-        text.push('\n');
+        let _ = writeln!(text, ",{:?},{:?}", histories.back_face_largest[s], histories.back_face_at_axis[s]);
     }
     std::fs::write(path, text)
 }
@@ -203,6 +212,8 @@ pub(crate) fn read_histories_from(file: &hdf5::File) -> hdf5::Result<Histories> 
         broken_tension: file.dataset("history/broken/tension")?.read_raw()?,
         broken_shear: file.dataset("history/broken/shear")?.read_raw()?,
         broken_combined: file.dataset("history/broken/combined")?.read_raw()?,
+        back_face_largest: file.dataset("history/back_face/largest")?.read_raw()?,
+        back_face_at_axis: file.dataset("history/back_face/at_axis")?.read_raw()?,
         time,
         energy,
     })
@@ -316,16 +327,25 @@ mod tests {
             broken_tension: vec![0, 1],
             broken_shear: vec![0, 2],
             broken_combined: vec![0, 3],
+            back_face_largest: vec![0.0, 2.5e-3],
+            back_face_at_axis: vec![0.0, f64::NAN],
         };
         write_results(&path, "{\"name\":\"t\"}", &histories).unwrap();
-        assert_eq!(read_histories(&path).unwrap(), histories);
+        let read = read_histories(&path).unwrap();
+        // NaN is not equal to itself: compare the bits of that one history
+        let bits = |h: &Histories| h.back_face_at_axis.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&read), bits(&histories));
+        assert_eq!(
+            Histories { back_face_at_axis: Vec::new(), ..read },
+            Histories { back_face_at_axis: Vec::new(), ..histories.clone() }
+        );
         // the CSV holds the same numbers, to the bit, under named columns with units
         let csv_path = dir.join("history.csv");
         write_histories_csv(&csv_path, &histories).unwrap();
         let csv = std::fs::read_to_string(&csv_path).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        assert_eq!(header.len(), 1 + 12 + 11 + 3 + 2);
+        assert_eq!(header.len(), 1 + 12 + 11 + 3 + 2 + 2);
         assert!(
             header.contains(&"projectile_velocity_x_m_s")
                 && header.contains(&"energy_axial_J")
@@ -344,6 +364,8 @@ mod tests {
                 histories.energy[s].plastic_dissipated.to_bits()
             );
             assert_eq!(column("broken_layer_1") as u64, histories.broken_by_layer[s][1]);
+            assert_eq!(column("back_face_largest_m").to_bits(), histories.back_face_largest[s].to_bits());
+            assert_eq!(column("back_face_at_axis_m").to_bits(), histories.back_face_at_axis[s].to_bits());
         }
         // a copy compares equal; one changed bit does not
         let other = dir.join("other.h5");

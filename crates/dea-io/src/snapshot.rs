@@ -4,10 +4,13 @@
 //! `OUT/fields/ranks-PPPPP-part-RRRRR.h5` holds rank R's part (of a run on P ranks), one
 //! group `snapshot-SSSSSSSSSS` per snapshot step: points (the rank's nodes plus the far node
 //! of each element that crosses to another rank, so that no fibre shows a gap) with
-//! `position`, `velocity`, `gid`, `layer`, `yarn` and `rank`; polyline cells (one per intact
-//! or broken element of an owned node) with `connectivity`, `element_gid`, `strain`,
-//! `stress` and `failure`. `OUT/fields.xdmf` lists every snapshot as a spatial collection of
-//! the rank parts inside a temporal collection. No rank ever gathers the nodes of another.
+//! `position`, `velocity`, `displacement`, `gid`, `layer`, `yarn` and `rank`; polyline cells
+//! (one per intact element of an owned node) with `connectivity`, `element_gid`, `strain`,
+//! `stress` and `failure`, and the same for the broken elements in subgroup `broken`.
+//! `OUT/fields.xdmf` lists every snapshot as a spatial collection of the rank parts (intact
+//! elements: a broken element's two nodes fly apart, and a line between them would cross the
+//! panel) inside a temporal collection; `OUT/broken-elements.xdmf` lists the broken ones.
+//! No rank ever gathers the nodes of another.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -17,18 +20,9 @@ use dea_core::Vec3;
 
 use crate::results::{write_scalars, write_text_attribute, write_vectors};
 
-/// One rank's snapshot.
+/// Elements of one rank's snapshot (its intact ones, or its broken ones).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct SnapshotPart {
-    /// [m]
-    pub position: Vec<Vec3>,
-    /// [m/s]
-    pub velocity: Vec<Vec3>,
-    pub gid: Vec<u64>,
-    pub layer: Vec<u32>,
-    pub yarn: Vec<u32>,
-    /// owning rank of each point (the one field that depends on the rank count)
-    pub rank: Vec<u32>,
+pub struct SnapshotCells {
     /// point indices of each element
     pub connectivity: Vec<[u32; 2]>,
     /// global id of each element (that of its first node)
@@ -39,6 +33,45 @@ pub struct SnapshotPart {
     pub stress: Vec<f64>,
     /// 0 intact, 1 tension, 2 shear, 3 combined
     pub failure: Vec<u8>,
+}
+
+impl SnapshotCells {
+    /// Adds one element.
+    pub fn push(&mut self, connectivity: [u32; 2], element_gid: u64, strain: f64, stress: f64, failure: u8) {
+        self.connectivity.push(connectivity);
+        self.element_gid.push(element_gid);
+        self.strain.push(strain);
+        self.stress.push(stress);
+        self.failure.push(failure);
+    }
+
+    pub fn len(&self) -> usize {
+        self.element_gid.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.element_gid.is_empty()
+    }
+}
+
+/// One rank's snapshot.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SnapshotPart {
+    /// [m]
+    pub position: Vec<Vec3>,
+    /// [m/s]
+    pub velocity: Vec<Vec3>,
+    /// position less the position as built, before any settle [m]
+    pub displacement: Vec<Vec3>,
+    pub gid: Vec<u64>,
+    pub layer: Vec<u32>,
+    pub yarn: Vec<u32>,
+    /// owning rank of each point (the one field that depends on the rank count)
+    pub rank: Vec<u32>,
+    /// the intact elements of the rank's nodes (what `fields.xdmf` draws)
+    pub intact: SnapshotCells,
+    /// the broken ones (`broken-elements.xdmf`)
+    pub broken: SnapshotCells,
 }
 
 /// Directory of the part files.
@@ -88,12 +121,21 @@ pub fn write_part(out: &Path, ranks: usize, rank: u32, step: u64, time: f64, par
     write_scalars(&group, "layer", &part.layer, "-")?;
     write_scalars(&group, "yarn", &part.yarn, "-")?;
     write_scalars(&group, "rank", &part.rank, "-")?;
-    write_rows(&group, "connectivity", &part.connectivity, "point index")?;
-    write_scalars(&group, "element_gid", &part.element_gid, "-")?;
-    write_scalars(&group, "strain", &part.strain, "-")?;
-    write_scalars(&group, "stress", &part.stress, "Pa")?;
-    write_scalars(&group, "failure", &part.failure, "0 intact, 1 tension, 2 shear, 3 combined")?;
+    write_vectors(&group, "displacement", &part.displacement, "m")?;
+    write_cells(&group, &part.intact)?;
+    write_cells(&group.create_group(BROKEN)?, &part.broken)?;
     file.flush()
+}
+
+/// Subgroup of a snapshot that holds its broken elements.
+const BROKEN: &str = "broken";
+
+fn write_cells(group: &hdf5::Group, cells: &SnapshotCells) -> hdf5::Result<()> {
+    write_rows(group, "connectivity", &cells.connectivity, "point index")?;
+    write_scalars(group, "element_gid", &cells.element_gid, "-")?;
+    write_scalars(group, "strain", &cells.strain, "-")?;
+    write_scalars(group, "stress", &cells.stress, "Pa")?;
+    write_scalars(group, "failure", &cells.failure, "0 intact, 1 tension, 2 shear, 3 combined")
 }
 
 /// File of the projectile's surface snapshots (rank 0), in the fields directory.
@@ -152,7 +194,9 @@ pub struct IndexedPart {
     /// file name inside the fields directory
     pub file: String,
     pub points: usize,
+    /// intact elements
     pub cells: usize,
+    pub broken_cells: usize,
 }
 
 /// One snapshot on disk.
@@ -195,18 +239,25 @@ pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<Index
     for name in names {
         let Some(writer_ranks) = name.get(6..11).and_then(|r| r.parse::<usize>().ok()) else { continue };
         let path = directory.join(&name);
-        let read = || -> hdf5::Result<Vec<(u64, f64, usize, usize)>> {
+        let read = || -> hdf5::Result<Vec<(u64, f64, usize, usize, usize)>> {
             let file = hdf5::File::open(&path)?;
             let mut snapshots = Vec::new();
             for group_name in file.member_names()? {
                 let group = file.group(&group_name)?;
                 let step: u64 = first_value(&group, "step")?;
                 let time: f64 = first_value(&group, "time")?;
-                snapshots.push((step, time, group.dataset("gid")?.size(), group.dataset("element_gid")?.size()));
+                let broken = group.dataset(&format!("{BROKEN}/element_gid"))?.size();
+                snapshots.push((
+                    step,
+                    time,
+                    group.dataset("gid")?.size(),
+                    group.dataset("element_gid")?.size(),
+                    broken,
+                ));
             }
             Ok(snapshots)
         };
-        for (step, time, points, cells) in read().map_err(|e| in_part(&path, e))? {
+        for (step, time, points, cells, broken_cells) in read().map_err(|e| in_part(&path, e))? {
             if step > last_step {
                 continue;
             }
@@ -216,7 +267,7 @@ pub fn index(out: &Path, ranks: usize, last_step: u64) -> hdf5::Result<Vec<Index
                 ranks: writer_ranks,
                 parts: Vec::new(),
             });
-            entry.parts.push(IndexedPart { file: name.clone(), points, cells });
+            entry.parts.push(IndexedPart { file: name.clone(), points, cells, broken_cells });
         }
     }
     Ok(by_step
@@ -236,34 +287,47 @@ fn item(out: &mut String, file: &str, step: u64, name: &str, dimensions: &str, n
     );
 }
 
-/// Writes the XDMF file joining `snapshots` (it is replaced whole, so it is always valid).
-pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<()> {
-    let mut x = String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"fabric\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+/// File that draws the intact elements of every snapshot.
+pub const FIELDS_XDMF: &str = "fields.xdmf";
+/// File that draws the broken ones.
+pub const BROKEN_XDMF: &str = "broken-elements.xdmf";
+
+/// The XDMF text of the intact elements of `snapshots` (`broken`: of the broken ones).
+fn collection(snapshots: &[IndexedSnapshot], broken: bool) -> String {
+    let (grid, cells_of, prefix) = if broken {
+        ("broken elements", (|p: &IndexedPart| p.broken_cells) as fn(&IndexedPart) -> usize, "broken/")
+    } else {
+        ("fabric", (|p: &IndexedPart| p.cells) as fn(&IndexedPart) -> usize, "")
+    };
+    let mut x = format!("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"{grid}\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
     for snapshot in snapshots {
         let _ = writeln!(x, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n        <Time Value=\"{:e}\" />", snapshot.step, snapshot.time);
-        for part in snapshot.parts.iter().filter(|p| p.points > 0 && p.cells > 0) {
-            let (points, cells, step, file) = (part.points, part.cells, snapshot.step, part.file.as_str());
+        for part in snapshot.parts.iter().filter(|p| p.points > 0 && cells_of(p) > 0) {
+            let (points, cells, step, file) = (part.points, cells_of(part), snapshot.step, part.file.as_str());
             let _ = writeln!(x, "      <Grid Name=\"{}\" GridType=\"Uniform\">", file.trim_end_matches(".h5"));
             let _ = writeln!(
                 x,
                 "        <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{cells}\">"
             );
-            item(&mut x, file, step, "connectivity", &format!("{cells} 2"), "UInt", 4);
+            item(&mut x, file, step, &format!("{prefix}connectivity"), &format!("{cells} 2"), "UInt", 4);
             let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
             item(&mut x, file, step, "position", &format!("{points} 3"), "Float", 8);
             let _ = writeln!(x, "        </Geometry>");
             for (name, kind, center, number_type, precision, dims) in [
                 ("velocity", "Vector", "Node", "Float", 8, format!("{points} 3")),
+                ("displacement", "Vector", "Node", "Float", 8, format!("{points} 3")),
                 ("gid", "Scalar", "Node", "UInt", 8, format!("{points}")),
                 ("layer", "Scalar", "Node", "UInt", 4, format!("{points}")),
                 ("yarn", "Scalar", "Node", "UInt", 4, format!("{points}")),
                 ("rank", "Scalar", "Node", "UInt", 4, format!("{points}")),
+                ("element_gid", "Scalar", "Cell", "UInt", 8, format!("{cells}")),
                 ("strain", "Scalar", "Cell", "Float", 8, format!("{cells}")),
                 ("stress", "Scalar", "Cell", "Float", 8, format!("{cells}")),
                 ("failure", "Scalar", "Cell", "UChar", 1, format!("{cells}")),
             ] {
+                let path = if center == "Cell" { format!("{prefix}{name}") } else { name.to_string() };
                 let _ = writeln!(x, "        <Attribute Name=\"{name}\" AttributeType=\"{kind}\" Center=\"{center}\">");
-                item(&mut x, file, step, name, &dims, number_type, precision);
+                item(&mut x, file, step, &path, &dims, number_type, precision);
                 let _ = writeln!(x, "        </Attribute>");
             }
             let _ = writeln!(x, "      </Grid>");
@@ -271,14 +335,23 @@ pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<
         let _ = writeln!(x, "      </Grid>");
     }
     x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
-    let path = out.join("fields.xdmf");
-    let temporary = out.join("fields.xdmf.writing");
-    std::fs::write(&temporary, x)?;
-    std::fs::rename(&temporary, &path)
+    x
 }
 
-/// A point of a merged snapshot: gid, position bits, velocity bits, layer, yarn.
-pub type MergedPoint = (u64, [u64; 3], [u64; 3], u32, u32);
+/// Writes the XDMF files joining `snapshots`, `fields.xdmf` (intact elements) and
+/// `broken-elements.xdmf` (each is replaced whole, so it is always valid).
+pub fn write_xdmf(out: &Path, snapshots: &[IndexedSnapshot]) -> std::io::Result<()> {
+    for (name, broken) in [(FIELDS_XDMF, false), (BROKEN_XDMF, true)] {
+        let temporary = out.join(format!("{name}.writing"));
+        std::fs::write(&temporary, collection(snapshots, broken))?;
+        std::fs::rename(&temporary, out.join(name))?;
+    }
+    Ok(())
+}
+
+/// A point of a merged snapshot: gid, position bits, velocity bits, displacement bits,
+/// layer, yarn.
+pub type MergedPoint = (u64, [u64; 3], [u64; 3], [u64; 3], u32, u32);
 
 /// A snapshot gathered from its parts and sorted by gid: point data by node, cell data by
 /// element. Used to compare runs on different rank counts (the `rank` field is left out).
@@ -309,26 +382,40 @@ pub fn merged(out: &Path, snapshot: &IndexedSnapshot) -> hdf5::Result<MergedSnap
                     .map(|c| Vec3::new(c[0], c[1], c[2]))
                     .collect())
             };
-            let (position, velocity) = (vectors("position")?, vectors("velocity")?);
+            let (position, velocity, displacement) =
+                (vectors("position")?, vectors("velocity")?, vectors("displacement")?);
             let gid: Vec<u64> = group.dataset("gid")?.read_raw()?;
             let layer: Vec<u32> = group.dataset("layer")?.read_raw()?;
             let yarn: Vec<u32> = group.dataset("yarn")?.read_raw()?;
-            let element_gid: Vec<u64> = group.dataset("element_gid")?.read_raw()?;
-            let strain: Vec<f64> = group.dataset("strain")?.read_raw()?;
-            let stress: Vec<f64> = group.dataset("stress")?.read_raw()?;
-            let failure: Vec<u8> = group.dataset("failure")?.read_raw()?;
+            let n = gid.len();
             // a damaged part may list fewer values of one kind than of another
-            let (n, m) = (gid.len(), element_gid.len());
-            if [position.len(), velocity.len(), layer.len(), yarn.len()].iter().any(|&l| l != n)
-                || [strain.len(), stress.len(), failure.len()].iter().any(|&l| l != m)
-            {
-                return Err(format!("step {}: its datasets disagree in length", snapshot.step).as_str().into());
+            let disagree =
+                || hdf5::Error::from(format!("step {}: its datasets disagree in length", snapshot.step).as_str());
+            if [position.len(), velocity.len(), displacement.len(), layer.len(), yarn.len()].iter().any(|&l| l != n) {
+                return Err(disagree());
             }
             for k in 0..n {
-                points.push((gid[k], bits(&position[k]), bits(&velocity[k]), layer[k], yarn[k]));
+                points.push((
+                    gid[k],
+                    bits(&position[k]),
+                    bits(&velocity[k]),
+                    bits(&displacement[k]),
+                    layer[k],
+                    yarn[k],
+                ));
             }
-            for k in 0..m {
-                cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
+            for prefix in ["", "broken/"] {
+                let element_gid: Vec<u64> = group.dataset(&format!("{prefix}element_gid"))?.read_raw()?;
+                let strain: Vec<f64> = group.dataset(&format!("{prefix}strain"))?.read_raw()?;
+                let stress: Vec<f64> = group.dataset(&format!("{prefix}stress"))?.read_raw()?;
+                let failure: Vec<u8> = group.dataset(&format!("{prefix}failure"))?.read_raw()?;
+                let m = element_gid.len();
+                if [strain.len(), stress.len(), failure.len()].iter().any(|&l| l != m) {
+                    return Err(disagree());
+                }
+                for k in 0..m {
+                    cells.push((element_gid[k], strain[k].to_bits(), stress[k].to_bits(), failure[k]));
+                }
             }
             Ok(())
         };
@@ -370,15 +457,19 @@ mod tests {
         SnapshotPart {
             position: vec![Vec3::new(first as f64, 0.0, 0.0), Vec3::new(first as f64 + 1.0, 0.0, 0.0)],
             velocity: vec![Vec3::x() * first as f64, Vec3::x() * (first + 1) as f64],
+            displacement: vec![Vec3::z() * first as f64 * 1e-3, Vec3::z() * (first + 1) as f64 * 1e-3],
             gid: vec![first, first + 1],
             layer: vec![0, 0],
             yarn: vec![1, 1],
             rank: vec![rank, rank],
-            connectivity: vec![[0, 1]],
-            element_gid: vec![first],
-            strain: vec![0.01],
-            stress: vec![8.46e8],
-            failure: vec![0],
+            intact: SnapshotCells {
+                connectivity: vec![[0, 1]],
+                element_gid: vec![first],
+                strain: vec![0.01],
+                stress: vec![8.46e8],
+                failure: vec![0],
+            },
+            broken: SnapshotCells::default(),
         }
     }
 
@@ -387,9 +478,15 @@ mod tests {
         let out = std::env::temp_dir().join(format!("dea-snapshot-test-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&out);
         std::fs::create_dir_all(&out).unwrap();
+        // rank 1's element is broken at step 10: its cells are in the broken subgroup
+        let mut broken = part(1, 1);
+        broken.broken = std::mem::take(&mut broken.intact);
+        broken.broken.failure[0] = 2;
+        broken.broken.stress[0] = 0.0;
         for step in [10, 20] {
             write_part(&out, 2, 0, step, step as f64 * 1e-9, &part(0, 0)).unwrap();
-            write_part(&out, 2, 1, step, step as f64 * 1e-9, &part(1, 1)).unwrap();
+            let rank_1 = if step == 10 { broken.clone() } else { part(1, 1) };
+            write_part(&out, 2, 1, step, step as f64 * 1e-9, &rank_1).unwrap();
         }
         // a restart on 1 rank rewrote step 20 and went on to 30
         write_part(&out, 1, 0, 20, 20e-9, &part(0, 0)).unwrap();
@@ -403,12 +500,20 @@ mod tests {
         let merged_10 = merged(&out, &snapshots[0]).unwrap();
         // node 1 is in both parts (the far end of rank 0's element): kept once
         assert_eq!(merged_10.points.iter().map(|p| p.0).collect::<Vec<_>>(), vec![0, 1, 2]);
-        assert_eq!(merged_10.cells.iter().map(|c| c.0).collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(merged_10.cells.iter().map(|c| (c.0, c.3)).collect::<Vec<_>>(), vec![(0, 0), (1, 2)]);
+        assert_eq!(merged_10.points[2].3, [0, 0, 2e-3f64.to_bits()]);
         write_xdmf(&out, &snapshots).unwrap();
-        let text = std::fs::read_to_string(out.join("fields.xdmf")).unwrap();
+        let text = std::fs::read_to_string(out.join(FIELDS_XDMF)).unwrap();
         assert_eq!(text.matches("CollectionType=\"Spatial\"").count(), 2);
-        assert!(text.contains("fields/ranks-00002-part-00001.h5:/snapshot-0000000010/connectivity"));
+        // step 10 draws rank 1's part in the broken view only, step 20 in the fabric's
+        assert!(!text.contains("fields/ranks-00002-part-00001.h5:/snapshot-0000000010/connectivity"));
+        assert!(text.contains("fields/ranks-00002-part-00000.h5:/snapshot-0000000010/connectivity"));
+        assert!(text.contains("fields/ranks-00002-part-00000.h5:/snapshot-0000000010/displacement"));
         assert!(text.contains("<Time Value=\"2e-8\" />"));
+        let broken_text = std::fs::read_to_string(out.join(BROKEN_XDMF)).unwrap();
+        assert_eq!(broken_text.matches("GridType=\"Uniform\"").count(), 1);
+        assert!(broken_text.contains("fields/ranks-00002-part-00001.h5:/snapshot-0000000010/broken/connectivity"));
+        assert!(broken_text.contains("fields/ranks-00002-part-00001.h5:/snapshot-0000000010/broken/failure"));
         std::fs::remove_dir_all(&out).unwrap();
     }
 }

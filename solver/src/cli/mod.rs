@@ -187,7 +187,9 @@ pub fn load_campaign_shared(comm: &impl Comm, path: &Path) -> Result<(Campaign, 
 /// for it, then exit with the same code.
 pub fn fail_all(session: &MpiSession, code: Exit, message: impl std::fmt::Display) -> ExitCode {
     if session.rank() == Rank(0) {
-        eprintln!("error: {message}");
+        // a stop that wrote its checkpoint is the way a time limit ends, not an error
+        let prefix = if code == Exit::Interrupted { "stopped" } else { "error" };
+        eprintln!("{prefix}: {message}");
     }
     session.barrier();
     ExitCode::from(code as u8)

@@ -41,13 +41,17 @@ pub struct Args {
     /// also write every rank's log to DIR/rank-NNNNN.log
     #[arg(long)]
     pub log_dir: Option<PathBuf>,
+    /// how rank 0 shows progress: a bar on a terminal, including mpirun's when it runs on
+    /// rank 0's host (auto), a bar whatever stderr is (bar), or a line every 30 s (lines)
+    #[arg(long, value_enum, default_value_t = dea_mpi::progress::ProgressMode::Auto)]
+    pub progress: dea_mpi::progress::ProgressMode,
     /// fault injection for the test suite: this rank panics after set-up, to show that
     /// the whole job then ends at once
     #[arg(long, hide = true)]
     pub panic_on_rank: Option<u32>,
 }
 
-pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank }: Args) -> ExitCode {
+pub fn main(Args { case, out, method, restart, overwrite, log_dir, progress, panic_on_rank }: Args) -> ExitCode {
     let (session, comm) = match MpiComm::initialize() {
         Ok(mpi) => mpi,
         Err(e) => return fail(Exit::Usage, e),
@@ -140,7 +144,7 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, panic_on_rank
         case.run.end_time_s,
         ranks
     );
-    let options = RunOptions::for_case(&case, &json, &out, &run, Some(stop_signal), resume);
+    let options = RunOptions { progress, ..RunOptions::for_case(&case, &json, &out, &run, Some(stop_signal), resume) };
     match dea_mpi::run::run(&mut run, &options) {
         Ok(Some(summary)) => {
             println!(

@@ -172,21 +172,23 @@ impl HaloPlan {
     /// Sends the velocity of every ghost to the ranks that hold it (snapshots only: no force
     /// needs it).
     pub fn forward_velocities<C: Comm>(&self, comm: &C, domain: &mut Domain) {
+        let velocities = self.forward_vectors(comm, |i| domain.velocity(i));
+        let n = domain.nodes.n_owned;
+        domain.nodes.velocity[n..n + velocities.len()].copy_from_slice(&velocities);
+    }
+
+    /// `owned(i)` of the owner of every ghost, in ghost order (snapshots only: values no
+    /// step needs, such as a velocity or a displacement).
+    pub fn forward_vectors<C: Comm>(&self, comm: &C, owned: impl Fn(usize) -> Vec3) -> Vec<Vec3> {
         let sends: Vec<Vec<f64>> = self
             .send_nodes
             .iter()
-            .map(|send| send.iter().flat_map(|&i| domain.velocity(i.index()).as_slice().to_vec()).collect())
+            .map(|send| send.iter().flat_map(|&i| owned(i.index()).as_slice().to_vec()).collect())
             .collect();
         let mut receives: Vec<Vec<f64>> =
             self.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         comm.exchange(&self.partners, &sends, &mut receives);
-        let mut g = domain.nodes.n_owned;
-        for buffer in &receives {
-            for v in buffer.chunks_exact(3) {
-                domain.nodes.velocity[g] = Vec3::new(v[0], v[1], v[2]);
-                g += 1;
-            }
-        }
+        receives.iter().flat_map(|buffer| buffer.chunks_exact(3).map(|v| Vec3::new(v[0], v[1], v[2]))).collect()
     }
 
     /// The plan: (partner, owned global ids sent to it each step, ghosts received), with
