@@ -107,4 +107,11 @@ assert [key(s) for s in a["shots"]] == [key(s) for s in b["shots"]], "shot recor
 assert a["mil_std_662f"] == b["mil_std_662f"] and a["lambert_jonas"] == b["lambert_jonas"]
 print(f"{len(a['shots'])} shots identical")
 PY
-echo "ok   slurm: requeued $restarts time(s), resumed from checkpoints, every shot equal to the run outside SLURM"
+# the requeued campaign's closing report counts what the uninterrupted one counts, and the
+# requeue reads as a checkpoint line, not mpirun's boxed abort report
+counts() { grep -o '[0-9]* shots ([0-9]* partial, [0-9]* complete)' "$1" | tail -n 1; grep -o 'warning: [0-9]* partial(s) were still undecided' "$1" | tail -n 1; }
+[ "$(counts "$work/job.log")" = "$(counts "$work/reference.log")" ] \
+    || fail "the closing counts differ: $(counts "$work/job.log") against $(counts "$work/reference.log")"
+grep -q "every rank wrote its checkpoint part and stopped (exit 75)" "$work/job.log" || fail "no one-line checkpoint stop in the job log"
+! grep -q "Primary job" "$work/job.log" || fail "mpirun's abort report in the job log after a checkpoint stop"
+echo "ok   slurm: requeued $restarts time(s), resumed from checkpoints, every shot equal to the run outside SLURM, the same counts"

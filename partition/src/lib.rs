@@ -5,7 +5,8 @@
 //! description alone, so no rank ever needs the node set to partition it. A vertex weighs
 //! its expected work per step: rods per node plus contact-list entries, in the proportion the
 //! benchmark measured (docs/performance.md), plus the projectile contacts of the segments
-//! under the shot line. Edges join consecutive segments of a yarn and segments of different
+//! under the shot line; and, as a second constraint METIS balances too, the nodes its owner
+//! stores (docs/theory.md M1). Edges join consecutive segments of a yarn and segments of different
 //! yarns that come within contact reach (crossing yarns, neighbouring yarns of a layer,
 //! overlapping segments of adjacent layers), weighted by the ghost nodes a cut would create.
 //! METIS (k-way, or recursive bisection) gives every segment a rank; every node follows its
@@ -292,6 +293,12 @@ impl Partition {
 /// index range.
 const WEIGHT_BUDGET: f64 = 5e8;
 
+/// How far above the mean METIS may load a rank, in work and in stored nodes (its `ubvec`):
+/// the partition balances both, because the work per node differs tenfold between a hybrid
+/// panel's fine and coarse yarns, and a partition of the work alone gave one rank of the
+/// 28-layer disc panel 9.7 times the mean nodes (docs/theory.md M1).
+pub const BALANCE_TOLERANCE: [f64; 2] = [1.03, 1.05];
+
 /// Partitions the segment graph over `ranks` ranks.
 pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<Partition, PartitionError> {
     let n = graph.segments.len();
@@ -309,51 +316,104 @@ pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<P
     if n < ranks {
         return Err(PartitionError::TooFewSegments { segments: n, ranks });
     }
-    // METIS sums the weights in its index type: keep each total well inside it (a 2e8-node
-    // panel's work summed to 3e10 and overflowed, leaving 78 % of the nodes on one rank)
-    let fit = |total: f64| {
-        if total > WEIGHT_BUDGET {
-            WEIGHT_BUDGET / total
-        } else {
-            1.0
-        }
-    };
-    let vertex_scale = fit(graph.segments.iter().map(|s| s.work).sum());
-    let edge_scale = fit(graph.adjacency.iter().flatten().map(|e| 2.0 * e.ghosts_needed).sum());
-    let mut xadj: Vec<metis::Idx> = vec![0];
-    let mut adjncy: Vec<metis::Idx> = Vec::new();
-    let mut adjwgt: Vec<metis::Idx> = Vec::new();
-    for (s, list) in graph.adjacency.iter().enumerate() {
-        for edge in list {
-            // METIS wants symmetric weights: the ghosts the cut creates on both sides
-            let back = graph.adjacency[edge.segment as usize]
-                .iter()
-                .find(|e| e.segment == s as u32)
-                .map_or(0.0, |e| e.ghosts_needed);
-            adjncy.push(edge.segment as metis::Idx);
-            adjwgt.push((((edge.ghosts_needed + back) * edge_scale).round() as metis::Idx).max(1));
-        }
-        xadj.push(adjncy.len() as metis::Idx);
+    let metis_graph = MetisGraph::new(graph);
+    // first the nodes each segment's owner stores of its own; then, the ghosts that
+    // partition gave each rank spread over its segments (a fine region's dense contacts
+    // cost more ghosts per node than a coarse one's, wherever the cut falls), and again:
+    // the stored nodes, owned and ghost, come out balanced (docs/theory.md M1)
+    let own: Vec<f64> = graph.segments.iter().map(|s| s.nodes as f64).collect();
+    let (part, edge_cut) = metis_graph.split(&own, ranks, method)?;
+    let first = make(part.iter().map(|&p| Rank(p as u32)).collect(), edge_cut as i64);
+    let report = quality(graph, &first);
+    let ghost_ratio: Vec<f64> =
+        report.ranks.iter().map(|r| r.ghost_nodes as f64 / (r.owned_nodes as f64).max(1.0)).collect();
+    let stored: Vec<f64> =
+        graph.segments.iter().zip(&part).map(|(s, &p)| s.nodes as f64 * (1.0 + ghost_ratio[p as usize])).collect();
+    let (part, edge_cut) = metis_graph.split(&stored, ranks, method)?;
+    let second = make(part.iter().map(|&p| Rank(p as u32)).collect(), edge_cut as i64);
+    Ok(if quality(graph, &second).memory_imbalance <= report.memory_imbalance { second } else { first })
+}
+
+/// The segment graph in METIS's arrays: adjacency, edge weights (ghosts a cut creates) and
+/// the work of each segment, scaled into METIS's index range.
+struct MetisGraph {
+    xadj: Vec<metis::Idx>,
+    adjncy: Vec<metis::Idx>,
+    adjwgt: Vec<metis::Idx>,
+    /// work per segment, scaled
+    work: Vec<f64>,
+}
+
+/// The factor that keeps a sum of weights inside METIS's index range: METIS sums the
+/// weights in its index type (a 2e8-node panel's work summed to 3e10 and overflowed,
+/// leaving 78 % of the nodes on one rank).
+fn fit(total: f64) -> f64 {
+    if total > WEIGHT_BUDGET {
+        WEIGHT_BUDGET / total
+    } else {
+        1.0
     }
-    let vwgt: Vec<metis::Idx> =
-        graph.segments.iter().map(|s| ((s.work * vertex_scale).round() as metis::Idx).max(1)).collect();
-    let mut part: Vec<metis::Idx> = vec![0; n];
-    let graph = metis::Graph::new(1, ranks as metis::Idx, &xadj, &adjncy)
-        .map_err(|e| PartitionError::Metis(e.into()))?
-        .set_vwgt(&vwgt)
-        .set_adjwgt(&adjwgt);
-    // METIS draws from GKlib's one global random state, seeded per call: two partitions at
-    // once in one process (threads of the test suite) would interleave their draws and give
-    // different answers for the same graph
-    let edge_cut = {
-        let _only_one = METIS_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        match method {
-            Method::KWay => graph.part_kway(&mut part),
-            Method::RecursiveBisection => graph.part_recursive(&mut part),
+}
+
+impl MetisGraph {
+    fn new(graph: &SegmentGraph) -> Self {
+        let vertex_scale = fit(graph.segments.iter().map(|s| s.work).sum());
+        let edge_scale = fit(graph.adjacency.iter().flatten().map(|e| 2.0 * e.ghosts_needed).sum());
+        let mut xadj: Vec<metis::Idx> = vec![0];
+        let mut adjncy: Vec<metis::Idx> = Vec::new();
+        let mut adjwgt: Vec<metis::Idx> = Vec::new();
+        for (s, list) in graph.adjacency.iter().enumerate() {
+            for edge in list {
+                // METIS wants symmetric weights: the ghosts the cut creates on both sides
+                let back = graph.adjacency[edge.segment as usize]
+                    .iter()
+                    .find(|e| e.segment == s as u32)
+                    .map_or(0.0, |e| e.ghosts_needed);
+                adjncy.push(edge.segment as metis::Idx);
+                adjwgt.push((((edge.ghosts_needed + back) * edge_scale).round() as metis::Idx).max(1));
+            }
+            xadj.push(adjncy.len() as metis::Idx);
         }
+        Self { xadj, adjncy, adjwgt, work: graph.segments.iter().map(|s| s.work * vertex_scale).collect() }
     }
-    .map_err(PartitionError::Metis)?;
-    Ok(make(part.iter().map(|&p| Rank(p as u32)).collect(), edge_cut as i64))
+
+    /// Splits the segments over `ranks` parts balancing two constraints, the work and
+    /// `stored` (the nodes a segment's owner stores for it): the part of every segment and
+    /// the edge cut.
+    fn split(
+        &self,
+        stored: &[f64],
+        ranks: usize,
+        method: Method,
+    ) -> Result<(Vec<metis::Idx>, metis::Idx), PartitionError> {
+        let stored_scale = fit(stored.iter().sum());
+        let vwgt: Vec<metis::Idx> = self
+            .work
+            .iter()
+            .zip(stored)
+            .flat_map(|(&work, &stored)| [work, stored * stored_scale])
+            .map(|w| (w.round() as metis::Idx).max(1))
+            .collect();
+        let ubvec = BALANCE_TOLERANCE.map(|t| t as metis::Real);
+        let mut part: Vec<metis::Idx> = vec![0; self.work.len()];
+        let graph = metis::Graph::new(2, ranks as metis::Idx, &self.xadj, &self.adjncy)
+            .map_err(|e| PartitionError::Metis(e.into()))?
+            .set_vwgt(&vwgt)
+            .set_ubvec(&ubvec)
+            .set_adjwgt(&self.adjwgt);
+        // METIS draws from GKlib's one global random state, seeded per call: two partitions
+        // at once in one process (threads of the test suite) would interleave their draws
+        // and give different answers for the same graph
+        let edge_cut = {
+            let _only_one = METIS_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            match method {
+                Method::KWay => graph.part_kway(&mut part),
+                Method::RecursiveBisection => graph.part_recursive(&mut part),
+            }
+        }
+        .map_err(PartitionError::Metis)?;
+        Ok((part, edge_cut))
+    }
 }
 
 /// Predicted cost of one rank's part.
@@ -377,6 +437,10 @@ pub struct QualityReport {
     pub edge_cut: i64,
     /// max / mean expected work [-]
     pub load_imbalance: f64,
+    /// max / mean nodes a rank stores, owned and ghost [-]
+    pub memory_imbalance: f64,
+    /// the most nodes one rank stores, owned and ghost
+    pub largest_stored_nodes: u64,
     /// ghost nodes / owned nodes, summed over ranks [-]
     pub ghost_fraction: f64,
     pub halo_bytes_per_step: u64,
@@ -406,10 +470,14 @@ pub fn quality(graph: &SegmentGraph, partition: &Partition) -> QualityReport {
     let max = ranks.iter().map(|r| r.work).fold(0.0, f64::max);
     let owned: u64 = ranks.iter().map(|r| r.owned_nodes).sum();
     let ghost_total: u64 = ranks.iter().map(|r| r.ghost_nodes).sum();
+    let largest_stored_nodes = ranks.iter().map(|r| r.owned_nodes + r.ghost_nodes).max().unwrap_or(0);
+    let mean_stored = (owned + ghost_total) as f64 / ranks.len() as f64;
     QualityReport {
         segments: graph.segments.len(),
         edge_cut: partition.edge_cut,
         load_imbalance: if mean > 0.0 { max / mean } else { 1.0 },
+        memory_imbalance: if mean_stored > 0.0 { largest_stored_nodes as f64 / mean_stored } else { 1.0 },
+        largest_stored_nodes,
         ghost_fraction: ghost_total as f64 / owned.max(1) as f64,
         halo_bytes_per_step: ranks.iter().map(|r| r.halo_bytes_per_step).sum(),
         ranks,
@@ -483,6 +551,34 @@ mod tests {
             }
             assert_eq!(partition, super::partition(&graph, ranks, Method::KWay).unwrap(), "same input, same partition");
             assert_eq!(Partition::from_words(&partition.to_words()), partition);
+        }
+    }
+
+    #[test]
+    fn work_and_nodes_are_balanced_together() {
+        // a panel whose first half of yarns costs ten times more work per node (a hybrid's
+        // fine yarns beside its coarse ones): balancing the work alone would give the ranks
+        // of the cheap half about five times the nodes of the others
+        let (fabric, material, reach) = panel(4, 6, 7, 8e-3);
+        let mut graph = segment_graph(&fabric, &material, reach, None, default_segment_positions(&fabric, 4));
+        let yarns = graph.first_segment.len() - 1;
+        for segment in &mut graph.segments {
+            if (segment.yarn as usize) < yarns / 2 {
+                segment.work *= 10.0;
+            }
+        }
+        for ranks in [2, 4] {
+            let report = quality(&graph, &partition(&graph, ranks, Method::KWay).unwrap());
+            let owned: Vec<u64> = report.ranks.iter().map(|r| r.owned_nodes).collect();
+            let mean = owned.iter().sum::<u64>() as f64 / ranks as f64;
+            let node_imbalance = *owned.iter().max().unwrap() as f64 / mean;
+            let stored: Vec<u64> = report.ranks.iter().map(|r| r.owned_nodes + r.ghost_nodes).collect();
+            assert_eq!(report.largest_stored_nodes, *stored.iter().max().unwrap());
+            assert!(report.load_imbalance <= 1.10, "{ranks} ranks: work imbalance {}", report.load_imbalance);
+            // (a small graph: each segment is a few per cent of a rank's share)
+            assert!(report.memory_imbalance <= 1.15, "{ranks} ranks: stored nodes {stored:?}");
+            // what a rank owns follows what it stores: far from the work-only split
+            assert!(node_imbalance <= 1.25, "{ranks} ranks: owned nodes {owned:?}");
         }
     }
 

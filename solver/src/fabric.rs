@@ -227,6 +227,9 @@ pub fn fabric_share(
         dea_partition::partition(&graph, ranks, method).map_err(|e| SetupError::Partition(e.to_string()))?;
     let quality = dea_partition::quality(&graph, &partition);
     let partition_s = started.elapsed().as_secs_f64();
+    // this process holds this rank's share of the partition, owned and ghost nodes
+    let mine = &quality.ranks[rank.0 as usize];
+    setup::largest_share_fits(mine.owned_nodes + mine.ghost_nodes, ranks, 1, setup::memory_limit())?;
     drop(graph);
     // hand the graph's and METIS's freed pages back, so the resident set grows by what the
     // rank's own part takes rather than refilling them

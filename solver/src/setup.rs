@@ -682,6 +682,35 @@ pub fn share_bytes(nodes: u64, ranks: usize) -> f64 {
 /// partition and the nodes are made (either would exhaust the memory on the way).
 pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64>) -> Result<(), SetupError> {
     let per_rank = share_bytes(nodes, ranks);
+    let need = format!(
+        "its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks they are split over",
+        per_rank / 1e9
+    );
+    share_fits(per_rank, &need, ranks_here, limit)
+}
+
+/// After partitioning: refuses a job whose largest share (`largest_stored_nodes`, owned and
+/// ghost, of one of `ranks` ranks) would not fit `ranks_here` times in the host's `limit`
+/// bytes, or alone in a process's address space. The partition balances stored nodes to
+/// within about a tenth of the mean, so this seldom refuses what [`shares_fit`] passed, but
+/// the largest share is what a host must hold.
+pub fn largest_share_fits(
+    largest_stored_nodes: u64,
+    ranks: usize,
+    ranks_here: usize,
+    limit: Option<f64>,
+) -> Result<(), SetupError> {
+    let bytes = largest_stored_nodes as f64 * BYTES_PER_NODE;
+    let need = format!(
+        "the partition's largest share, {largest_stored_nodes} owned and ghost nodes of one of the {ranks} ranks, needs about {:.1} GB",
+        bytes / 1e9
+    );
+    share_fits(bytes, &need, ranks_here, limit)
+}
+
+/// Whether `ranks_here` ranks of `per_rank` bytes each (`need` says so in words) fit the
+/// host's `limit` bytes, and one of them a process's address space.
+fn share_fits(per_rank: f64, need: &str, ranks_here: usize, limit: Option<f64>) -> Result<(), SetupError> {
     // the share comes on top of what the process has mapped already (MPI's own segments)
     let mapped = std::fs::read_to_string("/proc/self/statm")
         .ok()
@@ -689,8 +718,7 @@ pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64
         .map_or(0.0, |pages| pages * 4096.0);
     if let Some(space) = address_space_limit().filter(|&space| mapped + per_rank > space) {
         return Err(SetupError::Case(format!(
-            "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks they are split over ({BYTES_PER_NODE} bytes per node, measured), more than the {:.1} GB of address space a process may take here (ulimit -v) beside the {:.1} GB it has mapped already: raise the limit, run on more ranks, or strike a smaller target",
-            per_rank / 1e9,
+            "target: {need} ({BYTES_PER_NODE} bytes per node, measured), more than the {:.1} GB of address space a process may take here (ulimit -v) beside the {:.1} GB it has mapped already: raise the limit, run on more ranks, or strike a smaller target",
             space / 1e9,
             mapped / 1e9
         )));
@@ -700,8 +728,7 @@ pub fn shares_fit(nodes: u64, ranks: usize, ranks_here: usize, limit: Option<f64
         return Ok(());
     }
     Err(SetupError::Case(format!(
-        "target: its {nodes} nodes need about {:.1} GB on each of the {ranks} ranks they are split over ({BYTES_PER_NODE} bytes per node, measured), and the job's {ranks_here} ranks on this host have {:.1} GB between them: run on more hosts or ranks, or strike a smaller target",
-        per_rank / 1e9,
+        "target: {need} ({BYTES_PER_NODE} bytes per node, measured), and the job's {ranks_here} ranks on this host have {:.1} GB between them: run on more hosts or ranks, or strike a smaller target",
         limit / 1e9
     )))
 }
@@ -726,6 +753,9 @@ fn shared_partition<C: Comm>(
         match dea_partition::partition(&graph, comm.size(), method) {
             Ok(partition) => {
                 message.push(0);
+                // the largest share first: every host checks that it holds its ranks' shares
+                let largest = dea_partition::quality(&graph, &partition).largest_stored_nodes;
+                message.extend(largest.to_le_bytes());
                 message.extend(partition.to_words().iter().flat_map(|w| w.to_le_bytes()));
             }
             Err(e) => {
@@ -736,9 +766,19 @@ fn shared_partition<C: Comm>(
     }
     comm.broadcast_bytes(&mut message);
     match message.split_first() {
-        Some((0, words)) => Ok(Partition::from_words(
-            &words.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect::<Vec<_>>(),
-        )),
+        Some((0, bytes)) => {
+            let words: Vec<u64> =
+                bytes.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect();
+            let (largest, partition) = words.split_first().expect("rank 0 sends the largest share first");
+            let fits = largest_share_fits(*largest, comm.size(), comm.ranks_on_host(), memory_limit());
+            agree_on(comm, fits, || {
+                SetupError::Case(
+                    "target: another host cannot hold its ranks' shares of the partition (its rank 0 says how much they need)"
+                        .into(),
+                )
+            })?;
+            Ok(Partition::from_words(partition))
+        }
         Some((_, text)) => Err(SetupError::Partition(String::from_utf8_lossy(text).into_owned())),
         None => {
             Err(SetupError::Partition(PartitionError::TooFewSegments { segments: 0, ranks: comm.size() }.to_string()))
@@ -1083,5 +1123,18 @@ mod tests {
         // no limit known: no refusal
         assert!(shares_fit(1_000_000_000, 1, 1, None).is_ok());
         assert!(memory_limit().is_some_and(|bytes| bytes > 1e9), "this host's memory is read");
+    }
+
+    #[test]
+    fn the_largest_share_of_the_partition_must_fit_too() {
+        // the 28-layer disc panel's largest of 64 shares (5,138,942 owned and ghost nodes,
+        // 8.9 GB): two to a 24 GB host fit, three do not
+        assert!(largest_share_fits(5_138_942, 64, 2, Some(24e9)).is_ok());
+        let error = largest_share_fits(5_138_942, 64, 3, Some(24e9)).err().expect("refused").to_string();
+        assert!(
+            error.contains("largest share, 5138942 owned and ghost nodes of one of the 64 ranks, needs about 8.9 GB")
+                && error.contains("the job's 3 ranks on this host have 24.0 GB"),
+            "{error}"
+        );
     }
 }

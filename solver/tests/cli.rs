@@ -366,6 +366,15 @@ fn partition_reports_owned_and_ghost_nodes_per_rank() {
     assert_eq!(owned, check["resolved"]["nodes"].as_u64().unwrap(), "every node owned exactly once");
     assert!(report["load_imbalance"].as_f64().unwrap() < 1.05);
     assert!(ranks.iter().all(|r| r["ghost_nodes"].as_u64().unwrap() > 0), "a cut fibre needs ghosts on both sides");
+    // the memory side: the largest rank's stored nodes, and their balance
+    let stored: Vec<u64> =
+        ranks.iter().map(|r| r["owned_nodes"].as_u64().unwrap() + r["ghost_nodes"].as_u64().unwrap()).collect();
+    assert_eq!(report["largest_stored_nodes"].as_u64(), stored.iter().max().copied());
+    let mean = stored.iter().sum::<u64>() as f64 / 3.0;
+    assert!((report["memory_imbalance"].as_f64().unwrap() - *stored.iter().max().unwrap() as f64 / mean).abs() < 1e-12);
+    let text = String::from_utf8_lossy(&dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "3"]).stdout)
+        .into_owned();
+    assert!(text.contains("memory imbalance") && text.contains("largest rank:"), "{text}");
     assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "0"]).status.code(), Some(2));
     assert_eq!(dea(&["partition", "../cases/single_fibre_short.json", "--ranks", "100000"]).status.code(), Some(2));
 }

@@ -67,8 +67,9 @@ fn one_share(case: Option<PathBuf>, out: PathBuf, method: PartitionMethod, rank:
         Ok(r) => {
             let me = &r.partition.ranks[rank as usize];
             println!(
-                "{}: {} nodes ({} fine, {} ties); rank {} of {} owns {} (predicted ghosts {}, halo {} bytes/step); partitioned in {:.1} s (imbalance {:.3}); built its nodes and {} contact entries in {:.1} s, {:.0} bytes per node, peak resident set {:.2} GB; results in {}",
-                r.case, r.panel_nodes, r.fine_nodes, r.ties, r.rank, r.ranks, r.owned_nodes, me.ghost_nodes, me.halo_bytes_per_step, r.partition_s, r.partition.load_imbalance,
+                "{}: {} nodes ({} fine, {} ties); rank {} of {} owns {} (predicted ghosts {}, halo {} bytes/step); partitioned in {:.1} s (imbalance {:.3} in work, {:.3} in stored nodes; the largest rank stores {} nodes, about {:.2} GB); built its nodes and {} contact entries in {:.1} s, {:.0} bytes per node, peak resident set {:.2} GB; results in {}",
+                r.case, r.panel_nodes, r.fine_nodes, r.ties, r.rank, r.ranks, r.owned_nodes, me.ghost_nodes, me.halo_bytes_per_step, r.partition_s, r.partition.load_imbalance, r.partition.memory_imbalance,
+                r.partition.largest_stored_nodes, r.partition.largest_stored_nodes as f64 * dea_mpi::setup::BYTES_PER_NODE / 1e9,
                 r.contact_entries, r.build_s, r.bytes_per_node, 1e-9 * r.peak_resident_bytes, out.display()
             );
             ExitCode::SUCCESS

@@ -9,7 +9,8 @@ use super::{fail, in_file, load, method_of, setup_exit, Exit, PartitionMethod};
 
 pub const ABOUT: &str = "Partition a case over N ranks with METIS and report its quality, without running";
 pub const LONG_ABOUT: &str = "Partition a case over N ranks with METIS and report its quality (owned and ghost nodes,
-work, halo bytes per rank, edge cut, load imbalance), without running.";
+work, halo bytes per rank, edge cut, the imbalance of work and of stored nodes, the largest
+rank's memory), without running. METIS balances two constraints, work and owned nodes.";
 pub const EXAMPLES: &str = "Examples:\n  dea-mpi partition cases/seed_6_1_single_fibre.json --ranks 4\n  dea-mpi partition case.json --ranks 64 --json --method recursive";
 
 #[derive(clap::Args)]
@@ -58,8 +59,14 @@ pub fn main(Args { case, ranks, segment_nodes, method, json }: Args) -> ExitCode
     } else {
         let nodes: u64 = report.ranks.iter().map(|r| r.owned_nodes).sum();
         println!(
-            "{}: {} nodes in {} yarn segments on {} ranks; edge cut {}, predicted load imbalance {:.3}, ghost fraction {:.3}, halo {} bytes/step",
-            case.name, nodes, report.segments, ranks, report.edge_cut, report.load_imbalance, report.ghost_fraction, report.halo_bytes_per_step
+            "{}: {} nodes in {} yarn segments on {} ranks; edge cut {}, predicted load imbalance {:.3} (work), memory imbalance {:.3} (owned and ghost nodes), ghost fraction {:.3}, halo {} bytes/step",
+            case.name, nodes, report.segments, ranks, report.edge_cut, report.load_imbalance, report.memory_imbalance, report.ghost_fraction, report.halo_bytes_per_step
+        );
+        println!(
+            "largest rank: {} nodes stored, about {:.2} GB at {} bytes per node (setup::BYTES_PER_NODE, measured)",
+            report.largest_stored_nodes,
+            report.largest_stored_nodes as f64 * setup::BYTES_PER_NODE / 1e9,
+            setup::BYTES_PER_NODE
         );
         println!("{:>6} {:>12} {:>12} {:>14} {:>16}", "rank", "owned", "ghosts", "work", "halo bytes/step");
         for r in &report.ranks {
