@@ -65,7 +65,7 @@ const README: &str = "What each file of this run directory is (docs/output.md ha
   broken-elements.xdmf  the broken elements alone (their two nodes fly apart; open it
                    beside fields.xdmf to see where the fabric failed, coloured by failure)
   fields/          the HDF5 parts of the snapshots, one per rank and rank count
-  projectile.xdmf  the projectile's surface over time, for ParaView
+  projectile.xdmf  the projectile's surface over time with its vertices' velocities
   progress.json    the last progress report (step, time, ETA, energy balance)
   checkpoint/      the last checkpoint, to continue with `dea-mpi run --restart`
   provenance.json  what made these files: version, git commit, UTC start, host, ranks and

@@ -501,7 +501,8 @@ fn write_snapshot<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Re
             .map_err(|e| format!("{}: {e}", options.out.join("fields.xdmf").display()));
         if let (Ok(()), Some(projectile)) = (&joined, &run.domain.projectile) {
             let (vertices, triangles) = projectile_surface(projectile);
-            joined = dea_io::snapshot::write_projectile(options.out, step, time, &vertices, &triangles)
+            let velocities = surface_velocities(projectile, run.deformable.as_ref(), &vertices);
+            joined = dea_io::snapshot::write_projectile(options.out, step, time, &vertices, &velocities, &triangles)
                 .and_then(|()| dea_io::snapshot::write_projectile_xdmf(options.out, step))
                 .map_err(|e| format!("{}: {e}", options.out.join("projectile.xdmf").display()));
         }
@@ -523,6 +524,25 @@ fn projectile_surface(projectile: &RigidProjectile) -> (Vec<Vec3>, Vec<[u32; 3]>
         }
     };
     (vertices.iter().map(|v| projectile.position + projectile.orientation * v).collect(), triangles)
+}
+
+/// The velocity of each vertex of [`projectile_surface`] [m/s]: a deformable body's surface
+/// nodes' own (its proxy's mesh lists them in the body's vertex order), or a rigid body's
+/// `v + ω × (x − c)`.
+fn surface_velocities(
+    projectile: &RigidProjectile,
+    deformable: Option<&crate::deformable::DeformableProjectile>,
+    vertices: &[Vec3],
+) -> Vec<Vec3> {
+    match deformable {
+        Some(body) if body.node_of_vertex.len() == vertices.len() => {
+            body.node_of_vertex.iter().map(|&n| body.body.velocity[n as usize]).collect()
+        }
+        _ => {
+            let spin = projectile.angular_velocity();
+            vertices.iter().map(|x| projectile.velocity + spin.cross(&(x - projectile.position))).collect()
+        }
+    }
 }
 
 /// Writes a checkpoint of every rank into `OUT/checkpoint` (collective): parts and manifest

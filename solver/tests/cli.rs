@@ -25,6 +25,30 @@ fn summary_in(out: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
+/// The projectile surface's vertex velocities at `step` of the run in `out` are the rigid
+/// body's `v + w x (x - c)` of its last history sample.
+fn assert_rigid_surface_velocities(out: &std::path::Path, step: u64) {
+    let file = hdf5::File::open(out.join("results.h5")).unwrap();
+    let surface = hdf5::File::open(out.join("fields/projectile.h5")).unwrap();
+    let group = surface.group(&format!("snapshot-{step:010}")).unwrap();
+    let velocity: Vec<f64> = group.dataset("velocity").unwrap().read_raw().unwrap();
+    let position: Vec<f64> = group.dataset("position").unwrap().read_raw().unwrap();
+    let read = |name: &str| -> Vec<f64> { file.dataset(name).unwrap().read_raw().unwrap() };
+    let (v, c, w) = (
+        read("history/projectile_velocity"),
+        read("history/projectile_position"),
+        read("history/projectile_angular_velocity"),
+    );
+    let (v, c, w) = (&v[v.len() - 3..], &c[c.len() - 3..], &w[w.len() - 3..]);
+    assert_eq!(velocity.len(), position.len());
+    for (u, x) in velocity.chunks_exact(3).zip(position.chunks_exact(3)) {
+        let r = [x[0] - c[0], x[1] - c[1], x[2] - c[2]];
+        let expected =
+            [v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2], v[2] + w[0] * r[1] - w[1] * r[0]];
+        assert!((0..3).all(|k| (u[k] - expected[k]).abs() < 1e-9), "vertex velocity {u:?}, rigid {expected:?}");
+    }
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -324,6 +348,8 @@ fn run_writes_summary_and_hdf5_histories() {
     let projectile = std::fs::read_to_string(dir.join("projectile.xdmf")).unwrap();
     assert_eq!(projectile.matches("<Time ").count(), snapshots.len());
     assert!(projectile.contains(&format!("step {}", last.step)) && projectile.contains("TopologyType=\"Triangle\""));
+    assert_rigid_surface_velocities(&dir, last.step);
+    assert!(projectile.contains("/velocity</DataItem>"));
     // history.csv has a row per sample
     assert_eq!(std::fs::read_to_string(dir.join("history.csv")).unwrap().lines().count(), time.len() + 1);
 }
@@ -852,6 +878,8 @@ fn broken_elements_are_drawn_apart_and_displacements_and_the_back_face_are_measu
     let broken_view = std::fs::read_to_string(out.join("broken-elements.xdmf")).unwrap();
     assert!(drawn.contains("/displacement<") && !drawn.contains("/broken/"));
     assert!(broken_view.contains(&format!("snapshot-{:010}/broken/connectivity", last.step)));
+    // the spinning FSP's surface moves as a rigid body: v + w x (x - c) at every vertex
+    assert_rigid_surface_velocities(&out, last.step);
     // the back face: at rest at first; it moves toward the back; the largest deflection is at
     // least the axis node's while the back layer is whole; the axis node is never ahead of
     // the projectile, which pushes it through the layers above
@@ -875,4 +903,32 @@ fn broken_elements_are_drawn_apart_and_displacements_and_the_back_face_are_measu
     }
     let csv = std::fs::read_to_string(out.join("history.csv")).unwrap();
     assert!(csv.lines().next().unwrap().ends_with(",back_face_largest_m,back_face_at_axis_m"));
+}
+
+#[test]
+fn a_deformable_projectile_draws_its_surface_nodes_velocities() {
+    let dir = scratch("deformable-surface");
+    let mut case = case_file("four_layer_deformable_sphere.json");
+    case["run"]["snapshot_interval_steps"] = 200.into();
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dir.join("out");
+    let status = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let snapshots = dea_io::snapshot::index(&out, 1, u64::MAX).unwrap();
+    let surface = hdf5::File::open(out.join("fields/projectile.h5")).unwrap();
+    let last = surface.group(&format!("snapshot-{:010}", snapshots.last().unwrap().step)).unwrap();
+    let velocity: Vec<f64> = last.dataset("velocity").unwrap().read_raw().unwrap();
+    let position: Vec<f64> = last.dataset("position").unwrap().read_raw().unwrap();
+    assert_eq!(velocity.len(), position.len());
+    // the struck body deforms: its surface nodes no longer share one velocity, and their
+    // mean along the flight stays near the body's
+    let normal: Vec<f64> = velocity.chunks_exact(3).map(|v| v[2]).collect();
+    let (low, high) = normal.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+    assert!(high - low > 1.0, "surface velocities {low}..{high} m/s along z");
+    let results = hdf5::File::open(out.join("results.h5")).unwrap();
+    let history: Vec<f64> = results.dataset("history/projectile_velocity").unwrap().read_raw().unwrap();
+    let mean = normal.iter().sum::<f64>() / normal.len() as f64;
+    let body = history[history.len() - 1];
+    assert!((mean - body).abs() < 0.2 * body.abs(), "surface mean {mean} m/s, body {body} m/s");
 }

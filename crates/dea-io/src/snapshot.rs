@@ -141,17 +141,19 @@ fn write_cells(group: &hdf5::Group, cells: &SnapshotCells) -> hdf5::Result<()> {
 /// File of the projectile's surface snapshots (rank 0), in the fields directory.
 const PROJECTILE_FILE: &str = "projectile.h5";
 
-/// Writes (or replaces) the projectile's surface at `step`: world positions of its vertices
-/// and its triangles, for `projectile.xdmf`.
+/// Writes (or replaces) the projectile's surface at `step`: world positions and velocities
+/// of its vertices and its triangles, for `projectile.xdmf`.
 pub fn write_projectile(
     out: &Path,
     step: u64,
     time: f64,
     vertices: &[Vec3],
+    velocities: &[Vec3],
     triangles: &[[u32; 3]],
 ) -> hdf5::Result<()> {
     let (file, group) = snapshot_group(out, PROJECTILE_FILE, step, time)?;
     write_vectors(&group, "position", vertices, "m")?;
+    write_vectors(&group, "velocity", velocities, "m/s")?;
     write_rows(&group, "triangles", triangles, "vertex index")?;
     file.flush()
 }
@@ -181,7 +183,14 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
         let _ = writeln!(x, "          <DataItem Dimensions=\"{triangles} 3\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">fields/projectile.h5:/{name}/triangles</DataItem>");
         let _ = writeln!(x, "        </Topology>\n        <Geometry GeometryType=\"XYZ\">");
         let _ = writeln!(x, "          <DataItem Dimensions=\"{points} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">fields/projectile.h5:/{name}/position</DataItem>");
-        let _ = writeln!(x, "        </Geometry>\n      </Grid>");
+        let _ = writeln!(x, "        </Geometry>");
+        // (snapshots of an older version hold no velocity)
+        if group.link_exists("velocity") {
+            let _ = writeln!(x, "        <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">");
+            let _ = writeln!(x, "          <DataItem Dimensions=\"{points} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">fields/projectile.h5:/{name}/velocity</DataItem>");
+            let _ = writeln!(x, "        </Attribute>");
+        }
+        let _ = writeln!(x, "      </Grid>");
     }
     x.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
     std::fs::write(out.join("projectile.xdmf"), x)
