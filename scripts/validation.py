@@ -68,9 +68,23 @@ def planned_shots(design, replicates):
     return design["shots"] * replicates
 
 
+def bisection_bounds(design, shots):
+    """The design's [low, high] once the shots are seen, as dea_ballistic::design's
+    bisection_bounds moves them: a low bound some shot at or below perforated halves (not
+    below the resolution), a high bound some shot at or above did not perforate doubles (not
+    above 8 x high) [m/s]."""
+    low, high, resolution = design["low_m_s"], design["high_m_s"], design["resolution_m_s"]
+    ceiling = 8.0 * high
+    while low > resolution and any(s["perforated"] and s["velocity_m_s"] <= low for s in shots):
+        low = max(0.5 * low, resolution)
+    while high < ceiling and any(not s["perforated"] and s["velocity_m_s"] >= high for s in shots):
+        high = min(2.0 * high, ceiling)
+    return low, high
+
+
 def bisection_bracket(design, shots):
-    """(highest partial, lowest complete) within the design's [low, high] [m/s]."""
-    low, high = design["low_m_s"], design["high_m_s"]
+    """(highest partial, lowest complete) within the bisection's bounds [m/s]."""
+    low, high = bisection_bounds(design, shots)
     for s in shots:
         if s["perforated"]:
             high = min(high, s["velocity_m_s"])
@@ -119,8 +133,10 @@ class Campaign:
     def finished_design(self):
         design = self.spec["design"]
         if design["kind"] == "bisection":
+            # narrow enough, and both ends stand on shots (the engine fires a bound it rests on)
             low, high = bisection_bracket(design, self.shots)
-            return high - low <= design["resolution_m_s"]
+            fired = {s["velocity_m_s"] for s in self.shots}
+            return high - low <= design["resolution_m_s"] and low in fired and high in fired
         return len(self.shots) >= self.planned
 
     def per_shot_core_hours(self):

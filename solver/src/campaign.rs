@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-use dea_ballistic::design::{bracket, Design};
+use dea_ballistic::design::{bisection_bounds, bracket, Design};
 use dea_ballistic::fit::{fit, Fit, Link};
 use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
@@ -326,13 +326,11 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
     let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
     let text = |e: dea_ballistic::EstimateError| e.to_string();
     let bisection_brackets = match campaign.design {
-        Design::Bisection { low_m_s, high_m_s, .. } => (0..campaign.replicates)
+        Design::Bisection { low_m_s, high_m_s, resolution_m_s } => (0..campaign.replicates)
             .map(|r| {
-                bracket(
-                    low_m_s,
-                    high_m_s,
-                    &shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect::<Vec<_>>(),
-                )
+                let replicate: Vec<Shot> = shots.iter().filter(|s| s.replicate == r).map(ShotRecord::shot).collect();
+                let (low, high) = bisection_bounds(low_m_s, high_m_s, resolution_m_s, &replicate);
+                bracket(low, high, &replicate)
             })
             .collect(),
         _ => Vec::new(),

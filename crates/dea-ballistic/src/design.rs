@@ -2,7 +2,10 @@
 //!
 //! - Bisection: the bracket [highest partial, lowest complete], starting from
 //!   [`low`, `high`], halved until it is no wider than the resolution (one strength
-//!   realisation: the outcome is a deterministic function of velocity).
+//!   realisation: the outcome is a deterministic function of velocity). A bracket end that
+//!   no shot stands on (the design's own bound) is then fired; a low bound that perforates
+//!   halves, a high bound that is stopped doubles, and the halving goes on below it
+//!   ([`bisection_bounds`]), so the final bracket rests on a partial and a complete.
 //! - Up-and-down (Bruceton): one step down after a complete, one up after a partial.
 //! - Langlie: the mean of the last velocity and that of the latest earlier shot from which on
 //!   partials and completes are equal in number; `low` after a complete, `high` after a
@@ -58,6 +61,24 @@ pub enum Design {
 }
 
 /// The bracket a bisection has reached: (highest partial, lowest complete) [m/s].
+/// A bisection's bounds once its shots have been seen: a low bound that some shot at or
+/// below it perforated is halved, a high bound that some shot at or above it did not
+/// perforate is doubled, each until the shots agree or the bound reaches its limit (the
+/// resolution below, eight times the design's high bound above: a target that stops nothing,
+/// or everything, ends the design there).
+pub fn bisection_bounds(low: f64, high: f64, resolution: f64, shots: &[Shot]) -> (f64, f64) {
+    let (mut low, mut high) = (low, high);
+    let ceiling = 8.0 * high;
+    while low > resolution && shots.iter().any(|s| s.perforated && s.velocity <= low) {
+        low = (0.5 * low).max(resolution);
+    }
+    while high < ceiling && shots.iter().any(|s| !s.perforated && s.velocity >= high) {
+        high = (2.0 * high).min(ceiling);
+    }
+    (low, high)
+}
+
+/// The bracket [highest partial, lowest complete] within [`low`, `high`].
 pub fn bracket(low: f64, high: f64, shots: &[Shot]) -> (f64, f64) {
     shots
         .iter()
@@ -138,8 +159,14 @@ impl Design {
     pub fn next(&self, shots: &[Shot], seed: u64) -> Option<f64> {
         match *self {
             Design::Bisection { low_m_s, high_m_s, resolution_m_s } => {
-                let (lo, hi) = bracket(low_m_s, high_m_s, shots);
-                (hi - lo > resolution_m_s).then_some(0.5 * (lo + hi))
+                let (low, high) = bisection_bounds(low_m_s, high_m_s, resolution_m_s, shots);
+                let (lo, hi) = bracket(low, high, shots);
+                if hi - lo > resolution_m_s {
+                    return Some(0.5 * (lo + hi));
+                }
+                // narrow enough: an end no shot stands on (a bound never fired) is fired once
+                let fired = |v: f64| shots.iter().any(|s| s.velocity == v);
+                [lo, hi].into_iter().find(|&end| !fired(end) && end > 0.0)
             }
             Design::UpAndDown { start_m_s, step_m_s, shots: count } => {
                 if shots.len() >= count {
@@ -195,6 +222,34 @@ mod tests {
         assert!(lo < 333.3 && 333.3 < hi && hi - lo <= 5.0, "{lo} {hi}");
         assert_eq!(shots.len(), 7, "600 m/s halved seven times is 4.7 m/s");
         assert_eq!(shots[0].velocity, 400.0);
+    }
+
+    #[test]
+    fn a_bisection_fires_the_bounds_it_rests_on_and_goes_past_them() {
+        // every shot down to the low bound perforates: the bound is fired, perforates too,
+        // and the bisection goes on below it until a partial stands under the bracket
+        let design = Design::Bisection { low_m_s: 100.0, high_m_s: 500.0, resolution_m_s: 25.0 };
+        let shots = fire(&design, 60.0);
+        let velocities: Vec<f64> = shots.iter().map(|s| s.velocity).collect();
+        assert_eq!(velocities, vec![300.0, 200.0, 150.0, 125.0, 100.0, 75.0, 50.0]);
+        let (low, high) = bisection_bounds(100.0, 500.0, 25.0, &shots);
+        assert_eq!(bracket(low, high, &shots), (50.0, 75.0));
+        // the low bound stops the projectile: the bracket [100, 125] is confirmed by a shot
+        let shots = fire(&design, 110.0);
+        assert_eq!(shots.iter().map(|s| s.velocity).collect::<Vec<_>>(), vec![300.0, 200.0, 150.0, 125.0, 100.0]);
+        // above the high bound: it is fired, stopped, doubled
+        let shots = fire(&design, 620.0);
+        let (low, high) = bisection_bounds(100.0, 500.0, 25.0, &shots);
+        let (lo, hi) = bracket(low, high, &shots);
+        assert!(lo < 620.0 && 620.0 < hi && hi - lo <= 25.0, "{lo} {hi}");
+        assert!(
+            shots.iter().any(|s| s.velocity == lo && !s.perforated)
+                && shots.iter().any(|s| s.velocity == hi && s.perforated)
+        );
+        // a target that stops nothing, or everything, ends the design at a limit
+        let (none, all) = (fire(&design, 0.0), fire(&design, 1e9));
+        assert!(none.len() < 20 && none.iter().all(|s| s.perforated && s.velocity >= 25.0), "{none:?}");
+        assert!(all.len() < 60 && all.iter().all(|s| !s.perforated && s.velocity <= 4000.0), "{}", all.len());
     }
 
     #[test]
