@@ -3,10 +3,17 @@
 //! (docs/output.md, docs/theory.md V8).
 
 use dea_core::nodes::FailureMode;
+use dea_core::projectile::RigidProjectile;
 use dea_core::Vec3;
 
 use crate::comm::Comm;
 use crate::distributed::Distributed;
+
+/// A projectile's line of flight: a point on it (its centre) and its direction (down the
+/// panel's normal for a projectile at rest) [m, -]. At time zero, the impact axis.
+pub fn line_of_flight(projectile: &RigidProjectile) -> (Vec3, Vec3) {
+    (projectile.position, projectile.velocity.try_normalize(0.0).unwrap_or(-Vec3::z()))
+}
 
 /// Where the back-face deflection is measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -81,8 +81,7 @@ impl Distributed<LocalComm> {
     /// step on hand-made targets.
     pub fn whole(domain: Domain) -> Result<Self, DomainError> {
         let reach = domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max) + domain.pairs.skin;
-        let axis =
-            domain.projectile.as_ref().map(|p| (p.position, p.velocity.try_normalize(0.0).unwrap_or(-Vec3::z())));
+        let axis = domain.projectile.as_ref().map(crate::deflection::line_of_flight);
         let mut whole = Self::new(LocalComm::alone(), domain, Partition::one_rank(), &[u32::MAX], reach, None)?;
         let (point, direction) = axis.unwrap_or((Vec3::zeros(), -Vec3::z()));
         whole.locate_back_face(point, direction);

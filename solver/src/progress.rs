@@ -76,6 +76,13 @@ pub fn time_to_decision(forward: f64, deceleration: f64, to_exit: f64) -> f64 {
     }
 }
 
+/// Wall time to the end time [s] at the rate so far, `elapsed` seconds into the job with
+/// `fraction` of its simulated time done; none in the first seconds of stepping (a rate from
+/// the first steps alone, set-up caches and the first list build, is no rate).
+fn to_end_time(elapsed: f64, fraction: f64) -> Option<f64> {
+    (fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S).then(|| elapsed * (1.0 - fraction) / fraction)
+}
+
 /// Where the projectile stands with respect to the decision, at one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Flight {
@@ -157,9 +164,7 @@ impl Progress {
             self.last_bar = Some(Instant::now());
             bar.set_position((1000.0 * (time / self.end_time).clamp(0.0, 1.0)) as u64);
             // within 80 columns: mpirun's terminal may be narrow, and its width is unknown here
-            let elapsed = self.start.elapsed().as_secs_f64();
-            let eta = if fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S {
-                let to_end = elapsed * (1.0 - fraction) / fraction;
+            let eta = if let Some(to_end) = to_end_time(self.start.elapsed().as_secs_f64(), fraction) {
                 let decision = if self.decision_eta.is_finite() {
                     format!(" (decided ~{:.0} s)", self.decision_eta.min(to_end))
                 } else {
@@ -179,7 +184,7 @@ impl Progress {
         }
         self.last_report = Some(Instant::now());
         let elapsed = self.start.elapsed().as_secs_f64();
-        let estimating = fraction > 0.0 && elapsed >= FIRST_ESTIMATE_AFTER_S;
+        let to_end = to_end_time(elapsed, fraction);
         // the deceleration since the last report, and the wall time per simulated second
         let deceleration = self
             .last_flight
@@ -189,7 +194,7 @@ impl Progress {
         let wall_per_simulated = elapsed / (time - self.start_time);
         self.decision_eta = if self.finished.is_some() {
             0.0
-        } else if estimating {
+        } else if to_end.is_some() {
             time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
         } else {
             f64::NAN
@@ -200,15 +205,7 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            // a rate from the first steps alone (set-up caches, the first list build) is
-            // no rate: no estimate before a few seconds of stepping
-            eta_s: if self.finished.is_some() {
-                0.0
-            } else if estimating {
-                elapsed * (1.0 - fraction) / fraction
-            } else {
-                f64::NAN
-            },
+            eta_s: if self.finished.is_some() { 0.0 } else { to_end.unwrap_or(f64::NAN) },
             decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,

@@ -62,13 +62,6 @@ pub struct Problem {
 }
 
 impl Problem {
-    /// The projectile's line of flight at time zero: a point on it and its direction (down
-    /// the panel's normal for a projectile at rest) [m, -].
-    pub fn impact_axis(&self) -> (Vec3, Vec3) {
-        let p = &self.projectile;
-        (p.position, p.velocity.try_normalize(0.0).unwrap_or(-Vec3::z()))
-    }
-
     /// Layer of each yarn.
     pub fn layer_of_yarn(&self) -> Vec<u32> {
         (0..self.fabric.yarn_count()).map(|y| self.fabric.yarn_layer(y)).collect()
@@ -888,7 +881,7 @@ pub fn assemble<C: Comm>(
         Distributed::new(comm, domain, partition, &problem.fabric.nodes_per_yarn_fibre(), problem.reach, body)?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
-    let (point, direction) = problem.impact_axis();
+    let (point, direction) = crate::deflection::line_of_flight(&problem.projectile);
     run.locate_back_face(point, direction);
     Ok(run)
 }
@@ -1022,7 +1015,7 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     })?;
     run.layer_of_yarn = problem.layer_of_yarn();
     run.fibres = problem.fibres();
-    let (point, direction) = problem.impact_axis();
+    let (point, direction) = crate::deflection::line_of_flight(&problem.projectile);
     run.locate_back_face(point, direction);
     run.rebuilds = global.rebuilds;
     run.domain.pairs.builds = global.list_builds;

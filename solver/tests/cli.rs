@@ -49,6 +49,17 @@ fn assert_rigid_surface_velocities(out: &std::path::Path, step: u64) {
     }
 }
 
+/// Writes `case` to `dir/case.json`, runs it into `dir/out` on one rank, checks that the
+/// run succeeded, and gives the output directory.
+fn run_changed(dir: &std::path::Path, case: &serde_json::Value) -> PathBuf {
+    let path = dir.join("case.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dir.join("out");
+    let done = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    out
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -827,11 +838,7 @@ fn a_projectile_at_rest_has_a_meaningful_energy_balance() {
     let dir = scratch("at-rest");
     let mut case = case_file("single_fibre_short.json");
     case["projectile"]["velocity_m_s"] = 0.0.into();
-    let path = dir.join("case.json");
-    std::fs::write(&path, case.to_string()).unwrap();
-    let out = dir.join("out");
-    let done = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let out = run_changed(&dir, &case);
     let error = summary_in(&out)["energy_balance_error"].as_f64().expect("a number");
     assert!(error < 1e-9, "{error}");
     std::fs::remove_dir_all(&dir).unwrap();
@@ -842,11 +849,7 @@ fn broken_elements_are_drawn_apart_and_displacements_and_the_back_face_are_measu
     let dir = scratch("back-face");
     let mut case = case_file("four_layer_fsp.json");
     case["run"]["snapshot_interval_steps"] = 200.into();
-    let path = dir.join("case.json");
-    std::fs::write(&path, case.to_string()).unwrap();
-    let out = dir.join("out");
-    let status = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let out = run_changed(&dir, &case);
     let summary = summary_in(&out);
     let snapshots = dea_io::snapshot::index(&out, 1, u64::MAX).unwrap();
     let (first, last) = (snapshots.first().unwrap(), snapshots.last().unwrap());
@@ -910,11 +913,7 @@ fn a_deformable_projectile_draws_its_surface_nodes_velocities() {
     let dir = scratch("deformable-surface");
     let mut case = case_file("four_layer_deformable_sphere.json");
     case["run"]["snapshot_interval_steps"] = 200.into();
-    let path = dir.join("case.json");
-    std::fs::write(&path, case.to_string()).unwrap();
-    let out = dir.join("out");
-    let status = dea(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let out = run_changed(&dir, &case);
     let snapshots = dea_io::snapshot::index(&out, 1, u64::MAX).unwrap();
     let surface = hdf5::File::open(out.join("fields/projectile.h5")).unwrap();
     let last = surface.group(&format!("snapshot-{:010}", snapshots.last().unwrap().step)).unwrap();

@@ -10,7 +10,7 @@ use super::{fail, in_file, load, method_of, setup_exit, Exit, PartitionMethod};
 pub const ABOUT: &str = "Partition a case over N ranks with METIS and report its quality, without running";
 pub const LONG_ABOUT: &str = "Partition a case over N ranks with METIS and report its quality (owned and ghost nodes,
 work, halo bytes per rank, edge cut, the imbalance of work and of stored nodes, the largest
-rank's memory), without running. METIS balances two constraints, work and owned nodes.";
+rank's memory), without running. METIS balances two constraints, work and stored nodes.";
 pub const EXAMPLES: &str = "Examples:\n  dea-mpi partition cases/seed_6_1_single_fibre.json --ranks 4\n  dea-mpi partition case.json --ranks 64 --json --method recursive";
 
 #[derive(clap::Args)]
