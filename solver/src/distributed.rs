@@ -20,6 +20,11 @@ use crate::comm::Comm;
 use crate::deformable::DeformableProjectile;
 use crate::step::{compute_forces, Stage, StageTimer};
 
+/// Ghosts a rank may gain between two [`HaloPlan::borders`] beyond half of those it held
+/// after the first, before the next rebuild chooses them all again: the halo of a rank with
+/// few ghosts may grow by this many.
+const GHOST_GROWTH_ALLOWANCE: usize = 1024;
+
 /// What the run loop asks of every rank, carried by the step's motion agreement.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RunRequests {
@@ -50,6 +55,10 @@ pub struct Distributed<C: Comm> {
     pub(crate) halo_steps: u64,
     /// ghost and list rebuilds so far
     pub(crate) rebuilds: u64,
+    /// ghosts held after the last [`HaloPlan::borders`]
+    ghosts_at_borders: usize,
+    /// rebuilds that extended the halo around moved nodes rather than choosing it again
+    halo_extensions: u64,
     /// this rank's requests for the next step's reduction
     pub(crate) requests: RunRequests,
     /// the requests of any rank, agreed in the last step
@@ -150,6 +159,8 @@ impl<C: Comm> Distributed<C> {
             halo_bytes: 0,
             halo_steps: 0,
             rebuilds: 0,
+            ghosts_at_borders: 0,
+            halo_extensions: 0,
             requests: RunRequests::default(),
             agreed: RunRequests::default(),
             layer_of_yarn: Vec::new(),
@@ -235,7 +246,7 @@ impl<C: Comm> Distributed<C> {
             self.timer.stamp(Stage::NeighbourRebuild);
             self.agree(built)?;
         } else if rebuild {
-            self.rebuild()?;
+            self.rebuild_around_moved(largest)?;
         }
         if rebuild {
             let pairs = &self.domain.pairs;
@@ -332,6 +343,7 @@ impl<C: Comm> Distributed<C> {
         let (plan, ghosts) = HaloPlan::borders(&self.comm, &self.domain, &self.chain_send, reach);
         self.halo = plan;
         self.domain.set_ghosts(&ghosts);
+        self.ghosts_at_borders = ghosts.len();
         self.timer.stamp(Stage::GhostExchange);
         let built = self.domain.rebuild_neighbours();
         self.rebuilds += 1;
@@ -339,9 +351,48 @@ impl<C: Comm> Distributed<C> {
         self.agree(built)
     }
 
+    /// Collective rebuild on several ranks around the nodes that moved (theory M2): the halo
+    /// extended around every rank's moved owned nodes ([`HaloPlan::extend`]), then each
+    /// rank's lists rebuilt around its moved nodes and the new ghosts. The whole
+    /// [`Self::rebuild`] instead when any rank's ghosts may be stale (`largest` motion since
+    /// the last build), when most of its owned nodes moved, or when its ghosts have grown by
+    /// half since the last [`HaloPlan::borders`] (ghosts are never dropped in between).
+    fn rebuild_around_moved(&mut self, largest: NodeMotion) -> Result<(), DomainError> {
+        let skin = self.domain.pairs.skin;
+        let stale = 2.0 * largest.since_build >= skin + self.ghost_margin();
+        let moved = if self.domain.pairs.holds_numbering_of(&self.domain.nodes) {
+            Some(self.domain.moved_owned())
+        } else {
+            None
+        };
+        let whole = stale
+            || moved.as_ref().is_none_or(|m| 2 * m.len() > self.domain.nodes.n_owned)
+            || 2 * self.ghosts() > 3 * self.ghosts_at_borders + 2 * GHOST_GROWTH_ALLOWANCE;
+        match moved {
+            Some(moved) if !self.any(whole) => {
+                let reach = self.reach + self.ghost_margin();
+                let extension = self.halo.extend(&self.comm, &self.domain, &moved, reach);
+                self.domain.append_ghosts(&extension.ghosts);
+                self.timer.stamp(Stage::GhostExchange);
+                let built =
+                    self.domain.rebuild_neighbours_only_around_moved(&extension.moved_ghosts, &extension.references);
+                self.rebuilds += 1;
+                self.halo_extensions += 1;
+                self.timer.stamp(Stage::NeighbourRebuild);
+                self.agree(built)
+            }
+            _ => self.rebuild(),
+        }
+    }
+
     /// Ghost and list rebuilds so far.
     pub fn rebuilds(&self) -> u64 {
         self.rebuilds
+    }
+
+    /// Rebuilds so far that extended the halo around the moved nodes ([`HaloPlan::extend`]).
+    pub fn halo_extensions(&self) -> u64 {
+        self.halo_extensions
     }
 
     /// Ghost nodes held now.
@@ -349,8 +400,9 @@ impl<C: Comm> Distributed<C> {
         self.domain.nodes.len() - self.domain.nodes.n_owned
     }
 
-    /// The halo plan: (partner, owned global ids sent to it each step, ghosts received).
-    pub fn halo_plan(&self) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
+    /// The halo plan: (partner, owned global ids sent to it each step, global ids of the
+    /// ghosts received from it).
+    pub fn halo_plan(&self) -> Vec<(Rank, Vec<GlobalNodeId>, Vec<GlobalNodeId>)> {
         self.halo.summary(&self.domain.nodes.gid)
     }
 

@@ -27,7 +27,7 @@ pub enum Stage {
     HaloForward,
     /// whether the lists may miss a pair, and at a rebuild the new ghosts (LAMMPS `borders`)
     GhostExchange,
-    /// the neighbour lists and the projectile's candidate nodes
+    /// the neighbour lists, around the nodes that moved
     NeighbourRebuild,
     /// axial rod forces and bending springs
     Rods,
@@ -35,7 +35,7 @@ pub enum Stage {
     Ties,
     /// fibre–fibre contact and friction
     FibreContacts,
-    /// fibre–projectile contact and friction
+    /// the projectile's candidates when due, then fibre–projectile contact and friction
     ProjectileContacts,
     /// the combined tension–shear criterion and the energy broken elements release
     Failure,

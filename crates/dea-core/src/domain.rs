@@ -233,6 +233,14 @@ impl Domain {
         let n_owned = self.nodes.n_owned;
         self.nodes.truncate_to_owned();
         self.elements.truncate(n_owned);
+        self.append_ghosts(ghosts);
+    }
+
+    /// Appends `ghosts` (any order) after the ghosts held, whose local indices stay, and
+    /// relinks the chains: the lists then still hold their numbering
+    /// ([`NeighbourList::holds_numbering_of`]). Call [`Self::rebuild_neighbours`] or
+    /// [`Self::rebuild_neighbours_only_around_moved`] next.
+    pub fn append_ghosts(&mut self, ghosts: &[GhostRecord]) {
         for g in ghosts {
             self.nodes.push(g.gid, g.position, Vec3::zeros(), 0.0, g.fibre, g.along, g.section, g.clamped, g.last);
             *self.nodes.rest_angle.last_mut().expect("just pushed") = g.rest_angle;
@@ -291,6 +299,7 @@ impl Domain {
         let reference = if built.len() == self.nodes.len() { &built[..self.nodes.n_owned] } else { &[] };
         let (step, since_build) =
             integrate::kick_drift(&mut self.nodes, self.deferred_kick.take(), half_dt, dt, reference);
+        self.projectile_contacts.nodes_moved_at_most(step);
         if let Some(projectile) = self.projectile.as_mut().filter(|_| self.owns_projectile) {
             projectile.kick(half_dt);
             projectile.drift(dt);
@@ -374,8 +383,8 @@ impl Domain {
         Some(beyond_ghosts || !self.pairs.hold_every_reachable_pair(&self.nodes))
     }
 
-    /// Rebuilds fibre neighbour lists and the projectile's candidate nodes, after checking
-    /// that every owned node has its chain stencil.
+    /// Rebuilds the fibre neighbour lists, after checking that every owned node has its
+    /// chain stencil (the projectile's candidates are refreshed when their own check says so).
     pub fn rebuild_neighbours(&mut self) -> Result<(), DomainError> {
         self.build_neighbours(NeighbourList::rebuild)
     }
@@ -387,15 +396,41 @@ impl Domain {
         self.build_neighbours(NeighbourList::rebuild_around_moved)
     }
 
+    /// [`Self::rebuild_neighbours_around_moved`] on a rank among several, after the halo was
+    /// extended around every rank's moved nodes: it never falls back to a full build, the
+    /// owned nodes given new references are [`Self::moved_owned`]'s, the ghosts
+    /// `moved_ghosts` (their owners moved them) take their present positions and the
+    /// appended ghosts `appended_references` [m] ([`NeighbourList::rebuild_only_around_moved`]).
+    pub fn rebuild_neighbours_only_around_moved(
+        &mut self,
+        moved_ghosts: &[u32],
+        appended_references: &[Vec3],
+    ) -> Result<(), DomainError> {
+        self.check_stencil()?;
+        self.pairs.rebuild_only_around_moved(&self.nodes, &self.sections, moved_ghosts, appended_references);
+        Ok(())
+    }
+
+    /// The owned nodes (ascending local index) whose list references a rebuild around moved
+    /// nodes would move to their present positions.
+    pub fn moved_owned(&self) -> Vec<u32> {
+        self.pairs.moved_owned(&self.nodes)
+    }
+
     fn build_neighbours(&mut self, build: fn(&mut NeighbourList, &Nodes, &[FibreSection])) -> Result<(), DomainError> {
+        self.check_stencil()?;
+        build(&mut self.pairs, &self.nodes, &self.sections);
+        Ok(())
+    }
+
+    /// Every owned node's chain stencil and tie partners are local.
+    fn check_stencil(&self) -> Result<(), DomainError> {
         if let Some((gid, along)) = self.nodes.missing_chain_neighbour(self.chain_stencil()) {
             return Err(DomainError::MissingGhost { gid, along });
         }
         if let Some((gid, partner)) = self.ties.missing_end(self.nodes.n_owned) {
             return Err(DomainError::MissingTiePartner { gid, partner });
         }
-        build(&mut self.pairs, &self.nodes, &self.sections);
-        self.refresh_projectile_candidates();
         Ok(())
     }
 

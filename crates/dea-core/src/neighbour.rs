@@ -22,6 +22,9 @@ use crate::{FibreSection, Vec3};
 /// skin for the motion still to come ([`NeighbourList::rebuild_around_moved`]).
 const MOVED_SHARE_OF_SKIN: f64 = 0.125;
 
+/// The cell of a node a rebuild around moved nodes leaves out of its grid (far from all).
+const UNBINNED: u32 = u32::MAX;
+
 /// Full neighbour lists in compressed rows with per-pair contact history.
 #[derive(Clone, Debug, Default)]
 pub struct NeighbourList {
@@ -161,13 +164,43 @@ impl BuildScratch {
     /// Sorts the local nodes into the cells of a grid of side `reach` over `positions` (the
     /// positions the lists are built at), ready for the contact search.
     fn bin(&mut self, nodes: &Nodes, positions: &[Vec3], reach: f64) -> HashedGrid {
+        self.bin_near(nodes, positions, reach, None)
+    }
+
+    /// [`Self::bin`], but with `near` only the nodes whose cell's slot is next to (or is)
+    /// that of a node marked in it: all that a search around the marked nodes can meet.
+    /// A rebuild around a few moved nodes then sorts only their surroundings.
+    fn bin_near(&mut self, nodes: &Nodes, positions: &[Vec3], reach: f64, near: Option<&[bool]>) -> HashedGrid {
         let (low, high) = bounding_box(positions);
         // memory follows the node count, not the extent, so a fragment flung far away can
         // neither blow up the grid nor crowd every node into a few huge cells
         let grid = HashedGrid::new(positions.len(), low, high, reach);
         self.cell_of.clear();
         self.cell_of.extend(positions.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
-        count_rows(grid.slots(), self.cell_of.iter().map(|&c| c as usize), &mut self.cell_start);
+        if let Some(marked) = near {
+            let mut wanted = vec![0u64; grid.slots().div_ceil(64)];
+            for (x, _) in positions.iter().zip(marked).filter(|(_, &m)| m) {
+                let [cx, cy, cz] = grid.coordinates(x);
+                for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        for dz in -1..=1 {
+                            let slot = grid.slot([cx + dx, cy + dy, cz + dz]);
+                            wanted[slot / 64] |= 1 << (slot % 64);
+                        }
+                    }
+                }
+            }
+            for c in &mut self.cell_of {
+                if wanted[*c as usize / 64] & (1 << (*c % 64)) == 0 {
+                    *c = UNBINNED;
+                }
+            }
+        }
+        count_rows(
+            grid.slots(),
+            self.cell_of.iter().filter(|&&c| c != UNBINNED).map(|&c| c as usize),
+            &mut self.cell_start,
+        );
         // nodes and what the scan reads of them in cell order: it streams through memory
         self.cells.fill(nodes, positions, &self.cell_start, &self.cell_of, &mut self.cell_fill);
         self.stencil.cell = None;
@@ -304,7 +337,8 @@ impl CellOrdered {
     /// Sorts the nodes by cell (`cell_of`, whose entries start at `cell_start`; `fill` is
     /// scratch), in local order within a cell.
     fn fill(&mut self, nodes: &Nodes, positions: &[Vec3], cell_start: &[u32], cell_of: &[u32], fill: &mut Vec<u32>) {
-        let n = nodes.len();
+        // the entries binned ([`UNBINNED`] nodes are left out)
+        let n = *cell_start.last().expect("a grid has slots") as usize;
         self.node.resize(n, 0);
         for coordinate in [&mut self.x, &mut self.y, &mut self.z] {
             coordinate.resize(n + 3, 0.0);
@@ -313,7 +347,7 @@ impl CellOrdered {
         self.gid.resize(n, GlobalNodeId(0));
         fill.clear();
         fill.extend_from_slice(cell_start);
-        for (i, &c) in cell_of.iter().enumerate() {
+        for (i, &c) in cell_of.iter().enumerate().filter(|(_, &c)| c != UNBINNED) {
             let k = fill[c as usize] as usize;
             self.node[k] = i as u32;
             [self.x[k], self.y[k], self.z[k]] = [positions[i].x, positions[i].y, positions[i].z];
@@ -610,32 +644,114 @@ impl NeighbourList {
     /// rows are built afresh, and the other rows lose them and gain those now within reach.
     /// The lists are then what [`Self::rebuild`] gives with every node at its reference
     /// position, so the checks hold as after it, while the nodes that barely moved keep their
-    /// rows unsearched. When the local numbering changed since the last build, or most nodes
-    /// moved, this is [`Self::rebuild`].
+    /// rows unsearched. Ghosts appended after the last build ([`Self::holds_numbering_of`])
+    /// count as moved. When the local numbering changed otherwise, or most nodes moved, this
+    /// is [`Self::rebuild`].
     pub fn rebuild_around_moved(&mut self, nodes: &Nodes, sections: &[FibreSection]) {
-        let n = nodes.len();
-        let as_built = self.start.len() == nodes.n_owned + 1 && self.reference_gid == nodes.gid;
-        let threshold = MOVED_SHARE_OF_SKIN * self.skin;
         let mut scratch = std::mem::take(&mut self.scratch);
         scratch.moved.clear();
-        // a NaN position counts as moved, and pairs with nothing
-        scratch.moved.extend(nodes.position.iter().zip(&self.reference_position).map(|(x, r)| {
-            let squared = (x - r).norm_squared();
-            squared > threshold * threshold || squared.is_nan()
-        }));
+        scratch
+            .moved
+            .extend(nodes.position.iter().zip(&self.reference_position).map(|(x, r)| self.moves_reference(x, r)));
+        scratch.moved.resize(nodes.len(), true);
         let moved_count = scratch.moved.iter().filter(|&&m| m).count();
-        if !as_built || 2 * moved_count > n {
+        if !self.holds_numbering_of(nodes) || 2 * moved_count > nodes.len() {
             self.scratch = scratch;
             return self.rebuild(nodes, sections);
         }
-        self.searched_nodes += moved_count as u64;
-        self.held_nodes += n as u64;
-        let (max_cutoff, coarse_reach) = self.reaches(sections);
         let mut references = std::mem::take(&mut self.reference_position);
+        references.extend_from_slice(&nodes.position[references.len()..]);
         for (i, _) in scratch.moved.iter().enumerate().filter(|(_, &m)| m) {
             references[i] = nodes.position[i];
         }
-        let grid = scratch.bin(nodes, &references, coarse_reach);
+        self.rebuild_around_marked(nodes, sections, scratch, references, moved_count);
+    }
+
+    /// The rebuild around moved nodes of a rank among several (theory M2), which never falls
+    /// back to [`Self::rebuild`], so that every node's reference is the one its owner gives
+    /// it: the owned nodes of [`Self::moved_owned`] and the ghosts `moved_ghosts` (local
+    /// indices; their owners moved them) take their present positions, and the ghosts
+    /// appended since the last build take `appended_references` [m], their owners'
+    /// references. Panics when the numbering is not the last build's with those ghosts
+    /// appended (the caller's error).
+    pub fn rebuild_only_around_moved(
+        &mut self,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        moved_ghosts: &[u32],
+        appended_references: &[Vec3],
+    ) {
+        assert!(
+            self.holds_numbering_of(nodes) && self.reference_gid.len() + appended_references.len() == nodes.len(),
+            "a rebuild around moved nodes needs the numbering of the last build"
+        );
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let owned = nodes.n_owned;
+        scratch.moved.clear();
+        scratch.moved.extend(
+            nodes.position[..owned].iter().zip(&self.reference_position).map(|(x, r)| self.moves_reference(x, r)),
+        );
+        scratch.moved.resize(nodes.len(), false);
+        for &g in moved_ghosts {
+            scratch.moved[g as usize] = true;
+        }
+        scratch.moved[self.reference_gid.len()..].fill(true);
+        let moved_count = scratch.moved.iter().filter(|&&m| m).count();
+        let mut references = std::mem::take(&mut self.reference_position);
+        references.extend_from_slice(appended_references);
+        for (i, _) in scratch.moved[..owned].iter().enumerate().filter(|(_, &m)| m) {
+            references[i] = nodes.position[i];
+        }
+        for &g in moved_ghosts {
+            references[g as usize] = nodes.position[g as usize];
+        }
+        self.rebuild_around_marked(nodes, sections, scratch, references, moved_count);
+    }
+
+    /// True when the lists were built for these nodes, or for their leading part (ghosts
+    /// appended since keep every earlier local index).
+    pub fn holds_numbering_of(&self, nodes: &Nodes) -> bool {
+        self.start.len() == nodes.n_owned + 1
+            && nodes.gid.len() >= self.reference_gid.len()
+            && nodes.gid[..self.reference_gid.len()] == self.reference_gid[..]
+            && self.reference_position.len() == self.reference_gid.len()
+    }
+
+    /// Whether a node at `position` with reference `reference` takes a new reference at a
+    /// rebuild around moved nodes (a NaN position does).
+    #[inline]
+    fn moves_reference(&self, position: &Vec3, reference: &Vec3) -> bool {
+        let threshold = MOVED_SHARE_OF_SKIN * self.skin;
+        let squared = (position - reference).norm_squared();
+        squared > threshold * threshold || squared.is_nan()
+    }
+
+    /// The owned nodes (ascending local index) a rebuild around moved nodes gives new
+    /// references, for lists that hold the numbering of `nodes`.
+    pub fn moved_owned(&self, nodes: &Nodes) -> Vec<u32> {
+        (0..nodes.n_owned)
+            .filter(|&i| self.moves_reference(&nodes.position[i], &self.reference_position[i]))
+            .map(|i| i as u32)
+            .collect()
+    }
+
+    /// The rebuild around the nodes marked in `scratch.moved` (`moved_count` of them) at
+    /// `references`, the new ones.
+    fn rebuild_around_marked(
+        &mut self,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        mut scratch: BuildScratch,
+        references: Vec<Vec3>,
+        moved_count: usize,
+    ) {
+        let n = nodes.len();
+        self.searched_nodes += moved_count as u64;
+        self.held_nodes += n as u64;
+        let (max_cutoff, coarse_reach) = self.reaches(sections);
+        let moved = std::mem::take(&mut scratch.moved);
+        let grid = scratch.bin_near(nodes, &references, coarse_reach, Some(&moved));
+        scratch.moved = moved;
         // the moved nodes' surroundings: their own rows, and what the others gain
         scratch.fresh_start.clear();
         scratch.fresh_start.push(0);
@@ -1769,6 +1885,75 @@ mod tests {
             partial > 30 && unsearched > 30 * 300,
             "{partial} partial rebuilds, {unsearched} nodes kept their references"
         );
+    }
+
+    #[test]
+    fn a_rebuild_of_one_rank_among_several_lists_what_a_full_build_at_the_owners_references_lists() {
+        // 600 nodes: 300 owned, 150 ghosts at first, 150 more appended over the rounds; a
+        // ghost's reference is its owner's, moved only when its owner says so
+        let (cloud, sections) = random_cloud(600, 33);
+        let node = |nodes: &mut Nodes, k: usize, x: Vec3| {
+            nodes.push(cloud.gid[k], x, Vec3::zeros(), 1.0, cloud.fibre[k], cloud.along[k], 0, false, cloud.last[k])
+        };
+        let mut nodes = Nodes::default();
+        for k in 0..450 {
+            node(&mut nodes, k, cloud.position[k]);
+        }
+        nodes.n_owned = 300;
+        nodes.link_chains();
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        let mut next = uniform(8);
+        let mut appended_total = 0;
+        for round in 0..30 {
+            for x in &mut nodes.position {
+                let scale = if next() < 0.05 { 4e-6 } else { 3e-7 };
+                *x += Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * scale;
+            }
+            // the owners move some ghosts (those they see beyond an eighth of the skin, and
+            // a few more: an owner's present position is the ghost's)
+            let moved_ghosts: Vec<u32> = (nodes.n_owned..nodes.len())
+                .filter(|&g| {
+                    (nodes.position[g] - list.reference_position[g]).norm() > 0.125 * list.skin || next() < 0.02
+                })
+                .map(|g| g as u32)
+                .collect();
+            // five ghosts come, with references their owners gave them some time ago
+            let mut appended = Vec::new();
+            for k in nodes.len()..(nodes.len() + 5).min(600) {
+                let reference = cloud.position[k] + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 5e-7;
+                node(&mut nodes, k, cloud.position[k]);
+                appended.push(reference);
+            }
+            appended_total += appended.len();
+            nodes.link_chains();
+            let moved_owned = list.moved_owned(&nodes);
+            let old = list.reference_position.clone();
+            list.rebuild_only_around_moved(&nodes, &sections, &moved_ghosts, &appended);
+            // the references are the owners'
+            for i in 0..nodes.len() {
+                let expected = if i >= old.len() {
+                    appended[i - old.len()]
+                } else if moved_owned.binary_search(&(i as u32)).is_ok()
+                    || moved_ghosts.binary_search(&(i as u32)).is_ok()
+                {
+                    nodes.position[i]
+                } else {
+                    old[i]
+                };
+                assert_eq!(list.reference_position[i], expected, "round {round}, node {i}");
+            }
+            let mut at_references = nodes.clone();
+            at_references.position = list.reference_position.clone();
+            let mut full = NeighbourList::new(list.skin);
+            full.rebuild(&at_references, &sections);
+            assert_eq!(
+                (&list.start, &list.partner, &list.partner_gid),
+                (&full.start, &full.partner, &full.partner_gid),
+                "round {round}"
+            );
+        }
+        assert_eq!(appended_total, 150);
     }
 
     #[test]

@@ -41,7 +41,19 @@ pub struct ProjectileContacts {
     pub weights: Vec<[f64; 3]>,
     /// surface vertices (body frame) at the last refresh: a deformable body's surface moves
     pub reference_vertices: Vec<Vec3>,
-    /// owned node positions at the last refresh of the candidates [m]
+    /// the owned nodes near enough to the projectile to be worth a look at a refresh
+    /// (ascending local index; [`Self::refresh_candidates`]): the others were more than
+    /// [`NEIGHBOURHOOD_MARGIN_RADII`] bounding radii beyond its reach when they were last
+    /// scanned, and have not closed that gap since
+    pub neighbourhood: Vec<u32>,
+    /// the projectile's centre when the neighbourhood was scanned, none before a scan [m]
+    neighbourhood_centre: Option<Vec3>,
+    /// how far beyond the reach the neighbourhood extends [m]
+    neighbourhood_margin: f64,
+    /// how far any owned node may have moved since the scan: the sum of each step's
+    /// largest motion [m]
+    neighbourhood_node_travel: f64,
+    /// the neighbourhood's positions at the last refresh of the candidates, in its order [m]
     pub node_reference: Vec<Vec3>,
     /// projectile position at the last refresh [m]
     pub reference_position: Vec3,
@@ -78,7 +90,7 @@ impl ProjectileContacts {
     pub fn refresh_due(&self, projectile: Option<&RigidProjectile>, nodes: &Nodes, skin: f64) -> bool {
         let Some(projectile) = projectile else { return false };
         let contacts = self;
-        if contacts.node_reference.len() != nodes.n_owned {
+        if !contacts.neighbourhood_holds(projectile) {
             return true;
         }
         let mut surface = projectile.surface_moved_since(&contacts.reference_position, &contacts.reference_orientation);
@@ -93,14 +105,29 @@ impl ProjectileContacts {
                 .fold(0.0, f64::max)
                 .sqrt();
         }
+        // a node outside the neighbourhood is out of reach (`neighbourhood_holds`)
         let node = contacts
             .node_reference
             .iter()
-            .zip(&nodes.position)
-            .map(|(r, x)| (x - r).norm_squared())
+            .zip(&contacts.neighbourhood)
+            .map(|(r, &i)| (nodes.position[i as usize] - r).norm_squared())
             .fold(0.0, f64::max)
             .sqrt();
         node + surface > skin
+    }
+
+    /// Records that no owned node moved farther than `distance` in a step [m].
+    pub fn nodes_moved_at_most(&mut self, distance: f64) {
+        self.neighbourhood_node_travel += distance;
+    }
+
+    /// True while no owned node outside the neighbourhood can have come within the
+    /// projectile's bounding radius plus reach of its centre: it was `margin` beyond that
+    /// at the scan, and it and the centre have since closed less than that between them.
+    fn neighbourhood_holds(&self, projectile: &RigidProjectile) -> bool {
+        self.neighbourhood_centre.is_some_and(|centre| {
+            self.neighbourhood_node_travel + (projectile.position - centre).norm() < self.neighbourhood_margin
+        })
     }
 
     /// Chooses the owned nodes within the skin of touching the projectile's surface (a mesh
@@ -131,8 +158,25 @@ impl ProjectileContacts {
         };
         let unplaced_may_be_inside =
             |body: &Vec3| mesh_box.is_some_and(|(low, high)| (0..3).all(|k| body[k] >= low[k] && body[k] <= high[k]));
-        contacts.candidates.clear();
-        for i in 0..nodes.n_owned {
+        // a deforming body's bounding radius changes: it looks at every node each time
+        if projectile.shape.deforming_mesh().is_some() || !contacts.neighbourhood_holds(projectile) {
+            let margin = if projectile.shape.deforming_mesh().is_some() {
+                0.0
+            } else {
+                NEIGHBOURHOOD_MARGIN_RADII * projectile.shape.bounding_radius()
+            };
+            let scan = bounding + margin;
+            contacts.neighbourhood.clear();
+            contacts.neighbourhood.extend((0..nodes.n_owned as u32).filter(|&i| {
+                margin == 0.0 || (nodes.position[i as usize] - projectile.position).norm_squared() < scan * scan
+            }));
+            contacts.neighbourhood_centre = Some(projectile.position);
+            contacts.neighbourhood_margin = margin;
+            contacts.neighbourhood_node_travel = 0.0;
+        }
+        let old = std::mem::take(&mut contacts.candidates);
+        for &i in &contacts.neighbourhood {
+            let i = i as usize;
             let x = nodes.position[i];
             let near = (x - projectile.position).norm_squared() < bounding * bounding && {
                 let body = projectile.to_body(&x);
@@ -141,13 +185,16 @@ impl ProjectileContacts {
             };
             if near {
                 contacts.candidates.push(LocalNodeId::of(i));
-            } else {
-                // a node leaving the candidate set is out of contact
-                contacts.release(i);
+            }
+        }
+        // a node leaving the candidate set is out of contact
+        for i in old {
+            if contacts.candidates.binary_search(&i).is_err() {
+                contacts.release(i.index());
             }
         }
         contacts.node_reference.clear();
-        contacts.node_reference.extend_from_slice(&nodes.position[..nodes.n_owned]);
+        contacts.node_reference.extend(contacts.neighbourhood.iter().map(|&i| nodes.position[i as usize]));
         contacts.reference_position = projectile.position;
         contacts.reference_orientation = projectile.orientation;
         contacts.reference_vertices.clear();
@@ -317,6 +364,13 @@ pub struct Reaction {
     pub weights: [f64; 3],
 }
 
+/// How far beyond its reach the projectile's neighbourhood extends, in bounding radii: a
+/// rescan of every owned node is due once nodes and projectile together closed that gap
+/// (about every 800 steps of the reference shot), and the refreshes in between look at the
+/// neighbourhood only. A speed parameter: the candidates, and so the results, do not
+/// depend on it.
+pub const NEIGHBOURHOOD_MARGIN_RADII: f64 = 1.0;
+
 /// Sum of reactions given in ascending global id: the order that makes the projectile's
 /// load independent of the partition (each rank's records are merged by gid first).
 pub fn sum_reactions(reactions: impl Iterator<Item = Reaction>) -> (Vec3, Vec3) {
@@ -349,5 +403,94 @@ impl ProjectileContacts {
         self.touching.fill(false);
         self.max_overlap.fill(0.0);
         self.node_reference.clear();
+        self.neighbourhood_centre = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{FibreMaterial, InertiaModel};
+    use crate::FibreId;
+    use crate::GlobalNodeId;
+
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// The candidates a scan of every owned node chooses (the refresh before the
+    /// neighbourhood): what the neighbourhood's refresh must choose.
+    fn every_node_within_reach(projectile: &RigidProjectile, nodes: &Nodes, reach: f64) -> Vec<LocalNodeId> {
+        let bounding = projectile.shape.bounding_radius() + reach;
+        (0..nodes.n_owned)
+            .filter(|&i| {
+                let x = nodes.position[i];
+                (x - projectile.position).norm_squared() < bounding * bounding
+                    && projectile.shape.contact_point(&projectile.to_body(&x), NONE).distance < reach
+            })
+            .map(LocalNodeId::of)
+            .collect()
+    }
+
+    #[test]
+    fn the_neighbourhood_refresh_chooses_what_a_scan_of_every_node_chooses() {
+        let material = FibreMaterial::kevlar_km2();
+        let sections = vec![FibreSection::new(&material, 1e-9, 18e-6, InertiaModel::None {}.with_friction(0.3))];
+        let skin = 4e-6;
+        let reach = 0.5 * sections[0].contact_diameter + skin;
+        // a 3 mm sphere falling through a slab of 20,000 nodes 12 mm wide, some of them fast
+        let mut next = uniform(17);
+        let mut nodes = Nodes::default();
+        for k in 0..20_000 {
+            let x = Vec3::new(next() - 0.5, next() - 0.5, 0.1 * (next() - 0.5)) * 12e-3;
+            nodes.push(GlobalNodeId(k), x, Vec3::zeros(), 1.0, FibreId(k as u32), 0, 0, false, true);
+        }
+        nodes.n_owned = nodes.len();
+        let velocities: Vec<Vec3> = (0..nodes.len())
+            .map(|_| {
+                let fast = if next() < 0.01 { 2e-5 } else { 5e-7 };
+                Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * fast
+            })
+            .collect();
+        let mut projectile = RigidProjectile::new(
+            RigidShape::Sphere { radius: 1.5e-3 },
+            1e-3,
+            Vec3::new(0.0, 0.0, 2.0e-3),
+            Vec3::zeros(),
+            UnitQuaternion::identity(),
+        );
+        let mut contacts = ProjectileContacts::new(nodes.len());
+        let (mut refreshes, mut scans, mut largest) = (0, 0, 0);
+        for step in 0..1500 {
+            // the nodes drift, the projectile falls 2 um a step
+            let mut moved: f64 = 0.0;
+            for (x, v) in nodes.position.iter_mut().zip(&velocities) {
+                *x += v;
+                moved = moved.max(v.norm());
+            }
+            contacts.nodes_moved_at_most(moved);
+            projectile.position.z -= 2e-6;
+            let centre_before = contacts.neighbourhood_centre;
+            if contacts.refresh_due(Some(&projectile), &nodes, skin) {
+                contacts.refresh_candidates(Some(&projectile), &nodes, &sections, skin);
+                refreshes += 1;
+                scans += usize::from(contacts.neighbourhood_centre != centre_before);
+                let every = every_node_within_reach(&projectile, &nodes, reach);
+                assert_eq!(contacts.candidates, every, "step {step}");
+                largest = largest.max(every.len());
+            }
+            // whether due or not, every node within contact is a candidate
+            let contact = 0.5 * sections[0].contact_diameter;
+            let touching = every_node_within_reach(&projectile, &nodes, contact);
+            assert!(touching.iter().all(|i| contacts.candidates.binary_search(i).is_ok()), "step {step}");
+        }
+        // the slab was struck, and the neighbourhood spared most refreshes a full scan
+        assert!(largest > 100, "{largest} candidates at most");
+        assert!(refreshes > 500 && scans > 1 && 20 * scans < refreshes, "{refreshes} refreshes, {scans} scans");
+        assert!(contacts.neighbourhood.len() < nodes.len() / 4, "{} nodes near", contacts.neighbourhood.len());
     }
 }

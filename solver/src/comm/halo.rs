@@ -22,6 +22,17 @@ use super::Comm;
 /// node in the partner's grown box instead (a fragment flung far away grows the boxes).
 const MOST_SHARED_CUBES: usize = 1 << 21;
 
+/// What [`HaloPlan::extend`] adds to a rank's halo.
+#[derive(Debug, Default)]
+pub struct HaloExtension {
+    /// the new ghosts, in the order they are appended ([`Domain::append_ghosts`])
+    pub ghosts: Vec<GhostRecord>,
+    /// each new ghost's neighbour-list reference: its owner's [m]
+    pub references: Vec<Vec3>,
+    /// the ghosts held before whose owners moved them (local indices, ascending)
+    pub moved_ghosts: Vec<u32>,
+}
+
 /// Who sends what to whom each step.
 #[derive(Debug, Default)]
 pub struct HaloPlan {
@@ -29,9 +40,14 @@ pub struct HaloPlan {
     /// owned local indices sent to each partner, ascending
     send_nodes: Vec<Vec<LocalNodeId>>,
     send_buffers: Vec<Vec<f64>>,
-    /// what each partner sends (HALO_WORDS per ghost; the ghosts are stored contiguously
-    /// in partner order, so a buffer's length also counts that partner's ghosts)
+    /// what each partner sends (HALO_WORDS per ghost, so a buffer's length also counts that
+    /// partner's ghosts)
     receive_buffers: Vec<Vec<f64>>,
+    /// the local index of each ghost a partner sends, in its message's order: the ghosts
+    /// of `borders` lie in partner order, those of `extend` after them
+    receive_slots: Vec<Vec<u32>>,
+    /// the first ghost's local index (the owned nodes held)
+    first_ghost: usize,
 }
 
 impl HaloPlan {
@@ -137,13 +153,184 @@ impl HaloPlan {
             .zip(&kept)
             .map(|(c, m)| c.iter().zip(m).filter(|(_, &m)| m == 1.0).map(|(&i, _)| LocalNodeId(i)).collect())
             .collect();
+        let mut next = nodes.n_owned as u32;
+        let receive_slots = receive_counts
+            .iter()
+            .map(|&n| {
+                next += n as u32;
+                (next - n as u32..next).collect()
+            })
+            .collect();
         let plan = HaloPlan {
             send_buffers: send_nodes.iter().map(|s| Vec::with_capacity(s.len() * HALO_WORDS)).collect(),
             receive_buffers: receive_counts.iter().map(|&n| vec![0.0; n * HALO_WORDS]).collect(),
+            receive_slots,
+            first_ghost: nodes.n_owned,
             partners,
             send_nodes,
         };
         (plan, ghosts)
+    }
+
+    /// Extends every rank's ghosts around the owned nodes that are about to take new
+    /// list references, on every rank together: what keeps the halo whole between two
+    /// [`Self::borders`] (theory M2). Each owned node has a border position: its neighbour
+    /// list reference, or its present position if it is in `moved` (owned local indices,
+    /// ascending), which the caller's rebuild then makes its reference. The halo holds, for
+    /// every pair of ranks, every owned node of one whose border position lies within
+    /// `reach` [m] of the border position of an owned node of the other; `borders` makes it
+    /// so at present positions, and this keeps it so when the moved nodes' border positions
+    /// change: each rank sends its moved nodes' new positions to the ranks whose grown box
+    /// holds them, each answers with its owned nodes within `reach` of them, and offers its
+    /// own moved nodes; the receiver keeps what comes within `reach` of an owned node. No
+    /// ghost is dropped (the next `borders` does that). Each rank also learns which of its
+    /// ghosts their owners moved, so that every node has the same reference on every rank
+    /// that holds it (the lists are then a function of the references alone, which a
+    /// checkpoint relies on).
+    pub fn extend<C: Comm>(&mut self, comm: &C, domain: &Domain, moved: &[u32], reach: f64) -> HaloExtension {
+        let me = comm.rank();
+        let nodes = &domain.nodes;
+        let n_owned = nodes.n_owned;
+        assert_eq!(self.first_ghost, n_owned, "a halo extends the plan of the same owned nodes");
+        let mut border: Vec<Vec3> = domain.pairs.reference_position[..n_owned].to_vec();
+        for &i in moved {
+            border[i as usize] = nodes.position[i as usize];
+        }
+        let (low, high) = bounding_box(&border);
+        let boxes = comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
+        let grown = |r: usize| {
+            let low = Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach);
+            (low, Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach))
+        };
+        let inside = |x: &Vec3, (l, h): &(Vec3, Vec3)| (0..3).all(|k| x[k] >= l[k] && x[k] <= h[k]);
+        // this round's partners: the plan's, and ranks whose region comes within reach of ours
+        let mut partners = self.partners.clone();
+        for r in (0..comm.size()).filter(|&r| Rank(r as u32) != me) {
+            let (l, h) = grown(r);
+            if n_owned > 0 && (0..3).all(|k| l[k] <= high[k] && h[k] >= low[k]) {
+                partners.push(Rank(r as u32));
+            }
+        }
+        partners.sort_unstable();
+        partners.dedup();
+        // the moved nodes' new positions to each partner whose grown box holds them
+        let moved_inside: Vec<Vec<u32>> = partners
+            .iter()
+            .map(|p| {
+                let region = grown(p.0 as usize);
+                moved.iter().copied().filter(|&i| inside(&border[i as usize], &region)).collect()
+            })
+            .collect();
+        // with them, which of the ghosts it holds moved (their places in its messages)
+        let mut is_moved = vec![false; n_owned];
+        for &i in moved {
+            is_moved[i as usize] = true;
+        }
+        let messages: Vec<Vec<f64>> = partners
+            .iter()
+            .zip(&moved_inside)
+            .map(|(partner, list)| {
+                let mut words = vec![word(list.len() as u64)];
+                words.extend(list.iter().flat_map(|&i| border[i as usize].as_slice().to_vec()));
+                if let Ok(p) = self.partners.binary_search(partner) {
+                    let places = self.send_nodes[p].iter().enumerate().filter(|(_, i)| is_moved[i.index()]);
+                    words.extend(places.map(|(k, _)| word(k as u64)));
+                }
+                words
+            })
+            .collect();
+        let mut answers: Vec<Vec<f64>> = vec![Vec::new(); partners.len()];
+        comm.exchange_sized(&partners, &messages, &mut answers);
+        let mut moved_ghosts = Vec::new();
+        let theirs_moved: Vec<&[f64]> = partners
+            .iter()
+            .zip(&answers)
+            .map(|(partner, words)| {
+                let count = integer(words[0]) as usize;
+                if let Ok(p) = self.partners.binary_search(partner) {
+                    moved_ghosts
+                        .extend(words[1 + 3 * count..].iter().map(|&w| self.receive_slots[p][integer(w) as usize]));
+                }
+                &words[1..1 + 3 * count]
+            })
+            .collect();
+        moved_ghosts.sort_unstable();
+        // offers: owned nodes within reach of a partner's moved ones, and our moved ones in
+        // its box, less what it holds already
+        let mut candidates: Vec<Vec<u32>> = Vec::with_capacity(partners.len());
+        let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
+        for (k, partner) in partners.iter().enumerate() {
+            let targets: Vec<Vec3> = theirs_moved[k].chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])).collect();
+            let mut list: Vec<u32> = owned_within_reach(&border, &targets, reach);
+            list.extend_from_slice(&moved_inside[k]);
+            list.sort_unstable();
+            list.dedup();
+            if let Ok(p) = self.partners.binary_search(partner) {
+                let mut sent: Vec<u32> = self.send_nodes[p].iter().map(|i| i.0).collect();
+                sent.sort_unstable();
+                list.retain(|i| sent.binary_search(i).is_err());
+            }
+            let mut words = Vec::with_capacity(list.len() * (RECORD_WORDS + 3));
+            for &i in &list {
+                words.extend_from_slice(&ghost_record_words(nodes, &domain.elements, i as usize, false));
+                words.extend_from_slice(border[i as usize].as_slice());
+            }
+            candidates.push(list);
+            records.push(words);
+        }
+        let mut received: Vec<Vec<f64>> = vec![Vec::new(); partners.len()];
+        comm.exchange_sized(&partners, &records, &mut received);
+        // keep what comes within reach of an owned node's border position
+        let offered: Vec<Vec3> = received
+            .iter()
+            .flat_map(|w| w.chunks_exact(RECORD_WORDS + 3))
+            .map(|w| Vec3::new(w[RECORD_WORDS], w[RECORD_WORDS + 1], w[RECORD_WORDS + 2]))
+            .collect();
+        let near = reached_by(&border, &offered, reach);
+        let (mut ghosts, mut references) = (Vec::new(), Vec::new());
+        let mut masks: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
+        let mut kept_from: Vec<usize> = Vec::with_capacity(partners.len());
+        let mut k = 0;
+        for words in &received {
+            let mut mask = Vec::with_capacity(words.len() / (RECORD_WORDS + 3));
+            for w in words.chunks_exact(RECORD_WORDS + 3) {
+                mask.push(if near[k] { 1.0 } else { 0.0 });
+                if near[k] {
+                    ghosts.push(ghost_record_from_words(&w[..RECORD_WORDS]));
+                    references.push(offered[k]);
+                }
+                k += 1;
+            }
+            kept_from.push(mask.iter().filter(|&&m| m == 1.0).count());
+            masks.push(mask);
+        }
+        let mut kept: Vec<Vec<f64>> = candidates.iter().map(|c| vec![0.0; c.len()]).collect();
+        comm.exchange(&partners, &masks, &mut kept);
+        // the plan grows: new sends after the old ones, new ghosts after every local node
+        let mut next = nodes.len() as u32;
+        for (k, partner) in partners.iter().enumerate() {
+            let sends: Vec<LocalNodeId> =
+                candidates[k].iter().zip(&kept[k]).filter(|(_, &m)| m == 1.0).map(|(&i, _)| LocalNodeId(i)).collect();
+            let receives = kept_from[k];
+            let p = match self.partners.binary_search(partner) {
+                Ok(p) => p,
+                Err(_) if sends.is_empty() && receives == 0 => continue,
+                Err(p) => {
+                    self.partners.insert(p, *partner);
+                    self.send_nodes.insert(p, Vec::new());
+                    self.send_buffers.insert(p, Vec::new());
+                    self.receive_buffers.insert(p, Vec::new());
+                    self.receive_slots.insert(p, Vec::new());
+                    p
+                }
+            };
+            self.send_nodes[p].extend(sends);
+            let total = self.receive_slots[p].len() + receives;
+            self.receive_slots[p].extend(next..next + receives as u32);
+            self.receive_buffers[p].resize(total * HALO_WORDS, 0.0);
+            next += receives as u32;
+        }
+        HaloExtension { ghosts, references, moved_ghosts }
     }
 
     /// Sends position and failure state of every owned node a partner holds as a ghost, and
@@ -157,12 +344,10 @@ impl HaloPlan {
             }
         }
         comm.exchange(&self.partners, &self.send_buffers, &mut self.receive_buffers);
-        let mut g = nodes.n_owned;
         let mut bytes = 0;
-        for buffer in &self.receive_buffers {
-            for w in buffer.chunks_exact(HALO_WORDS) {
-                (nodes.position[g], failure[g]) = from_halo_words(w);
-                g += 1;
+        for (buffer, slots) in self.receive_buffers.iter().zip(&self.receive_slots) {
+            for (w, &g) in buffer.chunks_exact(HALO_WORDS).zip(slots) {
+                (nodes.position[g as usize], failure[g as usize]) = from_halo_words(w);
             }
             bytes += (buffer.len() * std::mem::size_of::<f64>()) as u64;
         }
@@ -177,6 +362,11 @@ impl HaloPlan {
         domain.nodes.velocity[n..n + velocities.len()].copy_from_slice(&velocities);
     }
 
+    /// Ghosts held.
+    fn ghosts(&self) -> usize {
+        self.receive_slots.iter().map(Vec::len).sum()
+    }
+
     /// `owned(i)` of the owner of every ghost, in ghost order (snapshots only: values no
     /// step needs, such as a velocity or a displacement).
     pub fn forward_vectors<C: Comm>(&self, comm: &C, owned: impl Fn(usize) -> Vec3) -> Vec<Vec3> {
@@ -188,17 +378,59 @@ impl HaloPlan {
         let mut receives: Vec<Vec<f64>> =
             self.receive_buffers.iter().map(|r| vec![0.0; 3 * (r.len() / HALO_WORDS)]).collect();
         comm.exchange(&self.partners, &sends, &mut receives);
-        receives.iter().flat_map(|buffer| buffer.chunks_exact(3).map(|v| Vec3::new(v[0], v[1], v[2]))).collect()
+        let mut vectors = vec![Vec3::zeros(); self.ghosts()];
+        for (buffer, slots) in receives.iter().zip(&self.receive_slots) {
+            for (v, &g) in buffer.chunks_exact(3).zip(slots) {
+                vectors[g as usize - self.first_ghost] = Vec3::new(v[0], v[1], v[2]);
+            }
+        }
+        vectors
     }
 
-    /// The plan: (partner, owned global ids sent to it each step, ghosts received), with
-    /// `gid` the global ids of the local nodes.
-    pub fn summary(&self, gid: &[GlobalNodeId]) -> Vec<(Rank, Vec<GlobalNodeId>, usize)> {
+    /// The plan: (partner, owned global ids sent to it each step, global ids of the ghosts
+    /// received from it, in message order), with `gid` the global ids of the local nodes.
+    pub fn summary(&self, gid: &[GlobalNodeId]) -> Vec<(Rank, Vec<GlobalNodeId>, Vec<GlobalNodeId>)> {
         self.partners
             .iter()
             .zip(&self.send_nodes)
-            .zip(&self.receive_buffers)
-            .map(|((&p, s), r)| (p, s.iter().map(|&i| gid[i.index()]).collect(), r.len() / HALO_WORDS))
+            .zip(&self.receive_slots)
+            .map(|((&p, s), r)| {
+                (p, s.iter().map(|&i| gid[i.index()]).collect(), r.iter().map(|&g| gid[g as usize]).collect())
+            })
             .collect()
     }
+}
+
+/// The smallest box holding `points` (an empty, inverted one for none) [m].
+fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)))
+}
+
+/// The indices of `points` within `reach` [m] of one of `targets` (few), ascending: only
+/// the points in the targets' grown box are searched.
+fn owned_within_reach(points: &[Vec3], targets: &[Vec3], reach: f64) -> Vec<u32> {
+    if targets.is_empty() {
+        return Vec::new();
+    }
+    let (low, high) = bounding_box(targets);
+    let (low, high) = (low.add_scalar(-reach), high.add_scalar(reach));
+    let boxed: Vec<u32> = (0..points.len() as u32)
+        .filter(|&i| (0..3).all(|k| points[i as usize][k] >= low[k] && points[i as usize][k] <= high[k]))
+        .collect();
+    let positions: Vec<Vec3> = boxed.iter().map(|&i| points[i as usize]).collect();
+    let near = dea_core::neighbour::within_reach_of_any(targets, &positions, reach);
+    boxed.into_iter().zip(near).filter(|(_, n)| *n).map(|(i, _)| i).collect()
+}
+
+/// Whether each of `candidates` (few) lies within `reach` [m] of one of `points`: only the
+/// points in the candidates' grown box are binned.
+fn reached_by(points: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
+    if candidates.is_empty() {
+        return Vec::new();
+    }
+    let (low, high) = bounding_box(candidates);
+    let (low, high) = (low.add_scalar(-reach), high.add_scalar(reach));
+    let boxed: Vec<Vec3> =
+        points.iter().filter(|x| (0..3).all(|k| x[k] >= low[k] && x[k] <= high[k])).copied().collect();
+    dea_core::neighbour::within_reach_of_any(&boxed, candidates, reach)
 }
