@@ -60,7 +60,6 @@ pub enum Design {
     },
 }
 
-/// The bracket a bisection has reached: (highest partial, lowest complete) [m/s].
 /// A bisection's bounds once its shots have been seen: a low bound that some shot at or
 /// below it perforated is halved, a high bound that some shot at or above it did not
 /// perforate is doubled, each until the shots agree or the bound reaches its limit (the

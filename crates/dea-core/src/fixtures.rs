@@ -8,6 +8,16 @@ use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::shear_gauge::ShearMeasure;
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3};
 
+/// A reproducible stream of numbers uniform in [0, 1) from `seed` (a linear congruential
+/// generator: the tests' random clouds and motions, the same on every machine).
+pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A 7-fibre yarn squeezed below its contact diameter, to be shaken so that pairs touch
 /// first, stick, slip, unload, part and touch again; `sections` fibre sections (one, or
 /// two alternating: the sweep's two ways to its pair data). With `ghosts`, fibres 1, 3
@@ -17,7 +27,9 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
     let material = FibreMaterial::kevlar_km2();
     let l0 = 9e-6;
     let sections: Vec<_> = (0..sections)
-        .map(|s| FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None {}.with_friction(0.3)))
+        .map(|s| {
+            FibreSection::new(&material, 1e-9 * (1.0 + 0.3 * s as f64), l0, InertiaModel::None {}.with_friction(0.3))
+        })
         .collect();
     let pitch = 0.97 * sections[0].contact_diameter;
     let (mut nodes, mut elements) = (Nodes::default(), Elements::default());

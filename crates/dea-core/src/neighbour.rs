@@ -128,6 +128,8 @@ struct BuildScratch {
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
     cell_fill: Vec<u32>,
+    /// a rebuild around moved nodes: one bit per grid slot next to a moved node
+    wanted_slots: Vec<u64>,
     cells: CellOrdered,
     stencil: Stencil,
     /// the cell-ordered entries a node's list takes
@@ -178,7 +180,9 @@ impl BuildScratch {
         self.cell_of.clear();
         self.cell_of.extend(positions.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
         if let Some(marked) = near {
-            let mut wanted = vec![0u64; grid.slots().div_ceil(64)];
+            let wanted = &mut self.wanted_slots;
+            wanted.clear();
+            wanted.resize(grid.slots().div_ceil(64), 0);
             for (x, _) in positions.iter().zip(marked).filter(|(_, &m)| m) {
                 let [cx, cy, cz] = grid.coordinates(x);
                 for dx in -1..=1 {
@@ -1411,16 +1415,26 @@ pub fn is_excluded(nodes: &Nodes, sections: &[FibreSection], i: usize, j: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixtures::uniform;
     use crate::ids::FibreId;
     use crate::material::{FibreMaterial, InertiaModel};
 
-    /// Uniform numbers in [0, 1) from a linear congruential stream.
-    fn uniform(seed: u64) -> impl FnMut() -> f64 {
-        let mut state = seed;
-        move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        }
+    /// Asserts that `list` holds what a full build with every node at its reference lists.
+    fn assert_lists_a_full_build_at_the_references(
+        list: &NeighbourList,
+        nodes: &Nodes,
+        sections: &[FibreSection],
+        round: usize,
+    ) {
+        let mut at_references = nodes.clone();
+        at_references.position = list.reference_position.clone();
+        let mut full = NeighbourList::new(list.skin);
+        full.rebuild(&at_references, sections);
+        assert_eq!(
+            (&list.start, &list.partner, &list.partner_gid),
+            (&full.start, &full.partner, &full.partner_gid),
+            "round {round}"
+        );
     }
 
     fn random_cloud(n: usize, seed: u64) -> (Nodes, Vec<FibreSection>) {
@@ -1855,15 +1869,7 @@ mod tests {
                     .all(|(x, r)| (x - r).norm() <= MOVED_SHARE_OF_SKIN * list.skin),
                 "round {round}"
             );
-            let mut at_references = nodes.clone();
-            at_references.position = list.reference_position.clone();
-            let mut full = NeighbourList::new(list.skin);
-            full.rebuild(&at_references, &sections);
-            assert_eq!(
-                (&list.start, &list.partner, &list.partner_gid),
-                (&full.start, &full.partner, &full.partner_gid),
-                "round {round}"
-            );
+            assert_lists_a_full_build_at_the_references(&list, &nodes, &sections, round);
             for i in 0..nodes.n_owned {
                 for k in list.row(i) {
                     let pair = (nodes.gid[i], list.partner_gid[k]);
@@ -1943,15 +1949,7 @@ mod tests {
                 };
                 assert_eq!(list.reference_position[i], expected, "round {round}, node {i}");
             }
-            let mut at_references = nodes.clone();
-            at_references.position = list.reference_position.clone();
-            let mut full = NeighbourList::new(list.skin);
-            full.rebuild(&at_references, &sections);
-            assert_eq!(
-                (&list.start, &list.partner, &list.partner_gid),
-                (&full.start, &full.partner, &full.partner_gid),
-                "round {round}"
-            );
+            assert_lists_a_full_build_at_the_references(&list, &nodes, &sections, round);
         }
         assert_eq!(appended_total, 150);
     }

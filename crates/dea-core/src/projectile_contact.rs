@@ -18,6 +18,8 @@ use crate::{FibreSection, GlobalNodeId, LocalNodeId, Vec3, NONE};
 pub struct ProjectileContacts {
     /// owned nodes within reach of the projectile at the last build, ascending
     pub candidates: Vec<LocalNodeId>,
+    /// the candidates before the last refresh (its scratch)
+    previous_candidates: Vec<LocalNodeId>,
     /// friction anchor: the partner point relative to the node at first touch, body frame:
     /// the body origin on a rigid body, the touched material point of a deforming surface [m]
     pub anchor: Vec<Vec3>,
@@ -174,7 +176,9 @@ impl ProjectileContacts {
             contacts.neighbourhood_margin = margin;
             contacts.neighbourhood_node_travel = 0.0;
         }
-        let old = std::mem::take(&mut contacts.candidates);
+        // the last refresh's candidates, kept to release those that leave (no allocation)
+        std::mem::swap(&mut contacts.candidates, &mut contacts.previous_candidates);
+        contacts.candidates.clear();
         for &i in &contacts.neighbourhood {
             let i = i as usize;
             let x = nodes.position[i];
@@ -188,7 +192,8 @@ impl ProjectileContacts {
             }
         }
         // a node leaving the candidate set is out of contact
-        for i in old {
+        for k in 0..contacts.previous_candidates.len() {
+            let i = contacts.previous_candidates[k];
             if contacts.candidates.binary_search(&i).is_err() {
                 contacts.release(i.index());
             }
@@ -410,17 +415,9 @@ impl ProjectileContacts {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixtures::uniform;
     use crate::material::{FibreMaterial, InertiaModel};
-    use crate::FibreId;
-    use crate::GlobalNodeId;
-
-    fn uniform(seed: u64) -> impl FnMut() -> f64 {
-        let mut state = seed;
-        move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::{FibreId, GlobalNodeId};
 
     /// The candidates a scan of every owned node chooses (the refresh before the
     /// neighbourhood): what the neighbourhood's refresh must choose.

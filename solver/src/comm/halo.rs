@@ -10,7 +10,7 @@
 
 use dea_core::neighbour::SharedCubes;
 use dea_core::nodes::FailureMode;
-use dea_core::{Domain, GhostRecord, GlobalNodeId, LocalNodeId, Nodes, Rank, Vec3};
+use dea_core::{bounding_box, Domain, GhostRecord, GlobalNodeId, LocalNodeId, Nodes, Rank, Vec3};
 
 use super::codec::{
     from_halo_words, ghost_record_from_words, ghost_record_is_chain, ghost_record_position, ghost_record_words,
@@ -65,30 +65,17 @@ impl HaloPlan {
         let me = comm.rank();
         let nodes = &domain.nodes;
         let owned = &nodes.position[..nodes.n_owned];
-        let (low, high) = owned
-            .iter()
-            .fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)));
-        let boxes = comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
-        let grown = |r: usize| {
-            let low = Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach);
-            (low, Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach))
-        };
-        let inside = |x: &Vec3, (l, h): &(Vec3, Vec3)| (0..3).all(|k| x[k] >= l[k] && x[k] <= h[k]);
+        let boxes = RankBoxes::gather(comm, owned, reach);
         // partners: chain neighbours, and ranks whose region comes within reach of ours
         let mut partners: Vec<Rank> = chain_send.iter().map(|(r, _)| *r).collect();
-        for r in (0..comm.size()).filter(|&r| Rank(r as u32) != me) {
-            let (l, h) = grown(r);
-            if !owned.is_empty() && (0..3).all(|k| l[k] <= high[k] && h[k] >= low[k]) {
-                partners.push(Rank(r as u32));
-            }
-        }
+        partners.extend(boxes.within_reach_of(me));
         partners.sort_unstable();
         partners.dedup();
         // the cubes of the box both ranks of a pair know (their grown boxes overlap there)
         // that hold the partner's nodes: a node of ours within reach of one of them lies in
         // that box, next to one of those cubes; the cubes of a huge box are not worth it
         let shared = |r: usize| {
-            let (mine, theirs) = (grown(me.0 as usize), grown(r));
+            let (mine, theirs) = (boxes.grown(me.0 as usize), boxes.grown(r));
             SharedCubes::new(mine.0.sup(&theirs.0), mine.1.inf(&theirs.1), reach, MOST_SHARED_CUBES)
         };
         let cubes: Vec<Option<SharedCubes>> = partners.iter().map(|p| shared(p.0 as usize)).collect();
@@ -105,7 +92,7 @@ impl HaloPlan {
         for ((&partner, cubes), occupied) in partners.iter().zip(&cubes).zip(&occupied) {
             let chain =
                 chain_send.binary_search_by_key(&partner, |(r, _)| *r).map_or(&[][..], |k| &chain_send[k].1[..]);
-            let region = grown(partner.0 as usize);
+            let region = boxes.grown(partner.0 as usize);
             let near =
                 cubes.as_ref().map(|c| (c, c.next_to(&occupied.iter().map(|&w| integer(w)).collect::<Vec<u64>>())));
             let next_to_theirs = |x: &Vec3| near.as_ref().is_none_or(|(c, near)| c.cube(x).is_some_and(|k| near[k]));
@@ -196,28 +183,17 @@ impl HaloPlan {
         for &i in moved {
             border[i as usize] = nodes.position[i as usize];
         }
-        let (low, high) = bounding_box(&border);
-        let boxes = comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]);
-        let grown = |r: usize| {
-            let low = Vec3::new(boxes[6 * r], boxes[6 * r + 1], boxes[6 * r + 2]).add_scalar(-reach);
-            (low, Vec3::new(boxes[6 * r + 3], boxes[6 * r + 4], boxes[6 * r + 5]).add_scalar(reach))
-        };
-        let inside = |x: &Vec3, (l, h): &(Vec3, Vec3)| (0..3).all(|k| x[k] >= l[k] && x[k] <= h[k]);
+        let boxes = RankBoxes::gather(comm, &border, reach);
         // this round's partners: the plan's, and ranks whose region comes within reach of ours
         let mut partners = self.partners.clone();
-        for r in (0..comm.size()).filter(|&r| Rank(r as u32) != me) {
-            let (l, h) = grown(r);
-            if n_owned > 0 && (0..3).all(|k| l[k] <= high[k] && h[k] >= low[k]) {
-                partners.push(Rank(r as u32));
-            }
-        }
+        partners.extend(boxes.within_reach_of(me));
         partners.sort_unstable();
         partners.dedup();
         // the moved nodes' new positions to each partner whose grown box holds them
         let moved_inside: Vec<Vec<u32>> = partners
             .iter()
             .map(|p| {
-                let region = grown(p.0 as usize);
+                let region = boxes.grown(p.0 as usize);
                 moved.iter().copied().filter(|&i| inside(&border[i as usize], &region)).collect()
             })
             .collect();
@@ -261,7 +237,10 @@ impl HaloPlan {
         let mut records: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
         for (k, partner) in partners.iter().enumerate() {
             let targets: Vec<Vec3> = theirs_moved[k].chunks_exact(3).map(|w| Vec3::new(w[0], w[1], w[2])).collect();
-            let mut list: Vec<u32> = owned_within_reach(&border, &targets, reach);
+            let mut list: Vec<u32> = (0..n_owned as u32)
+                .zip(within_reach_near(&targets, &border, reach))
+                .filter_map(|(i, near)| near.then_some(i))
+                .collect();
             list.extend_from_slice(&moved_inside[k]);
             list.sort_unstable();
             list.dedup();
@@ -286,7 +265,7 @@ impl HaloPlan {
             .flat_map(|w| w.chunks_exact(RECORD_WORDS + 3))
             .map(|w| Vec3::new(w[RECORD_WORDS], w[RECORD_WORDS + 1], w[RECORD_WORDS + 2]))
             .collect();
-        let near = reached_by(&border, &offered, reach);
+        let near = within_reach_near(&border, &offered, reach);
         let (mut ghosts, mut references) = (Vec::new(), Vec::new());
         let mut masks: Vec<Vec<f64>> = Vec::with_capacity(partners.len());
         let mut kept_from: Vec<usize> = Vec::with_capacity(partners.len());
@@ -401,36 +380,66 @@ impl HaloPlan {
     }
 }
 
-/// The smallest box holding `points` (an empty, inverted one for none) [m].
-fn bounding_box(points: &[Vec3]) -> (Vec3, Vec3) {
-    points.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(l, h), x| (l.inf(x), h.sup(x)))
+/// Every rank's box around its points, grown by a reach, for choosing ghosts (LAMMPS
+/// compares sub-domains the same way). A rank without points has an inverted box, which
+/// meets none.
+struct RankBoxes {
+    /// low and high corners of each rank's box, six words per rank [m]
+    boxes: Vec<f64>,
+    /// [m]
+    reach: f64,
 }
 
-/// The indices of `points` within `reach` [m] of one of `targets` (few), ascending: only
-/// the points in the targets' grown box are searched.
-fn owned_within_reach(points: &[Vec3], targets: &[Vec3], reach: f64) -> Vec<u32> {
-    if targets.is_empty() {
-        return Vec::new();
+impl RankBoxes {
+    /// Every rank's box around its `points` (collective).
+    fn gather<C: Comm>(comm: &C, points: &[Vec3], reach: f64) -> Self {
+        let (low, high) = bounding_box(points.iter().copied());
+        Self { boxes: comm.all_gather_f64(&[low.x, low.y, low.z, high.x, high.y, high.z]), reach }
     }
-    let (low, high) = bounding_box(targets);
-    let (low, high) = (low.add_scalar(-reach), high.add_scalar(reach));
-    let boxed: Vec<u32> = (0..points.len() as u32)
-        .filter(|&i| (0..3).all(|k| points[i as usize][k] >= low[k] && points[i as usize][k] <= high[k]))
-        .collect();
-    let positions: Vec<Vec3> = boxed.iter().map(|&i| points[i as usize]).collect();
-    let near = dea_core::neighbour::within_reach_of_any(targets, &positions, reach);
-    boxed.into_iter().zip(near).filter(|(_, n)| *n).map(|(i, _)| i).collect()
+
+    /// Rank `r`'s box grown by the reach [m].
+    fn grown(&self, r: usize) -> (Vec3, Vec3) {
+        let b = &self.boxes[6 * r..6 * r + 6];
+        (Vec3::new(b[0], b[1], b[2]).add_scalar(-self.reach), Vec3::new(b[3], b[4], b[5]).add_scalar(self.reach))
+    }
+
+    /// The other ranks whose grown box meets `me`'s box: the only ones that may hold a
+    /// point within reach of one of `me`'s.
+    fn within_reach_of(&self, me: Rank) -> impl Iterator<Item = Rank> + '_ {
+        let m = me.0 as usize;
+        let (low, high) = (
+            Vec3::from_row_slice(&self.boxes[6 * m..6 * m + 3]),
+            Vec3::from_row_slice(&self.boxes[6 * m + 3..6 * m + 6]),
+        );
+        (0..self.boxes.len() / 6).filter(move |&r| r != m).filter_map(move |r| {
+            let (l, h) = self.grown(r);
+            (0..3).all(|k| l[k] <= high[k] && h[k] >= low[k]).then_some(Rank(r as u32))
+        })
+    }
 }
 
-/// Whether each of `candidates` (few) lies within `reach` [m] of one of `points`: only the
-/// points in the candidates' grown box are binned.
-fn reached_by(points: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
-    if candidates.is_empty() {
-        return Vec::new();
+/// Whether `x` lies in the box `(low, high)`.
+fn inside(x: &Vec3, (low, high): &(Vec3, Vec3)) -> bool {
+    (0..3).all(|k| x[k] >= low[k] && x[k] <= high[k])
+}
+
+/// Whether each of `candidates` lies within `reach` [m] of one of `targets`
+/// ([`dea_core::neighbour::within_reach_of_any`]), when one of the two sets is small: each
+/// set is first cut to the other's box grown by the reach, so a search around a few moved
+/// nodes bins and scans only their surroundings.
+fn within_reach_near(targets: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
+    let mut near = vec![false; candidates.len()];
+    if targets.is_empty() || candidates.is_empty() {
+        return near;
     }
-    let (low, high) = bounding_box(candidates);
-    let (low, high) = (low.add_scalar(-reach), high.add_scalar(reach));
-    let boxed: Vec<Vec3> =
-        points.iter().filter(|x| (0..3).all(|k| x[k] >= low[k] && x[k] <= high[k])).copied().collect();
-    dea_core::neighbour::within_reach_of_any(&boxed, candidates, reach)
+    let grown = |(low, high): (Vec3, Vec3)| (low.add_scalar(-reach), high.add_scalar(reach));
+    let (around_targets, around_candidates) =
+        (grown(bounding_box(targets.iter().copied())), grown(bounding_box(candidates.iter().copied())));
+    let targets: Vec<Vec3> = targets.iter().filter(|x| inside(x, &around_candidates)).copied().collect();
+    let boxed: Vec<usize> = (0..candidates.len()).filter(|&i| inside(&candidates[i], &around_targets)).collect();
+    let positions: Vec<Vec3> = boxed.iter().map(|&i| candidates[i]).collect();
+    for (i, n) in boxed.into_iter().zip(dea_core::neighbour::within_reach_of_any(&targets, &positions, reach)) {
+        near[i] = n;
+    }
+    near
 }
