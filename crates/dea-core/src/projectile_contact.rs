@@ -370,9 +370,8 @@ pub struct Reaction {
 }
 
 /// How far beyond its reach the projectile's neighbourhood extends, in bounding radii: a
-/// rescan of every owned node is due once nodes and projectile together closed that gap
-/// (about every 800 steps of the reference shot), and the refreshes in between look at the
-/// neighbourhood only. A speed parameter: the candidates, and so the results, do not
+/// rescan of every owned node is due once nodes and projectile together closed that gap,
+/// and the refreshes in between look at the neighbourhood only. A speed parameter: the candidates, and so the results, do not
 /// depend on it.
 pub const NEIGHBOURHOOD_MARGIN_RADII: f64 = 1.0;
 
