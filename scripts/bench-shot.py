@@ -19,6 +19,13 @@ For each rank count it reports (JSON keys with `--json`):
   stage_seconds            mean seconds per rank of each stage of the shot's steps
   ranks, nodes, steps, simulated_us, wall_s
 
+The cost model that `dea-mpi check` prints (solver/src/cost.rs, docs/theory.md C1) is calibrated
+on these measurements: `--calibrate FILE` writes a calibration from the runs just made (their
+one-rank runs calibrate, the others are kept to test the model on), `--calibrate-from REPORT`
+from a report written earlier with `--json` (plain or paired: the new binary's runs). The
+segment graph's counts of the shot come from `dea-mpi partition --ranks 1 --json`. The binary
+embeds docs/benchmarks/cost-calibration.json: write that file, then rebuild.
+
 This host's timings drift by +-15 % (DEVELOPERS.md): to compare two binaries, give both
 (`--binary` and `--baseline`); they run in alternation (A B, then B A, ...) on the same case
 and the report is each pair's ratio of core seconds per simulated microsecond (new / old)
@@ -82,6 +89,47 @@ def shoot(binary, case_path, ranks, out):
     }
 
 
+def measured_runs(report):
+    """Every run of the measured binary in a report: plain runs, or the new side of pairs."""
+    runs = []
+    for run in report["runs"]:
+        for measured in ([pair["new"] for pair in run["pairs"]] if "pairs" in run else [run]):
+            runs.append({"ranks": measured["ranks"], "steps": measured["steps"], "wall_s": measured["wall_s"],
+                         "stage_seconds": measured["stage_seconds"]})
+    return runs
+
+
+def write_calibration(report, binary, path, source):
+    """The cost model's calibration from a report: its runs, and the shot's graph counts."""
+    runs = measured_runs(report)
+    if not any(run["ranks"] == 1 for run in runs):
+        sys.exit("bench-shot: the cost model is calibrated on one rank: measure with --ranks 1 (and 2 to test it)")
+    with tempfile.TemporaryDirectory(prefix="bench-shot-") as scratch:
+        case_path = os.path.join(scratch, "reference-shot.json")
+        json.dump(reference_case(report["window_us"], None, report["velocity_m_s"]), open(case_path, "w"), indent=1)
+        done = subprocess.run([binary, "partition", case_path, "--ranks", "1", "--json"], capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit(f"bench-shot: {binary} partition exited {done.returncode}: {done.stderr.strip()}")
+    rank = json.loads(done.stdout)["ranks"][0]
+    calibration = {
+        "source": source,
+        "case": f"the reference shot: {os.path.relpath(REFERENCE, ROOT)} at {report['velocity_m_s']} m/s, "
+                f"{report['window_us']} us after its settle",
+        "runs": runs,
+        "graph": {key: rank[key] for key in ("owned_nodes", "contact_entries", "projectile_candidates")},
+        "interconnect": {
+            "latency_s": 1.5e-6,
+            "bandwidth_bytes_per_s": 12.5e9,
+            "basis": "ASSUMED: a typical HDR InfiniBand point-to-point latency and per-rank injection bandwidth; "
+                     "replace with the target cluster's",
+        },
+    }
+    with open(path, "w") as f:
+        json.dump(calibration, f, indent=1)
+        f.write("\n")
+    print(f"bench-shot: wrote {path} from {len(runs)} run(s); rebuild so that dea-mpi check uses it", file=sys.stderr)
+
+
 def describe(label, m):
     stages = sorted(m["stage_seconds"].items(), key=lambda kv: -kv[1])
     top = ", ".join(f"{name} {seconds / max(m['wall_s'], 1e-12):.0%}" for name, seconds in stages[:5])
@@ -101,7 +149,18 @@ def main():
     parser.add_argument("--baseline", help="a second binary: run both in alternation and report paired ratios")
     parser.add_argument("--pairs", type=int, default=3, help="pairs of runs per rank count with --baseline")
     parser.add_argument("--json", action="store_true", help="print the measurements as JSON on stdout")
+    parser.add_argument("--calibrate", metavar="FILE", help="write the cost model's calibration from the runs (docs/benchmarks/cost-calibration.json)")
+    parser.add_argument("--calibrate-from", metavar="REPORT", help="with --calibrate: take the runs from a report written earlier with --json instead of running")
     args = parser.parse_args()
+    if args.calibrate_from:
+        if not args.calibrate:
+            sys.exit("bench-shot: --calibrate-from REPORT needs --calibrate FILE (where to write)")
+        try:
+            report = json.load(open(args.calibrate_from))
+        except (OSError, ValueError) as e:
+            sys.exit(f"bench-shot: {args.calibrate_from}: {e}")
+        write_calibration(report, args.binary, args.calibrate, f"{os.path.relpath(os.path.abspath(args.calibrate_from), ROOT)}")
+        return
     try:
         ranks = [int(r) for r in args.ranks.split(",")]
     except ValueError:
@@ -144,6 +203,8 @@ def main():
                   f"{statistics.median(ratios):.3f} (range {min(ratios):.3f}-{max(ratios):.3f})", file=sys.stderr)
     if args.json:
         print(json.dumps(report, indent=1))
+    if args.calibrate:
+        write_calibration(report, args.binary, args.calibrate, f"scripts/bench-shot.py --ranks {args.ranks}, {args.binary}")
 
 
 if __name__ == "__main__":

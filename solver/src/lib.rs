@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod campaign;
 pub mod checkpoint;
+pub mod cost;
 pub mod comm;
 pub mod deflection;
 pub mod deformable;

@@ -32,6 +32,11 @@ pub struct SettleReport {
     pub wall_s: f64,
 }
 
+/// The steps a settle of `duration` [s] takes at `time_step` [s] (what `check` prices too).
+pub fn settle_steps(duration: f64, time_step: f64) -> u64 {
+    (duration / time_step).ceil() as u64
+}
+
 impl<C: Comm> Distributed<C> {
     /// Lets the target settle for `duration` before the shot, on every rank together: the
     /// projectile is set aside, friction and failure are off, and the nodes are damped at
@@ -51,7 +56,7 @@ impl<C: Comm> Distributed<C> {
         let projectile = self.domain.projectile.take();
         let body = self.deformable.take();
         self.domain.phase = Phase::Settle { damping };
-        let steps = (duration / self.domain.time_step).ceil() as u64;
+        let steps = settle_steps(duration, self.domain.time_step);
         let mut result = Ok(());
         for _ in 0..steps {
             result = self.step();

@@ -135,6 +135,19 @@ impl Design {
         }
     }
 
+    /// The shots the design fires, for pricing it before it runs: a count design's count, a
+    /// bisection's halvings of its bounds to the resolution plus the one bound it may fire
+    /// when its limit lies within its bounds (beyond them it fires more: [`bisection_bounds`]).
+    pub fn expected_shots(&self) -> usize {
+        match *self {
+            Design::Bisection { low_m_s, high_m_s, resolution_m_s } => {
+                ((high_m_s - low_m_s) / resolution_m_s).log2().ceil().max(0.0) as usize + 1
+            }
+            Design::UpAndDown { shots, .. } | Design::Langlie { shots, .. } | Design::MonteCarlo { shots, .. } => shots,
+            Design::Velocities { ref velocities_m_s } => velocities_m_s.len(),
+        }
+    }
+
     /// Whether every velocity is known before any shot (the shots can run at once).
     pub fn independent(&self) -> bool {
         matches!(self, Design::MonteCarlo { .. } | Design::Velocities { .. })
@@ -211,6 +224,25 @@ mod tests {
             assert!(shots.len() < 1000);
         }
         shots
+    }
+
+    #[test]
+    fn a_bisection_fires_no_more_than_it_is_priced_at_when_its_limit_lies_within_its_bounds() {
+        for (low, high, resolution) in [(100.0, 500.0, 25.0), (100.0, 700.0, 5.0), (75.0, 400.0, 10.0)] {
+            let design = Design::Bisection { low_m_s: low, high_m_s: high, resolution_m_s: resolution };
+            let priced = design.expected_shots();
+            let mut most = 0;
+            let mut limit = low + 0.37;
+            while limit < high {
+                most = most.max(fire(&design, limit).len());
+                limit += 0.73;
+            }
+            // the price is what the worst limit inside the bounds fires, not more
+            assert_eq!(most, priced, "[{low}, {high}] by {resolution}");
+        }
+        let counted = Design::UpAndDown { start_m_s: 250.0, step_m_s: 25.0, shots: 12 };
+        assert_eq!(counted.expected_shots(), 12);
+        assert_eq!(Design::Velocities { velocities_m_s: vec![300.0, 400.0] }.expected_shots(), 2);
     }
 
     #[test]

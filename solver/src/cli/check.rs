@@ -3,13 +3,18 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use dea_mpi::setup;
+use dea_mpi::cost::Calibration;
+use dea_mpi::{settle, setup};
 
 use super::{fail, in_file, load_case_or_campaign, setup_exit, Exit};
 
 pub const ABOUT: &str = "Validate a case or a V50 campaign and print it resolved, without running";
 pub const LONG_ABOUT: &str = "Validate a case, or a V50 campaign and its shot's case, and print it resolved (material,
-sections, projectile, nodes, time step, steps, skin), without running.";
+sections, projectile, nodes, time step, steps, skin), without running. The target is
+partitioned over --ranks as `run` would, and `resolved.cost` prices the shot on them (steps,
+the slowest rank's step, wall time, core-hours; a campaign's shots and core-hours): the cost
+model calibrated on the reference shot (docs/theory.md C1). Steps count to the end time; a
+shot that is decided earlier stops earlier, so this is an upper bound.";
 pub const EXAMPLES: &str =
     "Examples:\n  dea-mpi check cases/default.json\n  dea-mpi check cases/v50_tiny_bisection.json\n  dea-mpi check cases/km2_706_28_layer_disc.json --ranks 64 --ranks-per-host 32";
 
@@ -64,6 +69,45 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
         );
         return fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint);
     }
+    // the partition `run` would make, its largest share on a host, and the price on it
+    let graph = setup::segment_graph(&problem, ranks as usize, None);
+    let partition = match dea_partition::partition(&graph, ranks as usize, dea_partition::Method::KWay) {
+        Ok(partition) => partition,
+        Err(e) => return fail(Exit::BadCase, format!("{}: {e}", path.display())),
+    };
+    let quality = dea_partition::quality(&graph, &partition);
+    let largest = quality.largest_stored_nodes;
+    if let Err(e) = setup::largest_share_fits(largest, ranks as usize, ranks_per_host as usize, setup::memory_limit()) {
+        let hint = format!(
+            "; `check --ranks N --ranks-per-host M` checks the ranks meant (here {ranks}, {ranks_per_host} per host)"
+        );
+        return fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint);
+    }
+    let shot_steps = (case.run.end_time_s / problem.time_step).ceil() as u64;
+    let settle_steps = case.run.settle.as_ref().map_or(0, |s| settle::settle_steps(s.time_s, problem.time_step));
+    let calibration = Calibration::shipped();
+    let price = calibration.price(&quality, settle_steps + shot_steps, ranks_per_host as usize);
+    let shots = campaign.as_ref().map(|campaign| {
+        let sequences = if campaign.design.independent() { 1 } else { campaign.replicates };
+        campaign.design.expected_shots() * sequences
+    });
+    let mut cost = serde_json::json!({
+        "ranks": price.ranks,
+        "ranks_per_host": price.ranks_per_host,
+        "settle_steps": settle_steps,
+        "shot_steps": shot_steps,
+        "steps": price.steps,
+        "step_s": price.step_s,
+        "network_s": price.network_s,
+        "imbalance": price.imbalance,
+        "wall_s": price.wall_s,
+        "core_hours": price.core_hours,
+        "calibration": calibration.source,
+        "interconnect": if price.ranks_per_host < price.ranks { Some(&calibration.interconnect.basis) } else { None },
+    });
+    if let Some(shots) = shots {
+        cost["campaign"] = serde_json::json!({ "shots": shots, "core_hours": shots as f64 * price.core_hours });
+    }
     let projectile = &problem.projectile;
     let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
     let mut printed = serde_json::json!({
@@ -80,10 +124,13 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
                 "ranks": ranks,
                 "ranks_per_host": ranks_per_host,
                 "bytes_per_rank": setup::share_bytes(nodes, ranks as usize),
+                "largest_rank_nodes": largest,
+                "largest_rank_bytes": largest as f64 * setup::BYTES_PER_NODE,
                 "host_bytes": setup::memory_limit(),
             },
+            "cost": cost,
             "time_step_s": problem.time_step,
-            "steps": (case.run.end_time_s / problem.time_step).ceil(),
+            "steps": shot_steps,
             "skin_m": problem.contact.skin,
             "hybrid": match &problem.fabric {
                 dea_fabric::Fabric::Woven(panel) if panel.coarse.is_some() => Some(serde_json::json!({
@@ -102,6 +149,21 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     for note in case.notes() {
         eprintln!("note: {note}");
     }
+    if problem.deformable.is_some() {
+        eprintln!("note: cost: a deformable projectile's substeps are not in the price (the calibrated shot's projectile is rigid)");
+    }
+    let campaign_line = shots.map_or(String::new(), |shots| {
+        format!("; the campaign's {shots} shots at most {:.3} core-hours", shots as f64 * price.core_hours)
+    });
+    eprintln!(
+        "cost: at most {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps of {:.3} ms, the slowest rank {:.2} x the mean){campaign_line}",
+        price.core_hours,
+        price.ranks,
+        price.wall_s,
+        price.steps,
+        1e3 * price.step_s,
+        price.imbalance
+    );
     println!("{}", serde_json::to_string_pretty(&printed).expect("case serialises"));
     ExitCode::SUCCESS
 }
