@@ -1,69 +1,80 @@
 #!/usr/bin/env python3
-"""Core-hours a V50 campaign will cost, before it is submitted.
+"""Core-hours a case or a V50 campaign will cost, before it is submitted.
 
-    jobs/cost.py CAMPAIGN.json [--ns-per-node-step 380] [--tasks 64] [--ranks-per-shot 16]
+    jobs/cost.py CASE_OR_CAMPAIGN.json [--ranks-per-shot 16] [--ranks-per-host 16] [--tasks 64]
 
-The shot's node count and its step count at the end time (plus a settle's, run.settle) come
-from `dea-mpi check` (a shot that is decided earlier stops earlier, so this is an upper
-bound). The cost of a node-step
-is MEASURED on this machine for the default case (four layers of woven KM2 706 under the
-FSP: failures, frequent list rebuilds; docs/performance.md, "Where it stands"): 380 ns when
-it was first run, 235-252 ns per core on 1 and 2 ranks since. The default keeps the
-first figure as a margin, for requesting wall time; the straight-yarn bench gives 60-70 ns,
-and a fabric at rest far from the projectile costs about that. Wall time assumes
-the shots spread evenly over the groups and a parallel efficiency of 0.8 within a shot
-(ASSUMED; measure it with scripts/bench-scaling.sh on the target cluster).
+It asks `dea-mpi check --ranks K --ranks-per-host M` for its price: the cost model calibrated
+on the reference shot (docs/theory.md C1), on the partition `run` would make of the target
+over a shot's K ranks, M of them per host (messages between hosts over the interconnect the
+calibration assumes). Steps count to the case's end time after its settle, so a shot that is
+decided earlier costs less: an upper bound, for requesting wall time. A campaign's shots are
+its design's (a bisection: its halvings of the bounds plus one bound; a sequential design:
+times its replicates). The wall time spreads the shots over the groups of K ranks that
+--tasks holds, in rounds. What check refuses (a missing file, a bad field, a host too small
+for its ranks' shares) is refused here with check's message and exit code.
 """
 import argparse
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
-import tempfile
 
-root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-parser = argparse.ArgumentParser()
-parser.add_argument("campaign")
-parser.add_argument("--ns-per-node-step", type=float, default=380.0)
-parser.add_argument("--tasks", type=int, default=64)
-parser.add_argument("--ranks-per-shot", type=int, default=16)
-parser.add_argument("--efficiency", type=float, default=0.8)
-args = parser.parse_args()
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-campaign = json.load(open(args.campaign))
-if "case_file" in campaign:
-    case_path = os.path.join(os.path.dirname(os.path.abspath(args.campaign)), campaign["case_file"])
-else:
-    handle, case_path = tempfile.mkstemp(suffix=".json")
-    with os.fdopen(handle, "w") as f:
-        json.dump(campaign["case"], f)
-# a shot's ranks, each share on a host at least as large as this one (check refuses what
-# run on them would)
-command = [os.path.join(root, "target/release/dea-mpi"), "check", case_path, "--ranks", str(args.ranks_per_shot), "--ranks-per-host", "1"]
-checked = subprocess.run(command, capture_output=True, text=True)
-if checked.returncode != 0:
-    sys.exit(checked.stderr.strip())
-checked = json.loads(checked.stdout)
-resolved = checked["resolved"]
-nodes, steps = resolved["nodes"], resolved["steps"]
-# a settle before the shot (run.settle) costs its steps too
-settle = checked["case"]["run"].get("settle")
-if settle:
-    steps += math.ceil(settle["time_s"] / resolved["time_step_s"])
-design = campaign["design"]
-replicates = campaign.get("replicates", 1)
-if design["kind"] == "bisection":
-    shots = math.ceil(math.log2((design["high_m_s"] - design["low_m_s"]) / design["resolution_m_s"])) * replicates
-elif design["kind"] == "monte_carlo":
-    shots = design["shots"]
-elif design["kind"] == "velocities":
-    shots = len(design["velocities_m_s"])
-else:
-    shots = design["shots"] * replicates
-per_shot = nodes * steps * args.ns_per_node_step * 1e-9 / 3600.0
-groups = max(1, args.tasks // args.ranks_per_shot)
-wall = math.ceil(shots / groups) * per_shot / (args.ranks_per_shot * args.efficiency)
-print(f"{campaign['name']}: {nodes:,} nodes, at most {steps:,.0f} steps per shot, {shots} shots")
-print(f"per shot: {per_shot:.2f} core-hours ({args.ns_per_node_step:.0f} ns per node-step)")
-print(f"campaign: {shots * per_shot:.1f} core-hours; on {args.tasks} tasks in groups of {args.ranks_per_shot}: about {wall:.2f} h of wall time")
+
+def figure(value):
+    """A price as people read it: whole numbers from 100 on, three figures below."""
+    return f"{value:,.0f}" if value >= 100 else f"{value:.3g}"
+
+
+def main():
+    # output into a closed pipe (| head) ends quietly, as for any Unix tool
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("case", help="a case or a campaign file")
+    parser.add_argument("--ranks-per-shot", type=int, default=16, help="ranks of one shot (default 16)")
+    parser.add_argument("--ranks-per-host", type=int, help="of them on one host (default: all on one)")
+    parser.add_argument("--tasks", type=int, default=64, help="ranks of the whole job (default 64)")
+    parser.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "dea-mpi"))
+    args = parser.parse_args()
+    if args.ranks_per_shot < 1:
+        sys.exit(f"cost: --ranks-per-shot must be at least 1, got {args.ranks_per_shot}")
+    if args.tasks < args.ranks_per_shot:
+        sys.exit(f"cost: --tasks {args.tasks} cannot hold one shot's {args.ranks_per_shot} ranks")
+    per_host = args.ranks_per_host or args.ranks_per_shot
+    if per_host < 1:
+        sys.exit(f"cost: --ranks-per-host must be at least 1, got {per_host}")
+    command = [args.binary, "check", args.case, "--ranks", str(args.ranks_per_shot), "--ranks-per-host", str(per_host)]
+    try:
+        checked = subprocess.run(command, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"cost: {args.binary}: {e.strerror} (build with scripts/setup.sh)")
+    if checked.returncode != 0:
+        sys.stderr.write(checked.stderr)
+        sys.exit(checked.returncode)
+    printed = json.loads(checked.stdout)
+    cost = printed["resolved"]["cost"]
+    name = (printed.get("campaign") or printed["case"]).get("name", args.case)
+    nodes = printed["resolved"]["nodes"]
+    print(f"{name}: {nodes:,} nodes, at most {cost['steps']:,} steps per shot "
+          f"({cost['settle_steps']:,} of them the settle's)")
+    network = f", of it {1e3 * cost['network_s']:.3f} ms between hosts" if cost["network_s"] > 0 else ""
+    print(f"per shot on {cost['ranks']} rank(s), {cost['ranks_per_host']} per host: at most {figure(cost['core_hours'])} "
+          f"core-hours, {figure(cost['wall_s'] / 3600)} h of wall ({1e3 * cost['step_s']:.3f} ms per step{network}; "
+          f"slowest rank {cost['imbalance']:.2f} x the mean)")
+    shots = cost["campaign"]["shots"] if "campaign" in cost else 1
+    groups = args.tasks // args.ranks_per_shot
+    rounds = math.ceil(shots / groups)
+    if "campaign" in cost:
+        print(f"campaign: {shots} shots, at most {figure(cost['campaign']['core_hours'])} core-hours")
+    print(f"on {args.tasks} tasks in {groups} group(s) of {args.ranks_per_shot}: {rounds} round(s), "
+          f"at most {figure(rounds * cost['wall_s'] / 3600)} h of wall time")
+    print(f"calibration: {cost['calibration']}")
+    if cost.get("interconnect"):
+        print(f"interconnect: {cost['interconnect']}")
+
+
+if __name__ == "__main__":
+    main()

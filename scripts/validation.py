@@ -16,9 +16,9 @@ checkpoints the shot and ends the script with 75.
 
 Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
 campaign's finished shots (wall time x ranks) when it has any, otherwise the upper bound
-`nodes x steps to the end time x NS_PER_NODE_STEP` from `dea-mpi check` (shots stop when
-decided, so most cost less). NS_PER_NODE_STEP = 130 ns was MEASURED here on the 3 in panel
-(567,664 nodes, 1 rank, 3 us: 122 ns per node-step), not assumed.
+`dea-mpi check --ranks R` prices a shot at (the cost model calibrated on the reference shot,
+docs/theory.md C1: steps to the end time after the settle; shots stop when decided, so most
+cost less).
 
 `validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
 laboratory scale", says what each field means).
@@ -26,7 +26,6 @@ laboratory scale", says what each field means).
 import argparse
 import glob
 import json
-import math
 import os
 import subprocess
 import sys
@@ -35,7 +34,6 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAMPAIGNS = os.path.join(ROOT, "jobs", "campaigns", "validation")
 RESULTS = os.path.join(ROOT, "validation")
-NS_PER_NODE_STEP = 130.0
 
 # The seed's Table 6-1 (17-grain FSP on KM2 shoot packs, mu = 0.3): V50 [m/s] by layers.
 TABLE_6_1_EXPERIMENT = {4: 245.0, 8: 287.0, 12: 416.0, 16: 441.0, 20: 511.0, 24: 506.0, 28: 549.0}
@@ -55,17 +53,6 @@ def series_of(name):
         if name.startswith(prefix):
             return series
     return "other"
-
-
-def planned_shots(design, replicates):
-    kind = design["kind"]
-    if kind == "bisection":
-        return max(1, math.ceil(math.log2((design["high_m_s"] - design["low_m_s"]) / design["resolution_m_s"]))) * replicates
-    if kind == "velocities":
-        return len(design["velocities_m_s"])
-    if kind == "monte_carlo":
-        return design["shots"]
-    return design["shots"] * replicates
 
 
 def bisection_bounds(design, shots):
@@ -102,7 +89,8 @@ def records(name):
 
 
 def check(args, campaign_path):
-    done = subprocess.run([binary(args), "check", campaign_path], capture_output=True, text=True)
+    command = [binary(args), "check", campaign_path, "--ranks", str(args.ranks)]
+    done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{campaign_path}: dea-mpi check failed:\n{done.stderr.strip()}")
     return json.loads(done.stdout)
@@ -117,13 +105,10 @@ class Campaign:
         checked = check(args, path)
         self.case = checked["case"]
         resolved = checked["resolved"]
-        steps = resolved["steps"]
-        settle = self.case["run"].get("settle")
-        if settle:
-            steps += math.ceil(settle["time_s"] / resolved["time_step_s"])
         self.nodes = resolved["nodes"]
-        self.bound_core_hours = self.nodes * steps * NS_PER_NODE_STEP * 1e-9 / 3600.0
-        self.planned = planned_shots(self.spec["design"], self.spec.get("replicates", 1))
+        self.bound_core_hours = resolved["cost"]["core_hours"]
+        # the shots check prices the design at (dea_ballistic::Design::expected_shots)
+        self.planned = resolved["cost"]["campaign"]["shots"]
         self.refresh()
 
     def refresh(self):

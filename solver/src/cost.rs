@@ -46,6 +46,7 @@ pub struct Calibration {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeasuredRun {
+    /// ranks of the run, all on this host
     pub ranks: u32,
     /// steps of the shot's window
     pub steps: u64,
@@ -59,8 +60,11 @@ pub struct MeasuredRun {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GraphCounts {
+    /// nodes of the shot
     pub owned_nodes: u64,
+    /// expected fibre-contact list entries
     pub contact_entries: f64,
+    /// expected projectile-contact candidates
     pub projectile_candidates: f64,
 }
 
@@ -112,8 +116,11 @@ pub struct Rates {
 /// What a shot will cost on a given partition.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Price {
+    /// ranks of the job
     pub ranks: usize,
+    /// of them on one host
     pub ranks_per_host: usize,
+    /// steps priced (settle and shot)
     pub steps: u64,
     /// the slowest rank's step [s]
     pub step_s: f64,
@@ -123,6 +130,7 @@ pub struct Price {
     pub imbalance: f64,
     /// [s]
     pub wall_s: f64,
+    /// wall time times ranks [core-hours]
     pub core_hours: f64,
 }
 

@@ -931,3 +931,99 @@ fn a_deformable_projectile_draws_its_surface_nodes_velocities() {
     let body = history[history.len() - 1];
     assert!((mean - body).abs() < 0.2 * body.abs(), "surface mean {mean} m/s, body {body} m/s");
 }
+
+#[test]
+fn check_prices_a_case_on_the_ranks_meant_and_a_campaign_by_its_shots() {
+    let priced = |args: &[&str]| -> serde_json::Value {
+        let out = dea(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.lines().any(|l| l.starts_with("cost: at most ")), "{stderr}");
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let printed = priced(&["check", "../cases/default.json", "--ranks", "2"]);
+    let resolved = &printed["resolved"];
+    let cost = &resolved["cost"];
+    let number = |key: &str| cost[key].as_f64().unwrap_or_else(|| panic!("cost.{key} in {cost}"));
+    // the settle's steps and the shot's to its end time
+    let time_step = resolved["time_step_s"].as_f64().unwrap();
+    let settle = printed["case"]["run"]["settle"]["time_s"].as_f64().unwrap();
+    let end = printed["case"]["run"]["end_time_s"].as_f64().unwrap();
+    assert_eq!(number("settle_steps"), (settle / time_step).ceil());
+    assert_eq!(number("shot_steps"), (end / time_step).ceil());
+    assert_eq!(number("steps"), number("settle_steps") + number("shot_steps"));
+    assert_eq!(resolved["steps"].as_f64().unwrap(), number("shot_steps"));
+    // wall is the slowest rank's step times the steps; core-hours are wall times ranks
+    assert!((number("wall_s") / (number("step_s") * number("steps")) - 1.0).abs() < 1e-12);
+    assert!((number("core_hours") / (number("wall_s") * 2.0 / 3600.0) - 1.0).abs() < 1e-12);
+    assert!(number("imbalance") >= 1.0 && number("step_s") > 0.0);
+    assert_eq!((number("network_s"), cost["ranks"].as_u64()), (0.0, Some(2)), "one host: no network");
+    assert!(cost["calibration"].as_str().unwrap().contains("reference-shot"));
+    // the largest share is reported, and no rank holds more than it
+    let memory = &resolved["memory"];
+    assert!(memory["largest_rank_nodes"].as_u64().unwrap() >= resolved["nodes"].as_u64().unwrap() / 2);
+    // two ranks on two hosts pay their messages between them
+    let spread = priced(&["check", "../cases/default.json", "--ranks", "2", "--ranks-per-host", "1"]);
+    let network = spread["resolved"]["cost"]["network_s"].as_f64().unwrap();
+    assert!(network > 0.0, "{}", spread["resolved"]["cost"]);
+    assert!(spread["resolved"]["cost"]["interconnect"].as_str().unwrap().contains("ASSUMED"));
+    // one rank costs more wall than two and about as many core-hours
+    let one = priced(&["check", "../cases/default.json"]);
+    let one = &one["resolved"]["cost"];
+    assert!(one["wall_s"].as_f64().unwrap() > number("wall_s"));
+    // a campaign is priced by its shots: the tiny bisection's bounds [50, 500] by 25 m/s
+    // halve five times, and it may fire one bound: 6
+    let campaign = priced(&["check", "../cases/v50_tiny_bisection.json"]);
+    let cost = &campaign["resolved"]["cost"];
+    assert_eq!(cost["campaign"]["shots"].as_u64(), Some(6), "{cost}");
+    let per_shot = cost["core_hours"].as_f64().unwrap();
+    assert!((cost["campaign"]["core_hours"].as_f64().unwrap() / (6.0 * per_shot) - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn the_cost_scripts_print_what_check_prices() {
+    let script = |args: &[&str]| -> Output {
+        Command::new("python3")
+            .args(args)
+            .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+            .output()
+            .unwrap()
+    };
+    let binary = env!("CARGO_BIN_EXE_dea-mpi");
+    let check = |args: &[&str]| -> serde_json::Value {
+        let out = Command::new(binary).args(args).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).output().unwrap();
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    // a plain case (it stopped with a KeyError traceback before): check's price, quoted
+    let out = script(&["jobs/cost.py", "cases/default.json", "--ranks-per-shot", "2", "--tasks", "4", "--binary", binary]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let cost = check(&["check", "cases/default.json", "--ranks", "2"])["resolved"]["cost"].clone();
+    let hours = cost["core_hours"].as_f64().unwrap();
+    // three figures of check's core-hours in the per-shot line
+    let quoted: f64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("per shot on 2 rank(s), 2 per host: at most ")?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!((quoted / hours - 1.0).abs() < 5e-3, "{text} / {hours}");
+    assert!(text.contains("2 group(s) of 2") && !text.contains("campaign:"), "{text}");
+    // a campaign: its shots and their core-hours
+    let out = script(&["jobs/cost.py", "cases/v50_tiny_bisection.json", "--ranks-per-shot", "1", "--tasks", "2", "--binary", binary]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("campaign: 6 shots") && text.contains("3 round(s)"), "{text}");
+    // what check refuses, refused with its message and code, no traceback
+    let out = script(&["jobs/cost.py", "no-such-case.json", "--binary", binary]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(stderr.contains("no-such-case.json") && !stderr.contains("Traceback"), "{stderr}");
+    let out = script(&["jobs/cost.py", "cases/default.json", "--tasks", "4", "--ranks-per-shot", "8", "--binary", binary]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot hold one shot's 8 ranks"));
+    // the table over rank counts: one row each, from check
+    let out = script(&["scripts/cost-model.py", "cases/four_layer_panel.json", "--ranks", "1,2,3", "--binary", binary]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("| ") && !l.starts_with("| ranks")).collect();
+    assert_eq!(rows.len(), 3, "{text}");
+    assert!(rows[2].starts_with("| 3 | 1 |"), "{text}");
+}
