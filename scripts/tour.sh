@@ -23,7 +23,7 @@ target/release/dea-mpi run cases/four_layer_panel.json --out out/panel1   # ... 
 target/release/dea-mpi compare out/panel1/results.h5 out/panel4/results.h5   # identical, bit for bit
 mpirun -np 3 --oversubscribe target/release/dea-mpi run --restart out/panel4/checkpoint --out out/panel4   # continue from its last checkpoint on 3 ranks (as after a SIGTERM/SIGUSR1: checkpoint, exit 75)
 target/release/dea-mpi compare out/panel1/results.h5 out/panel4/results.h5   # still identical
-target/release/dea-mpi check cases/seed_6_1_single_fibre.json   # validate and print the resolved case
+target/release/dea-mpi check cases/seed_6_1_single_fibre.json   # validate and print the resolved case, with its price in core-hours (resolved.cost)
 target/release/dea-mpi partition cases/four_layer_panel.json --ranks 4   # predicted owned/ghost nodes, imbalance, halo bytes
 mpirun -np 2 --oversubscribe target/release/dea-mpi bench --json --nodes 20000 --steps 50   # cost per node-step and per stage (the default 300,010 nodes for a measurement)
 source scripts/packages.sh && ensure_packages tour --no-install-recommends paraview python3-paraview xvfb xauth python3-matplotlib python3-h5py   # what the pictures need (Debian's ParaView, Xvfb, matplotlib, h5py)
@@ -33,8 +33,8 @@ target/release/dea-mpi run cases/four_layer_fsp.json --out out/fsp   # an obliqu
 mpirun -np 2 --oversubscribe target/release/dea-mpi v50 cases/v50_tiny_monte_carlo.json --out out/v50 --ranks-per-shot 1   # a V50 campaign of a 3 mm toy on 2 groups
 /usr/bin/python3 scripts/plot-campaign.py out/v50   # its probability of perforation against velocity, with the shots: out/v50/v50.png
 target/release/dea-mpi check cases/v50_tiny_bisection.json   # validate a campaign and its shot's case
-target/release/dea-mpi check cases/km2_706_28_layer_disc.json --ranks 256 --ranks-per-host 8   # does each host hold its ranks' shares? (about 11 GB here; --ranks-per-host 32 on a 24 GB host is refused, as run would be)
-jobs/cost.py cases/v50_tiny_bisection.json   # core-hours of a campaign before submitting it (jobs/README.md: SLURM scripts)
+target/release/dea-mpi check cases/km2_706_28_layer_disc.json --ranks 256 --ranks-per-host 8   # partitioned as run would (2 min): does each host hold its ranks' shares (the largest 2.6 GB; --ranks-per-host 32 on a 24 GB host is refused), and what a shot costs
+jobs/cost.py cases/v50_tiny_bisection.json --ranks-per-shot 1 --tasks 2   # core-hours of a case or a campaign before submitting it, as check prices it (jobs/README.md: SLURM scripts)
 LOCAL=1 RANKS=1 jobs/v50-layer-sweep.sh cases/v50_tiny_bisection.json out/sweep 1 2 && /usr/bin/python3 scripts/plot-layer-sweep.py out/sweep   # V50 against layers from a campaign template (the 3 mm toy; jobs/campaigns/table_6_1_*.json for Table 6-1 on a cluster)
 /usr/bin/python3 scripts/plot-validation.py --out out/validation-v50.png   # the validation set's V50 by panel size so far, beside the seed's Table 6-1
 scripts/bench-scaling.sh   # [long] 1 -> 2 rank speed-up of the bench
