@@ -63,11 +63,14 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     // the refusal `run` makes before its partition, on the ranks the user means to use
     let ranks_per_host = ranks_per_host.unwrap_or(ranks).min(ranks);
     let nodes = problem.fabric.node_count();
-    if let Err(e) = setup::shares_fit(nodes, ranks as usize, ranks_per_host as usize, setup::memory_limit()) {
+    let refuse = |e: setup::SetupError| {
         let hint = format!(
             "; `check --ranks N --ranks-per-host M` checks the ranks meant (here {ranks}, {ranks_per_host} per host)"
         );
-        return fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint);
+        fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint)
+    };
+    if let Err(e) = setup::shares_fit(nodes, ranks as usize, ranks_per_host as usize, setup::memory_limit()) {
+        return refuse(e);
     }
     // the partition `run` would make, its largest share on a host, and the price on it
     let graph = setup::segment_graph(&problem, ranks as usize, None);
@@ -78,10 +81,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     let quality = dea_partition::quality(&graph, &partition);
     let largest = quality.largest_stored_nodes;
     if let Err(e) = setup::largest_share_fits(largest, ranks as usize, ranks_per_host as usize, setup::memory_limit()) {
-        let hint = format!(
-            "; `check --ranks N --ranks-per-host M` checks the ranks meant (here {ranks}, {ranks_per_host} per host)"
-        );
-        return fail(setup_exit(&e), in_file(&e, Some(&path)) + &hint);
+        return refuse(e);
     }
     let shot_steps = (case.run.end_time_s / problem.time_step).ceil() as u64;
     let settle_steps = case.run.settle.as_ref().map_or(0, |s| settle::settle_steps(s.time_s, problem.time_step));
@@ -125,6 +125,8 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
                 "ranks_per_host": ranks_per_host,
                 "bytes_per_rank": setup::share_bytes(nodes, ranks as usize),
                 "largest_rank_nodes": largest,
+                "stored_imbalance": quality.memory_imbalance,
+                "work_imbalance": quality.load_imbalance,
                 "largest_rank_bytes": largest as f64 * setup::BYTES_PER_NODE,
                 "host_bytes": setup::memory_limit(),
             },
