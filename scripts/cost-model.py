@@ -49,11 +49,11 @@ def main():
     first = rows[0][1]
     print(f"{os.path.basename(args.case)}: {first['nodes']:,} nodes, {first['cost']['steps']:,} steps "
           f"(settle {first['cost']['settle_steps']:,}); calibration: {first['cost']['calibration']}\n")
-    print("| ranks | ranks per host | largest share (nodes) | step | of it between hosts | slowest / mean | wall per shot | core-hours per shot |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| ranks | ranks per host | largest share (nodes) | partition: work, stored imbalance | step | of it between hosts | slowest / mean | wall per shot | core-hours per shot |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for ranks, resolved in rows:
         cost = resolved["cost"]
-        print(f"| {ranks} | {cost['ranks_per_host']} | {resolved['memory']['largest_rank_nodes']:,} | {1e3 * cost['step_s']:.1f} ms "
+        print(f"| {ranks} | {cost['ranks_per_host']} | {resolved['memory']['largest_rank_nodes']:,} | {resolved['memory']['work_imbalance']:.3f}, {resolved['memory']['stored_imbalance']:.3f} | {1e3 * cost['step_s']:.1f} ms "
               f"| {1e3 * cost['network_s']:.2f} ms | {cost['imbalance']:.2f} | {figure(cost['wall_s'] / 3600)} h | {figure(cost['core_hours'])} |")
 
 
