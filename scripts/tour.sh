@@ -33,7 +33,7 @@ target/release/dea-mpi run cases/four_layer_fsp.json --out out/fsp   # an obliqu
 mpirun -np 2 --oversubscribe target/release/dea-mpi v50 cases/v50_tiny_monte_carlo.json --out out/v50 --ranks-per-shot 1   # a V50 campaign of a 3 mm toy on 2 groups
 /usr/bin/python3 scripts/plot-campaign.py out/v50   # its probability of perforation against velocity, with the shots: out/v50/v50.png
 target/release/dea-mpi check cases/v50_tiny_bisection.json   # validate a campaign and its shot's case
-target/release/dea-mpi check cases/km2_706_28_layer_disc.json --ranks 256 --ranks-per-host 8   # partitioned as run would (2 min): does each host hold its ranks' shares (the largest 2.6 GB; --ranks-per-host 32 on a 24 GB host is refused), and what a shot costs
+target/release/dea-mpi check cases/km2_706_28_layer_disc.json --ranks 256 --ranks-per-host 8   # partitioned as run would (2 min): does each host hold its ranks' shares (the largest 2.8 GB; --ranks-per-host 32 on a 24 GB host is refused), and what a shot costs
 jobs/cost.py cases/v50_tiny_bisection.json --ranks-per-shot 1 --tasks 2   # core-hours of a case or a campaign before submitting it, as check prices it (jobs/README.md: SLURM scripts)
 LOCAL=1 RANKS=1 jobs/v50-layer-sweep.sh cases/v50_tiny_bisection.json out/sweep 1 2 && /usr/bin/python3 scripts/plot-layer-sweep.py out/sweep   # V50 against layers from a campaign template (the 3 mm toy; jobs/campaigns/table_6_1_*.json for Table 6-1 on a cluster)
 /usr/bin/python3 scripts/plot-validation.py --out out/validation-v50.png   # the validation set's V50 by panel size so far, beside the seed's Table 6-1

@@ -151,7 +151,7 @@ fn a_fifo_or_a_device_is_refused_not_waited_on() {
 
 #[test]
 fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
-    // a 6 cm panel of the 10 mm patch case has 2.46 million nodes, 4.3 GB: a process
+    // a 6 cm panel of the 10 mm patch case has 2.46 million nodes, 4.6 GB: a process
     // limited to 2 GB of address space cannot hold it, whatever the host's memory
     let dir = scratch("rlimit");
     let mut case = case_file("km2_706_patch.json");
@@ -173,7 +173,7 @@ fn a_target_beyond_the_address_space_limit_is_refused_before_it_is_built() {
 
 #[test]
 fn check_refuses_what_run_on_the_meant_ranks_would() {
-    // side_m 0.6 where 0.006 was meant: 248 million nodes, 430 GB on one rank; `check`
+    // side_m 0.6 where 0.006 was meant: 248 million nodes, 462 GB on one rank; `check`
     // accepted it with exit 0 while `run` refused it (issue 34)
     let dir = scratch("meant-ranks");
     let mut case = case_file("km2_706_patch.json");
@@ -183,19 +183,19 @@ fn check_refuses_what_run_on_the_meant_ranks_would() {
     let path = path.to_str().unwrap();
     for args in [vec!["check", path], vec!["run", path, "--out", dir.join("out").to_str().unwrap()]] {
         let stderr = stderr_of_exit(3, &args);
-        assert!(stderr.contains("248249472 nodes need about 429.5 GB on each of the 1 ranks"), "{stderr}");
+        assert!(stderr.contains("248249472 nodes need about 462.5 GB on each of the 1 ranks"), "{stderr}");
     }
-    // 4 of 64 ranks on a host: 27 GB, more than a CI machine's 24 GiB
+    // 4 of 64 ranks on a host: 29 GB, more than a CI machine's 24 GiB
     let stderr = stderr_of_exit(3, &["check", path, "--ranks", "64", "--ranks-per-host", "4"]);
     assert!(stderr.contains("--ranks N --ranks-per-host M") && stderr.contains("here 64, 4 per host"), "{stderr}");
-    // one share of 256 per host: 1.7 GB, checked and described
+    // one share of 256 per host: 1.8 GB, checked and described
     let out = dea(&["check", path, "--ranks", "256", "--ranks-per-host", "1"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let memory = &printed["resolved"]["memory"];
     assert_eq!((memory["ranks"].as_u64(), memory["ranks_per_host"].as_u64()), (Some(256), Some(1)));
     let share = memory["bytes_per_rank"].as_f64().unwrap();
-    assert!((share / (248249472.0 * 1730.0 / 256.0) - 1.0).abs() < 1e-12, "{share}");
+    assert!((share / (248249472.0 * 1863.0 / 256.0) - 1.0).abs() < 1e-12, "{share}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
