@@ -355,11 +355,8 @@ pub fn partition(graph: &SegmentGraph, ranks: usize, method: Method) -> Result<P
     let worse = |report: &QualityReport| report.load_imbalance.max(report.memory_imbalance);
     let mut best = (latest.clone(), worse(&latest_report));
     for _ in 1..STORED_PASSES {
-        let ghost_ratio: Vec<f64> = latest_report
-            .ranks
-            .iter()
-            .map(|r| r.ghost_nodes as f64 / (r.owned_nodes as f64).max(1.0))
-            .collect();
+        let ghost_ratio: Vec<f64> =
+            latest_report.ranks.iter().map(|r| r.ghost_nodes as f64 / (r.owned_nodes as f64).max(1.0)).collect();
         let stored: Vec<f64> = graph
             .segments
             .iter()
@@ -429,11 +426,8 @@ fn refine_stored(graph: &SegmentGraph, partition: &mut Partition) {
         for &s in &members[from] {
             let segment = &graph.segments[s as usize];
             let edges = &graph.adjacency[s as usize];
-            let mut receivers: Vec<usize> = edges
-                .iter()
-                .map(|e| rank_of[e.segment as usize].0 as usize)
-                .filter(|&r| r != from)
-                .collect();
+            let mut receivers: Vec<usize> =
+                edges.iter().map(|e| rank_of[e.segment as usize].0 as usize).filter(|&r| r != from).collect();
             receivers.sort_unstable();
             receivers.dedup();
             for to in receivers {

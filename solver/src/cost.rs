@@ -175,7 +175,8 @@ impl Calibration {
     /// The calibration in the binary (tested to parse).
     pub fn shipped() -> &'static Calibration {
         static SHIPPED_CALIBRATION: OnceLock<Calibration> = OnceLock::new();
-        SHIPPED_CALIBRATION.get_or_init(|| Calibration::parse(SHIPPED).expect("the shipped calibration parses (tested)"))
+        SHIPPED_CALIBRATION
+            .get_or_init(|| Calibration::parse(SHIPPED).expect("the shipped calibration parses (tested)"))
     }
 
     /// Each stage's seconds per step per unit of its driver: the mean over the one-rank runs.
@@ -211,11 +212,8 @@ impl Calibration {
         let ranks_per_host = ranks_per_host.clamp(1, ranks);
         let computation: Vec<f64> = report.ranks.iter().map(|rank| rank_computation(&rates, rank)).collect();
         let across_hosts = ranks_per_host < ranks;
-        let network: Vec<f64> = report
-            .ranks
-            .iter()
-            .map(|rank| if across_hosts { self.rank_network(rank, ranks) } else { 0.0 })
-            .collect();
+        let network: Vec<f64> =
+            report.ranks.iter().map(|rank| if across_hosts { self.rank_network(rank, ranks) } else { 0.0 }).collect();
         let (slowest, network_s) = computation
             .iter()
             .zip(&network)
@@ -332,7 +330,12 @@ mod tests {
         assert_eq!(priced.step_s, rank_computation(&rates, &b));
         assert!((priced.imbalance - 1.5).abs() < 1e-12, "3000 against a mean of 2000");
         // a ghost adds its rods and the held-node stages, nothing else
-        let held: f64 = Stage::ALL.iter().zip(rates.per_stage).filter(|(&s, _)| driver(s) == Driver::HeldNodes).map(|(_, r)| r).sum();
+        let held: f64 = Stage::ALL
+            .iter()
+            .zip(rates.per_stage)
+            .filter(|(&s, _)| driver(s) == Driver::HeldNodes)
+            .map(|(_, r)| r)
+            .sum();
         let ghosted = rank(1000, 100, 1);
         let extra = rank_computation(&rates, &ghosted) - rank_computation(&rates, &a);
         assert!((extra - 100.0 * (held + rates.ghost_rods)).abs() < 1e-12 * extra.abs().max(1e-30));
@@ -379,12 +382,18 @@ mod tests {
     fn the_shipped_calibration_covers_the_costly_stages_and_its_wall() {
         let calibration = Calibration::shipped();
         for run in &calibration.runs {
-            for stage in [Stage::KickDrift, Stage::NeighbourRebuild, Stage::Rods, Stage::FibreContacts, Stage::Failure] {
+            for stage in [Stage::KickDrift, Stage::NeighbourRebuild, Stage::Rods, Stage::FibreContacts, Stage::Failure]
+            {
                 assert!(run.stage_seconds.get(stage.name()).is_some_and(|&s| s > 0.0), "{}", stage.name());
             }
             // the stages account for the window's wall (the rest is the run loop between steps)
             let stages: f64 = run.stage_seconds.values().sum();
-            assert!((stages / run.wall_s - 1.0).abs() < 0.02, "{} rank(s): stages {stages} s of {} s", run.ranks, run.wall_s);
+            assert!(
+                (stages / run.wall_s - 1.0).abs() < 0.02,
+                "{} rank(s): stages {stages} s of {} s",
+                run.ranks,
+                run.wall_s
+            );
         }
     }
 }

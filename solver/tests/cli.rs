@@ -699,6 +699,13 @@ fn compare_names_a_damaged_part_and_refuses_what_is_not_results() {
     }
     let (a, b) = (dir.join("a/results.h5"), dir.join("b/results.h5"));
     assert!(dea(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]).status.success());
+    // a run's output directory stands for its results.h5; a directory without one is named
+    let same = dea(&["compare", dir.join("a").to_str().unwrap(), dir.join("b").to_str().unwrap()]);
+    assert!(same.status.success(), "{}", String::from_utf8_lossy(&same.stderr));
+    assert!(String::from_utf8_lossy(&same.stdout).contains("a/results.h5"));
+    let stderr =
+        stderr_of_exit(4, &["compare", dir.join("a").to_str().unwrap(), dir.join("b/fields").to_str().unwrap()]);
+    assert!(stderr.contains("fields: a directory without results.h5"), "{stderr}");
     // a checkpoint's manifest is not a run's results: named, not compared
     let manifest = dir.join("b/checkpoint/manifest.h5");
     let stderr = stderr_of_exit(4, &["compare", a.to_str().unwrap(), manifest.to_str().unwrap()]);
@@ -983,19 +990,17 @@ fn check_prices_a_case_on_the_ranks_meant_and_a_campaign_by_its_shots() {
 #[test]
 fn the_cost_scripts_print_what_check_prices() {
     let script = |args: &[&str]| -> Output {
-        Command::new("python3")
-            .args(args)
-            .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-            .output()
-            .unwrap()
+        Command::new("python3").args(args).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).output().unwrap()
     };
     let binary = env!("CARGO_BIN_EXE_dea-mpi");
     let check = |args: &[&str]| -> serde_json::Value {
-        let out = Command::new(binary).args(args).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).output().unwrap();
+        let out =
+            Command::new(binary).args(args).current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).output().unwrap();
         serde_json::from_slice(&out.stdout).unwrap()
     };
     // a plain case (it stopped with a KeyError traceback before): check's price, quoted
-    let out = script(&["jobs/cost.py", "cases/default.json", "--ranks-per-shot", "2", "--tasks", "4", "--binary", binary]);
+    let out =
+        script(&["jobs/cost.py", "cases/default.json", "--ranks-per-shot", "2", "--tasks", "4", "--binary", binary]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let cost = check(&["check", "cases/default.json", "--ranks", "2"])["resolved"]["cost"].clone();
@@ -1008,7 +1013,16 @@ fn the_cost_scripts_print_what_check_prices() {
     assert!((quoted / hours - 1.0).abs() < 5e-3, "{text} / {hours}");
     assert!(text.contains("2 group(s) of 2") && !text.contains("campaign:"), "{text}");
     // a campaign: its shots and their core-hours
-    let out = script(&["jobs/cost.py", "cases/v50_tiny_bisection.json", "--ranks-per-shot", "1", "--tasks", "2", "--binary", binary]);
+    let out = script(&[
+        "jobs/cost.py",
+        "cases/v50_tiny_bisection.json",
+        "--ranks-per-shot",
+        "1",
+        "--tasks",
+        "2",
+        "--binary",
+        binary,
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("campaign: 6 shots") && text.contains("3 round(s)"), "{text}");
     // what check refuses, refused with its message and code, no traceback
@@ -1016,7 +1030,8 @@ fn the_cost_scripts_print_what_check_prices() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(4), "{stderr}");
     assert!(stderr.contains("no-such-case.json") && !stderr.contains("Traceback"), "{stderr}");
-    let out = script(&["jobs/cost.py", "cases/default.json", "--tasks", "4", "--ranks-per-shot", "8", "--binary", binary]);
+    let out =
+        script(&["jobs/cost.py", "cases/default.json", "--tasks", "4", "--ranks-per-shot", "8", "--binary", binary]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot hold one shot's 8 ranks"));
     // the table over rank counts: one row each, from check
