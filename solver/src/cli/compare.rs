@@ -8,8 +8,9 @@ use super::{fail, Exit};
 pub const ABOUT: &str = "Compare two runs' results and field snapshots bit for bit";
 pub const LONG_ABOUT: &str = "Compare two results files dataset by dataset, bit for bit (the partition group excepted),
 and the field snapshots beside them node by node; exit 0 when identical, 1 when they differ.
-A run's output directory stands for its results.h5. Two relaxed cells (`dea-mpi fabric`'s cell.h5) compare the same way; anything else (a
-checkpoint's manifest, a field part, one file of each kind) is refused with exit 4.";
+A run's output directory stands for its results.h5. Two relaxed cells (`dea-mpi fabric`'s
+cell.h5) compare the same way; anything else (a checkpoint's manifest, a field part, one
+file of each kind) is refused with exit 4.";
 pub const EXAMPLES: &str =
     "Examples:\n  dea-mpi compare out/1-rank/results.h5 out/4-ranks/results.h5\n  dea-mpi compare out/1-rank out/4-ranks";
 
