@@ -189,7 +189,8 @@ impl<C: Comm> Distributed<C> {
         deformable: Option<DeformableProjectile>,
     ) -> Result<Self, DomainError> {
         let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
-        let forces = compute_forces(&mut distributed.domain, &mut distributed.timer);
+        let instant = distributed.domain.step;
+        let forces = compute_forces(&mut distributed.domain, &mut distributed.timer, instant);
         distributed.agree(forces)?;
         distributed.gather_projectile_load();
         Ok(distributed)

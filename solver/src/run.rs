@@ -347,7 +347,13 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let floor = energy_floor(run.domain.projectile.as_ref().map_or(0.0, |p| p.mass));
     let balance = |histories: &Histories| energy_balance_error(histories, initial_energy, floor);
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
-    while run.domain.time + 0.5 * run.domain.time_step < options.end_time {
+    // under multi-rate stepping, checkpoints and the end fall on instants every section's
+    // terms share: there each node's force is whole, and a restart computes it again
+    let largest_rate = run.domain.rates().iter().copied().max().unwrap_or(1) as u64;
+    let mut held = RunRequests::default();
+    while run.domain.time + 0.5 * run.domain.time_step < options.end_time
+        || !run.domain.step.is_multiple_of(largest_rate)
+    {
         let signalled =
             options.checkpoints.stop_signal.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst));
         run.requests = RunRequests {
@@ -369,9 +375,12 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
                 break;
             }
         }
-        let RunRequests { stop, checkpoint: due_by_time } = run.agreed;
+        held.stop |= run.agreed.stop;
+        held.checkpoint |= run.agreed.checkpoint;
+        let RunRequests { stop, checkpoint: due_by_time } = held;
         let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
-        if stop || due_by_time || due_by_steps {
+        if (stop || due_by_time || due_by_steps) && run.domain.step.is_multiple_of(largest_rate) {
+            held = RunRequests::default();
             let resume = Resume {
                 histories: histories.clone(),
                 max_force,

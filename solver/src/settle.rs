@@ -79,7 +79,8 @@ impl<C: Comm> Distributed<C> {
             body.body.position.iter_mut().for_each(|x| x.z += rise);
         }
         self.domain.start_afresh();
-        let forces = compute_forces(&mut self.domain, &mut self.timer);
+        let instant = self.domain.step;
+        let forces = compute_forces(&mut self.domain, &mut self.timer, instant);
         self.agree(forces)?;
         self.gather_projectile_load();
         let report = SettleReport {

@@ -15,7 +15,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use dea_core::failure::BrokenCount;
-use dea_core::{Domain, DomainError, FibreId, FibreMaterial, Nodes, Rank, Vec3};
+use dea_core::{Domain, DomainError, FibreId, FibreMaterial, FibreSection, Nodes, Rank, Vec3};
 use dea_fabric::cell::PeriodicCell;
 use dea_fabric::panel::{transition_nodes, CoarseYarns, FineRegion, WovenPanel};
 use dea_fabric::relax::{relax, RelaxReport};
@@ -57,6 +57,9 @@ pub struct Problem {
     pub deformable: Option<DeformableProjectile>,
     /// [s]
     pub time_step: f64,
+    /// each fibre section's rate: its terms fire every this many steps (docs/theory.md T1;
+    /// all 1 without `run.multi_rate`) [-]
+    pub rates: Vec<u32>,
     /// contact search distance: largest contact diameter plus the skin [m]
     pub reach: f64,
 }
@@ -442,6 +445,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             }
         }
     }
+    let rates = section_rates(case, &material, &sections, &contact, starting_strain)?;
     let reach = largest_contact_diameter + contact.skin;
     Ok(Problem {
         material,
@@ -455,8 +459,53 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         aim,
         deformable,
         time_step,
+        rates,
         reach,
     })
+}
+
+/// Each fibre section's rate under `run.multi_rate` (docs/theory.md T1): the largest power of
+/// two times the finest section's stable step that stays within its own, each estimated as
+/// the run's step is ([`stable_time_step`]); all 1 without it. Refuses a target whose
+/// sections would all fire at every step, and intervals that split a coarse step.
+fn section_rates(
+    case: &Case,
+    material: &FibreMaterial,
+    sections: &[FibreSection],
+    contact: &ContactParameters,
+    starting_strain: f64,
+) -> Result<Vec<u32>, SetupError> {
+    if !case.run.multi_rate {
+        return Ok(vec![1; sections.len()]);
+    }
+    let mu = contact.friction_coefficient.max(contact.projectile_friction_coefficient);
+    let limits: Vec<f64> = sections
+        .iter()
+        .map(|s| stable_time_step(material, std::slice::from_ref(s), &contact.law, mu, starting_strain, 1.0))
+        .collect();
+    let finest = limits.iter().copied().fold(f64::INFINITY, f64::min);
+    let rates = dea_core::multi_rate::rates_for(&limits, finest);
+    let largest = rates.iter().copied().max().unwrap_or(1);
+    if largest == 1 {
+        let steps: Vec<String> = limits.iter().map(|l| format!("{l:.3e} s")).collect();
+        return Err(SetupError::Case(format!(
+            "run.multi_rate: every fibre section's stable step ({}) is below twice the finest's, so every term would fire at every step; multi-rate stepping needs a hybrid target whose coarse part may step at least twice as long (leave run.multi_rate out)",
+            steps.join(", ")
+        )));
+    }
+    let intervals = [
+        ("run.history_interval_steps", Some(case.run.history_interval_steps)),
+        ("run.snapshot_interval_steps", case.run.snapshot_interval_steps),
+        ("run.checkpoint_interval_steps", case.run.checkpoint_interval_steps),
+    ];
+    for (field, interval) in intervals {
+        if let Some(interval) = interval.filter(|n| !n.is_multiple_of(largest as u64)) {
+            return Err(SetupError::Case(format!(
+                "{field}: with run.multi_rate the coarsest section fires every {largest} steps, and output falls on the instants every section shares: give a multiple of {largest}, got {interval}"
+            )));
+        }
+    }
+    Ok(rates)
 }
 
 /// A deformable projectile's body at rest and its meshed proxy, the proxy's vertices taken
@@ -909,6 +958,7 @@ pub(crate) fn own_domain(
         problem.time_step,
     );
     domain.set_ties(built.ties);
+    domain.set_rates(problem.rates.clone());
     // a deformable body is integrated beside the domain (rank 0), not as a rigid body
     domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
     domain
@@ -1102,6 +1152,33 @@ mod tests {
         assert!(error.contains("contact.skin_m: must be at most 4 contact diameters"), "{error}");
         fibre.contact.skin_m = Some(100e-6);
         assert!(problem(&fibre).is_ok(), "two contact diameters");
+    }
+
+    #[test]
+    fn multi_rate_stepping_is_refused_where_it_would_split_an_output_or_change_nothing() {
+        let refusal = |case: &Case| problem(case).err().expect("refused").to_string();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/hybrid_disc_two_layer_settle.json");
+        let mut hybrid = dea_io::case::load_case(&path).unwrap();
+        hybrid.run.multi_rate = true;
+        assert_eq!(problem(&hybrid).unwrap().rates, vec![1, 2]);
+        hybrid.run.history_interval_steps = 25;
+        let error = refusal(&hybrid);
+        assert!(error.contains("run.history_interval_steps") && error.contains("multiple of 2, got 25"), "{error}");
+        hybrid.run.history_interval_steps = 20;
+        hybrid.run.checkpoint_interval_steps = Some(7);
+        let error = refusal(&hybrid);
+        assert!(error.contains("run.checkpoint_interval_steps") && error.contains("got 7"), "{error}");
+        hybrid.run.checkpoint_interval_steps = None;
+        hybrid.run.snapshot_interval_steps = Some(301);
+        assert!(refusal(&hybrid).contains("run.snapshot_interval_steps"));
+        // one section: every term would fire at every step
+        let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/km2_706_patch.json");
+        let mut woven = dea_io::case::load_case(&patch).unwrap();
+        woven.run.multi_rate = true;
+        let error = refusal(&woven);
+        assert!(error.contains("run.multi_rate") && error.contains("every term would fire at every step"), "{error}");
+        woven.run.multi_rate = false;
+        assert_eq!(problem(&woven).unwrap().rates, vec![1]);
     }
 
     #[test]

@@ -183,7 +183,10 @@ impl StageTimer {
 /// The forces of the present positions on the owned nodes, then failure and the state
 /// check: the force stages of a step, each stamped. The order is the physics': the rods set
 /// each node's force, the rest add to it; failure reads this step's strains and moments.
-pub fn compute_forces(domain: &mut Domain, timer: &mut StageTimer) -> Result<(), DomainError> {
+/// `instant` is the present positions' count of steps since the shot began: under
+/// multi-rate stepping it decides which terms fire ([`Domain::fire_at`]).
+pub fn compute_forces(domain: &mut Domain, timer: &mut StageTimer, instant: u64) -> Result<(), DomainError> {
+    domain.fire_at(instant);
     domain.add_rod_forces();
     timer.stamp(Stage::Rods);
     domain.add_tie_forces();
@@ -218,7 +221,9 @@ impl<C: Comm> Distributed<C> {
         self.forward_halo();
         self.timer.stamp(Stage::HaloForward);
         self.rebuild_if_due(largest)?;
-        let forces = compute_forces(&mut self.domain, &mut self.timer);
+        // the drift above brought the positions to the next step's instant
+        let instant = self.domain.step + 1;
+        let forces = compute_forces(&mut self.domain, &mut self.timer, instant);
         self.agree(forces)?;
         self.timer.stamp(Stage::ErrorAgreement);
         self.gather_projectile_load();

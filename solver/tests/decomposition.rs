@@ -311,6 +311,39 @@ fn a_hybrid_panel_with_a_fine_disc_gives_the_same_bits_on_any_ranks_and_after_a_
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn multi_rate_stepping_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_strikes_as_single_rate() {
+    // the fine disc's case with its coarse yarns' terms firing every second step (docs/theory.md
+    // T1); its ties and the contacts of fine with coarse nodes fire at every step, across the
+    // ranks' borders
+    let single = case_file("hybrid_disc_two_layer_settle.json");
+    let mut case = single.clone();
+    case.run.multi_rate = true;
+    assert_eq!(problem(&case).unwrap().rates, vec![1, 2], "the coarse section fires every second step");
+    let dir = scratch("multi-rate");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    let single_rate = run_on(&single, 1, &dir.join("single"));
+    assert!(reference.energy_balance_error < 0.005, "energy balance {}", reference.energy_balance_error);
+    let relative = |a: f64, b: f64| (a / b - 1.0).abs();
+    assert!(
+        relative(reference.residual_velocity_m_s, single_rate.residual_velocity_m_s) < 0.005,
+        "{} against single-rate {}",
+        reference.residual_velocity_m_s,
+        single_rate.residual_velocity_m_s
+    );
+    assert_ne!(
+        reference.residual_velocity_m_s, single_rate.residual_velocity_m_s,
+        "multi-rate stepping changed nothing: did the coarse terms fire at every step?"
+    );
+    for ranks in [2, 4] {
+        run_on(&case, ranks, &dir.join(ranks.to_string()));
+        let differences = compare_results(&dir.join("1/results.h5"), &dir.join(format!("{ranks}/results.h5"))).unwrap();
+        assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
+    }
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The 17-grain FSP (5.46 mm) on a 6 mm patch with fixed edges swallows clamped edge nodes,
 /// which later come within the mesh's reach from inside. They stay candidates of the
 /// projectile contact on every rank count (they were chosen again only at a rank's next

@@ -118,10 +118,22 @@ pub fn torsional_spring(
 /// Evaluates the torsional spring at every local node whose two elements are intact.
 /// Reads the element directions of [`crate::rod::compute_element_tension`] (run it first).
 pub fn compute_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
-    if crate::in_avx2_lanes!(bending_in_lanes(nodes, elements, sections, scratch)).is_some() {
+    compute_bending_over(nodes, elements, sections, scratch, 0..nodes.len());
+}
+
+/// [`compute_bending`] at the nodes in `range` (the nodes of the sections whose terms fire
+/// at a multi-rate instant, [`crate::multi_rate`]).
+pub fn compute_bending_over(
+    nodes: &Nodes,
+    elements: &Elements,
+    sections: &[FibreSection],
+    scratch: &mut BendingScratch,
+    range: std::ops::Range<usize>,
+) {
+    if crate::in_avx2_lanes!(bending_in_lanes(nodes, elements, sections, scratch, range.clone())).is_some() {
         return;
     }
-    for i in 0..nodes.len() {
+    for i in range {
         node_bending(nodes, elements, sections, scratch, i);
     }
 }
@@ -157,10 +169,16 @@ fn node_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], s
 /// [`compute_bending`] four nodes at a time where it can ([`springs_in_lanes`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn bending_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], scratch: &mut BendingScratch) {
-    let n = nodes.len();
-    let mut i = 0;
-    while i + 4 <= n {
+fn bending_in_lanes(
+    nodes: &Nodes,
+    elements: &Elements,
+    sections: &[FibreSection],
+    scratch: &mut BendingScratch,
+    range: std::ops::Range<usize>,
+) {
+    let end = range.end;
+    let mut i = range.start;
+    while i + 4 <= end {
         if !springs_in_lanes(nodes, elements, sections, scratch, i) {
             for k in i..i + 4 {
                 node_bending(nodes, elements, sections, scratch, k);
@@ -168,7 +186,7 @@ fn bending_in_lanes(nodes: &Nodes, elements: &Elements, sections: &[FibreSection
         }
         i += 4;
     }
-    for k in i..n {
+    for k in i..end {
         node_bending(nodes, elements, sections, scratch, k);
     }
 }

@@ -4,19 +4,20 @@
 //! the projectile. Its stages are the step of DESIGN.md §4 without communication; a driver
 //! (the solver's step loop) calls them in order and inserts halo exchange and reductions.
 
-use crate::bending::{compute_bending, BendingScratch};
+use crate::bending::{compute_bending, compute_bending_over, BendingScratch};
 use crate::contact::NormalLaw;
 use crate::dispatch::Compilation;
 use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{self, BrokenCount, FailureParameters};
 use crate::fibre_contact::{self, FibreContactSums, RunningSums};
 use crate::integrate;
+use crate::multi_rate::{section_runs, Firing, SectionRun};
 use crate::neighbour::NeighbourList;
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::pair_data::{PairData, PairDataTable};
 use crate::projectile::RigidProjectile;
 use crate::projectile_contact::{sum_reactions, ProjectileContacts, Reaction};
-use crate::rod::{compute_element_tension, set_chain_forces};
+use crate::rod::{compute_element_tension, compute_element_tension_over, set_chain_forces, set_scaled_chain_forces};
 use crate::tie::{Tie, Ties};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
@@ -166,6 +167,15 @@ pub struct Domain {
     /// `nodes.velocity` is half a step behind the positions, and [`Self::velocity`] gives
     /// the velocities of the present step.
     deferred_kick: Option<f64>,
+    /// each section's rate under multi-rate stepping: its terms fire every `rate` steps
+    /// ([`crate::multi_rate`]); all 1 for single-rate stepping [-]
+    rates: Vec<u32>,
+    /// the terms that fire at the instant of the present forces ([`Self::fire_at`])
+    firing: Firing,
+    /// the runs of equal section over the local nodes
+    section_runs: Vec<SectionRun>,
+    /// `pair_data` with the force factors of `firing`
+    firing_pair_data: PairDataTable,
 }
 
 impl Domain {
@@ -188,7 +198,14 @@ impl Domain {
         let mut bending = BendingScratch::default();
         bending.resize(n);
         let chain_stiffness = sections.iter().map(|s| crate::stability::chain_stiffness(&material, s)).collect();
+        let firing = Firing::every_term(sections.len(), n);
+        let section_runs = section_runs(&nodes.section);
+        let rates = vec![1; sections.len()];
         Self {
+            firing,
+            section_runs,
+            rates,
+            firing_pair_data: pair_data.clone(),
             material,
             sections,
             ledger: NodeLedger {
@@ -254,6 +271,38 @@ impl Domain {
         self.nodes.link_chains();
         self.ties.link(&self.nodes);
         self.bending.resize(self.nodes.len());
+        self.section_runs = section_runs(&self.nodes.section);
+    }
+
+    /// Sets each section's rate for multi-rate stepping ([`crate::multi_rate`]; all 1:
+    /// single-rate). Takes effect at the next [`Self::fire_at`].
+    pub fn set_rates(&mut self, rates: Vec<u32>) {
+        assert_eq!(rates.len(), self.sections.len(), "one rate per section");
+        assert!(rates.iter().all(|&r| r >= 1), "rates are whole numbers of steps");
+        self.rates = rates;
+    }
+
+    /// Each section's rate [-].
+    pub fn rates(&self) -> &[u32] {
+        &self.rates
+    }
+
+    /// Chooses the terms the next forces evaluate: those that fire at `instant` (a count of
+    /// run steps since the shot began), each with its factor ([`crate::multi_rate::Firing`]).
+    /// A settle fires every term at every step.
+    pub fn fire_at(&mut self, instant: u64) {
+        let single_rate = self.phase != Phase::Shot || self.rates.iter().all(|&r| r == 1);
+        self.firing = if single_rate {
+            Firing::every_term(self.sections.len(), self.nodes.len())
+        } else {
+            Firing::at(&self.rates, instant, &self.section_runs, self.nodes.len())
+        };
+        self.firing_pair_data.set_scales(&self.firing.pair_scale);
+    }
+
+    /// The terms of the present forces.
+    pub fn firing(&self) -> &Firing {
+        &self.firing
     }
 
     /// Half-step velocity update of owned nodes and the owned projectile.
@@ -457,15 +506,39 @@ impl Domain {
 
     /// Axial rod forces (4-2, 4-3) and the bending springs (5-1…5-3) of every local element
     /// and node, the chain forces set on the owned nodes (their force starts here each step).
+    /// Under multi-rate stepping only the sections whose terms fire now ([`Self::fire_at`]),
+    /// their forces times the factor; the other owned nodes' forces start at zero.
     pub fn add_rod_forces(&mut self) {
-        compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
-        compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
-        set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
+        if self.firing.single {
+            compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
+            compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
+            set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
+            return;
+        }
+        // every element first: a spring reads the elements on both sides, which on a rank
+        // among several may be ghosts' in another range
+        for range in &self.firing.active {
+            compute_element_tension_over(
+                &self.nodes,
+                &mut self.elements,
+                &self.sections,
+                &self.material,
+                range.clone(),
+            );
+        }
+        for range in &self.firing.active {
+            compute_bending_over(&self.nodes, &self.elements, &self.sections, &mut self.bending, range.clone());
+        }
+        set_scaled_chain_forces(&mut self.nodes, &self.elements, &self.bending, &self.firing.section_scale);
     }
 
     /// The forces of the rods tying fine fibres to coarse ones in hybrid yarns (theory F12).
     pub fn add_tie_forces(&mut self) {
-        self.ties.add_forces(&mut self.nodes, &self.material);
+        if self.firing.single {
+            return self.ties.add_forces(&mut self.nodes, &self.material);
+        }
+        let firing = &self.firing;
+        self.ties.add_scaled_forces(&mut self.nodes, &self.material, |a, b| firing.pair(a, b));
     }
 
     /// Fibre–fibre contact and friction on owned nodes (seed 3-1…3-3, 4-4…4-15), summed per
@@ -492,7 +565,7 @@ impl Domain {
             &self.nodes.position,
             &self.nodes.section,
             &mut self.pairs,
-            &self.pair_data,
+            &self.firing_pair_data,
             sums,
             owned,
         );
@@ -576,6 +649,7 @@ impl Domain {
             &mut self.broken,
             &mut self.newly_broken,
             &mut self.measured_moment,
+            &self.firing.active,
         );
     }
 
@@ -588,20 +662,19 @@ impl Domain {
             if !(nodes.force[i].iter().all(|v| v.is_finite()) && nodes.position[i].iter().all(|v| v.is_finite())) {
                 return Err(DomainError::NonFinite { step: self.step, gid: nodes.gid[i] });
             }
-            if nodes.clamped[i] {
+            // a section's nodes are checked at its own step, when its terms fire (every step
+            // under single-rate stepping), with every term's stiffness counted at that step
+            let rate = self.firing.section_scale[nodes.section[i] as usize];
+            if nodes.clamped[i] || rate == 0.0 {
                 continue;
             }
+            let time_step = rate * self.time_step;
             // dt > 2 / omega, squared and without a division: this runs for every node
             let chain = self.chain_stiffness[nodes.section[i] as usize] + self.tie_stiffness[i];
             let stiffness = chain + (1.0 + mu) * self.contact_stiffness[i];
-            if stiffness * self.time_step * self.time_step > 4.0 * nodes.mass[i] {
+            if stiffness * time_step * time_step > 4.0 * nodes.mass[i] {
                 let limit = crate::stability::node_stability_limit(chain, self.contact_stiffness[i], mu, nodes.mass[i]);
-                return Err(DomainError::TimeStep {
-                    step: self.step,
-                    gid: nodes.gid[i],
-                    time_step: self.time_step,
-                    limit,
-                });
+                return Err(DomainError::TimeStep { step: self.step, gid: nodes.gid[i], time_step, limit });
             }
         }
         Ok(())

@@ -72,7 +72,9 @@ impl BrokenCount {
     }
 }
 
-/// The failure stage: applies the combined criterion (5-6) to the owned elements with this
+/// The failure stage: applies the combined criterion (5-6) to the owned elements in `owned`
+/// (ascending ranges of local indices: all of them, or at a multi-rate instant those of the
+/// sections whose terms fire, [`crate::multi_rate`]) with this
 /// step's strains (`elements`) and moments (`bending`, taken as the parameters' shear measure
 /// says into the scratch `measured_moment`), counts the broken ones in `broken`, books the
 /// strain and bending energy each releases in `fracture_released` [J] at its first node, and
@@ -90,6 +92,7 @@ pub fn break_elements(
     broken: &mut BrokenCount,
     newly_broken: &mut Vec<(u32, FailureMode)>,
     measured_moment: &mut Vec<Vec3>,
+    owned: &[std::ops::Range<usize>],
 ) {
     if !parameters.enabled {
         return;
@@ -105,29 +108,36 @@ pub fn break_elements(
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
     let breaks_now =
         |elements: &Elements, i: usize| element_breaks(nodes, elements, moment, sections, modulus, shear_strength, i);
-    let n_owned = nodes.n_owned;
-    let mut i = 0;
     let mut book_if_broken = |i: usize| {
         if let Some(mode) = breaks_now(elements, i) {
             newly_broken.push((i as u32, mode));
             broken.book(mode);
         }
     };
-    // almost no element is near breaking: four at a time are told so in lanes; a group reads
-    // the moment after its last element
-    while i + 4 <= n_owned && i + 5 <= moment.len() {
-        let Some(candidates) =
-            crate::in_avx2_lanes!(may_break_in_lanes(nodes, elements, moment, sections, modulus, shear_strength, i))
-        else {
-            break;
-        };
-        for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
-            book_if_broken(k);
+    for range in owned {
+        let (mut i, end) = (range.start, range.end.min(nodes.n_owned));
+        // almost no element is near breaking: four at a time are told so in lanes; a group
+        // reads the moment after its last element
+        while i + 4 <= end && i + 5 <= moment.len() {
+            let Some(candidates) = crate::in_avx2_lanes!(may_break_in_lanes(
+                nodes,
+                elements,
+                moment,
+                sections,
+                modulus,
+                shear_strength,
+                i
+            )) else {
+                break;
+            };
+            for k in (i..i + 4).filter(|k| candidates & (1 << (k - i)) != 0) {
+                book_if_broken(k);
+            }
+            i += 4;
         }
-        i += 4;
-    }
-    for i in i..n_owned {
-        book_if_broken(i);
+        for i in i..end {
+            book_if_broken(i);
+        }
     }
     for &(i, _) in newly_broken.iter() {
         let i = i as usize;

@@ -62,6 +62,19 @@ pub struct PairTerms {
     friction: Option<(Vec3, f64)>,
 }
 
+impl PairTerms {
+    /// The terms with their forces times `scale` (multi-rate stepping's factor; stiffness
+    /// and dissipation are the pair's own).
+    #[inline(always)]
+    pub fn scaled(self, scale: f64) -> Self {
+        Self {
+            normal_force: self.normal_force * scale,
+            friction: self.friction.map(|(force, loss)| (force * scale, loss)),
+            ..self
+        }
+    }
+}
+
 impl RunningSums {
     /// Adds the terms of an evaluation at this node, in the order of the full-row sweep.
     #[inline(always)]
@@ -145,8 +158,12 @@ pub fn evaluate_pair(
 /// ghost of lower gid is evaluated where the ghost's row would come. Every row's history is
 /// sliced once, so the entries are read without bounds checks: the sweep is bound by the
 /// instructions it retires (design rule "count instructions", docs/performance.md).
+///
+/// `SCALED`: the pairs' data carry a force factor ([`PairData::scale`], multi-rate stepping):
+/// a pair of factor 0 is not evaluated (its history waits for its next instant), the others'
+/// forces are multiplied by it (stiffness and dissipation are the pair's own).
 #[inline(always)]
-fn sweep_fibre_contacts(
+fn sweep_fibre_contacts<const SCALED: bool>(
     law: NormalLaw,
     mu: f64,
     positions: &[Vec3],
@@ -184,17 +201,21 @@ fn sweep_fibre_contacts(
             let (row, k) = (row as usize, entry as usize);
             let j = partners_all[k] as usize;
             let relative = positions[j] - positions[row];
+            let data = data_of(row, j);
+            if SCALED && data.scale == 0.0 {
+                continue;
+            }
             if let Some(terms) = evaluate_pair(
                 law,
                 mu,
                 relative,
-                data_of(row, j),
+                data,
                 &touching_flags[k],
                 &mut max_overlaps_all[k],
                 &mut anchors_all[k],
                 &mut springs_all[k],
             ) {
-                running[row].add(&terms);
+                running[row].add(&if SCALED { terms.scaled(data.scale) } else { terms });
             }
         }
         let row = uppers[i] as usize..starts[i + 1] as usize;
@@ -221,16 +242,14 @@ fn sweep_fibre_contacts(
             }
             prefetch(anchors, k_ahead);
             prefetch(max_overlaps, k_ahead);
-            if let Some(terms) = evaluate_pair(
-                law,
-                mu,
-                positions[j] - xi,
-                data_of(i, j),
-                touching,
-                max_overlap_reached,
-                anchor,
-                spring_stiffness,
-            ) {
+            let data = data_of(i, j);
+            if SCALED && data.scale == 0.0 {
+                continue;
+            }
+            if let Some(terms) =
+                evaluate_pair(law, mu, positions[j] - xi, data, touching, max_overlap_reached, anchor, spring_stiffness)
+            {
+                let terms = if SCALED { terms.scaled(data.scale) } else { terms };
                 sum.add(&terms);
                 // an owned partner (of higher gid, so its row is still to come); a ghost's
                 // owner evaluates the pair for it
@@ -270,14 +289,14 @@ pub fn add_fibre_contacts_compiled_for(
         in_compilation(
             compilation,
             #[inline(always)]
-            move || sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |_, _| data),
+            move || sweep_fibre_contacts::<false>(law, mu, positions, pairs, sums, owned, |_, _| data),
         );
     } else {
         in_compilation(
             compilation,
             #[inline(always)]
             move || {
-                sweep_fibre_contacts(law, mu, positions, pairs, sums, owned, |i, j| {
+                sweep_fibre_contacts::<true>(law, mu, positions, pairs, sums, owned, |i, j| {
                     pair_data.of(section[i], section[j])
                 })
             },

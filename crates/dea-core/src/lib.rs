@@ -21,6 +21,7 @@ pub mod integrate;
 #[cfg(target_arch = "x86_64")]
 pub mod lanes;
 pub mod material;
+pub mod multi_rate;
 pub mod neighbour;
 pub mod nodes;
 pub mod pair_data;

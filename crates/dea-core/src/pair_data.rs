@@ -12,6 +12,9 @@ pub struct PairData {
     pub reach: f64,
     /// the normal law's geometry of the pair (effective radius, length, radii sum)
     pub geometry: ContactGeometry,
+    /// the factor of the pair's forces at this instant: 1, or under multi-rate stepping the
+    /// pair's rate when it fires now and 0 when it does not ([`crate::multi_rate`]) [-]
+    pub scale: f64,
 }
 
 impl PairData {
@@ -27,6 +30,7 @@ impl PairData {
                 0.5 * (a.element_length + b.element_length),
                 ra + rb,
             ),
+            scale: 1.0,
         }
     }
 }
@@ -49,6 +53,14 @@ impl PairDataTable {
     #[inline(always)]
     pub fn of(&self, a: u16, b: u16) -> PairData {
         self.data[a as usize * self.sections + b as usize]
+    }
+
+    /// The data with each ordered pair's force factor `scale[a * sections + b]`
+    /// ([`crate::multi_rate::Firing::pair_scale`]).
+    pub fn set_scales(&mut self, scale: &[f64]) {
+        for (data, &scale) in self.data.iter_mut().zip(scale) {
+            data.scale = scale;
+        }
     }
 
     /// The one pair's data when there is one section (most cases).

@@ -16,10 +16,22 @@ pub fn compute_element_tension(
     sections: &[FibreSection],
     material: &FibreMaterial,
 ) {
-    if crate::in_avx2_lanes!(tension_in_lanes(nodes, elements, sections, material)).is_some() {
+    compute_element_tension_over(nodes, elements, sections, material, 0..nodes.len());
+}
+
+/// [`compute_element_tension`] of the elements whose first node is in `range` (the elements
+/// of the sections whose terms fire at a multi-rate instant, [`crate::multi_rate`]).
+pub fn compute_element_tension_over(
+    nodes: &Nodes,
+    elements: &mut Elements,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+    range: std::ops::Range<usize>,
+) {
+    if crate::in_avx2_lanes!(tension_in_lanes(nodes, elements, sections, material, range.clone())).is_some() {
         return;
     }
-    for i in 0..nodes.len() {
+    for i in range {
         element_tension(nodes, elements, sections, material, i);
     }
 }
@@ -58,13 +70,19 @@ pub(crate) fn element_tension(
 /// each other along a fibre in memory (almost everywhere), with the scalar code's bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn tension_in_lanes(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSection], material: &FibreMaterial) {
+fn tension_in_lanes(
+    nodes: &Nodes,
+    elements: &mut Elements,
+    sections: &[FibreSection],
+    material: &FibreMaterial,
+    range: std::ops::Range<usize>,
+) {
     use crate::lanes::{F4, V4};
-    let n = nodes.len();
+    let (n, end) = (nodes.len(), range.end);
     let stiffness_of = |k: usize| material.longitudinal_modulus * sections[nodes.section[k] as usize].area;
-    let mut i = 0;
+    let mut i = range.start;
     // a group reads the position after its last element
-    while i + 5 <= n {
+    while i + 5 <= n && i + 4 <= end {
         if (i..i + 4).all(|k| nodes.next[k] == k as u32 + 1 && elements.failure[k] == FailureMode::Intact) {
             let axis = V4::load(&nodes.position, i + 1).sub(V4::load(&nodes.position, i));
             let length = axis.dot(axis).sqrt();
@@ -86,7 +104,7 @@ fn tension_in_lanes(nodes: &Nodes, elements: &mut Elements, sections: &[FibreSec
         }
         i += 4;
     }
-    for k in i..n {
+    for k in i..end {
         element_tension(nodes, elements, sections, material, k);
     }
 }
@@ -110,6 +128,37 @@ pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &Bendin
             spring += bending.on_prev[n as usize];
         }
         nodes.force[i] = axial + spring;
+    }
+}
+
+/// [`set_chain_forces`] at a multi-rate instant ([`crate::multi_rate`]): the chain force of
+/// each owned node times its section's factor `section_scale`; zero where the section's terms
+/// do not fire now (factor 0), so the terms that fire add to it.
+pub fn set_scaled_chain_forces(
+    nodes: &mut Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    section_scale: &[f64],
+) {
+    for i in 0..nodes.n_owned {
+        let scale = section_scale[nodes.section[i] as usize];
+        if scale == 0.0 {
+            nodes.force[i] = crate::Vec3::zeros();
+            continue;
+        }
+        let (p, n) = (nodes.prev[i], nodes.next[i]);
+        let mut axial = elements.direction[i] * elements.axial_force[i];
+        if p != NONE {
+            axial -= elements.direction[p as usize] * elements.axial_force[p as usize];
+        }
+        let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
+        if p != NONE {
+            spring += bending.on_next[p as usize];
+        }
+        if n != NONE {
+            spring += bending.on_prev[n as usize];
+        }
+        nodes.force[i] = (axial + spring) * scale;
     }
 }
 

@@ -189,12 +189,22 @@ impl Ties {
     /// Adds the forces of every tie to its owned ends, each end's sum in list order whatever
     /// the partition.
     pub fn add_forces(&self, nodes: &mut Nodes, material: &FibreMaterial) {
+        self.add_scaled_forces(nodes, material, |_, _| 1.0);
+    }
+
+    /// [`Self::add_forces`] at a multi-rate instant ([`crate::multi_rate`]): each tie's forces
+    /// times `scale(fine section, coarse section)`, none where that is 0.
+    pub fn add_scaled_forces(&self, nodes: &mut Nodes, material: &FibreMaterial, scale: impl Fn(u16, u16) -> f64) {
         for (tie, local) in self.list.iter().zip(&self.local) {
             let [fine, coarse, next] = local.map(|i| i as usize);
+            let factor = scale(nodes.section[fine], nodes.section[coarse]);
+            if factor == 0.0 {
+                continue;
+            }
             let forces = tie.forces(material, &nodes.position[fine], &nodes.position[coarse], &nodes.position[next]);
             for (i, force) in [fine, coarse, next].into_iter().zip(forces) {
                 if i < nodes.n_owned {
-                    nodes.force[i] += force;
+                    nodes.force[i] += force * factor;
                 }
             }
         }

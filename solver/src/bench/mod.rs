@@ -158,7 +158,8 @@ pub fn bench<C: Comm>(comm: C, min_nodes: usize, steps: u64) -> Result<Option<Be
     let statics = 20;
     run.timer.reset();
     for _ in 0..statics {
-        compute_forces(&mut run.domain, &mut run.timer)?;
+        let instant = run.domain.step;
+        compute_forces(&mut run.domain, &mut run.timer, instant)?;
     }
     let static_touching = run.domain.pairs.touching_entries() as f64;
     let static_seconds = run.timer.seconds.get(Stage::FibreContacts);

@@ -132,6 +132,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             },
             "cost": cost,
             "time_step_s": problem.time_step,
+            "section_rates": problem.rates,
             "steps": shot_steps,
             "skin_m": problem.contact.skin,
             "hybrid": match &problem.fabric {
@@ -153,6 +154,12 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     }
     if problem.deformable.is_some() {
         eprintln!("note: cost: a deformable projectile's substeps are not in the price (the calibrated shot's projectile is rigid)");
+    }
+    if problem.rates.iter().any(|&rate| rate > 1) {
+        eprintln!(
+            "note: multi-rate stepping: the sections' terms fire every {:?} steps (section_rates); the price is single-rate stepping's, an upper bound (the calibration is single-rate)",
+            problem.rates
+        );
     }
     let campaign_line = shots.map_or(String::new(), |shots| {
         format!("; the campaign's {shots} shots at most {:.3} core-hours", shots as f64 * price.core_hours)

@@ -677,6 +677,13 @@ pub struct RunSpec {
     /// of fine and coarse yarns start out of balance); none: the shot starts as built
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub settle: Option<SettleSpec>,
+    /// multi-rate stepping (docs/theory.md T1): each fibre section's terms fire at its own
+    /// stable step, the largest power of two times the finest section's that it allows; a
+    /// hybrid target's coarse part then costs a fraction of a step. Off: every term at every
+    /// step. The history, snapshot and checkpoint intervals must then be multiples of the
+    /// largest rate, which `dea-mpi check` prints.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub multi_rate: bool,
 }
 
 /// The settle before the shot: the target moves without friction, failure or projectile
@@ -1093,6 +1100,7 @@ pub fn default_case() -> Case {
             checkpoint_interval_steps: None,
             checkpoint_interval_minutes: default_checkpoint_minutes(),
             settle: Some(SettleSpec { time_s: 5e-6, damping_per_s: None }),
+            multi_rate: false,
         },
     }
 }
