@@ -3,6 +3,7 @@
 
     scripts/bench-shot.py [--ranks 1,2] [--window-us 10] [--json]
     scripts/bench-shot.py --binary NEW --baseline OLD [--pairs 3] [--ranks 1]
+    scripts/bench-shot.py --pair-multi-rate [--pairs 3] [--ranks 1]
 
 The shot: 4 layers of KM2 style 706, 3 in square, fixed edges, a hybrid fine disc (4 digital
 fibres per yarn within 6 mm of the aim point, 1 beyond), the 17-grain FSP at 300 m/s, after
@@ -30,6 +31,10 @@ This host's timings drift by +-15 % (DEVELOPERS.md): to compare two binaries, gi
 (`--binary` and `--baseline`); they run in alternation (A B, then B A, ...) on the same case
 and the report is each pair's ratio of core seconds per simulated microsecond (new / old)
 and their median. Never a timed test: this is a benchmark (docs/performance.md).
+
+Multi-rate stepping (`run.multi_rate`, docs/theory.md T1) is opt-in per case: `--multi-rate`
+measures the shot with it; `--pair-multi-rate` runs the binary in alternation with it ("new")
+and without it ("old") on the same shot, as paired runs.
 """
 import argparse
 import json
@@ -45,8 +50,10 @@ KEYS = ("core_s_per_simulated_us", "ns_per_node_step", "rebuilds_per_1000_steps"
         "stage_seconds", "ranks", "nodes", "steps", "simulated_us", "wall_s")
 
 
-def reference_case(window_us, side_m, velocity):
+def reference_case(window_us, side_m, velocity, multi_rate=False):
     case = json.load(open(REFERENCE))["case"]
+    if multi_rate:
+        case["run"]["multi_rate"] = True
     case["name"] = "reference-shot"
     case["projectile"]["velocity_m_s"] = velocity
     if side_m is not None:
@@ -147,6 +154,8 @@ def main():
     parser.add_argument("--side-m", type=float, help="panel side [m] (default: the reference's 3 in; smaller only to try the script)")
     parser.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "dea-mpi"))
     parser.add_argument("--baseline", help="a second binary: run both in alternation and report paired ratios")
+    parser.add_argument("--multi-rate", action="store_true", help="the shot with run.multi_rate (docs/theory.md T1)")
+    parser.add_argument("--pair-multi-rate", action="store_true", help="pair the binary with multi-rate stepping (new) against it without (old)")
     parser.add_argument("--pairs", type=int, default=3, help="pairs of runs per rank count with --baseline")
     parser.add_argument("--json", action="store_true", help="print the measurements as JSON on stdout")
     parser.add_argument("--calibrate", metavar="FILE", help="write the cost model's calibration from the runs (docs/benchmarks/cost-calibration.json)")
@@ -169,6 +178,8 @@ def main():
         sys.exit(f"bench-shot: --ranks {args.ranks!r}: every rank count must be at least 1")
     if not 0.0 < args.window_us <= 100.0:
         sys.exit(f"bench-shot: --window-us must be in (0, 100], got {args.window_us}")
+    if args.pair_multi_rate and (args.baseline or args.multi_rate):
+        sys.exit("bench-shot: --pair-multi-rate pairs one binary with and without multi-rate stepping: leave --baseline and --multi-rate out")
     if args.pairs < 1:
         sys.exit(f"bench-shot: --pairs must be at least 1, got {args.pairs}")
     for path in [args.binary] + ([args.baseline] if args.baseline else []):
@@ -176,11 +187,16 @@ def main():
             sys.exit(f"bench-shot: {path}: not an executable (build with cargo build --release)")
     with tempfile.TemporaryDirectory(prefix="bench-shot-") as scratch:
         case_path = os.path.join(scratch, "reference-shot.json")
-        json.dump(reference_case(args.window_us, args.side_m, args.velocity), open(case_path, "w"), indent=1)
-        report = {"case": "reference-shot", "window_us": args.window_us, "velocity_m_s": args.velocity, "runs": []}
+        json.dump(reference_case(args.window_us, args.side_m, args.velocity, args.multi_rate), open(case_path, "w"), indent=1)
+        multi_rate_path = os.path.join(scratch, "reference-shot-multi-rate.json")
+        json.dump(reference_case(args.window_us, args.side_m, args.velocity, True), open(multi_rate_path, "w"), indent=1)
+        report = {"case": "reference-shot", "window_us": args.window_us, "velocity_m_s": args.velocity,
+                  "multi_rate": args.multi_rate, "runs": []}
+        if args.pair_multi_rate:
+            report["paired"] = "new: run.multi_rate, old: single-rate, one binary"
         for n in ranks:
             out = os.path.join(scratch, f"out-{n}")
-            if not args.baseline:
+            if not args.baseline and not args.pair_multi_rate:
                 measured = shoot(args.binary, case_path, n, out)
                 describe("", measured)
                 report["runs"].append(measured)
@@ -188,10 +204,13 @@ def main():
             ratios, pairs = [], []
             for k in range(args.pairs):
                 # alternate which binary goes first, so a drift of the host falls on both
-                order = [("new", args.binary), ("old", args.baseline)]
+                if args.pair_multi_rate:
+                    order = [("new", args.binary, multi_rate_path), ("old", args.binary, case_path)]
+                else:
+                    order = [("new", args.binary, case_path), ("old", args.baseline, case_path)]
                 if k % 2:
                     order.reverse()
-                pair = {label: shoot(path, case_path, n, out) for label, path in order}
+                pair = {label: shoot(path, case, n, out) for label, path, case in order}
                 ratio = pair["new"]["core_s_per_simulated_us"] / pair["old"]["core_s_per_simulated_us"]
                 ratios.append(ratio)
                 pairs.append(pair)

@@ -19,6 +19,12 @@ use serde::Serialize;
 /// Work of one node's rods, bending and integration relative to one contact-list entry:
 /// 34.7 ns against 2.9 ns in the bench (docs/performance.md), rounded.
 pub const NODE_WORK_PER_CONTACT_ENTRY: f64 = 12.0;
+/// Of [`NODE_WORK_PER_CONTACT_ENTRY`], the part of the terms that fire (rods, bending,
+/// failure, the state check), which multi-rate stepping does every `rate` steps only
+/// (docs/theory.md T1): two thirds, as in the reference shot's calibration (50.6 ns per node
+/// of rods, failure and state check against 24.5 ns of integration, halo and rebuild;
+/// docs/benchmarks/cost-calibration.json).
+pub const NODE_WORK_FIRING: f64 = 8.0;
 /// Work of one projectile-contact candidate per step in the same unit (a surface distance
 /// and a contact law, about one node's rod work).
 pub const PROJECTILE_CANDIDATE_WORK: f64 = 12.0;
@@ -68,6 +74,11 @@ pub struct Segment {
     pub contact_entries: f64,
     /// expected projectile-contact candidates among the segment's nodes
     pub projectile_candidates: f64,
+    /// the segment's nodes whose terms fire per step: `nodes / rate` under multi-rate
+    /// stepping (docs/theory.md T1), `nodes` without
+    pub firing_nodes: f64,
+    /// its contact-list entries evaluated per step: each entry over the rate of its pair
+    pub firing_entries: f64,
     /// box of the node centres grown by a contact radius [m]
     pub low: Vec3,
     pub high: Vec3,
@@ -137,6 +148,23 @@ pub fn segment_graph(
     shot: Option<ShotLine>,
     segment_positions: u32,
 ) -> SegmentGraph {
+    segment_graph_at_rates(fabric, material, reach, shot, segment_positions, &[])
+}
+
+/// [`segment_graph`] for multi-rate stepping (docs/theory.md T1): `rates[s]` is the rate of
+/// section `s` (missing: 1). A node's firing terms and its contact entries weigh over the
+/// rate they fire at (an entry between yarns at the finer one's), its integration, halo and
+/// rebuild at every step; with every rate 1 the graph is [`segment_graph`]'s, weight for
+/// weight.
+pub fn segment_graph_at_rates(
+    fabric: &Fabric,
+    material: &FibreMaterial,
+    reach: f64,
+    shot: Option<ShotLine>,
+    segment_positions: u32,
+    rates: &[u32],
+) -> SegmentGraph {
+    let rate_of = |yarn: usize| rates.get(fabric.yarn_section(yarn)).copied().unwrap_or(1).max(1) as f64;
     let segment_positions = segment_positions.max(1);
     let sections = fabric.sections(material);
     let skin = reach - sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max);
@@ -165,8 +193,12 @@ pub fn segment_graph(
                     overlap_volume(&low, &high, &shot_low, &shot_high) / overlap_volume(&low, &high, &low, &high);
                 projectile_candidates = share * nodes as f64;
             }
-            let work = nodes as f64 * NODE_WORK_PER_CONTACT_ENTRY
-                + contact_entries
+            let rate = rate_of(y);
+            let (firing_nodes, firing_entries) = (nodes as f64 / rate, contact_entries / rate);
+            // at rate 1 the sum of the two node parts is nodes x 12, exactly
+            let work = nodes as f64 * (NODE_WORK_PER_CONTACT_ENTRY - NODE_WORK_FIRING)
+                + firing_nodes * NODE_WORK_FIRING
+                + firing_entries
                 + projectile_candidates * PROJECTILE_CANDIDATE_WORK;
             segments.push(Segment {
                 yarn: y as u32,
@@ -176,6 +208,8 @@ pub fn segment_graph(
                 work,
                 contact_entries,
                 projectile_candidates,
+                firing_nodes,
+                firing_entries,
                 low,
                 high,
             });
@@ -231,16 +265,24 @@ pub fn segment_graph(
         list.sort_by_key(|e| e.segment);
     }
     // a contact across yarns costs about one list entry per nearby node on each side
-    let extra: Vec<f64> = adjacency
+    let extra: Vec<(f64, f64)> = adjacency
         .iter()
         .enumerate()
         .map(|(s, list)| {
-            list.iter().filter(|e| segments[e.segment as usize].yarn != segments[s].yarn).map(|e| e.ghosts_needed).sum()
+            let yarn = segments[s].yarn as usize;
+            list.iter().filter(|e| segments[e.segment as usize].yarn as usize != yarn).fold(
+                (0.0, 0.0),
+                |(all, firing), e| {
+                    let other = segments[e.segment as usize].yarn as usize;
+                    (all + e.ghosts_needed, firing + e.ghosts_needed / rate_of(yarn).min(rate_of(other)))
+                },
+            )
         })
         .collect();
-    for (segment, extra) in segments.iter_mut().zip(extra) {
-        segment.work += extra;
+    for (segment, (extra, firing)) in segments.iter_mut().zip(extra) {
+        segment.work += firing;
         segment.contact_entries += extra;
+        segment.firing_entries += firing;
     }
     SegmentGraph { segments, adjacency, segment_positions, first_segment, first_fibre: fabric.first_fibres() }
 }
@@ -595,6 +637,10 @@ pub struct RankReport {
     pub contact_entries: f64,
     /// expected projectile-contact candidates among the owned nodes
     pub projectile_candidates: f64,
+    /// owned nodes whose terms fire per step (all of them without multi-rate stepping)
+    pub firing_nodes: f64,
+    /// contact-list entries evaluated per step (all of them without multi-rate stepping)
+    pub firing_entries: f64,
     /// ranks this rank holds ghosts of (each a halo message per step)
     pub partners: u32,
     /// bytes received by the forward halo per step
@@ -628,6 +674,8 @@ pub fn quality(graph: &SegmentGraph, partition: &Partition) -> QualityReport {
             work: 0.0,
             contact_entries: 0.0,
             projectile_candidates: 0.0,
+            firing_nodes: 0.0,
+            firing_entries: 0.0,
             partners: 0,
             halo_bytes_per_step: 0,
         })
@@ -640,6 +688,8 @@ pub fn quality(graph: &SegmentGraph, partition: &Partition) -> QualityReport {
         ranks[r].work += segment.work;
         ranks[r].contact_entries += segment.contact_entries;
         ranks[r].projectile_candidates += segment.projectile_candidates;
+        ranks[r].firing_nodes += segment.firing_nodes;
+        ranks[r].firing_entries += segment.firing_entries;
         for edge in &graph.adjacency[s] {
             let other = partition.rank_of_segment[edge.segment as usize].0 as usize;
             if other != r {

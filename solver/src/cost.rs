@@ -83,12 +83,15 @@ pub struct Interconnect {
 /// The count a stage's cost follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Driver {
-    /// the rank's owned nodes: integration, rods, ties, failure, state check, output, and
-    /// the per-step agreements (their cost on one rank is the work around them)
+    /// the rank's owned nodes: integration, output, and the per-step agreements (their cost
+    /// on one rank is the work around them)
     OwnedNodes,
+    /// the owned nodes whose terms fire per step (all of them without multi-rate stepping,
+    /// docs/theory.md T1): rods, ties, failure, the state check
+    FiringNodes,
     /// owned and ghost nodes: the motion check, the ghost exchange and the list rebuild
     HeldNodes,
-    /// expected fibre-contact list entries
+    /// expected fibre-contact list entries evaluated per step (each over its pair's rate)
     ContactEntries,
     /// expected projectile-contact candidates
     ProjectileCandidates,
@@ -100,6 +103,7 @@ pub fn driver(stage: Stage) -> Driver {
         Stage::HaloForward | Stage::GhostExchange | Stage::NeighbourRebuild => Driver::HeldNodes,
         Stage::FibreContacts => Driver::ContactEntries,
         Stage::ProjectileContacts | Stage::ProjectileLoad => Driver::ProjectileCandidates,
+        Stage::Rods | Stage::Ties | Stage::Failure | Stage::StateCheck => Driver::FiringNodes,
         _ => Driver::OwnedNodes,
     }
 }
@@ -198,7 +202,8 @@ impl Calibration {
     /// The measured shot's count of `driver` on one rank.
     fn count(&self, driver: Driver) -> f64 {
         match driver {
-            Driver::OwnedNodes | Driver::HeldNodes => self.graph.owned_nodes as f64,
+            // the calibrated shot is single-rate: every node's terms fire at every step
+            Driver::OwnedNodes | Driver::FiringNodes | Driver::HeldNodes => self.graph.owned_nodes as f64,
             Driver::ContactEntries => self.graph.contact_entries,
             Driver::ProjectileCandidates => self.graph.projectile_candidates,
         }
@@ -253,13 +258,16 @@ fn rank_computation(rates: &Rates, rank: &RankReport) -> f64 {
         .map(|(&stage, rate)| {
             rate * match driver(stage) {
                 Driver::OwnedNodes => rank.owned_nodes as f64,
+                Driver::FiringNodes => rank.firing_nodes,
                 Driver::HeldNodes => held,
-                Driver::ContactEntries => rank.contact_entries,
+                Driver::ContactEntries => rank.firing_entries,
                 Driver::ProjectileCandidates => rank.projectile_candidates,
             }
         })
         .sum();
-    stages + rank.ghost_nodes as f64 * rates.ghost_rods
+    // a ghost's rods fire as often as the owned nodes' around it, on average
+    let firing_share = if rank.owned_nodes > 0 { rank.firing_nodes / rank.owned_nodes as f64 } else { 1.0 };
+    stages + rank.ghost_nodes as f64 * firing_share * rates.ghost_rods
 }
 
 #[cfg(test)]
@@ -274,6 +282,8 @@ mod tests {
             work: 0.0,
             contact_entries: 10.0 * owned as f64,
             projectile_candidates: 0.01 * owned as f64,
+            firing_nodes: owned as f64,
+            firing_entries: 10.0 * owned as f64,
             partners,
             halo_bytes_per_step: 32 * ghosts,
         }
@@ -311,6 +321,8 @@ mod tests {
             work: 0.0,
             contact_entries: graph.contact_entries,
             projectile_candidates: graph.projectile_candidates,
+            firing_nodes: graph.owned_nodes as f64,
+            firing_entries: graph.contact_entries,
             partners: 0,
             halo_bytes_per_step: 0,
         };
@@ -319,6 +331,41 @@ mod tests {
         assert!((price.wall_s - measured).abs() < 1e-9 * measured, "{} against {measured}", price.wall_s);
         assert_eq!((price.network_s, price.imbalance), (0.0, 1.0));
         assert!((price.core_hours - measured / 3600.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn terms_that_fire_every_second_step_cost_half_and_the_rest_every_step() {
+        let calibration = single_rank_calibration();
+        let rates = calibration.rates();
+        let single = rank(1000, 200, 1);
+        let mut halved = single.clone();
+        halved.firing_nodes *= 0.5;
+        halved.firing_entries *= 0.5;
+        let of = |driver: Driver, r: &RankReport| -> f64 {
+            Stage::ALL
+                .iter()
+                .zip(rates.per_stage)
+                .filter(|(&s, _)| self::driver(s) == driver)
+                .map(|(_, rate)| rate)
+                .sum::<f64>()
+                * match driver {
+                    Driver::FiringNodes => r.firing_nodes,
+                    Driver::ContactEntries => r.firing_entries,
+                    _ => unreachable!(),
+                }
+        };
+        let firing = of(Driver::FiringNodes, &single) + of(Driver::ContactEntries, &single);
+        let ghost_rods = 200.0 * rates.ghost_rods;
+        let saved = rank_computation(&rates, &single) - rank_computation(&rates, &halved);
+        let expected = 0.5 * (firing + ghost_rods);
+        assert!((saved - expected).abs() < 1e-12 * expected, "saved {saved} s per step, expected {expected}");
+        // rods, failure and the contact sweep fire; integration and the rebuild do not
+        for stage in [Stage::Rods, Stage::Failure, Stage::StateCheck, Stage::Ties] {
+            assert_eq!(driver(stage), Driver::FiringNodes, "{stage:?}");
+        }
+        for stage in [Stage::KickDrift, Stage::Kick, Stage::Output] {
+            assert_eq!(driver(stage), Driver::OwnedNodes, "{stage:?}");
+        }
     }
 
     #[test]

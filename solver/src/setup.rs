@@ -684,7 +684,14 @@ pub fn segment_graph(problem: &Problem, ranks: usize, segment_positions: Option<
     };
     let positions =
         segment_positions.unwrap_or_else(|| dea_partition::default_segment_positions(&problem.fabric, ranks));
-    dea_partition::segment_graph(&problem.fabric, &problem.material, problem.reach, Some(shot), positions)
+    dea_partition::segment_graph_at_rates(
+        &problem.fabric,
+        &problem.material,
+        problem.reach,
+        Some(shot),
+        positions,
+        &problem.rates,
+    )
 }
 
 /// Bytes a rank holds per node of its share: the peak resident set of the 300,010-node

@@ -341,6 +341,25 @@ fn multi_rate_stepping_gives_the_same_bits_on_any_ranks_and_after_a_restart_and_
         assert!(differences.is_empty(), "{ranks} ranks: {differences:#?}");
     }
     assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    // a stop asked for at the first step (an instant the coarse section does not share)
+    // waits for the next shared one: the checkpoint holds step 2, and a restart from it on 3
+    // ranks ends with the bits of the run never stopped
+    let json = serde_json::to_string(&case).unwrap();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let stopped = dir.join("stopped");
+    let interrupted = run_local(2, |comm| {
+        let mut state = build(&case, comm, Method::KWay, None).expect("set-up succeeds");
+        let mut options = options(&case, &json, &stopped, None, None);
+        options.checkpoints.stop_signal = Some(stop.clone());
+        match run(&mut state, &options) {
+            Err(dea_mpi::run::RunError::Interrupted(_)) => state.domain.step,
+            other => panic!("the signal stops the run: {:?}", other.map(|s| s.map(|s| s.steps))),
+        }
+    });
+    assert_eq!(interrupted, vec![2, 2], "the checkpoint falls on the first shared instant");
+    restart_on(&stopped.join("checkpoint"), 3, &dir.join("resumed")).unwrap();
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("resumed/results.h5")).unwrap();
+    assert!(differences.is_empty(), "restart from a held checkpoint: {differences:#?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -157,7 +157,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     }
     if problem.rates.iter().any(|&rate| rate > 1) {
         eprintln!(
-            "note: multi-rate stepping: the sections' terms fire every {:?} steps (section_rates); the price is single-rate stepping's, an upper bound (the calibration is single-rate)",
+            "note: multi-rate stepping: the sections' terms fire every {:?} steps (section_rates); the price counts each node's rods and contacts at its rate, from a single-rate calibration (docs/theory.md C1)",
             problem.rates
         );
     }
