@@ -135,5 +135,9 @@ check bench-shot-keys bash -c '/usr/bin/python3 scripts/bench-shot.py --ranks 2 
     && /usr/bin/python3 -c "import json, sys; r = json.load(open(sys.argv[1]))[\"runs\"][0]; m = r[\"pairs\"][0][\"new\"]
 missing = [k for k in (\"core_s_per_simulated_us\", \"ns_per_node_step\", \"rebuilds_per_1000_steps\", \"relisted_share\", \"stage_seconds\", \"ranks\", \"nodes\") if k not in m]
 assert not missing and m[\"ranks\"] == 2 and r[\"median_ratio\"] > 0 and 0 < m[\"relisted_share\"] <= 1, (missing, m)" $work/shot.json'
+# its multi-rate pairing: one binary with and without run.multi_rate on the same cut
+check bench-shot-pairs-multi-rate bash -c '/usr/bin/python3 scripts/bench-shot.py --ranks 1 --window-us 0.05 --side-m 0.02 --binary $bin --pair-multi-rate --pairs 1 --json >$work/shot-mr.json \
+    && /usr/bin/python3 -c "import json, sys; r = json.load(open(sys.argv[1])); p = r[\"runs\"][0][\"pairs\"][0]
+assert \"run.multi_rate\" in r[\"paired\"] and abs(p[\"new\"][\"steps\"] - p[\"old\"][\"steps\"]) <= 1 and r[\"runs\"][0][\"median_ratio\"] > 0, r" $work/shot-mr.json'
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -6,7 +6,7 @@
 use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
-use crate::shear_gauge::{gauge_moments, ShearMeasure};
+use crate::shear_gauge::{gauge_moments_over, ShearMeasure};
 use crate::{FibreMaterial, FibreSection, Vec3};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
@@ -72,9 +72,10 @@ impl BrokenCount {
     }
 }
 
-/// The failure stage: applies the combined criterion (5-6) to the owned elements in `owned`
+/// The failure stage: applies the combined criterion (5-6) to the owned elements in `firing`
 /// (ascending ranges of local indices: all of them, or at a multi-rate instant those of the
-/// sections whose terms fire, [`crate::multi_rate`]) with this
+/// sections whose terms fire, [`crate::multi_rate`]; the gauge moments are taken over the
+/// same ranges) with this
 /// step's strains (`elements`) and moments (`bending`, taken as the parameters' shear measure
 /// says into the scratch `measured_moment`), counts the broken ones in `broken`, books the
 /// strain and bending energy each releases in `fracture_released` [J] at its first node, and
@@ -92,7 +93,7 @@ pub fn break_elements(
     broken: &mut BrokenCount,
     newly_broken: &mut Vec<(u32, FailureMode)>,
     measured_moment: &mut Vec<Vec3>,
-    owned: &[std::ops::Range<usize>],
+    firing: &[std::ops::Range<usize>],
 ) {
     if !parameters.enabled {
         return;
@@ -101,7 +102,7 @@ pub fn break_elements(
     let moment: &[Vec3] = match parameters.shear_measure {
         ShearMeasure::Element => &bending.moment,
         measure => {
-            gauge_moments(nodes, elements, &bending.moment, sections, measure, measured_moment);
+            gauge_moments_over(nodes, elements, &bending.moment, sections, measure, measured_moment, firing);
             measured_moment
         }
     };
@@ -114,7 +115,7 @@ pub fn break_elements(
             broken.book(mode);
         }
     };
-    for range in owned {
+    for range in firing {
         let (mut i, end) = (range.start, range.end.min(nodes.n_owned));
         // almost no element is near breaking: four at a time are told so in lanes; a group
         // reads the moment after its last element
@@ -162,7 +163,7 @@ pub fn break_elements(
 
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
 /// shear stress (5-5) of its shear force, the jump of `moment` [N m] along it (5-4: the
-/// springs' moments, or the gauge moments of [`gauge_moments`]), against its strengths [Pa].
+/// springs' moments, or the gauge moments of [`crate::shear_gauge::gauge_moments`]), against its strengths [Pa].
 pub fn element_breaks(
     nodes: &Nodes,
     elements: &Elements,

@@ -68,13 +68,29 @@ pub fn gauge_moments(
     measure: ShearMeasure,
     gauge_moment: &mut Vec<Vec3>,
 ) {
-    gauge_moment.clear();
-    gauge_moment.extend((0..nodes.len()).map(|i| {
+    gauge_moments_over(nodes, elements, moment, sections, measure, gauge_moment, &[0..nodes.len()]);
+}
+
+/// [`gauge_moments`] at the nodes of `ranges` only (the sections whose terms fire at a
+/// multi-rate instant, [`crate::multi_rate`]): the others keep what they held, which no
+/// element of a firing section reads (a gauge stays on its fibre).
+pub fn gauge_moments_over(
+    nodes: &Nodes,
+    elements: &Elements,
+    moment: &[Vec3],
+    sections: &[FibreSection],
+    measure: ShearMeasure,
+    gauge_moment: &mut Vec<Vec3>,
+    ranges: &[std::ops::Range<usize>],
+) {
+    gauge_moment.resize(nodes.len(), Vec3::zeros());
+    for i in ranges.iter().flat_map(|r| r.clone()) {
         let section = &sections[nodes.section[i] as usize];
         let gauge = measure.gauge_length(section);
         let reach = measure.reach_in_nodes(section);
         if gauge <= 0.0 {
-            return moment[i];
+            gauge_moment[i] = moment[i];
+            continue;
         }
         // l0 M_j / L, the hat's height at j's distance applied below
         let scale = section.element_length / gauge;
@@ -83,8 +99,8 @@ pub fn gauge_moments(
         let hat = Hat { nodes, elements, moment, from: i, reach, gauge, scale };
         hat.add_side(&mut sum, |j| (nodes.prev[j] != NONE).then(|| (nodes.prev[j] as usize, nodes.prev[j] as usize)));
         hat.add_side(&mut sum, |j| (nodes.next[j] != NONE).then(|| (nodes.next[j] as usize, j)));
-        sum
-    }));
+        gauge_moment[i] = sum;
+    }
 }
 
 /// The hat window of one node: what [`gauge_moments`] sums along each side of it.
