@@ -176,6 +176,12 @@ pub struct Domain {
     section_runs: Vec<SectionRun>,
     /// `pair_data` with the force factors of `firing`
     firing_pair_data: PairDataTable,
+    /// each owned row's smallest rate over its node and its upper partners: its pairs fire
+    /// only at instants this divides; and the lists' build and size it was taken for
+    row_rate: Vec<u32>,
+    row_rate_of: (u64, usize, usize),
+    /// each owned row has a pair that fires at the present instant
+    row_fires: Vec<bool>,
 }
 
 impl Domain {
@@ -206,6 +212,9 @@ impl Domain {
             section_runs,
             rates,
             firing_pair_data: pair_data.clone(),
+            row_rate: Vec::new(),
+            row_rate_of: (u64::MAX, 0, 0),
+            row_fires: Vec::new(),
             material,
             sections,
             ledger: NodeLedger {
@@ -298,6 +307,27 @@ impl Domain {
             Firing::at(&self.rates, instant, &self.section_runs, self.nodes.len())
         };
         self.firing_pair_data.set_scales(&self.firing.pair_scale);
+        let owned = self.nodes.n_owned;
+        if self.firing.single {
+            self.row_fires.clear();
+            self.row_fires.resize(owned, true);
+            return;
+        }
+        let lists = (self.pairs.builds, self.pairs.partner.len(), owned);
+        if self.row_rate_of != lists {
+            // once per list build: the rows' rates follow their partners
+            let (rates, section, pairs) = (&self.rates, &self.nodes.section, &self.pairs);
+            let rate_of = |k: usize| rates[section[k] as usize];
+            self.row_rate = (0..owned)
+                .map(|i| {
+                    let upper = pairs.upper_start[i] as usize..pairs.start[i + 1] as usize;
+                    pairs.partner[upper].iter().map(|&j| rate_of(j as usize)).fold(rate_of(i), u32::min)
+                })
+                .collect();
+            self.row_rate_of = lists;
+        }
+        self.row_fires.clear();
+        self.row_fires.extend(self.row_rate.iter().map(|&rate| instant.is_multiple_of(rate as u64)));
     }
 
     /// The terms of the present forces.
@@ -558,6 +588,11 @@ impl Domain {
             running: &mut self.running_contact_sums,
         };
         let owned = self.nodes.n_owned;
+        if self.row_fires.len() != owned {
+            // forces asked for without [`Self::fire_at`] (a kernel test): every row fires
+            self.row_fires.clear();
+            self.row_fires.resize(owned, true);
+        }
         fibre_contact::add_fibre_contacts_compiled_for(
             compilation,
             law,
@@ -568,6 +603,7 @@ impl Domain {
             &self.firing_pair_data,
             sums,
             owned,
+            &self.row_fires,
         );
     }
 

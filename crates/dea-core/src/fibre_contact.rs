@@ -161,7 +161,8 @@ pub fn evaluate_pair(
 ///
 /// `SCALED`: the pairs' data carry a force factor ([`PairData::scale`], multi-rate stepping):
 /// a pair of factor 0 is not evaluated (its history waits for its next instant), the others'
-/// forces are multiplied by it (stiffness and dissipation are the pair's own).
+/// forces are multiplied by it (stiffness and dissipation are the pair's own); a row whose
+/// `row_fires` is false has no pair that fires now, and its entries are not visited.
 #[inline(always)]
 fn sweep_fibre_contacts<const SCALED: bool>(
     law: NormalLaw,
@@ -170,6 +171,7 @@ fn sweep_fibre_contacts<const SCALED: bool>(
     pairs: &mut NeighbourList,
     sums: FibreContactSums,
     owned: usize,
+    row_fires: &[bool],
     data_of: impl Fn(usize, usize) -> PairData,
 ) {
     // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
@@ -219,6 +221,8 @@ fn sweep_fibre_contacts<const SCALED: bool>(
             }
         }
         let row = uppers[i] as usize..starts[i + 1] as usize;
+        // under multi-rate stepping most coarse rows fire nothing at most instants
+        let row = if SCALED && !row_fires[i] { row.end..row.end } else { row };
         let partners = &partners_all[row.clone()];
         let history = touching_flags[row.clone()]
             .iter()
@@ -268,7 +272,8 @@ fn sweep_fibre_contacts<const SCALED: bool>(
 /// Adds the fibre contacts of the `owned` nodes to `sums` by the sweep compiled for
 /// `compilation`, which the processor must run: `positions` and `section` of every local node,
 /// `pairs` the lists with their histories, `law` and `mu` the normal law and the friction
-/// coefficient [-]. Never inlined (one call a step), so `scripts/count-instructions.sh` counts
+/// coefficient [-]; with several sections, `row_fires` says of each owned row whether a pair
+/// of its upper part may fire now (multi-rate stepping; all true without). Never inlined (one call a step), so `scripts/count-instructions.sh` counts
 /// the sweep, with its callees, by this name; a flat profile of a run shows the sweep as the
 /// compilation's function, `in_compilation::avx512` (or `::avx2`), which only it calls there.
 #[allow(clippy::too_many_arguments)]
@@ -283,20 +288,21 @@ pub fn add_fibre_contacts_compiled_for(
     pair_data: &PairDataTable,
     sums: FibreContactSums,
     owned: usize,
+    row_fires: &[bool],
 ) {
     if let Some(data) = pair_data.single() {
         // most cases: one pair of sections, its data held in registers for the sweep
         in_compilation(
             compilation,
             #[inline(always)]
-            move || sweep_fibre_contacts::<false>(law, mu, positions, pairs, sums, owned, |_, _| data),
+            move || sweep_fibre_contacts::<false>(law, mu, positions, pairs, sums, owned, &[], |_, _| data),
         );
     } else {
         in_compilation(
             compilation,
             #[inline(always)]
             move || {
-                sweep_fibre_contacts::<true>(law, mu, positions, pairs, sums, owned, |i, j| {
+                sweep_fibre_contacts::<true>(law, mu, positions, pairs, sums, owned, row_fires, |i, j| {
                     pair_data.of(section[i], section[j])
                 })
             },
