@@ -694,14 +694,15 @@ impl Domain {
     pub fn check_state(&self) -> Result<(), DomainError> {
         let mu = self.friction_coefficient().max(self.contact.projectile_friction_coefficient);
         let nodes = &self.nodes;
-        for i in 0..nodes.n_owned {
+        // a section's nodes are checked at its own step, when its terms fire (every node at
+        // every step under single-rate stepping), with every term's stiffness counted at that
+        // step; a value gone non-finite between is caught at the next one, from the position
+        for i in self.firing.active_below(nodes.n_owned).flatten() {
             if !(nodes.force[i].iter().all(|v| v.is_finite()) && nodes.position[i].iter().all(|v| v.is_finite())) {
                 return Err(DomainError::NonFinite { step: self.step, gid: nodes.gid[i] });
             }
-            // a section's nodes are checked at its own step, when its terms fire (every step
-            // under single-rate stepping), with every term's stiffness counted at that step
             let rate = self.firing.section_scale[nodes.section[i] as usize];
-            if nodes.clamped[i] || rate == 0.0 {
+            if nodes.clamped[i] {
                 continue;
             }
             let time_step = rate * self.time_step;
