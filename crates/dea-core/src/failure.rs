@@ -6,7 +6,7 @@
 use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
-use crate::shear_gauge::{gauge_moments_over, ShearMeasure};
+use crate::shear_gauge::{gauge_moments, ShearMeasure};
 use crate::{FibreMaterial, FibreSection, Vec3};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
@@ -102,7 +102,7 @@ pub fn break_elements(
     let moment: &[Vec3] = match parameters.shear_measure {
         ShearMeasure::Element => &bending.moment,
         measure => {
-            gauge_moments_over(nodes, elements, &bending.moment, sections, measure, measured_moment, firing);
+            gauge_moments(nodes, elements, &bending.moment, sections, measure, measured_moment, firing);
             measured_moment
         }
     };
@@ -163,7 +163,7 @@ pub fn break_elements(
 
 /// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
 /// shear stress (5-5) of its shear force, the jump of `moment` [N m] along it (5-4: the
-/// springs' moments, or the gauge moments of [`crate::shear_gauge::gauge_moments`]), against its strengths [Pa].
+/// springs' moments, or the gauge moments of [`gauge_moments`]), against its strengths [Pa].
 pub fn element_breaks(
     nodes: &Nodes,
     elements: &Elements,

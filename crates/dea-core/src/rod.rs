@@ -115,20 +115,27 @@ fn tension_in_lanes(
 /// it is the first force stage of a step.
 pub fn set_chain_forces(nodes: &mut Nodes, elements: &Elements, bending: &BendingScratch) {
     for i in 0..nodes.n_owned {
-        let (p, n) = (nodes.prev[i], nodes.next[i]);
-        let mut axial = elements.direction[i] * elements.axial_force[i];
-        if p != NONE {
-            axial -= elements.direction[p as usize] * elements.axial_force[p as usize];
-        }
-        let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
-        if p != NONE {
-            spring += bending.on_next[p as usize];
-        }
-        if n != NONE {
-            spring += bending.on_prev[n as usize];
-        }
-        nodes.force[i] = axial + spring;
+        nodes.force[i] = chain_force(nodes, elements, bending, i);
     }
+}
+
+/// The chain force of node `i`: its elements' axial forces, then the springs (own, at the
+/// previous node, at the next node), in that order [N].
+#[inline(always)]
+fn chain_force(nodes: &Nodes, elements: &Elements, bending: &BendingScratch, i: usize) -> crate::Vec3 {
+    let (p, n) = (nodes.prev[i], nodes.next[i]);
+    let mut axial = elements.direction[i] * elements.axial_force[i];
+    if p != NONE {
+        axial -= elements.direction[p as usize] * elements.axial_force[p as usize];
+    }
+    let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
+    if p != NONE {
+        spring += bending.on_next[p as usize];
+    }
+    if n != NONE {
+        spring += bending.on_prev[n as usize];
+    }
+    axial + spring
 }
 
 /// [`set_chain_forces`] at a multi-rate instant ([`crate::multi_rate`]): the chain force of
@@ -142,23 +149,8 @@ pub fn set_scaled_chain_forces(
 ) {
     for i in 0..nodes.n_owned {
         let scale = section_scale[nodes.section[i] as usize];
-        if scale == 0.0 {
-            nodes.force[i] = crate::Vec3::zeros();
-            continue;
-        }
-        let (p, n) = (nodes.prev[i], nodes.next[i]);
-        let mut axial = elements.direction[i] * elements.axial_force[i];
-        if p != NONE {
-            axial -= elements.direction[p as usize] * elements.axial_force[p as usize];
-        }
-        let mut spring = -(bending.on_prev[i] + bending.on_next[i]);
-        if p != NONE {
-            spring += bending.on_next[p as usize];
-        }
-        if n != NONE {
-            spring += bending.on_prev[n as usize];
-        }
-        nodes.force[i] = (axial + spring) * scale;
+        nodes.force[i] =
+            if scale == 0.0 { crate::Vec3::zeros() } else { chain_force(nodes, elements, bending, i) * scale };
     }
 }
 

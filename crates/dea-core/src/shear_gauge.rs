@@ -54,27 +54,16 @@ impl ShearMeasure {
     }
 }
 
-/// The gauge moments `M̄` [N m] of every local node into `gauge_moment` from the spring moments
-/// `moment` of [`crate::bending::compute_bending`]. A node's window ends at a broken element, a
+/// The gauge moments `M̄` [N m] of the local nodes in `ranges` (every node, or at a
+/// multi-rate instant those of the sections whose terms fire, [`crate::multi_rate`]: the
+/// others keep what they held, which no element of a firing section reads, a gauge staying on
+/// its fibre) into `gauge_moment` from the spring moments `moment` of
+/// [`crate::bending::compute_bending`]. A node's window ends at a broken element, a
 /// chain end or a node not held here; only the nodes whose window the chain stencil holds
 /// (those within the stencil less the reach of an owned node) are right, which are all the
 /// failure stage reads. Each sum runs from the node outwards, the lower positions first, so a
 /// node's value has the same bits on every rank that holds its window.
 pub fn gauge_moments(
-    nodes: &Nodes,
-    elements: &Elements,
-    moment: &[Vec3],
-    sections: &[FibreSection],
-    measure: ShearMeasure,
-    gauge_moment: &mut Vec<Vec3>,
-) {
-    gauge_moments_over(nodes, elements, moment, sections, measure, gauge_moment, &[0..nodes.len()]);
-}
-
-/// [`gauge_moments`] at the nodes of `ranges` only (the sections whose terms fire at a
-/// multi-rate instant, [`crate::multi_rate`]): the others keep what they held, which no
-/// element of a firing section reads (a gauge stays on its fibre).
-pub fn gauge_moments_over(
     nodes: &Nodes,
     elements: &Elements,
     moment: &[Vec3],
@@ -223,7 +212,7 @@ mod tests {
         bending.resize(nodes.len());
         compute_bending(nodes, elements, sections, &mut bending);
         let mut gauge = Vec::new();
-        gauge_moments(nodes, elements, &bending.moment, sections, measure, &mut gauge);
+        gauge_moments(nodes, elements, &bending.moment, sections, measure, &mut gauge, &[0..nodes.len()]);
         let area = sections[0].area;
         (0..nodes.len() - 1)
             .map(|i| max_shear_stress(element_shear_force(nodes, elements, &gauge, i), area))
