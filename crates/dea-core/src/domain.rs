@@ -182,6 +182,8 @@ pub struct Domain {
     row_rate_of: (u64, usize, usize),
     /// each owned row has a pair that fires at the present instant
     row_fires: Vec<bool>,
+    /// `row_fires` is all true (single-rate stepping): it need not be refilled
+    row_fires_every: bool,
 }
 
 impl Domain {
@@ -215,6 +217,7 @@ impl Domain {
             row_rate: Vec::new(),
             row_rate_of: (u64::MAX, 0, 0),
             row_fires: Vec::new(),
+            row_fires_every: false,
             material,
             sections,
             ledger: NodeLedger {
@@ -301,33 +304,41 @@ impl Domain {
     /// A settle fires every term at every step.
     pub fn fire_at(&mut self, instant: u64) {
         let single_rate = self.phase != Phase::Shot || self.rates.iter().all(|&r| r == 1);
-        self.firing = if single_rate {
-            Firing::every_term(self.sections.len(), self.nodes.len())
-        } else {
-            Firing::at(&self.rates, instant, &self.section_runs, self.nodes.len())
-        };
-        self.firing_pair_data.set_scales(&self.firing.pair_scale);
-        let owned = self.nodes.n_owned;
-        if self.firing.single {
-            self.row_fires.clear();
-            self.row_fires.resize(owned, true);
+        let (nodes, owned) = (self.nodes.len(), self.nodes.n_owned);
+        if single_rate {
+            // the firing of every term changes only with the local node count: most steps
+            // of most runs pass here and should cost nothing
+            if !(self.firing.single
+                && self.firing.active == [0..nodes]
+                && self.firing.section_scale.len() == self.sections.len())
+            {
+                self.firing = Firing::every_term(self.sections.len(), nodes);
+                self.firing_pair_data.set_scales(&self.firing.pair_scale);
+            }
+            if !self.row_fires_every || self.row_fires.len() != owned {
+                self.row_fires.clear();
+                self.row_fires.resize(owned, true);
+                self.row_fires_every = true;
+            }
             return;
         }
+        self.firing.set_at(&self.rates, instant, &self.section_runs, nodes);
+        self.firing_pair_data.set_scales(&self.firing.pair_scale);
         let lists = (self.pairs.builds, self.pairs.partner.len(), owned);
         if self.row_rate_of != lists {
             // once per list build: the rows' rates follow their partners
             let (rates, section, pairs) = (&self.rates, &self.nodes.section, &self.pairs);
             let rate_of = |k: usize| rates[section[k] as usize];
-            self.row_rate = (0..owned)
-                .map(|i| {
-                    let upper = pairs.upper_start[i] as usize..pairs.start[i + 1] as usize;
-                    pairs.partner[upper].iter().map(|&j| rate_of(j as usize)).fold(rate_of(i), u32::min)
-                })
-                .collect();
+            self.row_rate.clear();
+            self.row_rate.extend((0..owned).map(|i| {
+                let upper = pairs.upper_start[i] as usize..pairs.start[i + 1] as usize;
+                pairs.partner[upper].iter().map(|&j| rate_of(j as usize)).fold(rate_of(i), u32::min)
+            }));
             self.row_rate_of = lists;
         }
         self.row_fires.clear();
         self.row_fires.extend(self.row_rate.iter().map(|&rate| instant.is_multiple_of(rate as u64)));
+        self.row_fires_every = false;
     }
 
     /// The terms of the present forces.
@@ -592,6 +603,7 @@ impl Domain {
             // forces asked for without [`Self::fire_at`] (a kernel test): every row fires
             self.row_fires.clear();
             self.row_fires.resize(owned, true);
+            self.row_fires_every = true;
         }
         fibre_contact::add_fibre_contacts_compiled_for(
             compilation,

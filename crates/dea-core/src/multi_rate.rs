@@ -78,20 +78,38 @@ impl Firing {
     /// The terms of `rates` (per section) that fire at `instant` (a count of run steps),
     /// over the local nodes of `runs`.
     pub fn at(rates: &[u32], instant: u64, runs: &[SectionRun], nodes: usize) -> Self {
-        if rates.iter().all(|&r| r == 1) {
-            return Self::every_term(rates.len(), nodes);
+        let mut firing = Self::every_term(rates.len(), nodes);
+        firing.set_at(rates, instant, runs, nodes);
+        firing
+    }
+
+    /// [`Self::at`] in place: the step sets its firing once per step, and reusing the
+    /// buffers keeps that free of allocation.
+    pub fn set_at(&mut self, rates: &[u32], instant: u64, runs: &[SectionRun], nodes: usize) {
+        let single = rates.iter().all(|&r| r == 1);
+        let scale = |rate: u32| {
+            if single || instant.is_multiple_of(rate as u64) {
+                rate as f64
+            } else {
+                0.0
+            }
+        };
+        self.section_scale.clear();
+        self.section_scale.extend(rates.iter().map(|&r| scale(r)));
+        self.pair_scale.clear();
+        self.pair_scale.extend(rates.iter().flat_map(|&a| rates.iter().map(move |&b| a.min(b))).map(scale));
+        self.active.clear();
+        self.single = single;
+        if single {
+            self.active.push(0..nodes);
+            return;
         }
-        let scale = |rate: u32| if instant % rate as u64 == 0 { rate as f64 } else { 0.0 };
-        let section_scale: Vec<f64> = rates.iter().map(|&r| scale(r)).collect();
-        let pair_scale = rates.iter().flat_map(|&a| rates.iter().map(move |&b| a.min(b))).map(scale).collect();
-        let mut active: Vec<Range<usize>> = Vec::new();
-        for run in runs.iter().filter(|r| section_scale[r.section as usize] > 0.0) {
-            match active.last_mut() {
+        for run in runs.iter().filter(|r| self.section_scale[r.section as usize] > 0.0) {
+            match self.active.last_mut() {
                 Some(last) if last.end == run.nodes.start => last.end = run.nodes.end,
-                _ => active.push(run.nodes.clone()),
+                _ => self.active.push(run.nodes.clone()),
             }
         }
-        Self { section_scale, pair_scale, active, single: false }
     }
 
     /// The factor of the terms between sections `a` and `b` now (0: they do not fire).
