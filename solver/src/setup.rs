@@ -15,6 +15,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use dea_core::failure::BrokenCount;
+use dea_core::guides::Guides;
 use dea_core::{Domain, DomainError, FibreId, FibreMaterial, FibreSection, Nodes, Rank, Vec3};
 use dea_fabric::cell::PeriodicCell;
 use dea_fabric::panel::{transition_nodes, CoarseYarns, FineRegion, WovenPanel};
@@ -22,6 +23,7 @@ use dea_fabric::relax::{relax, RelaxReport};
 use dea_fabric::tiled::TiledPanel;
 use dea_fabric::weave::{PlainWeave, UnitCell};
 use dea_fabric::weave3d::ThreeDWeave;
+use dea_fabric::SectionPacking;
 use dea_fabric::{Fabric, StraightFabric};
 use dea_io::case::{
     parse_case, Case, CellSource, ProjectileBody, ResolvedCase, ResolvedProjectile, ResolvedTarget, StraightTarget,
@@ -62,6 +64,8 @@ pub struct Problem {
     pub rates: Vec<u32>,
     /// contact search distance: largest contact diameter plus the skin [m]
     pub reach: f64,
+    /// the single-yarn fixture's guides (docs/theory.md F13; none for other targets)
+    pub guides: Guides,
 }
 
 impl Problem {
@@ -239,6 +243,14 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let (material, law, strength, shear_strength) =
         (resolved.material.clone(), resolved.law, resolved.strength.clone(), resolved.shear_strength);
     let resolved_shear_measure = resolved.shear_measure;
+    let guides = match &resolved.target {
+        ResolvedTarget::Straight(target) => Guides {
+            hold_lateral: target.hold_lateral,
+            // each end's friction shared by its fibres' end nodes, as its mass is
+            end_friction: target.sliding_ends.map(|(_, friction)| friction / target.fibres_per_yarn as f64),
+        },
+        _ => Guides::default(),
+    };
     let deterministic = match strength {
         Strength::Deterministic(s) => s,
         _ => f64::INFINITY,
@@ -251,20 +263,32 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
             fibre_area,
             length,
             element_length_ratio,
-        }) => Fabric::Straight(StraightFabric::single_yarn(
-            *length,
-            *fibres_per_yarn,
-            *fibre_area,
-            *element_length_ratio,
-            resolved.section_inertia,
-            deterministic,
-        )),
+            rectangular_packing,
+            sliding_ends,
+            hold_lateral: _,
+        }) => Fabric::Straight(StraightFabric {
+            packing: match rectangular_packing {
+                Some(across_per_through) => SectionPacking::Rectangular { across_per_through: *across_per_through },
+                None => SectionPacking::Hexagonal,
+            },
+            clamp_ends: sliding_ends.is_none(),
+            end_mass: sliding_ends.map_or(0.0, |(mass, _)| mass),
+            ..StraightFabric::single_yarn(
+                *length,
+                *fibres_per_yarn,
+                *fibre_area,
+                *element_length_ratio,
+                resolved.section_inertia,
+                deterministic,
+            )
+        }),
         ResolvedTarget::Straight(StraightTarget {
             layers: Some((layers, yarns_per_layer)),
             fibres_per_yarn,
             fibre_area,
             length,
             element_length_ratio,
+            ..
         }) => Fabric::Straight(StraightFabric::cross_ply(
             *layers,
             *yarns_per_layer,
@@ -461,6 +485,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         time_step,
         rates,
         reach,
+        guides,
     })
 }
 
@@ -966,6 +991,7 @@ pub(crate) fn own_domain(
     );
     domain.set_ties(built.ties);
     domain.set_rates(problem.rates.clone());
+    domain.set_guides(problem.guides);
     // a deformable body is integrated beside the domain (rank 0), not as a rigid body
     domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
     domain

@@ -37,6 +37,9 @@ pub enum Stage {
     FibreContacts,
     /// the projectile's candidates when due, then fibre–projectile contact and friction
     ProjectileContacts,
+    /// the single-yarn fixture's guides, on the whole load: its ends' friction and its
+    /// lateral hold (nothing for other targets)
+    Guides,
     /// the combined tension–shear criterion and the energy broken elements release
     Failure,
     /// finite values and the stable time step at every owned node
@@ -52,7 +55,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const COUNT: usize = 17;
+    pub const COUNT: usize = 18;
     pub const ALL: [Stage; Self::COUNT] = [
         Stage::KickDrift,
         Stage::DeformableSubcycles,
@@ -65,6 +68,7 @@ impl Stage {
         Stage::Ties,
         Stage::FibreContacts,
         Stage::ProjectileContacts,
+        Stage::Guides,
         Stage::Failure,
         Stage::StateCheck,
         Stage::ErrorAgreement,
@@ -87,6 +91,7 @@ impl Stage {
             Stage::Ties => "ties",
             Stage::FibreContacts => "fibre_contacts",
             Stage::ProjectileContacts => "projectile_contacts",
+            Stage::Guides => "guides",
             Stage::Failure => "failure",
             Stage::StateCheck => "state_check",
             Stage::ErrorAgreement => "error_agreement",
@@ -107,6 +112,7 @@ impl Stage {
                 | Stage::Ties
                 | Stage::FibreContacts
                 | Stage::ProjectileContacts
+                | Stage::Guides
                 | Stage::Failure
                 | Stage::StateCheck
                 | Stage::Kick
@@ -195,6 +201,8 @@ pub fn compute_forces(domain: &mut Domain, timer: &mut StageTimer, instant: u64)
     timer.stamp(Stage::FibreContacts);
     domain.add_projectile_contacts();
     timer.stamp(Stage::ProjectileContacts);
+    domain.add_guide_forces();
+    timer.stamp(Stage::Guides);
     domain.break_elements();
     timer.stamp(Stage::Failure);
     let checked = domain.check_state();

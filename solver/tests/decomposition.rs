@@ -387,6 +387,50 @@ fn a_projectile_wider_than_the_free_span_gives_the_same_bits_on_any_ranks() {
 /// A shear gauge 16 elements long each way (4 fibre diameters at l0/d = 0.25) widens the
 /// chain stencil from 3 to 19 ghosts: every rank decides its elements from the same window,
 /// on 1 and 3 ranks and after a restart on 2.
+/// The single-yarn fixture of seed §5.3 (docs/theory.md F13): its end masses slide along
+/// the yarn and only along it, no fibre moves across the yarn, the ends' friction is booked
+/// so the energy balance holds, and the run keeps its bits on any ranks and after a restart.
+#[test]
+fn the_single_yarn_fixture_guides_its_fibres_and_gives_the_same_bits_on_any_ranks() {
+    let mut case = case_file("seed_5_3_single_yarn.json");
+    // the tension wave reaches the ends (12.7 mm at about 7.4 km/s) and they slide
+    case.run.end_time_s = 4e-6;
+    case.projectile.velocity_m_s = 60.0;
+    let dir = scratch("single-yarn");
+    let reference = run_on(&case, 1, &dir.join("1"));
+    assert!(reference.energy_balance_error < 1e-3, "energy balance {}", reference.energy_balance_error);
+    let counts = run_local(2, |comm| {
+        let mut state = build(&case, comm, Method::KWay, None).unwrap();
+        let start = state.domain.nodes.position.clone();
+        let steps = (case.run.end_time_s / state.domain.time_step) as usize;
+        for _ in 0..steps {
+            state.step().unwrap();
+        }
+        let nodes = &state.domain.nodes;
+        let (mut ends, mut slid) = (0, 0);
+        for i in 0..nodes.n_owned {
+            let (now, was) = (nodes.position[i], start[i]);
+            assert_eq!(now.y, was.y, "node {:?} moved across the yarn", nodes.gid[i]);
+            if nodes.along[i] == 0 || nodes.last[i] {
+                ends += 1;
+                assert_eq!(now.z, was.z, "end node {:?} left its sliding surface", nodes.gid[i]);
+                // drawn in toward the impact, never out
+                assert!(now.x.abs() <= was.x.abs(), "end node {:?} moved outward", nodes.gid[i]);
+                slid += usize::from(now.x.abs() < was.x.abs() - 1e-9);
+            }
+        }
+        (ends, slid)
+    });
+    let (ends, slid) = counts.iter().fold((0, 0), |(e, s), &(a, b)| (e + a, s + b));
+    assert_eq!(ends, 2 * 16, "two ends of 16 fibres");
+    assert!(slid > 0, "the pull of the tension wave beats the ends' friction");
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    run_on(&case, 4, &dir.join("4"));
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("4/results.h5")).unwrap();
+    assert!(differences.is_empty(), "4 ranks: {differences:#?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_long_shear_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     let mut value = serde_json::to_value(panel_case()).unwrap();

@@ -10,6 +10,7 @@ use crate::dispatch::Compilation;
 use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{self, BrokenCount, FailureParameters};
 use crate::fibre_contact::{self, FibreContactSums, RunningSums};
+use crate::guides::Guides;
 use crate::integrate;
 use crate::multi_rate::{section_runs, Firing, SectionRun};
 use crate::neighbour::NeighbourList;
@@ -184,6 +185,8 @@ pub struct Domain {
     row_fires: Vec<bool>,
     /// `row_fires` is all true (single-rate stepping): it need not be refilled
     row_fires_every: bool,
+    /// the single-yarn fixture's guides ([`crate::guides`]); none for other targets
+    guides: Guides,
 }
 
 impl Domain {
@@ -218,6 +221,7 @@ impl Domain {
             row_rate_of: (u64::MAX, 0, 0),
             row_fires: Vec::new(),
             row_fires_every: false,
+            guides: Guides::default(),
             material,
             sections,
             ledger: NodeLedger {
@@ -292,6 +296,22 @@ impl Domain {
         assert_eq!(rates.len(), self.sections.len(), "one rate per section");
         assert!(rates.iter().all(|&r| r >= 1), "rates are whole numbers of steps");
         self.rates = rates;
+    }
+
+    /// Guides the nodes as the single-yarn fixture does ([`crate::guides`]).
+    pub fn set_guides(&mut self, guides: Guides) {
+        self.guides = guides;
+    }
+
+    /// Adds the fixture's guide forces, after every other force of the step, and books the
+    /// friction of its sliding ends ([`crate::guides::add_guide_forces`]).
+    pub fn add_guide_forces(&mut self) {
+        crate::guides::add_guide_forces(
+            &mut self.nodes,
+            &self.guides,
+            self.time_step,
+            &mut self.ledger.friction_dissipated,
+        );
     }
 
     /// Each section's rate [-].

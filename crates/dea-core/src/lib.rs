@@ -16,6 +16,7 @@ pub mod fibre_contact;
 #[doc(hidden)]
 pub mod fixtures;
 pub mod friction;
+pub mod guides;
 pub mod ids;
 pub mod integrate;
 #[cfg(target_arch = "x86_64")]

@@ -54,6 +54,33 @@ pub struct StraightFabric {
     pub tensile_strength: f64,
     /// clamp both ends of every fibre
     pub clamp_ends: bool,
+    /// how the fibres sit in each yarn's section
+    pub packing: SectionPacking,
+    /// mass added at each end of every yarn, shared equally by its fibres' end nodes: the
+    /// single-yarn fixture's sliding masses (seed §5.3) [kg]
+    pub end_mass: f64,
+}
+
+/// How a straight yarn's digital fibres sit in its section.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SectionPacking {
+    /// rings around the axis ([`hexagonal_packing`])
+    #[default]
+    Hexagonal,
+    /// rows on a square lattice with this many times as many fibres across the yarn as
+    /// through it ([`rectangular_packing`])
+    Rectangular { across_per_through: usize },
+}
+
+/// Centres of `count` circles of diameter `pitch` on a square lattice, `across_per_through`
+/// times as many across (the first coordinate) as through (the second), centred; row by
+/// row from the top. `count` must be `across_per_through` times a square (the case checks)
+/// [m, m].
+pub fn rectangular_packing(count: usize, across_per_through: usize, pitch: f64) -> Vec<[f64; 2]> {
+    let through = ((count as f64 / across_per_through as f64).sqrt().round() as usize).max(1);
+    let across = count / through;
+    let centre = |i: usize, n: usize| (i as f64 - 0.5 * (n as f64 - 1.0)) * pitch;
+    (0..through).rev().flat_map(|t| (0..across).map(move |a| [centre(a, across), centre(t, through)])).collect()
 }
 
 /// Built geometry, ready for a [`dea_core::Domain`].
@@ -92,7 +119,14 @@ pub fn hexagonal_packing(count: usize, pitch: f64) -> Vec<[f64; 2]> {
 
 impl StraightFabric {
     /// One yarn of `fibres` digital fibres along x, centred on the origin.
-    pub fn single_yarn(length: f64, fibres: usize, fibre_area: f64, element_length_ratio: f64, inertia: SectionInertia, tensile_strength: f64) -> Self {
+    pub fn single_yarn(
+        length: f64,
+        fibres: usize,
+        fibre_area: f64,
+        element_length_ratio: f64,
+        inertia: SectionInertia,
+        tensile_strength: f64,
+    ) -> Self {
         Self {
             yarns: vec![YarnLine { centre: Vec3::zeros(), axis: Axis::X, fibres, layer: 0 }],
             length,
@@ -101,6 +135,8 @@ impl StraightFabric {
             inertia,
             tensile_strength,
             clamp_ends: true,
+            packing: SectionPacking::Hexagonal,
+            end_mass: 0.0,
         }
     }
 
@@ -109,7 +145,17 @@ impl StraightFabric {
     /// half a yarn. Yarns sit at the pitch of their envelope (packing radius plus half a
     /// contact diameter, on both sides).
     #[allow(clippy::too_many_arguments)]
-    pub fn cross_ply(layers: usize, yarns_per_layer: usize, fibres: usize, length: f64, fibre_area: f64, element_length_ratio: f64, inertia: SectionInertia, tensile_strength: f64, material: &FibreMaterial) -> Self {
+    pub fn cross_ply(
+        layers: usize,
+        yarns_per_layer: usize,
+        fibres: usize,
+        length: f64,
+        fibre_area: f64,
+        element_length_ratio: f64,
+        inertia: SectionInertia,
+        tensile_strength: f64,
+        material: &FibreMaterial,
+    ) -> Self {
         let mut fabric = Self::single_yarn(length, fibres, fibre_area, element_length_ratio, inertia, tensile_strength);
         let pitch = fabric.yarn_envelope_diameter(material);
         fabric.yarns = (0..layers)
@@ -117,7 +163,11 @@ impl StraightFabric {
                 (0..yarns_per_layer).map(move |j| {
                     let across = (j as f64 - 0.5 * (yarns_per_layer as f64 - 1.0)) * pitch;
                     let z = -(l as f64) * pitch;
-                    let (centre, axis) = if l % 2 == 0 { (Vec3::new(0.0, across, z), Axis::X) } else { (Vec3::new(across, 0.0, z), Axis::Y) };
+                    let (centre, axis) = if l % 2 == 0 {
+                        (Vec3::new(0.0, across, z), Axis::X)
+                    } else {
+                        (Vec3::new(across, 0.0, z), Axis::Y)
+                    };
                     YarnLine { centre, axis, fibres, layer: l as u32 }
                 })
             })
@@ -155,22 +205,30 @@ impl StraightFabric {
     /// Diameter of the circle enclosing a yarn's fibres (contact diameter included) [m].
     pub fn yarn_envelope_diameter(&self, material: &FibreMaterial) -> f64 {
         let contact = self.section(material).contact_diameter;
-        let fibres = self.yarns.first().map_or(1, |y| y.fibres);
-        let radius = hexagonal_packing(fibres, contact).iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
+        let Some(yarn) = self.yarns.first() else { return contact };
+        let radius = self.packing(yarn, material).iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
         2.0 * radius + contact
     }
 
     /// Global fibre id of each yarn's first fibre, plus the total at the end.
     pub fn first_fibres(&self) -> Vec<u32> {
-        std::iter::once(0).chain(self.yarns.iter().scan(0u32, |total, y| {
-            *total += y.fibres as u32;
-            Some(*total)
-        })).collect()
+        std::iter::once(0)
+            .chain(self.yarns.iter().scan(0u32, |total, y| {
+                *total += y.fibres as u32;
+                Some(*total)
+            }))
+            .collect()
     }
 
     /// Centres of a yarn's fibres in its cross-section: (across, z) offsets [m].
     pub fn packing(&self, yarn: &YarnLine, material: &FibreMaterial) -> Vec<[f64; 2]> {
-        hexagonal_packing(yarn.fibres, self.section(material).contact_diameter)
+        let pitch = self.section(material).contact_diameter;
+        match self.packing {
+            SectionPacking::Hexagonal => hexagonal_packing(yarn.fibres, pitch),
+            SectionPacking::Rectangular { across_per_through } => {
+                rectangular_packing(yarn.fibres, across_per_through, pitch)
+            }
+        }
     }
 
     /// Position of node `k` of fibre `fibre` of yarn `yarn` [m].
@@ -184,12 +242,18 @@ impl StraightFabric {
 
     /// Highest node centre of the fabric [m].
     pub fn top(&self, material: &FibreMaterial) -> f64 {
-        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)).fold(f64::NEG_INFINITY, f64::max)
+        self.yarns
+            .iter()
+            .map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max))
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// Lowest node centre of the fabric [m].
     pub fn bottom(&self, material: &FibreMaterial) -> f64 {
-        self.yarns.iter().map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::INFINITY, f64::min)).fold(f64::INFINITY, f64::min)
+        self.yarns
+            .iter()
+            .map(|y| y.centre.z + self.packing(y, material).iter().map(|p| p[1]).fold(f64::INFINITY, f64::min))
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Axis-aligned box of the node centres of yarn `yarn` between positions `first` and
@@ -217,6 +281,8 @@ impl StraightFabric {
         let nodes_per_fibre = self.nodes_per_fibre();
         let last = nodes_per_fibre - 1;
         let interior_mass = section.node_mass(material);
+        // an end node's share of its yarn end's mass
+        let end_share = |yarn: &YarnLine| self.end_mass / yarn.fibres as f64;
         let first_fibres = self.first_fibres();
         let mut nodes = Nodes::default();
         let mut elements = Elements::default();
@@ -233,14 +299,18 @@ impl StraightFabric {
                         GlobalNodeId(fibre as u64 * nodes_per_fibre as u64 + k as u64),
                         self.position(yarn, offset, k, section.element_length),
                         Vec3::zeros(),
-                        if end { 0.5 * interior_mass } else { interior_mass },
+                        if end { 0.5 * interior_mass + end_share(yarn) } else { interior_mass },
                         FibreId(fibre),
                         k,
                         0,
                         end && self.clamp_ends,
                         k == last,
                     );
-                    elements.push(if k == last { 0.0 } else { section.element_length }, self.tensile_strength, FailureMode::Intact);
+                    elements.push(
+                        if k == last { 0.0 } else { section.element_length },
+                        self.tensile_strength,
+                        FailureMode::Intact,
+                    );
                 }
             }
         }
@@ -406,6 +476,41 @@ mod tests {
     use dea_core::material::InertiaModel;
 
     #[test]
+    fn a_rectangular_packing_fills_rows_four_times_as_wide_as_deep_and_ends_carry_their_mass() {
+        // seed Table 5-1: 16 digital fibres as 2 rows of 8
+        let points = rectangular_packing(16, 4, 1.0);
+        assert_eq!(points.len(), 16);
+        let across: std::collections::BTreeSet<i64> = points.iter().map(|p| (2.0 * p[0]) as i64).collect();
+        let through: std::collections::BTreeSet<i64> = points.iter().map(|p| (2.0 * p[1]) as i64).collect();
+        assert_eq!(across.into_iter().collect::<Vec<_>>(), vec![-7, -5, -3, -1, 1, 3, 5, 7]);
+        assert_eq!(through.into_iter().collect::<Vec<_>>(), vec![-1, 1]);
+        assert_eq!(rectangular_packing(4, 4, 1.0), vec![[-1.5, 0.0], [-0.5, 0.0], [0.5, 0.0], [1.5, 0.0]]);
+        let material = FibreMaterial::kevlar_km2();
+        let yarn = StraightFabric {
+            packing: SectionPacking::Rectangular { across_per_through: 4 },
+            clamp_ends: false,
+            end_mass: 1e-6,
+            ..StraightFabric::single_yarn(
+                2e-3,
+                16,
+                4.63e-8 / 16.0,
+                0.5,
+                InertiaModel::Free {}.with_friction(0.3),
+                3.8e9,
+            )
+        };
+        let built = yarn.build_all(&material);
+        let interior = yarn.section(&material).node_mass(&material);
+        let nodes = &built.nodes;
+        let end_mass: f64 = (0..nodes.len()).filter(|&i| nodes.along[i] == 0).map(|i| nodes.mass[i]).sum();
+        assert!((end_mass - (1e-6 + 16.0 * 0.5 * interior)).abs() < 1e-18, "{end_mass}");
+        assert!(nodes.clamped.iter().all(|&c| !c));
+        // the yarn's section is 8 contact diameters wide
+        let contact = yarn.section(&material).contact_diameter;
+        assert!((yarn.yarn_envelope_diameter(&material) - (7.0f64.hypot(1.0) + 1.0) * contact).abs() < 1e-15);
+    }
+
+    #[test]
     fn hexagonal_rings_are_complete_and_touching() {
         let pitch = 1.0;
         for count in [1, 7, 19, 37] {
@@ -425,12 +530,20 @@ mod tests {
     #[test]
     fn bundle_mass_and_length_are_exact() {
         let material = FibreMaterial::kevlar_km2();
-        let bundle = StraightFabric::single_yarn(0.01, 7, 4.63e-8 / 7.0, 0.5, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3), 3.8e9);
+        let bundle = StraightFabric::single_yarn(
+            0.01,
+            7,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
+            3.8e9,
+        );
         let built = bundle.build_all(&material);
         let total_mass: f64 = built.nodes.mass.iter().sum();
         let expected = material.density * 4.63e-8 * 0.01;
         assert!((total_mass - expected).abs() < 1e-12 * expected);
-        let span = built.nodes.position.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) - built.nodes.position.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+        let span = built.nodes.position.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max)
+            - built.nodes.position.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
         assert!((span - 0.01).abs() < 1e-15);
         assert_eq!(built.nodes.clamped.iter().filter(|&&c| c).count(), 14);
         let section = &built.sections[0];
@@ -440,7 +553,17 @@ mod tests {
     #[test]
     fn a_rank_builds_exactly_its_piece_of_the_whole() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(2, 2, 7, 2e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None {}.with_friction(0.3), 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(
+            2,
+            2,
+            7,
+            2e-3,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::None {}.with_friction(0.3),
+            3.8e9,
+            &material,
+        );
         let whole = fabric.build_all(&material);
         let keep = |y: usize, k: u32| (y + k as usize / 5) % 3 == 1;
         let piece = fabric.build(&material, keep);
@@ -462,7 +585,17 @@ mod tests {
     #[test]
     fn cross_ply_yarns_touch_without_overlapping() {
         let material = FibreMaterial::kevlar_km2();
-        let fabric = StraightFabric::cross_ply(3, 2, 7, 1e-3, 4.63e-8 / 7.0, 0.5, InertiaModel::None {}.with_friction(0.3), 3.8e9, &material);
+        let fabric = StraightFabric::cross_ply(
+            3,
+            2,
+            7,
+            1e-3,
+            4.63e-8 / 7.0,
+            0.5,
+            InertiaModel::None {}.with_friction(0.3),
+            3.8e9,
+            &material,
+        );
         let built = fabric.build_all(&material);
         let contact = built.sections[0].contact_diameter;
         let nodes = &built.nodes;

@@ -88,6 +88,9 @@ pub fn bench_case(min_nodes: usize) -> Case {
         fibres_per_yarn: fibres,
         length_m: (min_nodes as f64 / fibres as f64) * 0.5 * diameter,
         element_length_ratio: 0.5,
+        packing: None,
+        ends: None,
+        hold_lateral: false,
     };
     case.failure.mode = "none".into();
     case.projectile =

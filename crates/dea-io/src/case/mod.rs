@@ -88,6 +88,39 @@ impl Default for MaterialSpec {
     }
 }
 
+/// How a straight yarn's digital fibres sit in its section.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum YarnPackingSpec {
+    /// rings around the axis, touching (the default)
+    Hexagonal,
+    /// rows on a square lattice at the contact diameter, `across_per_through` times as many
+    /// fibres across the yarn (y) as through its thickness (z): seed Table 5-1 keeps 4 for
+    /// every fibre count, so `fibres_per_yarn` must be `across_per_through` times a square
+    Rectangular {
+        /// fibres across over fibres through the thickness [-]
+        across_per_through: usize,
+    },
+}
+
+/// How a straight yarn's ends are held.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum YarnEndsSpec {
+    /// every fibre's end nodes fixed (the default)
+    Clamped,
+    /// each end of the yarn carries a mass that slides along the yarn (x) on a surface whose
+    /// friction resists with at most `friction_force_n` (seed §5.3, Fig. 5-5: "a small mass
+    /// … constrained by a friction surface parallel to yarn alignment. The maximum friction
+    /// of each mass is 10 N"); mass and friction are shared equally by the fibres' end nodes
+    Sliding {
+        /// the mass at each end of the yarn [kg]
+        mass_kg: f64,
+        /// the largest friction force on each end's mass [N]
+        friction_force_n: f64,
+    },
+}
+
 /// What the projectile strikes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -101,7 +134,9 @@ pub enum TargetSpec {
         /// element length / fibre diameter [-]
         element_length_ratio: f64,
     },
-    /// a straight yarn of hexagonally packed digital fibres along x, ends clamped
+    /// a straight yarn of digital fibres along x, hexagonally packed with its ends clamped
+    /// unless the fixture fields say otherwise (seed §5.3's single-yarn model: rectangular
+    /// packing, sliding ends, the lateral hold)
     StraightYarn {
         /// yarn preset: "km2_600_denier" (area 4.63e-8 m^2, ~400 filaments)
         yarn: String,
@@ -111,6 +146,16 @@ pub enum TargetSpec {
         length_m: f64,
         /// element length / digital fibre diameter [-]
         element_length_ratio: f64,
+        /// how the fibres sit in the section (absent: hexagonal)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        packing: Option<YarnPackingSpec>,
+        /// how the yarn's ends are held (absent: clamped)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        ends: Option<YarnEndsSpec>,
+        /// keep the fibres from spreading across the yarn (y): seed §5.3's "fibers are
+        /// constrained from spreading laterally"
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        hold_lateral: bool,
     },
     /// stacked layers of parallel straight yarns, along x in even layers and along y in odd
     /// ones (a cross-ply: crossing yarns without weaving), every yarn clamped at both ends;
@@ -1196,6 +1241,52 @@ mod tests {
         assert!(e.message.contains("unknown field `k1`"), "{e}");
         let e = parse_case("{ not json", "broken.json").unwrap_err();
         assert!(e.to_string().contains("broken.json"), "{e}");
+    }
+
+    #[test]
+    fn the_single_yarn_fixtures_fields_are_checked_by_name() {
+        let fixture = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = default_json();
+            value["target"] = serde_json::json!({
+                "kind": "straight_yarn", "yarn": "km2_600_denier", "fibres_per_yarn": 16, "length_m": 0.0254,
+                "element_length_ratio": 0.5, "packing": { "kind": "rectangular", "across_per_through": 4 },
+                "ends": { "kind": "sliding", "mass_kg": 1e-6, "friction_force_n": 10.0 }, "hold_lateral": true
+            });
+            edit(&mut value);
+            parse_case(&value.to_string(), "yarn.json").and_then(|case| case.resolve())
+        };
+        let resolved = fixture(&|_| {}).unwrap();
+        let ResolvedTarget::Straight(target) = resolved.target else { panic!("a straight yarn") };
+        assert_eq!(
+            (target.rectangular_packing, target.sliding_ends, target.hold_lateral),
+            (Some(4), Some((1e-6, 10.0)), true)
+        );
+        let e = fixture(&|v| v["target"]["fibres_per_yarn"] = 20.into()).unwrap_err();
+        assert_eq!(e.path, "target.packing.across_per_through");
+        assert!(e.message.contains("4, 16, 36, 64"), "{e}");
+        let e = fixture(&|v| v["target"]["ends"]["mass_kg"] = 0.0.into()).unwrap_err();
+        assert_eq!(e.path, "target.ends.mass_kg");
+        let e = fixture(&|v| v["target"]["ends"]["friction_force_n"] = (-1.0).into()).unwrap_err();
+        assert_eq!(e.path, "target.ends.friction_force_n");
+        let e = fixture(&|v| v["target"]["ends"]["spring"] = 1.0.into()).unwrap_err();
+        assert!(e.message.contains("unknown field `spring`"), "{e}");
+        // absent fixture fields: today's yarn, hexagonal and clamped, and written as it was
+        let plain = fixture(&|v| {
+            let target = v["target"].as_object_mut().unwrap();
+            target.remove("packing");
+            target.remove("ends");
+            target.remove("hold_lateral");
+        })
+        .unwrap();
+        let ResolvedTarget::Straight(target) = plain.target else { panic!("a straight yarn") };
+        assert_eq!((target.rectangular_packing, target.sliding_ends, target.hold_lateral), (None, None, false));
+        let mut value = default_json();
+        value["target"] = serde_json::json!({
+            "kind": "straight_yarn", "yarn": "km2_600_denier", "fibres_per_yarn": 16, "length_m": 0.0254,
+            "element_length_ratio": 0.5
+        });
+        let written = serde_json::to_string(&parse_case(&value.to_string(), "x.json").unwrap()).unwrap();
+        assert!(!written.contains("packing") && !written.contains("hold_lateral"), "{written}");
     }
 
     #[test]

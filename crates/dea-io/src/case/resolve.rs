@@ -99,6 +99,13 @@ pub struct StraightTarget {
     pub length: f64,
     /// element length over fibre diameter [-]
     pub element_length_ratio: f64,
+    /// fibres across the yarn over fibres through it on a square lattice (none: hexagonal
+    /// packing) [-]
+    pub rectangular_packing: Option<usize>,
+    /// each yarn end's sliding mass [kg] and largest friction [N] (none: clamped ends)
+    pub sliding_ends: Option<(f64, f64)>,
+    /// the fibres are held from spreading across the yarn
+    pub hold_lateral: bool,
 }
 
 /// A plain-woven panel.
@@ -504,19 +511,60 @@ impl Case {
                     fibre_area: std::f64::consts::PI * diameter_m * diameter_m / 4.0,
                     length: *length_m,
                     element_length_ratio: *element_length_ratio,
+                    rectangular_packing: None,
+                    sliding_ends: None,
+                    hold_lateral: false,
                 })
             }
-            TargetSpec::StraightYarn { yarn, fibres_per_yarn, length_m, element_length_ratio } => {
+            TargetSpec::StraightYarn {
+                yarn,
+                fibres_per_yarn,
+                length_m,
+                element_length_ratio,
+                packing,
+                ends,
+                hold_lateral,
+            } => {
                 let fibre_area = yarn_area(yarn)? / *fibres_per_yarn as f64;
                 fibre_count(*fibres_per_yarn)?;
                 positive("target.length_m", *length_m)?;
                 ratio("target.element_length_ratio", *element_length_ratio)?;
+                let rectangular_packing = match packing {
+                    None | Some(YarnPackingSpec::Hexagonal) => None,
+                    Some(YarnPackingSpec::Rectangular { across_per_through }) => {
+                        let path = "target.packing.across_per_through";
+                        if !(1..=400).contains(across_per_through) {
+                            return Err(invalid(path, format!("must be in 1..=400, got {across_per_through}")));
+                        }
+                        let through = (1..=20).find(|t| across_per_through * t * t == *fibres_per_yarn);
+                        if through.is_none() {
+                            return Err(invalid(
+                                path,
+                                format!(
+                                    "{fibres_per_yarn} fibres do not fill rows of {across_per_through} times as many fibres across as through (target.fibres_per_yarn must be {across_per_through} times a square: {})",
+                                    (1..=4).map(|t| (across_per_through * t * t).to_string()).collect::<Vec<_>>().join(", ")
+                                ),
+                            ));
+                        }
+                        Some(*across_per_through)
+                    }
+                };
+                let sliding_ends = match ends {
+                    None | Some(YarnEndsSpec::Clamped) => None,
+                    Some(YarnEndsSpec::Sliding { mass_kg, friction_force_n }) => Some((
+                        positive("target.ends.mass_kg", *mass_kg)?,
+                        non_negative("target.ends.friction_force_n", *friction_force_n)?,
+                    )),
+                };
                 ResolvedTarget::Straight(StraightTarget {
                     layers: None,
                     fibres_per_yarn: *fibres_per_yarn,
                     fibre_area,
                     length: *length_m,
                     element_length_ratio: *element_length_ratio,
+                    rectangular_packing,
+                    sliding_ends,
+                    hold_lateral: *hold_lateral,
                 })
             }
             TargetSpec::StraightYarnLayers {
@@ -544,6 +592,9 @@ impl Case {
                     fibre_area,
                     length: *length_m,
                     element_length_ratio: *element_length_ratio,
+                    rectangular_packing: None,
+                    sliding_ends: None,
+                    hold_lateral: false,
                 })
             }
             TargetSpec::WovenPanel {
