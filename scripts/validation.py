@@ -195,7 +195,8 @@ def entry(c):
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series == "single_yarn":
         experiment, seed_dea = None, None
-        seed_reference = {"table_5_2_i0_m_s": TABLE_5_2_I0.get(fibres), "table_5_2_i_inf_m_s": TABLE_5_2_I_INF.get(fibres)}
+        seed_reference = {"table_5_2_i0_m_s": TABLE_5_2_I0.get(fibres), "table_5_2_i_inf_m_s": TABLE_5_2_I_INF.get(fibres),
+                          "bending": c.case.get("bending")}
     else:
         experiment, seed_dea = TABLE_6_1_EXPERIMENT.get(layers), TABLE_6_1_MODIFIED_DEA.get(layers)
         seed_reference = None

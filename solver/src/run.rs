@@ -101,7 +101,8 @@ impl Outcome {
 /// perforated once the projectile has passed the target's initial back face, still moves
 /// forward along the normal, and nothing holds it back: every fibre it touches is broken
 /// somewhere (what hangs on it are loose fragments), or what still touches it resists with
-/// less than [`HELD_FRACTION`] of the peak force so far (fibres pushed aside along its flank);
+/// less than [`HELD_FRACTION`] of the peak force so far (fibres pushed aside along its flank;
+/// not on the single-yarn fixture, whose guided yarn cannot be pushed aside);
 /// rebounded once it moves back along the normal, clear of the target and of contact;
 /// stopped (a partial too) as soon as it moves back along the normal at all, still in or on
 /// the target (docs/theory.md V1). Every rank takes part in the reductions; rank 0 decides and tells the others.
@@ -113,6 +114,9 @@ struct Judge {
     /// largest contact diameter [m]
     margin: f64,
     fibres: usize,
+    /// a projectile that unbroken fibres touch may still be through, pushed aside along its
+    /// flank (false on the single-yarn fixture)
+    aside_counts: bool,
 }
 
 impl Judge {
@@ -125,6 +129,7 @@ impl Judge {
             back_face,
             margin: domain.sections.iter().map(|s| s.contact_diameter).fold(0.0, f64::max),
             fibres,
+            aside_counts: domain.guides().is_none(),
         }
     }
 
@@ -151,10 +156,16 @@ impl Judge {
             let projectile = domain.projectile.as_ref().expect("runs have a projectile");
             let forward = projectile.velocity.dot(&self.direction);
             let resisting = -projectile.force.dot(&self.direction);
-            if forward > 0.0
-                && projectile_top(projectile) < self.back_face - self.margin
-                && (!held || resisting <= HELD_FRACTION * max_force)
-            {
+            // on the single-yarn fixture no fibre can be pushed aside (the lateral hold), and
+            // an uncut yarn drawn in over its sliding ends resists little while it carries the
+            // projectile, or flies ahead of it after the blow: there only a yarn cut through,
+            // every fibre broken, lets it through (theory V1, F13)
+            let free = if self.aside_counts {
+                !held || resisting <= HELD_FRACTION * max_force
+            } else {
+                (0..self.fibres).all(|f| broken[f / 64] & (1 << (f % 64)) != 0)
+            };
+            if forward > 0.0 && projectile_top(projectile) < self.back_face - self.margin && free {
                 decision = Outcome::Perforated;
             } else if forward < 0.0
                 && projectile_bottom(projectile) > high + self.margin

@@ -431,6 +431,45 @@ fn the_single_yarn_fixture_guides_its_fibres_and_gives_the_same_bits_on_any_rank
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// On the fixture a shot is through only when the yarn is cut (theory V1): an uncut yarn
+/// carries the projectile on, or flies ahead of it after the blow, and then stops it.
+/// Four digital fibres of filaments bending freely (I0), Table 5-2's 255 m/s upper bound.
+#[test]
+fn a_shot_at_the_single_yarn_fixture_is_through_only_when_the_yarn_is_cut() {
+    let mut case = case_file("seed_5_3_single_yarn.json");
+    case.target = serde_json::from_value(serde_json::json!({
+        "kind": "straight_yarn", "yarn": "km2_600_denier", "fibres_per_yarn": 4, "length_m": 0.0254,
+        "element_length_ratio": 0.5, "packing": { "kind": "rectangular", "across_per_through": 4 },
+        "ends": { "kind": "sliding", "mass_kg": 1e-6, "friction_force_n": 10.0 }, "hold_lateral": true
+    }))
+    .unwrap();
+    case.bending = serde_json::from_value(serde_json::json!({ "model": "free" })).unwrap();
+    case.run.end_time_s = 1.5e-4;
+    let dir = scratch("single-yarn-outcome");
+    let shot = |speed: f64, name: &str| {
+        let mut case = case.clone();
+        case.projectile.velocity_m_s = speed;
+        let json = serde_json::to_string(&case).unwrap();
+        let out = dir.join(name);
+        run_local(1, |comm| {
+            let mut state = build(&case, comm, Method::KWay, None).unwrap();
+            let mut options = options(&case, &json, &out, None, None);
+            options.stop_when_decided = true;
+            run(&mut state, &options).unwrap()
+        })
+        .remove(0)
+        .expect("rank 0's summary")
+    };
+    let slow = shot(128.0, "slow");
+    let broken = |s: &Summary| s.broken_elements_tension + s.broken_elements_shear + s.broken_elements_combined;
+    assert_eq!(broken(&slow), 0, "nothing breaks at 128 m/s");
+    assert!(!slow.perforated && slow.outcome == "stopped", "{} at {} m/s", slow.outcome, slow.residual_velocity_m_s);
+    assert!(slow.simulated_time_s > 5e-5, "the uncut yarn first carried it on: {} s", slow.simulated_time_s);
+    let fast = shot(300.0, "fast");
+    assert!(fast.perforated && broken(&fast) >= 4, "{}, {} broken", fast.outcome, broken(&fast));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_long_shear_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     let mut value = serde_json::to_value(panel_case()).unwrap();

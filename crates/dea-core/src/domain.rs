@@ -303,6 +303,11 @@ impl Domain {
         self.guides = guides;
     }
 
+    /// The fixture's guides (none for other targets).
+    pub fn guides(&self) -> &Guides {
+        &self.guides
+    }
+
     /// Adds the fixture's guide forces, after every other force of the step, and books the
     /// friction of its sliding ends ([`crate::guides::add_guide_forces`]).
     pub fn add_guide_forces(&mut self) {
