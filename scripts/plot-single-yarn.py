@@ -1,0 +1,70 @@
+#!/usr/bin/python3
+"""The single-yarn fixture's V50 against digital fibres per yarn (seed §5.3, Table 5-2 and
+Fig. 5-6), from validation/summary.json only.
+
+    /usr/bin/python3 scripts/plot-single-yarn.py [--out docs/img/single-yarn-v50.png]
+
+The seed's Table 5-2 rows (I0: filaments bend freely, the upper bound; I_inf: the bundle
+bends as one rod, the lower bound) beside this code's bisection brackets for the same two
+bending models and for the effective inertia (5-10) with k1 = 0.8, k2 = 1, which the seed
+found flat in the fibre count. A campaign without a bracket yet is listed under the plot.
+"""
+import argparse
+import json
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+import validation  # noqa: E402  (scripts/validation.py: the seed's tables, kept once)
+
+ROOT = validation.ROOT
+MODELS = (
+    ("free", "I0 (filaments free)", "tab:green"),
+    ("locked", "I_inf (bundle locked)", "tab:red"),
+    ("effective", "I_e, k1 = 0.8, k2 = 1", "tab:blue"),
+)
+
+parser = argparse.ArgumentParser()
+parser.add_argument("--out", default=os.path.join(ROOT, "docs", "img", "single-yarn-v50.png"))
+args = parser.parse_args()
+with open(os.path.join(ROOT, "validation", "summary.json")) as f:
+    entries = [e for e in json.load(f) if e["series"] == "single_yarn"]
+
+figure, axes = plt.subplots(figsize=(7.5, 4.6))
+counts = sorted(validation.TABLE_5_2_I0)
+axes.plot(counts, [validation.TABLE_5_2_I0[n] for n in counts], "g^--", mfc="white", label="seed Table 5-2, I0")
+axes.plot(counts, [validation.TABLE_5_2_I_INF[n] for n in counts], "rv--", mfc="white", label="seed Table 5-2, I_inf")
+pending = []
+for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
+    chosen = sorted(
+        (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model),
+        key=lambda e: e["fibres_per_yarn"],
+    )
+    drawn = [e for e in chosen if e["v50_m_s"] is not None]
+    pending += [f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}" for e in chosen if e["v50_m_s"] is None]
+    if not drawn:
+        continue
+    xs = [e["fibres_per_yarn"] + shift for e in drawn]
+    vs = [e["v50_m_s"] for e in drawn]
+    errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
+    axes.errorbar(xs, vs, yerr=errors, fmt="o-", color=colour, capsize=4, label=f"dea-mpi, {label} (bisection bracket)")
+axes.set_xlabel("digital fibres per yarn")
+axes.set_ylabel("V50 [m/s]")
+axes.set_title("One KM2 yarn struck by a 5.56 mm cylinder (seed §5.3)")
+axes.set_xlim(0, 205)
+axes.set_ylim(0, 320)
+axes.grid(alpha=0.3)
+axes.legend(fontsize=7, loc="upper right")
+if pending:
+    figure.text(0.01, 0.01, "not yet bracketed: " + "; ".join(pending), fontsize=6, wrap=True)
+figure.tight_layout(rect=(0, 0.08 if pending else 0, 1, 1))
+figure.savefig(args.out, dpi=130)
+print(args.out)
+for e in sorted(entries, key=lambda e: (e["fibres_per_yarn"], e["name"])):
+    shots = ", ".join(
+        f"{r['velocity_m_s']:.1f} {'P' if r['perforated'] else 'S'}" for r in sorted(e["shot_records"], key=lambda r: r["velocity_m_s"])
+    )
+    print(f"{e['name']}: V50 {e['v50_m_s']} [{e['v50_low_m_s']}, {e['v50_high_m_s']}]; {shots}")
