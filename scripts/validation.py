@@ -270,6 +270,10 @@ def git_commit_paths(paths, subject, body):
     for attempt in range(10):
         added = subprocess.run(["git", "-C", ROOT, "add", "--", *paths])
         if added.returncode == 0:
+            unchanged = subprocess.run(["git", "-C", ROOT, "diff", "--quiet", "HEAD", "--", *paths]).returncode == 0
+            if unchanged:
+                # another run (a second validation.py) committed these very files already
+                return
             done = subprocess.run(["git", "-C", ROOT, "commit", "-q", "-m", subject, "-m", body, "--", *paths])
             if done.returncode == 0:
                 return
@@ -277,9 +281,11 @@ def git_commit_paths(paths, subject, body):
     sys.exit(f"could not commit {paths}")
 
 
-def commit_pending(campaigns):
-    """Commits shot records left uncommitted by an earlier run without --commit."""
-    for c in campaigns:
+def commit_pending(campaigns, chosen):
+    """Commits the shot records of the campaigns this run works on (`chosen`) left
+    uncommitted by an earlier run without --commit; another validation.py may be running the
+    others and will commit its own."""
+    for c in chosen:
         listed = subprocess.run(["git", "-C", ROOT, "ls-files", "--others", "--modified", "--exclude-standard", "--",
                                  os.path.join(RESULTS, c.name, "shots")], capture_output=True, text=True).stdout.split()
         new = sorted(os.path.basename(p)[:-5] for p in listed if p.endswith(".json"))
@@ -344,7 +350,7 @@ def main():
         return 0
     status(campaigns)
     if args.commit:
-        commit_pending(load_all(args))
+        commit_pending(load_all(args), campaigns)
     return run(args, campaigns)
 
 
