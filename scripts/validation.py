@@ -215,6 +215,8 @@ def entry(c):
         "coarse_fibres_per_yarn": hybrid.get("fibres_per_yarn"),
         "element_length_ratio": weave.get("element_length_ratio") or target.get("element_length_ratio") or 0.5,
         "projectile": c.case["projectile"].get("preset") or c.case["projectile"].get("shape"),
+        # how the fibre-projectile friction spring kept its stretch (docs/theory.md I6c)
+        "projectile_friction_spring": c.case["contact"].get("projectile_friction_spring") or "rotating",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,

@@ -18,6 +18,7 @@ use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
 use dea_ballistic::scatter::{Aim, Draws};
 use dea_ballistic::Shot;
+use dea_core::friction::FrictionSpring;
 use dea_core::Rank;
 use dea_io::campaign::Campaign;
 use dea_io::case::Case;
@@ -73,6 +74,20 @@ pub struct ShotRecord {
     /// obliquity fired with: the case's plus the drawn deviation [deg]
     #[serde(default)]
     pub obliquity_deg: f64,
+    /// how the fibre–projectile friction spring kept its stretch, "rotating" or "anchored"
+    /// (`contact.projectile_friction_spring`); a record written before the spring was named
+    /// was fired with the seed's anchored one, the only one there was
+    #[serde(default = "seeds_friction_spring")]
+    pub projectile_friction_spring: String,
+}
+
+fn seeds_friction_spring() -> String {
+    FrictionSpring::Anchored.name().to_string()
+}
+
+/// The friction spring a shot's case asks for, by name.
+fn friction_spring_of(case: &Case) -> Result<&'static str, CampaignError> {
+    case.projectile_friction_spring().map(FrictionSpring::name).map_err(|e| CampaignError::Output(e.to_string()))
 }
 
 impl ShotRecord {
@@ -148,6 +163,14 @@ fn on_record(out: &Path, id: &str, shot: &Case) -> Result<Option<ShotRecord>, Ca
     let bits = |(v, s, [x, y], yaw, obliquity): (f64, u64, [f64; 2], f64, f64)| {
         (v.to_bits(), s, x.to_bits(), y.to_bits(), yaw.to_bits(), obliquity.to_bits())
     };
+    let spring = friction_spring_of(shot)?;
+    if record.projectile_friction_spring != spring {
+        return Err(CampaignError::Output(format!(
+            "{}: shot {id} on record was fired with the {} fibre–projectile friction spring, but the campaign now fires the {spring} one (contact.projectile_friction_spring, \"rotating\" unless the case says \"anchored\"; records without it were fired with \"anchored\"): its shots must not be mixed; give it another --out, or set the spring the records were fired with",
+            out.display(),
+            record.projectile_friction_spring
+        )));
+    }
     if bits(asked) != bits(fired) {
         return Err(CampaignError::Output(format!(
             "{}: shot {id} on record was fired at {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg, but the campaign now asks for {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg: the campaign changed since; give it another --out",
@@ -202,6 +225,7 @@ fn fire<C: Comm>(
         aim_offset_m: case.projectile.offset_m,
         yaw_deg: case.projectile.yaw_deg,
         obliquity_deg: case.projectile.obliquity_deg,
+        projectile_friction_spring: friction_spring_of(&case)?.to_string(),
     };
     if state.comm.rank() == Rank(0) {
         // written whole, then renamed: a record on disk is a finished shot

@@ -47,6 +47,7 @@ impl<C: Comm> Distributed<C> {
             plastic_dissipated: d.ledger.plastic_dissipated.clone(),
             fracture_released: d.ledger.fracture_released.clone(),
             projectile_anchor: contacts.anchor.clone(),
+            projectile_stretch: contacts.stretch.clone(),
             projectile_spring_stiffness: contacts.spring_stiffness.clone(),
             projectile_touching: contacts.touching.iter().map(|&t| t as u8).collect(),
             projectile_max_overlap: contacts.max_overlap.clone(),
@@ -161,6 +162,7 @@ impl<C: Comm> Distributed<C> {
             d.ledger.plastic_dissipated[i] = state.plastic_dissipated[i];
             d.ledger.fracture_released[i] = state.fracture_released[i];
             contacts.anchor[i] = state.projectile_anchor[i];
+            contacts.stretch[i] = state.projectile_stretch[i];
             contacts.spring_stiffness[i] = state.projectile_spring_stiffness[i];
             contacts.touching[i] = state.projectile_touching[i] != 0;
             contacts.max_overlap[i] = state.projectile_max_overlap[i];

@@ -117,6 +117,24 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     let refused = run_local(1, |comm| run_group(&changed, &case, comm, group, &out, None, None));
     let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
     assert!(message.contains("r000-00000") && message.contains("the campaign changed since"), "{message}");
+    // so is a case whose fibre–projectile friction spring is not the one its shots were fired
+    // with, and a record from before the spring was named counts as the seed's anchored one
+    let mut other_spring = case.clone();
+    other_spring.contact.projectile_friction_spring = Some("anchored".into());
+    let refused = run_local(1, |comm| run_group(&campaign, &other_spring, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("r000-00000") && message.contains("fired with the rotating") && message.contains("anchored"),
+        "{message}"
+    );
+    let record = out.join("shots/r000-00000.json");
+    let mut value: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&record).unwrap()).unwrap();
+    assert_eq!(value["projectile_friction_spring"], "rotating");
+    value.as_object_mut().unwrap().remove("projectile_friction_spring");
+    std::fs::write(&record, value.to_string()).unwrap();
+    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("fired with the anchored"), "{message}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -284,6 +284,9 @@ fn check_prints_the_resolved_case() {
     assert_eq!(printed["resolved"]["material"]["longitudinal_modulus"], 84.6e9);
     assert!(printed["resolved"]["nodes"].as_u64().unwrap() > 1000);
     assert!(printed["resolved"]["time_step_s"].as_f64().unwrap() > 0.0);
+    // the friction spring the case leaves unsaid is named as resolved
+    assert!(printed["case"]["contact"]["projectile_friction_spring"].is_null());
+    assert_eq!(printed["resolved"]["projectile_friction_spring"], "rotating");
 }
 
 #[test]

@@ -3,9 +3,10 @@
 //! `tests/golden/<case>/`. A change of any result fails here, whatever the rank count.
 //!
 //! Each case runs twice: as shipped (its results in `tests/golden/<case>/`) and with the seed's
-//! own shear measure, `failure.shear_measure` "element" (in `tests/golden/<case>/element/`:
-//! these are the results every case gave before the gauge measure became the default, kept to
-//! show that the named option reproduces them bit for bit).
+//! forms as written where the defaults depart from them, `failure.shear_measure` "element" and
+//! `contact.projectile_friction_spring` "anchored" (in `tests/golden/<case>/seed/`: the results
+//! every case gave before the gauge measure and the rotating spring became the defaults, kept
+//! to show that the named options reproduce them bit for bit; docs/theory.md I9b, I6c).
 //!
 //! To re-bless after a change that is meant to change results, run
 //! `DEA_BLESS_GOLDEN=1 cargo test --release -p dea-mpi --test golden` and commit the new files
@@ -64,17 +65,18 @@ fn the_golden_cases_keep_their_bits() {
     let bless = std::env::var_os("DEA_BLESS_GOLDEN").is_some();
     let scratch = std::env::temp_dir().join(format!("dea-golden-{}", std::process::id()));
     let mut failures = Vec::new();
-    for (case, measure) in CASES.iter().flat_map(|&case| [(case, None), (case, Some("element"))]) {
-        let label = format!("{case}{}", measure.map(|m| format!("/{m}")).unwrap_or_default());
-        let out = scratch.join(case).join(measure.unwrap_or("shipped"));
+    for (case, variant) in CASES.iter().flat_map(|&case| [(case, None), (case, Some("seed"))]) {
+        let label = format!("{case}{}", variant.map(|m| format!("/{m}")).unwrap_or_default());
+        let out = scratch.join(case).join(variant.unwrap_or("shipped"));
         let _ = std::fs::remove_dir_all(&out);
         std::fs::create_dir_all(&out).unwrap();
         let mut case_path = repository().join("cases").join(format!("{case}.json"));
-        if let Some(measure) = measure {
+        if let Some(variant) = variant {
             let text = std::fs::read_to_string(&case_path).unwrap();
             let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
-            value["failure"]["shear_measure"] = serde_json::Value::from(measure);
-            case_path = scratch.join(format!("{case}-{measure}.json"));
+            value["failure"]["shear_measure"] = serde_json::Value::from("element");
+            value["contact"]["projectile_friction_spring"] = serde_json::Value::from("anchored");
+            case_path = scratch.join(format!("{case}-{variant}.json"));
             std::fs::write(&case_path, serde_json::to_string_pretty(&value).unwrap()).unwrap();
         }
         let run = Command::new(env!("CARGO_BIN_EXE_dea-mpi"))
@@ -85,7 +87,7 @@ fn the_golden_cases_keep_their_bits() {
             .output()
             .expect("dea-mpi starts");
         assert!(run.status.success(), "{label}: {}", String::from_utf8_lossy(&run.stderr));
-        let golden = repository().join("tests/golden").join(case).join(measure.unwrap_or(""));
+        let golden = repository().join("tests/golden").join(case).join(variant.unwrap_or(""));
         let found = [
             ("history.csv", std::fs::read_to_string(out.join("history.csv")).expect("history.csv written")),
             (

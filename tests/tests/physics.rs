@@ -4,6 +4,7 @@
 use dea_core::contact::NormalLaw;
 use dea_core::domain::ContactParameters;
 use dea_core::failure::FailureParameters;
+use dea_core::friction::FrictionSpring;
 use dea_core::material::InertiaModel;
 use dea_core::projectile::{RigidProjectile, RigidShape};
 use dea_core::shear_gauge::ShearMeasure;
@@ -22,6 +23,7 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
         law: NormalLaw::Elastic { transverse_modulus: material.transverse_modulus },
         friction_coefficient: 0.0,
         projectile_friction_coefficient: 0.0,
+        projectile_friction_spring: FrictionSpring::Rotating,
         skin: 5e-6,
     }
 }
@@ -226,6 +228,7 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
         law: NormalLaw::ElastoPlasticKm2,
         friction_coefficient: 0.3,
         projectile_friction_coefficient: 0.3,
+        projectile_friction_spring: FrictionSpring::Rotating,
         skin: 5e-6,
     };
     let mut run =
@@ -293,8 +296,13 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
         3.8e9,
     );
     let built = panel.build_all(&material);
-    let contact =
-        ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let contact = ContactParameters {
+        law,
+        friction_coefficient: 0.3,
+        projectile_friction_coefficient: 0.3,
+        projectile_friction_spring: FrictionSpring::Rotating,
+        skin: 5e-6,
+    };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
     let domain =
         whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt))
@@ -348,8 +356,13 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
     let period = cell.period;
     let panel = TiledPanel::new(std::sync::Arc::new(cell), [4, 3], 2, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
     let built = panel.build_all(&material);
-    let contact =
-        ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+    let contact = ContactParameters {
+        law,
+        friction_coefficient: 0.3,
+        projectile_friction_coefficient: 0.3,
+        projectile_friction_spring: FrictionSpring::Rotating,
+        skin: 5e-6,
+    };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
     let domain =
         whole(Domain::assemble(material, built.sections, built.nodes, built.elements, contact, NO_FAILURE, None, dt))
@@ -386,8 +399,13 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
             WovenPanel::new(std::sync::Arc::new(cell), None, 3, 1, 0.0, [0.0, 0.0], Boundary::FixedEdges, 3.8e9);
         let built = panel.build_all(&material);
         let area = built.sections[0].area;
-        let contact =
-            ContactParameters { law, friction_coefficient: 0.3, projectile_friction_coefficient: 0.3, skin: 5e-6 };
+        let contact = ContactParameters {
+            law,
+            friction_coefficient: 0.3,
+            projectile_friction_coefficient: 0.3,
+            projectile_friction_spring: FrictionSpring::Rotating,
+            skin: 5e-6,
+        };
         let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
         let domain = whole(Domain::assemble(
             material.clone(),

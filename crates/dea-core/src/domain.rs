@@ -10,6 +10,7 @@ use crate::dispatch::Compilation;
 use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{self, BrokenCount, FailureParameters};
 use crate::fibre_contact::{self, FibreContactSums, RunningSums};
+use crate::friction::FrictionSpring;
 use crate::guides::Guides;
 use crate::integrate;
 use crate::multi_rate::{section_runs, Firing, SectionRun};
@@ -37,6 +38,8 @@ pub struct ContactParameters {
     pub friction_coefficient: f64,
     /// fibre–projectile friction coefficient [-]
     pub projectile_friction_coefficient: f64,
+    /// how the fibre–projectile friction spring keeps its stretch
+    pub projectile_friction_spring: FrictionSpring,
     /// Verlet skin of the neighbour lists [m]
     pub skin: f64,
 }
@@ -673,6 +676,7 @@ impl Domain {
             &self.sections,
             law,
             mu,
+            self.contact.projectile_friction_spring,
             &mut self.ledger,
             &mut self.contact_stiffness,
         );

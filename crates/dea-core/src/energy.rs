@@ -232,18 +232,18 @@ pub fn fibre_energy_sums(domain: &Domain, group: impl Fn(usize) -> usize, groups
             report.contact.add(law.stored_energy(&geometry, overlap, max_overlap));
             if domain.contact.projectile_friction_coefficient > 0.0 && domain.projectile_contacts.touching[i] {
                 let (response, _) = law.evaluate(&geometry, overlap, max_overlap);
-                let (mut anchor, mut spring) =
-                    (domain.projectile_contacts.anchor[i], domain.projectile_contacts.spring_stiffness[i]);
-                let friction = stick_slip(
-                    -body,
+                let contacts = &domain.projectile_contacts;
+                // the partner the forces use: on a deforming surface its anchored material point
+                let relative = contacts.friction_partner(projectile, i, &body);
+                report.friction_stored.add(contacts.friction_stored(
+                    i,
+                    domain.contact.projectile_friction_spring,
+                    relative,
                     point.normal,
-                    &mut anchor,
-                    &mut spring,
                     response.force,
                     response.stiffness,
                     domain.contact.projectile_friction_coefficient,
-                );
-                report.friction_stored.add(friction.stored);
+                ));
             }
         }
     }

@@ -7,7 +7,7 @@ use nalgebra::UnitQuaternion;
 
 use crate::contact::{ContactGeometry, NormalLaw};
 use crate::domain::NodeLedger;
-use crate::friction::stick_slip;
+use crate::friction::{stick_slip, stick_slip_rotating, FrictionResponse, FrictionSpring};
 use crate::nodes::Nodes;
 use crate::projectile::{RigidProjectile, RigidShape};
 use crate::surface::SurfacePoint;
@@ -20,9 +20,14 @@ pub struct ProjectileContacts {
     pub candidates: Vec<LocalNodeId>,
     /// the candidates before the last refresh (its scratch)
     previous_candidates: Vec<LocalNodeId>,
-    /// friction anchor: the partner point relative to the node at first touch, body frame:
-    /// the body origin on a rigid body, the touched material point of a deforming surface [m]
+    /// friction anchor, body frame: the partner point relative to the node at first touch
+    /// ([`FrictionSpring::Anchored`]) or at the last evaluation ([`FrictionSpring::Rotating`]);
+    /// the partner is the body origin on a rigid body, the touched material point of a
+    /// deforming surface [m]
     pub anchor: Vec<Vec3>,
+    /// the friction spring's tangential stretch at the last evaluation, body frame
+    /// ([`FrictionSpring::Rotating`]; zero under the seed's anchor) [m]
+    pub stretch: Vec<Vec3>,
     /// a deforming surface's material point the friction is anchored to: the triangle and
     /// barycentric weights of the contact point at first touch (docs/theory.md I6)
     pub anchor_triangle: Vec<u32>,
@@ -226,8 +231,91 @@ impl ProjectileContacts {
         (0.5 * section.contact_diameter - point.distance, point, body, geometry)
     }
 
+    /// The friction of touching node `i` whose partner lies at `relative` (body frame, [m])
+    /// under the contact's normal force and stiffness, its history updated: the seed's fixed
+    /// anchor or the rotating spring.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn friction(
+        &mut self,
+        i: usize,
+        spring: FrictionSpring,
+        relative: Vec3,
+        normal: Vec3,
+        normal_force: f64,
+        normal_stiffness: f64,
+        mu: f64,
+    ) -> FrictionResponse {
+        match spring {
+            FrictionSpring::Anchored => stick_slip(
+                relative,
+                normal,
+                &mut self.anchor[i],
+                &mut self.spring_stiffness[i],
+                normal_force,
+                normal_stiffness,
+                mu,
+            ),
+            FrictionSpring::Rotating => stick_slip_rotating(
+                relative,
+                normal,
+                &mut self.anchor[i],
+                &mut self.stretch[i],
+                &mut self.spring_stiffness[i],
+                normal_force,
+                normal_stiffness,
+                mu,
+            ),
+        }
+    }
+
+    /// The friction spring's stored energy of touching node `i` (as [`Self::friction`] would
+    /// find it, without changing the history) [J].
+    #[allow(clippy::too_many_arguments)]
+    pub fn friction_stored(
+        &self,
+        i: usize,
+        spring: FrictionSpring,
+        relative: Vec3,
+        normal: Vec3,
+        normal_force: f64,
+        normal_stiffness: f64,
+        mu: f64,
+    ) -> f64 {
+        let (mut anchor, mut stretch, mut stiffness) = (self.anchor[i], self.stretch[i], self.spring_stiffness[i]);
+        let response = match spring {
+            FrictionSpring::Anchored => {
+                stick_slip(relative, normal, &mut anchor, &mut stiffness, normal_force, normal_stiffness, mu)
+            }
+            FrictionSpring::Rotating => stick_slip_rotating(
+                relative,
+                normal,
+                &mut anchor,
+                &mut stretch,
+                &mut stiffness,
+                normal_force,
+                normal_stiffness,
+                mu,
+            ),
+        };
+        response.stored
+    }
+
+    /// The partner point of touching node `i`'s friction relative to the node, body frame:
+    /// the body origin of a rigid body (its frame turns with it); on a deforming surface,
+    /// which moves against that frame, the material point it is anchored to [m]. `body` is
+    /// the node's body-frame position [m].
+    #[inline]
+    pub fn friction_partner(&self, projectile: &RigidProjectile, i: usize, body: &Vec3) -> Vec3 {
+        match projectile.shape.deforming_mesh() {
+            Some(mesh) => mesh.surface.point_at(self.anchor_triangle[i], self.anchor_weights[i]) - body,
+            None => -body,
+        }
+    }
+
     /// Fibre–projectile contact and friction (seed 4-1, 4-4…4-15) on the candidate nodes,
-    /// with the normal `law` and the fibre–projectile friction coefficient `mu` [-]: adds each
+    /// with the normal `law`, the fibre–projectile friction coefficient `mu` [-] and its
+    /// `spring` (how the friction spring keeps its stretch): adds each
     /// node's force to `nodes.force`, its contact stiffness to `contact_stiffness` [N/m] and
     /// its dissipation to `ledger`, and keeps the force and the reaction's torque for
     /// [`Self::reactions`].
@@ -239,6 +327,7 @@ impl ProjectileContacts {
         sections: &[FibreSection],
         law: NormalLaw,
         mu: f64,
+        spring: FrictionSpring,
         ledger: &mut NodeLedger,
         contact_stiffness: &mut [f64],
     ) {
@@ -293,25 +382,15 @@ impl ProjectileContacts {
                 contacts.anchor_triangle[i] = point.triangle;
                 contacts.anchor_weights[i] = point.weights;
             }
-            let relative = match deforming {
-                Some(mesh) => mesh.surface.point_at(contacts.anchor_triangle[i], contacts.anchor_weights[i]) - body,
-                None => -body,
-            };
+            let relative = contacts.friction_partner(projectile, i, &body);
             let mut force_body = normal * response.force;
             if !contacts.touching[i] {
                 contacts.touching[i] = true;
                 contacts.anchor[i] = relative;
+                contacts.stretch[i] = Vec3::zeros();
                 contacts.spring_stiffness[i] = mu * response.stiffness;
             } else if mu > 0.0 {
-                let friction = stick_slip(
-                    relative,
-                    normal,
-                    &mut contacts.anchor[i],
-                    &mut contacts.spring_stiffness[i],
-                    response.force,
-                    response.stiffness,
-                    mu,
-                );
+                let friction = contacts.friction(i, spring, relative, normal, response.force, response.stiffness, mu);
                 force_body += friction.force;
                 ledger.friction_dissipated[i] += friction.dissipated;
                 if let (Some(mesh), true) = (deforming, friction.dissipated > 0.0) {
@@ -386,6 +465,7 @@ impl ProjectileContacts {
     pub fn new(owned: usize) -> Self {
         Self {
             anchor: vec![Vec3::zeros(); owned],
+            stretch: vec![Vec3::zeros(); owned],
             spring_stiffness: vec![0.0; owned],
             touching: vec![false; owned],
             max_overlap: vec![0.0; owned],

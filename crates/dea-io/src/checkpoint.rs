@@ -18,7 +18,7 @@ use crate::results::{
     read_histories_from, write_histories, write_scalars, write_text_attribute, write_vectors, Histories,
 };
 
-const FORMAT: &str = "dea-mpi checkpoint 6";
+const FORMAT: &str = "dea-mpi checkpoint 7";
 
 /// Why a checkpoint cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -54,6 +54,8 @@ pub struct NodeState {
     pub fracture_released: Vec<f64>,
     /// projectile contact history: anchor (body frame) [m], touching, largest overlap [m]
     pub projectile_anchor: Vec<Vec3>,
+    /// the projectile friction spring's tangential stretch (body frame; a rotating spring's) [m]
+    pub projectile_stretch: Vec<Vec3>,
     /// stiffness of the projectile friction spring at its last evaluation [N/m]
     pub projectile_spring_stiffness: Vec<f64>,
     pub projectile_touching: Vec<u8>,
@@ -98,6 +100,7 @@ impl NodeState {
         self.plastic_dissipated.push(other.plastic_dissipated[k]);
         self.fracture_released.push(other.fracture_released[k]);
         self.projectile_anchor.push(other.projectile_anchor[k]);
+        self.projectile_stretch.push(other.projectile_stretch[k]);
         self.projectile_spring_stiffness.push(other.projectile_spring_stiffness[k]);
         self.projectile_touching.push(other.projectile_touching[k]);
         self.projectile_max_overlap.push(other.projectile_max_overlap[k]);
@@ -195,6 +198,7 @@ impl NodeState {
             .floats(&self.plastic_dissipated)
             .floats(&self.fracture_released)
             .vectors(&self.projectile_anchor)
+            .vectors(&self.projectile_stretch)
             .floats(&self.projectile_spring_stiffness)
             .bytes(&self.projectile_touching)
             .floats(&self.projectile_max_overlap)
@@ -304,6 +308,7 @@ pub fn write_part(path: &Path, part: &NodeState) -> hdf5::Result<()> {
         write_scalars(&file, "plastic_dissipated", &part.plastic_dissipated, "J")?;
         write_scalars(&file, "fracture_released", &part.fracture_released, "J")?;
         write_vectors(&file, "projectile_anchor", &part.projectile_anchor, "m")?;
+        write_vectors(&file, "projectile_stretch", &part.projectile_stretch, "m")?;
         write_scalars(&file, "projectile_spring_stiffness", &part.projectile_spring_stiffness, "N/m")?;
         write_bytes(&file, "projectile_touching", &part.projectile_touching, "bool")?;
         write_scalars(&file, "projectile_max_overlap", &part.projectile_max_overlap, "m")?;
@@ -397,6 +402,7 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         plastic_dissipated: file.dataset("plastic_dissipated").and_then(|d| d.read_raw()).map_err(fail)?,
         fracture_released: file.dataset("fracture_released").and_then(|d| d.read_raw()).map_err(fail)?,
         projectile_anchor: vectors("projectile_anchor")?,
+        projectile_stretch: vectors("projectile_stretch")?,
         projectile_spring_stiffness: file
             .dataset("projectile_spring_stiffness")
             .and_then(|d| d.read_raw())
@@ -430,6 +436,7 @@ pub fn read_part(path: &Path) -> Result<NodeState, CheckpointError> {
         part.plastic_dissipated.len(),
         part.fracture_released.len(),
         part.projectile_anchor.len(),
+        part.projectile_stretch.len(),
         part.projectile_spring_stiffness.len(),
         part.projectile_touching.len(),
         part.projectile_max_overlap.len(),
@@ -557,6 +564,7 @@ mod tests {
             p.plastic_dissipated.push(2.0);
             p.fracture_released.push(3.0);
             p.projectile_anchor.push(x);
+            p.projectile_stretch.push(x * 0.5);
             p.projectile_spring_stiffness.push(g as f64 * 10.0);
             p.projectile_touching.push(1);
             p.projectile_max_overlap.push(1e-6);

@@ -577,6 +577,12 @@ pub struct ContactSpec {
     pub friction_coefficient: f64,
     /// fibre–projectile friction coefficient [-]
     pub projectile_friction_coefficient: f64,
+    /// how the fibre–projectile friction spring keeps its stretch while a contact lasts:
+    /// "rotating" (the default: in the tangent plane, turned with the normal, docs/theory.md
+    /// I6c) or "anchored" (the seed's (4-13) as written: the partner's position at first touch,
+    /// which creates energy where the normal turns under a sliding node)
+    #[serde(default)]
+    pub projectile_friction_spring: Option<String>,
     /// Verlet skin [m]; default a quarter of the largest contact diameter
     pub skin_m: Option<f64>,
 }
@@ -1123,6 +1129,7 @@ pub fn default_case() -> Case {
             law: "elasto_plastic_km2".into(),
             friction_coefficient: 0.3,
             projectile_friction_coefficient: 0.3,
+            projectile_friction_spring: None,
             skin_m: None,
         },
         failure: FailureSpec {
@@ -1312,6 +1319,23 @@ mod tests {
         let mut value = default_json();
         value["projectile"]["offset_m"] = serde_json::json!([0.004, -0.002]);
         parse_case(&value.to_string(), "case.json").unwrap().resolve().unwrap();
+    }
+
+    #[test]
+    fn the_projectile_friction_spring_rotates_unless_the_seeds_anchor_is_asked_for() {
+        use dea_core::friction::FrictionSpring;
+        let spring = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = serde_json::to_value(default_case()).unwrap();
+            edit(&mut value);
+            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.projectile_friction_spring)
+        };
+        assert_eq!(spring(&|_| {}).unwrap(), FrictionSpring::Rotating);
+        let named = |name: &str| spring(&|v| v["contact"]["projectile_friction_spring"] = name.into());
+        assert_eq!(named("rotating").unwrap(), FrictionSpring::Rotating);
+        assert_eq!(named("anchored").unwrap(), FrictionSpring::Anchored);
+        let e = named("fixed").unwrap_err();
+        assert_eq!(e.path, "contact.projectile_friction_spring", "{e}");
+        assert!(e.to_string().contains("\"rotating\" or \"anchored\", got \"fixed\""), "{e}");
     }
 
     #[test]

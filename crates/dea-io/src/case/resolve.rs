@@ -3,6 +3,7 @@
 //! set-up builds from without checking again.
 
 use super::*;
+use dea_core::friction::FrictionSpring;
 use dea_core::shear_gauge::ShearMeasure;
 use dea_fabric::panel::FineRegion;
 use dea_fabric::relax::RelaxOptions;
@@ -51,6 +52,8 @@ pub struct ResolvedCase {
     pub section_inertia: SectionInertia,
     /// fibre–projectile friction coefficient [-]
     pub projectile_friction_coefficient: f64,
+    /// how the fibre–projectile friction spring keeps its stretch
+    pub projectile_friction_spring: FrictionSpring,
     /// the elements' tensile strength: none, one value, or Weibull draws
     pub strength: Strength,
     /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
@@ -263,6 +266,19 @@ impl Case {
                 "failure.shear_strength_pa",
                 required("failure.shear_strength_pa", self.failure.shear_strength_pa)?,
             ),
+        }
+    }
+
+    /// How the fibre–projectile friction spring keeps its stretch: "rotating" unless the seed's
+    /// "anchored" is asked for.
+    pub fn projectile_friction_spring(&self) -> Result<FrictionSpring, CaseError> {
+        match self.contact.projectile_friction_spring.as_deref() {
+            None | Some("rotating") => Ok(FrictionSpring::Rotating),
+            Some("anchored") => Ok(FrictionSpring::Anchored),
+            Some(other) => Err(invalid(
+                "contact.projectile_friction_spring",
+                format!("must be \"rotating\" or \"anchored\", got \"{other}\""),
+            )),
         }
     }
 
@@ -495,6 +511,7 @@ impl Case {
         let strength = self.strength()?;
         let shear_strength = self.shear_strength()?;
         let shear_measure = self.shear_measure()?;
+        let projectile_friction_spring = self.projectile_friction_spring()?;
         let projectile = self.projectile()?;
         let friction_coefficient =
             ranged("contact.friction_coefficient", self.contact.friction_coefficient, 0.0, MOST_FRICTION_COEFFICIENT)?;
@@ -758,6 +775,7 @@ impl Case {
             friction_coefficient,
             section_inertia,
             projectile_friction_coefficient: self.contact.projectile_friction_coefficient,
+            projectile_friction_spring,
             strength,
             shear_strength,
             shear_measure,
