@@ -49,7 +49,8 @@ def binary(args):
 
 
 def series_of(name):
-    for prefix, series in (("panel-", "panel_size"), ("mesh-", "mesh"), ("layers-", "layers"), ("yarn-", "single_yarn")):
+    for prefix, series in (("panel-", "panel_size"), ("mesh-", "mesh"), ("layers-", "layers"), ("yarn-", "single_yarn"),
+                           ("low-end-", "panel_size_low_end")):
         if name.startswith(prefix):
             return series
     return "other"

@@ -204,12 +204,13 @@ fn outcome_words(summary: &dea_mpi::run::Summary) -> String {
 }
 
 /// Where the built-in default case stands among the validation set's results (issue 31): it
-/// is the first shot of the 1 in panel series, and the V50 each panel size gave is read from
+/// is the first shot of the 1 in panel series under the default friction spring, and the V50
+/// each panel size gave is read from
 /// `validation/summary.json` beside the sources (or in the working directory) when there is
 /// one, so the words never outlive the results.
 fn default_case_context() -> String {
     let text = String::from(
-        "default case: the first shot of the validation set's 1 in panel series (jobs/campaigns/validation/panel-1in-4-layers.json)",
+        "default case: the first shot of the validation set's 1 in panel series (jobs/campaigns/validation/panel-1in-4-layers.json) under the rotating fibre-projectile friction spring, where the series was fired with the seed's anchored one (docs/theory.md I6c)",
     );
     let candidates = [
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../validation/summary.json"),

@@ -1099,10 +1099,11 @@ pub fn load_case(path: &std::path::Path) -> Result<Case, CaseError> {
 /// of four layers of KM2 style 706, 4 digital fibres per yarn within 6 mm of the centre and 1
 /// beyond (the unit cells relaxed on the spot), every fibre end fixed, settled for 5 us, then
 /// struck at its centre by the 17-grain FSP (meshed, its measured edge radii resolved) until
-/// it is through (about 36 us) or 100 us have passed. It is that campaign's first shot, bit
-/// for bit (snapshots and the end time, never reached, aside), so its outcome is one of the
-/// validation set's results (docs/validation.md). The 10 mm patch it replaces is
-/// `cases/km2_706_patch.json`.
+/// it is through (about 36 us) or 100 us have passed. It is that campaign's first shot
+/// (snapshots and the end time, never reached, aside) under the default rotating
+/// fibre–projectile friction spring; the campaign keeps the seed's anchored one it was fired
+/// with, which gives that shot bit for bit (docs/theory.md I6c, docs/validation.md). The
+/// 10 mm patch it replaces is `cases/km2_706_patch.json`.
 pub fn default_case() -> Case {
     Case {
         name: "default-km2-706-1in-panel".into(),
