@@ -44,6 +44,39 @@ impl FrictionSpring {
             FrictionSpring::Rotating => "rotating",
         }
     }
+
+    /// This spring's friction for a pair in contact: [`stick_slip`] with the fixed `anchor`
+    /// (`stretch` unused), or [`stick_slip_rotating`] with `anchor` the last relative
+    /// position and `stretch` the spring's stretch then; the history is updated.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate(
+        self,
+        relative: Vec3,
+        normal: Vec3,
+        anchor: &mut Vec3,
+        stretch: &mut Vec3,
+        spring_stiffness: &mut f64,
+        normal_force: f64,
+        normal_stiffness: f64,
+        coefficient: f64,
+    ) -> FrictionResponse {
+        match self {
+            FrictionSpring::Anchored => {
+                stick_slip(relative, normal, anchor, spring_stiffness, normal_force, normal_stiffness, coefficient)
+            }
+            FrictionSpring::Rotating => stick_slip_rotating(
+                relative,
+                normal,
+                anchor,
+                stretch,
+                spring_stiffness,
+                normal_force,
+                normal_stiffness,
+                coefficient,
+            ),
+        }
+    }
 }
 
 /// `stretch` carried into the plane normal to the unit `normal` with its length kept: the

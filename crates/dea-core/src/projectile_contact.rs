@@ -7,7 +7,7 @@ use nalgebra::UnitQuaternion;
 
 use crate::contact::{ContactGeometry, NormalLaw};
 use crate::domain::NodeLedger;
-use crate::friction::{stick_slip, stick_slip_rotating, FrictionResponse, FrictionSpring};
+use crate::friction::{FrictionResponse, FrictionSpring};
 use crate::nodes::Nodes;
 use crate::projectile::{RigidProjectile, RigidShape};
 use crate::surface::SurfacePoint;
@@ -246,27 +246,16 @@ impl ProjectileContacts {
         normal_stiffness: f64,
         mu: f64,
     ) -> FrictionResponse {
-        match spring {
-            FrictionSpring::Anchored => stick_slip(
-                relative,
-                normal,
-                &mut self.anchor[i],
-                &mut self.spring_stiffness[i],
-                normal_force,
-                normal_stiffness,
-                mu,
-            ),
-            FrictionSpring::Rotating => stick_slip_rotating(
-                relative,
-                normal,
-                &mut self.anchor[i],
-                &mut self.stretch[i],
-                &mut self.spring_stiffness[i],
-                normal_force,
-                normal_stiffness,
-                mu,
-            ),
-        }
+        spring.evaluate(
+            relative,
+            normal,
+            &mut self.anchor[i],
+            &mut self.stretch[i],
+            &mut self.spring_stiffness[i],
+            normal_force,
+            normal_stiffness,
+            mu,
+        )
     }
 
     /// The friction spring's stored energy of touching node `i` (as [`Self::friction`] would
@@ -283,21 +272,16 @@ impl ProjectileContacts {
         mu: f64,
     ) -> f64 {
         let (mut anchor, mut stretch, mut stiffness) = (self.anchor[i], self.stretch[i], self.spring_stiffness[i]);
-        let response = match spring {
-            FrictionSpring::Anchored => {
-                stick_slip(relative, normal, &mut anchor, &mut stiffness, normal_force, normal_stiffness, mu)
-            }
-            FrictionSpring::Rotating => stick_slip_rotating(
-                relative,
-                normal,
-                &mut anchor,
-                &mut stretch,
-                &mut stiffness,
-                normal_force,
-                normal_stiffness,
-                mu,
-            ),
-        };
+        let response = spring.evaluate(
+            relative,
+            normal,
+            &mut anchor,
+            &mut stretch,
+            &mut stiffness,
+            normal_force,
+            normal_stiffness,
+            mu,
+        );
         response.stored
     }
 
