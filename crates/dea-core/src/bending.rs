@@ -193,8 +193,10 @@ fn bending_in_lanes(
 
 /// The springs at nodes `i..i + 4` in four lanes, the operations of [`torsional_spring`]
 /// lane by lane with the scalar code's bits, when four acting springs follow each other
-/// along a fibre in memory and none is bent beyond the polynomial's range (almost
-/// everywhere); false, and nothing written, otherwise.
+/// along a fibre in memory (almost everywhere); false, and nothing written, otherwise. A
+/// group with a spring bent beyond the polynomial's range takes its four angles from the
+/// scalar [`turning_angle`] and the rest in the lanes: a coarse yarn's crimp kinks it by
+/// 27 degrees at every crossing, so more than half the groups of a hybrid panel hold one.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn springs_in_lanes(
@@ -226,13 +228,20 @@ fn springs_in_lanes(
     // turning_angle's two first paths
     let turning = zero.lt(cosine);
     let straight = turning.and(sine.lt(F4::splat(STRAIGHT)));
-    if !straight.or(turning.and(sine.lt(F4::splat(ATAN_POLYNOMIAL_RANGE).mul(cosine)))).all() {
-        return false;
-    }
-    let inverse_cosine = F4::splat(1.0).div(cosine);
-    let over_sine =
-        F4::select(straight, F4::splat(1.0), atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine));
-    let theta = F4::select(straight, sine, sine.mul(over_sine));
+    let (theta, over_sine) = if straight.or(turning.and(sine.lt(F4::splat(ATAN_POLYNOMIAL_RANGE).mul(cosine)))).all() {
+        let inverse_cosine = F4::splat(1.0).div(cosine);
+        let over_sine = F4::select(
+            straight,
+            F4::splat(1.0),
+            atan_over_argument_in_lanes(sine.mul(inverse_cosine)).mul(inverse_cosine),
+        );
+        (F4::select(straight, sine, sine.mul(over_sine)), over_sine)
+    } else {
+        // a sharp turn: atan2 one lane at a time, as the scalar code takes it
+        let (sines, cosines) = (sine.to_array(), cosine.to_array());
+        let turns: [(f64, f64); 4] = std::array::from_fn(|k| turning_angle(sines[k], cosines[k]));
+        (F4::gather(0, |k| turns[k].0), F4::gather(0, |k| turns[k].1))
+    };
     // torsional_spring's factor
     let k_t = F4::gather(i, stiffness);
     let rest = F4::load(&nodes.rest_angle, i);
@@ -288,7 +297,7 @@ pub fn spring_energy(nodes: &Nodes, scratch: &BendingScratch, sections: &[FibreS
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
@@ -392,7 +401,7 @@ mod tests {
     /// Fibres that take every path of the rod kernels: bent gently and sharply, exactly
     /// straight, bent at rest, stretched and compressed, broken elements, a section without
     /// bending rigidity, and a ghost-like stretch stored out of chain order.
-    fn fibres_on_every_path() -> (Nodes, Elements, Vec<FibreSection>) {
+    pub(crate) fn fibres_on_every_path() -> (Nodes, Elements, Vec<FibreSection>) {
         use crate::ids::{FibreId, GlobalNodeId};
         use crate::material::{FibreMaterial, InertiaModel};
         use crate::nodes::FailureMode;
@@ -476,7 +485,7 @@ mod tests {
 
     /// Every value of `got` has the bits of its value in `expected` (`Debug` prints the
     /// shortest decimal that reads back to the same bits, the sign of a zero included).
-    fn assert_same_bits<T: std::fmt::Debug>(name: &str, got: &[T], expected: &[T]) {
+    pub(crate) fn assert_same_bits<T: std::fmt::Debug>(name: &str, got: &[T], expected: &[T]) {
         let bits = |v: &T| format!("{v:?}");
         if let Some(k) = (0..expected.len()).find(|&k| bits(&got[k]) != bits(&expected[k])) {
             panic!("{name} of node {k}: {:?} against the scalar {:?}", got[k], expected[k]);
@@ -514,6 +523,17 @@ mod tests {
         assert!(reference.angle.iter().any(|&t| t == 0.0));
         assert!(reference.angle.iter().any(|&t| t > 1e-3 && t < 0.4));
         assert!(reference.angle.iter().any(|&t| t > 0.5));
+        // and a sharp turn inside a group of four acting springs, which the lanes take
+        let acting = |k: usize| {
+            k > 0
+                && nodes.prev[k] == k as u32 - 1
+                && nodes.next[k] == k as u32 + 1
+                && elements.is_intact(&nodes, k - 1)
+                && elements.is_intact(&nodes, k)
+                && sections[nodes.section[k] as usize].torsional_stiffness != 0.0
+        };
+        assert!((0..nodes.len() / 4)
+            .any(|g| (4 * g..4 * g + 4).all(acting) && (4 * g..4 * g + 4).any(|k| reference.angle[k] > 0.5)));
         assert!(reference.moment.iter().zip(&nodes.rest_angle).any(|(m, &rest)| rest > 0.0 && m.norm() > 0.0));
     }
 

@@ -268,6 +268,17 @@ impl V4 {
         self.x.mul(other.x).add(self.y.mul(other.y)).add(self.z.mul(other.z))
     }
 
+    /// `if mask { if_true } else { if_false }` in each lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn select(mask: Mask, if_true: Self, if_false: Self) -> Self {
+        Self {
+            x: F4::select(mask, if_true.x, if_false.x),
+            y: F4::select(mask, if_true.y, if_false.y),
+            z: F4::select(mask, if_true.z, if_false.z),
+        }
+    }
+
     /// nalgebra's cross product, component for component.
     #[target_feature(enable = "avx2")]
     #[inline]

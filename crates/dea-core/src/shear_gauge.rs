@@ -73,23 +73,114 @@ pub fn gauge_moments(
     ranges: &[std::ops::Range<usize>],
 ) {
     gauge_moment.resize(nodes.len(), Vec3::zeros());
-    for i in ranges.iter().flat_map(|r| r.clone()) {
-        let section = &sections[nodes.section[i] as usize];
+    // each section's gauge, reach and hat scale, computed once per call as each node did
+    let windows: Vec<Window> = sections.iter().map(|section| Window::of(measure, section)).collect();
+    for range in ranges {
+        let mut i = range.start;
+        if let Some(done) =
+            crate::in_avx2_lanes!(gauge_in_lanes(nodes, elements, moment, &windows, gauge_moment, range.clone()))
+        {
+            i = done;
+        }
+        for i in i..range.end {
+            gauge_moment[i] = node_gauge_moment(nodes, elements, moment, &windows, i);
+        }
+    }
+}
+
+/// The hat of one section: its gauge length `L` [m], the nodes it reaches each way, and
+/// `l0 / L` [-].
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    gauge: f64,
+    reach: u32,
+    scale: f64,
+}
+
+impl Window {
+    fn of(measure: ShearMeasure, section: &FibreSection) -> Self {
         let gauge = measure.gauge_length(section);
-        let reach = measure.reach_in_nodes(section);
-        if gauge <= 0.0 {
-            gauge_moment[i] = moment[i];
+        Self { gauge, reach: measure.reach_in_nodes(section), scale: section.element_length / gauge }
+    }
+}
+
+/// The gauge moment of local node `i` [N m] ([`gauge_moments`]).
+#[inline]
+fn node_gauge_moment(nodes: &Nodes, elements: &Elements, moment: &[Vec3], windows: &[Window], i: usize) -> Vec3 {
+    let Window { gauge, reach, scale } = windows[nodes.section[i] as usize];
+    if gauge <= 0.0 {
+        return moment[i];
+    }
+    // l0 M_j / L, the hat's height at j's distance applied below
+    let mut sum = moment[i] * scale;
+    // towards lower positions, then higher ones
+    let hat = Hat { nodes, elements, moment, from: i, reach, gauge, scale };
+    hat.add_side(&mut sum, |j| (nodes.prev[j] != NONE).then(|| (nodes.prev[j] as usize, nodes.prev[j] as usize)));
+    hat.add_side(&mut sum, |j| (nodes.next[j] != NONE).then(|| (nodes.next[j] as usize, j)));
+    sum
+}
+
+/// [`gauge_moments`] four nodes at a time over `range`, with the scalar code's bits, where
+/// the four share a section and their windows lie on one chain stored in order (almost
+/// everywhere; the other groups take [`node_gauge_moment`]). Each lane walks its own window
+/// as the scalar code does, a lane stopping at a broken element or the gauge's end while the
+/// others go on. Returns where the scalar code takes over (the last group's end).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn gauge_in_lanes(
+    nodes: &Nodes,
+    elements: &Elements,
+    moment: &[Vec3],
+    windows: &[Window],
+    gauge_moment: &mut [Vec3],
+    range: std::ops::Range<usize>,
+) -> usize {
+    use crate::lanes::{F4, V4};
+    use crate::nodes::FailureMode;
+    let n = nodes.len();
+    let intact = |k: usize| if elements.failure[k] == FailureMode::Intact { 1.0 } else { 0.0 };
+    let mut i = range.start;
+    while i + 4 <= range.end {
+        let section = nodes.section[i];
+        let Window { gauge, reach, scale } = windows[section as usize];
+        let r = reach as usize;
+        // the window's nodes i - r ..= i + 3 + r on one chain in memory order
+        let in_order = gauge > 0.0
+            && i >= r
+            && i + 3 + r < n
+            && (i..i + 4).all(|k| nodes.section[k] == section)
+            && (i - r..i + 3 + r).all(|k| nodes.next[k] == k as u32 + 1);
+        if !in_order {
+            for k in i..i + 4 {
+                gauge_moment[k] = node_gauge_moment(nodes, elements, moment, windows, k);
+            }
+            i += 4;
             continue;
         }
-        // l0 M_j / L, the hat's height at j's distance applied below
-        let scale = section.element_length / gauge;
-        let mut sum = moment[i] * scale;
-        // towards lower positions, then higher ones
-        let hat = Hat { nodes, elements, moment, from: i, reach, gauge, scale };
-        hat.add_side(&mut sum, |j| (nodes.prev[j] != NONE).then(|| (nodes.prev[j] as usize, nodes.prev[j] as usize)));
-        hat.add_side(&mut sum, |j| (nodes.next[j] != NONE).then(|| (nodes.next[j] as usize, j)));
-        gauge_moment[i] = sum;
+        let (one, zero) = (F4::splat(1.0), F4::splat(0.0));
+        let (gauge_lanes, scale_lanes) = (F4::splat(gauge), F4::splat(scale));
+        let mut sum = V4::load(moment, i).scale(scale_lanes);
+        // lower positions: node i + l - s, across element i + l - s; then higher ones: node
+        // i + l + s, across element i + l + s - 1
+        for side in [-1isize, 1] {
+            let mut distance = zero;
+            let mut walking = one.eq(one);
+            for step in 1..=r {
+                let (node, element) = if side < 0 { (i - step, i - step) } else { (i + step, i + step - 1) };
+                walking = walking.and(F4::gather(element, intact).eq(one));
+                distance = F4::select(walking, distance.add(F4::load(&elements.rest_length, element)), distance);
+                walking = walking.and(distance.lt(gauge_lanes));
+                if walking.bits() == 0 {
+                    break;
+                }
+                let weight = scale_lanes.mul(one.sub(distance.div(gauge_lanes)));
+                sum = V4::select(walking, sum.add(V4::load(moment, node).scale(weight)), sum);
+            }
+        }
+        sum.store(gauge_moment, i);
+        i += 4;
     }
+    i
 }
 
 /// The hat window of one node: what [`gauge_moments`] sums along each side of it.
@@ -217,6 +308,46 @@ mod tests {
         (0..nodes.len() - 1)
             .map(|i| max_shear_stress(element_shear_force(nodes, elements, &gauge, i), area))
             .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_lanes_give_the_gauge_moments_of_the_scalar_walk_with_its_bits() {
+        use crate::bending::tests::{assert_same_bits, fibres_on_every_path};
+        let (nodes, mut elements, sections) = fibres_on_every_path();
+        compute_element_tension(&nodes, &mut elements, &sections, &FibreMaterial::kevlar_km2());
+        let mut bending = BendingScratch::default();
+        bending.resize(nodes.len());
+        compute_bending(&nodes, &elements, &sections, &mut bending);
+        // two reaches per section (the fixture's sections differ in diameter), and ranges that
+        // split the nodes where a group of four would not
+        for diameters in [1.0, 2.5] {
+            let measure = ShearMeasure::Gauge { diameters };
+            let windows: Vec<Window> = sections.iter().map(|section| Window::of(measure, section)).collect();
+            let walked: Vec<Vec3> =
+                (0..nodes.len()).map(|i| node_gauge_moment(&nodes, &elements, &bending.moment, &windows, i)).collect();
+            for ranges in [vec![0..nodes.len()], vec![0..7, 9..nodes.len() - 3]] {
+                let mut lanes = vec![Vec3::zeros(); nodes.len()];
+                gauge_moments(&nodes, &elements, &bending.moment, &sections, measure, &mut lanes, &ranges);
+                for range in &ranges {
+                    assert_same_bits("gauge moment", &lanes[range.clone()], &walked[range.clone()]);
+                }
+            }
+            // the lanes' paths were taken: a window cut short by a broken element, and one
+            // across two sections or off the chain's memory order
+            let reach = |i: usize| windows[nodes.section[i] as usize].reach as usize;
+            let in_order = |i: usize| {
+                i >= reach(i)
+                    && i + 3 + reach(i) < nodes.len()
+                    && (i..i + 4).all(|k| nodes.section[k] == nodes.section[i])
+                    && (i - reach(i)..i + 3 + reach(i)).all(|k| nodes.next[k] == k as u32 + 1)
+            };
+            let groups: Vec<usize> = (0..nodes.len() / 4).map(|g| 4 * g).collect();
+            assert!(groups
+                .iter()
+                .any(|&i| in_order(i) && (i - reach(i)..i + 3 + reach(i)).any(|k| !elements.is_intact(&nodes, k))));
+            assert!(groups.iter().any(|&i| !in_order(i)));
+            assert!(walked.iter().any(|m| m.norm() > 0.0));
+        }
     }
 
     #[test]
