@@ -155,14 +155,39 @@ def status(campaigns):
           "(b: upper bound from the end time, m: mean of this campaign's finished shots)")
 
 
-def entry(c):
+def refired(c, campaigns):
+    """The shots of `c`, a panel-size bisection, with each one undecided at the end time
+    replaced by the shots a low-end campaign of the same panel fired again at its velocity
+    with a longer end time; and a note of each replacement for the method."""
+    target = c.case["target"]
+    shots, notes = list(c.shots), []
+    for other in sorted(campaigns, key=lambda o: o.name):
+        if series_of(other.name) != "panel_size_low_end":
+            continue
+        o_target = other.case["target"]
+        if (o_target.get("side_m"), o_target.get("layers")) != (target.get("side_m"), target.get("layers")):
+            continue
+        for again in other.shots:
+            held = [s for s in shots if s["velocity_m_s"] == again["velocity_m_s"] and not s["perforated"]
+                    and s["stopped_by"] == "end_time_s"]
+            if not held or again["stopped_by"] == "end_time_s":
+                continue
+            shots = [s for s in shots if s not in held] + [again]
+            outcome = (f"perforated ({again['residual_velocity_m_s']:.1f} m/s left)" if again["perforated"]
+                       else "stopped")
+            notes.append(f"the {again['velocity_m_s']:.1f} m/s shot, undecided at the end time, fired again by "
+                         f"{other.name} with a longer one: {outcome}")
+    return shots, notes
+
+
+def entry(c, campaigns=()):
     """One campaign's line of validation/summary.json."""
     target = c.case["target"]
     weave = target.get("weave") or {}
     hybrid = target.get("hybrid") or {}
     layers = target.get("layers", 1)
     design = c.spec["design"]
-    v50 = low = high = None
+    v50 = low = high = below = None
     method = None
     report_path = os.path.join(RESULTS, c.name, "v50.json")
     report = None
@@ -170,18 +195,22 @@ def entry(c):
         with open(report_path) as f:
             report = json.load(f)
     if design["kind"] == "bisection":
-        lo, hi = bisection_bracket(design, c.shots)
-        has_partial = any(not s["perforated"] for s in c.shots)
-        has_complete = any(s["perforated"] for s in c.shots)
+        shots, notes = refired(c, campaigns) if series_of(c.name) == "panel_size" else (c.shots, [])
+        lo, hi = bisection_bracket(design, shots)
+        has_partial = any(not s["perforated"] for s in shots)
+        has_complete = any(s["perforated"] for s in shots)
         if has_partial and has_complete:
             v50, low, high = 0.5 * (lo + hi), lo, hi
             method = "bisection bracket (highest partial, lowest complete)"
-            held = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == lo and s["stopped_by"] == "end_time_s"]
+            held = [s for s in shots if not s["perforated"] and s["velocity_m_s"] == lo and s["stopped_by"] == "end_time_s"]
             if held:
                 method += (f"; the partial at {lo:.1f} m/s was undecided at the end time (still moving at "
                            f"{held[0]['residual_velocity_m_s']:.1f} m/s), so the bracket's low end is not established")
-        elif c.shots:
+        elif shots:
             method = "bisection: no bracket yet (" + ("all perforated" if has_complete else "none perforated") + ")"
+            if has_complete:
+                below = min(s["velocity_m_s"] for s in shots)
+        method = "; ".join([method] + notes) if method else method
     elif design["kind"] == "velocities":
         method = "residual velocity at a fixed striking speed"
     elif report is not None:
@@ -192,6 +221,15 @@ def entry(c):
             method = "logistic maximum likelihood, 95 % interval (delta method)"
         else:
             method = "logistic: " + str(fit.get("Err", "no fit"))
+            # without a zone of mixed results, MIL-STD-662F's mean within the bracket of the
+            # highest partial and the lowest complete penetration, which is its range
+            mil = report.get("mil_std_662f", {})
+            partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
+            completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
+            if "Ok" in mil and partials and completes and max(partials) < min(completes):
+                v50, low, high = mil["Ok"]["v50"], max(partials), min(completes)
+                method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
+                          f"penetrations, within the bracket (highest partial, lowest complete); no interval: " + method)
     series = series_of(c.name)
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series == "single_yarn":
@@ -223,6 +261,8 @@ def entry(c):
         "v50_m_s": v50,
         "v50_low_m_s": low,
         "v50_high_m_s": high,
+        # a bisection whose every shot perforated (re-fired shots counted): V50 lies below this
+        "v50_below_m_s": below,
         "method": method,
         "experiment_m_s": experiment,
         "seed_dea_m_s": seed_dea,
@@ -240,7 +280,7 @@ def entry(c):
 
 def write_summary(campaigns):
     os.makedirs(RESULTS, exist_ok=True)
-    entries = [entry(c) for c in sorted(campaigns, key=lambda c: c.name)]
+    entries = [entry(c, campaigns) for c in sorted(campaigns, key=lambda c: c.name)]
     path = os.path.join(RESULTS, "summary.json")
     with open(path + ".partial", "w") as f:
         json.dump(entries, f, indent=1)

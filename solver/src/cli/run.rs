@@ -238,6 +238,10 @@ fn panel_sizes(entries: Option<Vec<serde_json::Value>>) -> String {
                     if undecided { " (low end undecided)" } else { "" }
                 ));
             }
+            // validation.py's own reading, which counts shots a low-end campaign fired again
+            if let Some(below) = e["v50_below_m_s"].as_f64() {
+                return Some(format!("{side:.1} mm below {below:.0} m/s (every shot so far perforated)"));
+            }
             let shots = e["shot_records"].as_array()?;
             let slowest = shots
                 .iter()
@@ -270,11 +274,13 @@ mod tests {
             { "series": "panel_size", "side_m": 0.0762, "v50_low_m_s": 200.0, "v50_high_m_s": 250.0, "method": "bisection bracket; the partial at 200.0 m/s was undecided at the end time",
               "shot_records": [] },
             { "series": "mesh", "side_m": 0.0762, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
-            { "series": "panel_size", "side_m": 0.01, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] }
+            { "series": "panel_size", "side_m": 0.01, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
+            { "series": "panel_size", "side_m": 0.02, "v50_low_m_s": null, "v50_high_m_s": null, "v50_below_m_s": 75.0, "method": "",
+              "shot_records": [{ "velocity_m_s": 75.0, "perforated": false }] }
         ]);
         let text = panel_sizes(serde_json::from_value(entries).ok());
         assert!(
-            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided); the seed's Table 6-1"),
+            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided), 20.0 mm below 75 m/s (every shot so far perforated); the seed's Table 6-1"),
             "{text}"
         );
         assert!(panel_sizes(None).contains("docs/validation.md") && !panel_sizes(None).contains("panel side"));
