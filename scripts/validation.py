@@ -156,9 +156,10 @@ def status(campaigns):
 
 
 def refired(c, campaigns):
-    """The shots of `c`, a panel-size bisection, with each one undecided at the end time
-    replaced by the shots a low-end campaign of the same panel fired again at its velocity
-    with a longer end time; and a note of each replacement for the method."""
+    """The shots of `c`, a panel-size bisection, with those of the low-end campaigns of the
+    same panel: a low-end shot replaces one of `c` undecided at the end time at its velocity
+    (fired again with a longer end time), or, at a velocity `c` did not fire, extends the
+    bisection below its slowest shot; and a note of each for the method."""
     target = c.case["target"]
     shots, notes = list(c.shots), []
     for other in sorted(campaigns, key=lambda o: o.name):
@@ -167,16 +168,19 @@ def refired(c, campaigns):
         o_target = other.case["target"]
         if (o_target.get("side_m"), o_target.get("layers")) != (target.get("side_m"), target.get("layers")):
             continue
-        for again in other.shots:
-            held = [s for s in shots if s["velocity_m_s"] == again["velocity_m_s"] and not s["perforated"]
-                    and s["stopped_by"] == "end_time_s"]
-            if not held or again["stopped_by"] == "end_time_s":
+        for again in sorted(other.shots, key=lambda s: s["id"]):
+            same = [s for s in shots if s["velocity_m_s"] == again["velocity_m_s"]]
+            held = [s for s in same if not s["perforated"] and s["stopped_by"] == "end_time_s"]
+            if (same and not held) or (held and again["stopped_by"] == "end_time_s"):
                 continue
             shots = [s for s in shots if s not in held] + [again]
             outcome = (f"perforated ({again['residual_velocity_m_s']:.1f} m/s left)" if again["perforated"]
-                       else "stopped")
-            notes.append(f"the {again['velocity_m_s']:.1f} m/s shot, undecided at the end time, fired again by "
-                         f"{other.name} with a longer one: {outcome}")
+                       else "undecided at its end time" if again["stopped_by"] == "end_time_s" else "stopped")
+            if held:
+                notes.append(f"the {again['velocity_m_s']:.1f} m/s shot, undecided at the end time, fired again by "
+                             f"{other.name} with a longer one: {outcome}")
+            else:
+                notes.append(f"a {again['velocity_m_s']:.1f} m/s shot fired by {other.name}: {outcome}")
     return shots, notes
 
 
