@@ -40,7 +40,9 @@ axes.plot(counts, [validation.TABLE_5_2_I_INF[n] for n in counts], "rv--", mfc="
 pending = []
 for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     chosen = sorted(
-        (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model),
+        # Table 5-2 is at mu = 0.3; the friction series of Table 5-3 is not drawn here
+        (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model
+         and (e.get("seed_reference") or {}).get("friction_coefficient", 0.3) == 0.3),
         key=lambda e: e["fibres_per_yarn"],
     )
     drawn = [e for e in chosen if e["v50_m_s"] is not None]
@@ -50,7 +52,11 @@ for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     xs = [e["fibres_per_yarn"] + shift for e in drawn]
     vs = [e["v50_m_s"] for e in drawn]
     errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
-    axes.errorbar(xs, vs, yerr=errors, fmt="o-", color=colour, capsize=4, label=f"dea-mpi, {label} (bisection bracket)")
+    axes.errorbar(xs, vs, yerr=errors, fmt="-", color=colour, capsize=4, label=f"dea-mpi, {label} (bisection bracket)")
+    # hollow where the bracket's low end was still moving at the end time (validation.py's method)
+    for x, v, e in zip(xs, vs, drawn):
+        hollow = "not established" in (e["method"] or "")
+        axes.plot([x], [v], "o", color=colour, mfc="white" if hollow else colour)
 axes.set_xlabel("digital fibres per yarn")
 axes.set_ylabel("V50 [m/s]")
 axes.set_title("One KM2 yarn struck by a 5.56 mm cylinder (seed §5.3)")
@@ -59,7 +65,8 @@ axes.set_ylim(0, 320)
 axes.grid(alpha=0.3)
 axes.legend(fontsize=7, loc="upper right")
 if pending:
-    figure.text(0.01, 0.01, "not yet bracketed: " + "; ".join(pending), fontsize=6, wrap=True)
+    figure.text(0.01, 0.01, "hollow: the bracket's low end was undecided at the end time. not yet bracketed: "
+                + "; ".join(pending), fontsize=6, wrap=True)
 figure.tight_layout(rect=(0, 0.08 if pending else 0, 1, 1))
 figure.savefig(args.out, dpi=130)
 print(args.out)

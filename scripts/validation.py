@@ -42,6 +42,9 @@ TABLE_6_1_MODIFIED_DEA = {1: 135.0, 4: 305.0, 8: 407.0, 12: 435.0, 16: 475.0, 20
 # digital fibres per yarn, with I = I0 and I = I_inf (the k1 = 0.8 value lies between).
 TABLE_5_2_I0 = {4: 255.0, 16: 215.0, 36: 185.0, 64: 155.0, 100: 135.0, 144: 125.0, 196: 115.0}
 TABLE_5_2_I_INF = {4: 45.0, 16: 45.0, 36: 55.0, 64: 78.0, 100: 85.0, 144: 95.0, 196: 95.0}
+# The seed's Table 5-3: V50 [m/s] of the 64-digital-fibre yarn with I = I0 by inter-fibre
+# friction coefficient (its basis for k2 = 1).
+TABLE_5_3_I0_64 = {0.3: 155.0, 0.5: 147.0, 0.7: 143.0, 1.0: 125.0, 2.0: 125.0}
 
 
 def binary(args):
@@ -238,8 +241,11 @@ def entry(c, campaigns=()):
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series == "single_yarn":
         experiment, seed_dea = None, None
+        mu = c.case["contact"].get("friction_coefficient")
+        free = (c.case.get("bending") or {}).get("model") == "free"
         seed_reference = {"table_5_2_i0_m_s": TABLE_5_2_I0.get(fibres), "table_5_2_i_inf_m_s": TABLE_5_2_I_INF.get(fibres),
-                          "bending": c.case.get("bending")}
+                          "bending": c.case.get("bending"), "friction_coefficient": mu,
+                          "table_5_3_m_s": TABLE_5_3_I0_64.get(mu) if fibres == 64 and free else None}
     else:
         experiment, seed_dea = TABLE_6_1_EXPERIMENT.get(layers), TABLE_6_1_MODIFIED_DEA.get(layers)
         seed_reference = None
