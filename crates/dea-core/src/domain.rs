@@ -164,8 +164,9 @@ pub struct Domain {
     /// were last replaced (appending ghosts cannot lose one)
     stencil_checked: bool,
     newly_broken: Vec<(u32, FailureMode)>,
-    /// the failure stage's gauge moments (scratch of [`failure::break_elements`]) [N m]
-    measured_moment: Vec<Vec3>,
+    /// the failure stage's section hats and gauge moments (scratch of
+    /// [`failure::break_elements`])
+    measured_moment: crate::shear_gauge::GaugeScratch,
     /// the last step's closing kick of the owned nodes, left for the next step's opening one
     /// to apply in the same pass ([`Self::defer_kick`]): its half step [s]. While it waits,
     /// `nodes.velocity` is half a step behind the positions, and [`Self::velocity`] gives
@@ -255,7 +256,7 @@ impl Domain {
             running_contact_sums: vec![RunningSums::default(); n_owned],
             stencil_checked: false,
             newly_broken: Vec::new(),
-            measured_moment: Vec::new(),
+            measured_moment: Default::default(),
             deferred_kick: None,
         }
     }

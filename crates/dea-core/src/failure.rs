@@ -6,7 +6,7 @@
 use crate::bending::{element_shear_force, max_shear_stress, spring_energy, BendingScratch};
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
-use crate::shear_gauge::{gauge_moments, ShearMeasure};
+use crate::shear_gauge::{gauge_moments, GaugeScratch, ShearMeasure};
 use crate::{FibreMaterial, FibreSection, Vec3};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
@@ -92,7 +92,7 @@ pub fn break_elements(
     fracture_released: &mut [f64],
     broken: &mut BrokenCount,
     newly_broken: &mut Vec<(u32, FailureMode)>,
-    measured_moment: &mut Vec<Vec3>,
+    measured_moment: &mut GaugeScratch,
     firing: &[std::ops::Range<usize>],
 ) {
     if !parameters.enabled {
@@ -103,7 +103,7 @@ pub fn break_elements(
         ShearMeasure::Element => &bending.moment,
         measure => {
             gauge_moments(nodes, elements, &bending.moment, sections, measure, measured_moment, firing);
-            measured_moment
+            &measured_moment.gauge_moment
         }
     };
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);

@@ -69,23 +69,41 @@ pub fn gauge_moments(
     moment: &[Vec3],
     sections: &[FibreSection],
     measure: ShearMeasure,
-    gauge_moment: &mut Vec<Vec3>,
+    scratch: &mut GaugeScratch,
     ranges: &[std::ops::Range<usize>],
 ) {
+    let GaugeScratch { windows, measure: windows_of, gauge_moment } = scratch;
     gauge_moment.resize(nodes.len(), Vec3::zeros());
-    // each section's gauge, reach and hat scale, computed once per call as each node did
-    let windows: Vec<Window> = sections.iter().map(|section| Window::of(measure, section)).collect();
+    // each section's gauge, reach and hat scale: taken once for a domain's sections and
+    // measure (both fixed for its life), not in the step loop
+    if windows.len() != sections.len() || *windows_of != Some(measure) {
+        windows.clear();
+        windows.extend(sections.iter().map(|section| Window::of(measure, section)));
+        *windows_of = Some(measure);
+    }
+    let windows: &[Window] = windows;
     for range in ranges {
         let mut i = range.start;
         if let Some(done) =
-            crate::in_avx2_lanes!(gauge_in_lanes(nodes, elements, moment, &windows, gauge_moment, range.clone()))
+            crate::in_avx2_lanes!(gauge_in_lanes(nodes, elements, moment, windows, gauge_moment, range.clone()))
         {
             i = done;
         }
         for i in i..range.end {
-            gauge_moment[i] = node_gauge_moment(nodes, elements, moment, &windows, i);
+            gauge_moment[i] = node_gauge_moment(nodes, elements, moment, windows, i);
         }
     }
+}
+
+/// What [`gauge_moments`] keeps between steps: each section's hat (taken on the first call
+/// for the sections and measure it is given) and the gauge moments [N m] of the local nodes.
+#[derive(Clone, Debug, Default)]
+pub struct GaugeScratch {
+    windows: Vec<Window>,
+    /// the measure `windows` were taken for
+    measure: Option<ShearMeasure>,
+    /// `M̄` of each local node [N m]
+    pub gauge_moment: Vec<Vec3>,
 }
 
 /// The hat of one section: its gauge length `L` [m], the nodes it reaches each way, and
@@ -302,8 +320,9 @@ mod tests {
         let mut bending = BendingScratch::default();
         bending.resize(nodes.len());
         compute_bending(nodes, elements, sections, &mut bending);
-        let mut gauge = Vec::new();
-        gauge_moments(nodes, elements, &bending.moment, sections, measure, &mut gauge, &[0..nodes.len()]);
+        let mut scratch = GaugeScratch::default();
+        gauge_moments(nodes, elements, &bending.moment, sections, measure, &mut scratch, &[0..nodes.len()]);
+        let gauge = scratch.gauge_moment;
         let area = sections[0].area;
         (0..nodes.len() - 1)
             .map(|i| max_shear_stress(element_shear_force(nodes, elements, &gauge, i), area))
@@ -326,8 +345,9 @@ mod tests {
             let walked: Vec<Vec3> =
                 (0..nodes.len()).map(|i| node_gauge_moment(&nodes, &elements, &bending.moment, &windows, i)).collect();
             for ranges in [vec![0..nodes.len()], vec![0..7, 9..nodes.len() - 3]] {
-                let mut lanes = vec![Vec3::zeros(); nodes.len()];
-                gauge_moments(&nodes, &elements, &bending.moment, &sections, measure, &mut lanes, &ranges);
+                let mut scratch = GaugeScratch { gauge_moment: vec![Vec3::zeros(); nodes.len()], ..Default::default() };
+                gauge_moments(&nodes, &elements, &bending.moment, &sections, measure, &mut scratch, &ranges);
+                let lanes = &scratch.gauge_moment;
                 for range in &ranges {
                     assert_same_bits("gauge moment", &lanes[range.clone()], &walked[range.clone()]);
                 }
