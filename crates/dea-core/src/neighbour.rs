@@ -24,6 +24,10 @@ const MOVED_SHARE_OF_SKIN: f64 = 0.125;
 
 /// The cell of a node a rebuild around moved nodes leaves out of its grid (far from all).
 const UNBINNED: u32 = u32::MAX;
+/// Cells added on each side of the nodes' box when the contact search's grid is made, so that
+/// rebuilds around moved nodes keep it ([`BuildScratch::bin_near`]) while the nodes spread by
+/// up to that many cells (a panel's back face bulging by about a millimetre).
+const GRID_MARGIN_CELLS: f64 = 4.0;
 
 /// Full neighbour lists in compressed rows with per-pair contact history.
 #[derive(Clone, Debug, Default)]
@@ -113,6 +117,8 @@ struct RelativeMotion {
     slot: Vec<u32>,
     /// coordinates of the occupied cells
     occupied: Vec<[i64; 3]>,
+    /// per slot, the occupied cell last recorded in it (scratch of [`Self::build`])
+    recorded: Vec<[i64; 3]>,
     /// per slot, the componentwise least and greatest displacement [m]
     low: Vec<Vec3>,
     high: Vec<Vec3>,
@@ -125,6 +131,10 @@ struct RelativeMotion {
 
 #[derive(Clone, Debug, Default)]
 struct BuildScratch {
+    /// the grid of the last binning, and each local node's slot in it at the positions binned
+    /// (kept by a rebuild around moved nodes, [`Self::bin_near`])
+    grid: Option<HashedGrid>,
+    slot_of: Vec<u32>,
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
     cell_fill: Vec<u32>,
@@ -146,6 +156,8 @@ struct BuildScratch {
     /// nodes moved, the rows of the moved owned nodes (starts, then partners), and the
     /// partners other owned nodes gain (row starts, then partners)
     moved: Vec<bool>,
+    /// per owned node, whether its old row lists a moved node (empty: read the rows instead)
+    lists_moved: Vec<bool>,
     fresh_start: Vec<u32>,
     fresh: Vec<(GlobalNodeId, u32)>,
     gained: Vec<(u32, GlobalNodeId, u32)>,
@@ -172,13 +184,46 @@ impl BuildScratch {
     /// [`Self::bin`], but with `near` only the nodes whose cell's slot is next to (or is)
     /// that of a node marked in it: all that a search around the marked nodes can meet.
     /// A rebuild around a few moved nodes then sorts only their surroundings.
+    ///
+    /// With `near`, `positions` are those of the last binning except at the marked nodes and
+    /// at nodes appended since (a rebuild around moved nodes): while the last grid still
+    /// covers them without folding, it is kept and only those nodes' slots are taken again.
+    /// The lists do not depend on the grid (any cells of side `reach` hold every pair within
+    /// it), only the candidates' count does.
     fn bin_near(&mut self, nodes: &Nodes, positions: &[Vec3], reach: f64, near: Option<&[bool]>) -> HashedGrid {
         let (low, high) = bounding_box(positions);
-        // memory follows the node count, not the extent, so a fragment flung far away can
-        // neither blow up the grid nor crowd every node into a few huge cells
-        let grid = HashedGrid::new(positions.len(), low, high, reach);
+        let kept = match (near, &self.grid) {
+            (Some(_), Some(last)) => {
+                self.slot_of.len() <= positions.len() && last.still_fits(positions.len(), low, high, reach)
+            }
+            _ => false,
+        };
+        let slot_of = |grid: &HashedGrid, x: &Vec3| grid.slot(grid.coordinates(x)) as u32;
+        let grid = match (kept, near) {
+            (true, Some(marked)) => {
+                let grid = self.grid.clone().expect("kept only with a last grid");
+                let known = self.slot_of.len();
+                self.slot_of.extend(positions[known..].iter().map(|x| slot_of(&grid, x)));
+                for (i, _) in marked.iter().enumerate().filter(|(_, &m)| m) {
+                    self.slot_of[i] = slot_of(&grid, &positions[i]);
+                }
+                grid
+            }
+            _ => {
+                // memory follows the node count, not the extent, so a fragment flung far away
+                // can neither blow up the grid nor crowd every node into a few huge cells; a
+                // margin of cells each way lets the next rebuilds around moved nodes keep it
+                // while a panel bulges
+                let margin = Vec3::repeat(GRID_MARGIN_CELLS * reach);
+                let grid = HashedGrid::new(positions.len(), low - margin, high + margin, reach);
+                self.slot_of.clear();
+                self.slot_of.extend(positions.iter().map(|x| slot_of(&grid, x)));
+                self.grid = Some(grid.clone());
+                grid
+            }
+        };
         self.cell_of.clear();
-        self.cell_of.extend(positions.iter().map(|x| grid.slot(grid.coordinates(x)) as u32));
+        self.cell_of.extend_from_slice(&self.slot_of);
         if let Some(marked) = near {
             let wanted = &mut self.wanted_slots;
             wanted.clear();
@@ -792,9 +837,48 @@ impl NeighbourList {
             scratch.gained_sorted[scratch.cell_fill[i as usize] as usize] = (gid, j);
             scratch.cell_fill[i as usize] += 1;
         }
+        // the rows that list a moved node: the lists are symmetric among local nodes, so when
+        // no ghost that was here at the last build moved, they are the owned old partners of
+        // the moved owned nodes, found from those rows alone rather than by reading every row
+        let owned = nodes.n_owned;
+        let listed_ghost_moved = scratch.moved[owned..self.reference_gid.len()].iter().any(|&m| m);
+        scratch.lists_moved.clear();
+        if !listed_ghost_moved {
+            scratch.lists_moved.resize(owned, false);
+            for j in (0..owned).filter(|&j| scratch.moved[j]) {
+                for &i in &self.partner[compressed_row(&self.start, j)] {
+                    if (i as usize) < owned {
+                        scratch.lists_moved[i as usize] = true;
+                    }
+                }
+            }
+        }
+        let lists_moved = |scratch: &BuildScratch, i: usize, row: &[u32]| {
+            if scratch.lists_moved.is_empty() {
+                row.iter().any(|&j| scratch.moved[j as usize])
+            } else {
+                debug_assert_eq!(scratch.lists_moved[i], row.iter().any(|&j| scratch.moved[j as usize]));
+                scratch.lists_moved[i]
+            }
+        };
         let mut placement = scratch.start_rows();
         let mut fresh_row = 0;
-        for i in 0..nodes.n_owned {
+        let mut i = 0;
+        while i < owned {
+            // most rows keep their partners: a run of them is placed at once
+            let kept = |scratch: &BuildScratch, i: usize| {
+                !scratch.moved[i]
+                    && scratch.gained_start[i] == scratch.gained_start[i + 1]
+                    && !lists_moved(scratch, i, &self.partner[compressed_row(&self.start, i)])
+            };
+            if kept(&scratch, i) {
+                let first = i;
+                while i < owned && kept(&scratch, i) {
+                    i += 1;
+                }
+                self.place_unchanged_rows(&mut scratch, &mut placement, first..i);
+                continue;
+            }
             let old = compressed_row(&self.start, i);
             let gained = compressed_row(&scratch.gained_start, i);
             let unchanged = if scratch.moved[i] {
@@ -804,9 +888,6 @@ impl NeighbourList {
                 scratch.row.extend_from_slice(&scratch.fresh[fresh]);
                 scratch.take_row();
                 self.row_is_old(&scratch, &placement, i)
-            } else if gained.is_empty() && !self.partner[old.clone()].iter().any(|&j| scratch.moved[j as usize]) {
-                scratch.partner.extend_from_slice(&self.partner[old.clone()]);
-                true
             } else {
                 // the partners that did not move stay, the moved ones are met again as gained
                 let listed = self.old_partner_gids(&scratch.old, &placement, old.clone());
@@ -823,6 +904,7 @@ impl NeighbourList {
                 self.row_is_old(&scratch, &placement, i)
             };
             self.place_row(&mut scratch, &mut placement, i, unchanged);
+            i += 1;
         }
         self.finish_build(scratch, placement, nodes, references, max_cutoff, coarse_reach);
     }
@@ -895,6 +977,28 @@ impl NeighbourList {
             if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
         scratch.start.push(scratch.partner.len() as u32);
         scratch.retired_start.push(retired_end as u32);
+    }
+
+    /// [`Self::place_row`] of each of the owned rows `rows`, none of which changed and whose
+    /// old partners stand in the same local numbering: their partners and row starts are
+    /// copied as one run.
+    fn place_unchanged_rows(
+        &mut self,
+        scratch: &mut BuildScratch,
+        placement: &mut Placement,
+        rows: std::ops::Range<usize>,
+    ) {
+        let (listed, retired) = (self.start[rows.start], self.retired_start[rows.start]);
+        if placement.moved {
+            placement.run.get_or_insert((listed as usize, retired as usize));
+        }
+        scratch.partner.extend_from_slice(&self.partner[listed as usize..self.start[rows.end] as usize]);
+        let (new_listed, new_retired) = (scratch.partner.len() as u32, *scratch.retired_start.last().unwrap());
+        let new_listed = new_listed - (self.start[rows.end] - listed);
+        scratch.start.extend(self.start[rows.start + 1..=rows.end].iter().map(|&s| s - listed + new_listed));
+        scratch
+            .retired_start
+            .extend(self.retired_start[rows.start + 1..=rows.end].iter().map(|&s| s - retired + new_retired));
     }
 
     /// Ends a build: the last run of unchanged rows' histories, the new rows, and the
@@ -1228,17 +1332,21 @@ impl RelativeMotion {
         self.low.resize(grid.slots(), Vec3::repeat(f64::INFINITY));
         self.high.clear();
         self.high.resize(grid.slots(), Vec3::repeat(f64::NEG_INFINITY));
+        // every occupied cell once, in the order the nodes meet them: a slot remembers the last
+        // cell recorded in it (a cell that folded onto another's slot is recorded again when
+        // they alternate, and its block checked twice: the same verdict). Not a sort of the
+        // cells met: that, and the run detection before it, were half this pass.
+        self.recorded.clear();
+        self.recorded.resize(grid.slots(), [i64::MIN; 3]);
         for x in positions {
-            let coordinates = grid.coordinates(x);
-            self.slot.push(grid.slot(coordinates) as u32);
-            // nodes along a fibre share cells: a run of them adds its cell once
-            if self.occupied.last() != Some(&coordinates) {
-                self.occupied.push(coordinates);
+            let cell = grid.coordinates(x);
+            let slot = grid.slot(cell);
+            self.slot.push(slot as u32);
+            if self.recorded[slot] != cell {
+                self.recorded[slot] = cell;
+                self.occupied.push(cell);
             }
         }
-        // every occupied cell once (folded cells share a slot: wider boxes, never a missed pair)
-        self.occupied.sort_unstable();
-        self.occupied.dedup();
         (self.cutoff, self.cell, self.grid) = (cutoff, cell, Some(grid));
     }
 }
@@ -1256,15 +1364,43 @@ struct HashedGrid {
     stride_x: u64,
     stride_y: u64,
     mask: usize,
+    /// cells along x, y and z of the box it was made for, and the node count
+    cells: [u64; 3],
+    nodes: usize,
 }
 
 impl HashedGrid {
     fn new(nodes: usize, low: Vec3, high: Vec3, cell: f64) -> Self {
         let extent = |k: usize| (((high[k] - low[k]) / cell).floor().min(1e9) as u64) + 3;
-        let (cells_y, cells_z) = (extent(1), extent(2));
-        let dense = extent(0).saturating_mul(cells_y).saturating_mul(cells_z) as usize;
+        let cells = [extent(0), extent(1), extent(2)];
+        let dense = cells[0].saturating_mul(cells[1]).saturating_mul(cells[2]) as usize;
         let slots = dense.clamp(2 * nodes, 8 * nodes.max(8)).next_power_of_two();
-        Self { low, inverse_cell: 1.0 / cell, stride_x: cells_y * cells_z, stride_y: cells_z, mask: slots - 1 }
+        Self {
+            low,
+            inverse_cell: 1.0 / cell,
+            stride_x: cells[1] * cells[2],
+            stride_y: cells[2],
+            mask: slots - 1,
+            cells,
+            nodes,
+        }
+    }
+
+    /// Whether this grid serves `nodes` nodes within `low`…`high` [m] in cells of side `cell`
+    /// [m] as one made for them would: same cell, every node in its own dense cell (none
+    /// folded onto another's) and a table for about as many nodes.
+    fn still_fits(&self, nodes: usize, low: Vec3, high: Vec3, cell: f64) -> bool {
+        let inside = |x: &Vec3| {
+            let c = self.coordinates(x);
+            (0..3).all(|k| c[k] >= 0 && (c[k] as u64) < self.cells[k])
+        };
+        self.inverse_cell == 1.0 / cell
+            && (self.nodes..=self.nodes + self.nodes / 8).contains(&nodes)
+            && self.mask + 1
+                >= self.cells[0].saturating_mul(self.cells[1]).saturating_mul(self.cells[2]).min(2 * nodes as u64)
+                    as usize
+            && inside(&low)
+            && inside(&high)
     }
 
     fn slots(&self) -> usize {
