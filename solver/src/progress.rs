@@ -58,10 +58,16 @@ fn launcher_writes_to_a_terminal() -> bool {
 /// Simulated time until the shot is decided [s], if the projectile keeps its deceleration
 /// `deceleration` [m/s^2] (not positive: none, it keeps its speed): it stops (its forward
 /// speed `forward` [m/s] reaches zero) or its top passes the back face `to_exit` [m]
-/// further on, whichever comes first. Zero once either has happened.
+/// further on, whichever comes first. Zero once it moves back. Once its top is through the
+/// back face while it still moves on, the fabric holds it (the judge waits for it to let
+/// go, which cannot be foreseen from the flight): then the time to the stop, or not a
+/// number while it does not decelerate.
 pub fn time_to_decision(forward: f64, deceleration: f64, to_exit: f64) -> f64 {
-    if forward <= 0.0 || to_exit <= 0.0 {
+    if forward <= 0.0 {
         return 0.0;
+    }
+    if to_exit <= 0.0 {
+        return if deceleration > 0.0 { forward / deceleration } else { f64::NAN };
     }
     if deceleration <= 0.0 {
         return to_exit / forward;
@@ -95,16 +101,23 @@ pub struct Flight {
 /// The content of `progress.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct ProgressReport {
+    /// steps taken
     pub step: u64,
+    /// [s]
     pub simulated_time_s: f64,
+    /// [s]
     pub end_time_s: f64,
+    /// of the end time, simulated [%]
     pub percent: f64,
+    /// wall time since this job began stepping [s]
     pub elapsed_s: f64,
     /// to the end time, by the simulated-time rate since the start of this job
     pub eta_s: f64,
     /// to the decision (stopped or through the back face) at the projectile's deceleration
-    /// since the last report and the same rate; 0 once finished
+    /// since the last report and the same rate; 0 once finished; not a number (null) while
+    /// it cannot be foreseen (through the back face, held, not decelerating)
     pub decision_eta_s: f64,
+    /// [m/s]
     pub projectile_speed_m_s: f64,
     /// |E - E0| / E0 at the last history sample [-]
     pub energy_balance_error: f64,
@@ -213,11 +226,16 @@ impl Progress {
             outcome: self.finished.clone(),
         };
         if self.bar.is_none() && self.finished.is_none() {
-            let eta = if report.eta_s.is_finite() {
+            let eta = if report.eta_s.is_finite() && report.decision_eta_s.is_finite() {
                 format!(
                     "{:.0} s to the end time, about {:.0} s to the decision at the present deceleration",
                     report.eta_s,
                     report.decision_eta_s.min(report.eta_s)
+                )
+            } else if report.eta_s.is_finite() {
+                format!(
+                    "{:.0} s to the end time, the decision waits on the fabric letting the projectile go",
+                    report.eta_s
                 )
             } else {
                 "not yet known".into()
@@ -347,7 +365,11 @@ mod tests {
         assert_eq!(time_to_decision(200.0, 0.0, 1e-3), 5e-6);
         assert_eq!(time_to_decision(200.0, -5e6, 1e-3), 5e-6);
         assert_eq!(time_to_decision(-1.0, 1e7, 1e-3), 0.0);
-        assert_eq!(time_to_decision(200.0, 1e7, -1e-4), 0.0);
+        // through the back face and still held: to the stop, unknown while not decelerating
+        // (a restarted 8-layer shot at 127 m/s, 49 us in, said "about 0 s")
+        assert_eq!(time_to_decision(200.0, 1e7, -1e-4), 2e-5);
+        assert!(time_to_decision(200.0, 0.0, -1e-4).is_nan());
+        assert!(time_to_decision(200.0, -5e6, -1e-4).is_nan());
     }
 
     #[test]
