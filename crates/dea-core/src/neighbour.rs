@@ -50,7 +50,9 @@ pub struct NeighbourList {
     /// `n_owned + 1` entries, once built): partner gid ascending and the largest overlap
     /// reached, taken up again if the pair comes back, so the skin cannot change a result
     pub retired_start: Vec<u32>,
+    /// the retired pairs' partner gids, ascending within each row
     pub retired_gid: Vec<GlobalNodeId>,
+    /// the largest overlap each retired pair reached [m]
     pub retired_max_overlap: Vec<f64>,
     /// per owned row, its first entry whose partner has a higher gid than the node: the
     /// entries from there on are the pairs this row evaluates
@@ -98,6 +100,7 @@ pub struct PairHistory {
     pub anchor: Vec3,
     /// stiffness k_s of the friction spring at its last evaluation [N/m]
     pub spring_stiffness: f64,
+    /// the pair overlapped at its last evaluation
     pub touching: bool,
     /// largest overlap reached [m]
     pub max_overlap: f64,
@@ -192,35 +195,30 @@ impl BuildScratch {
     /// it), only the candidates' count does.
     fn bin_near(&mut self, nodes: &Nodes, positions: &[Vec3], reach: f64, near: Option<&[bool]>) -> HashedGrid {
         let (low, high) = bounding_box(positions);
-        let kept = match (near, &self.grid) {
-            (Some(_), Some(last)) => {
-                self.slot_of.len() <= positions.len() && last.still_fits(positions.len(), low, high, reach)
-            }
-            _ => false,
-        };
         let slot_of = |grid: &HashedGrid, x: &Vec3| grid.slot(grid.coordinates(x)) as u32;
-        let grid = match (kept, near) {
-            (true, Some(marked)) => {
-                let grid = self.grid.clone().expect("kept only with a last grid");
-                let known = self.slot_of.len();
-                self.slot_of.extend(positions[known..].iter().map(|x| slot_of(&grid, x)));
-                for (i, _) in marked.iter().enumerate().filter(|(_, &m)| m) {
-                    self.slot_of[i] = slot_of(&grid, &positions[i]);
-                }
-                grid
+        // a rebuild around moved nodes keeps the last grid while it covers every node
+        let kept = near.zip(self.grid.as_ref()).filter(|(_, last)| {
+            self.slot_of.len() <= positions.len() && last.still_fits(positions.len(), low, high, reach)
+        });
+        let grid = if let Some((marked, last)) = kept {
+            let grid = last.clone();
+            let known = self.slot_of.len();
+            self.slot_of.extend(positions[known..].iter().map(|x| slot_of(&grid, x)));
+            for (i, _) in marked.iter().enumerate().filter(|(_, &m)| m) {
+                self.slot_of[i] = slot_of(&grid, &positions[i]);
             }
-            _ => {
-                // memory follows the node count, not the extent, so a fragment flung far away
-                // can neither blow up the grid nor crowd every node into a few huge cells; a
-                // margin of cells each way lets the next rebuilds around moved nodes keep it
-                // while a panel bulges
-                let margin = Vec3::repeat(GRID_MARGIN_CELLS * reach);
-                let grid = HashedGrid::new(positions.len(), low - margin, high + margin, reach);
-                self.slot_of.clear();
-                self.slot_of.extend(positions.iter().map(|x| slot_of(&grid, x)));
-                self.grid = Some(grid.clone());
-                grid
-            }
+            grid
+        } else {
+            // memory follows the node count, not the extent, so a fragment flung far away
+            // can neither blow up the grid nor crowd every node into a few huge cells; a
+            // margin of cells each way lets the next rebuilds around moved nodes keep it
+            // while a panel bulges
+            let margin = Vec3::repeat(GRID_MARGIN_CELLS * reach);
+            let grid = HashedGrid::new(positions.len(), low - margin, high + margin, reach);
+            self.slot_of.clear();
+            self.slot_of.extend(positions.iter().map(|x| slot_of(&grid, x)));
+            self.grid = Some(grid.clone());
+            grid
         };
         self.cell_of.clear();
         self.cell_of.extend_from_slice(&self.slot_of);
@@ -581,6 +579,7 @@ pub fn chain_exclusion(section: &FibreSection) -> u32 {
 }
 
 impl NeighbourList {
+    /// Empty lists with a Verlet skin of `skin` [m]; the first build fills them.
     pub fn new(skin: f64) -> Self {
         Self { skin, ..Default::default() }
     }
@@ -596,6 +595,7 @@ impl NeighbourList {
         self.partner.len()
     }
 
+    /// No pair is listed.
     pub fn is_empty(&self) -> bool {
         self.partner.is_empty()
     }
@@ -959,9 +959,7 @@ impl NeighbourList {
     fn place_row(&mut self, scratch: &mut BuildScratch, placement: &mut Placement, i: usize, unchanged: bool) {
         let (old, retired) = (compressed_row(&self.start, i), compressed_row(&self.retired_start, i));
         if unchanged {
-            if placement.moved {
-                placement.run.get_or_insert((old.start, retired.start));
-            }
+            self.keep_unchanged_histories(scratch, placement, i..i + 1);
         } else {
             if !placement.moved {
                 scratch.old.take_from(self, old.start, retired.start);
@@ -970,13 +968,41 @@ impl NeighbourList {
             if let Some(from) = placement.run.take() {
                 self.copy_history(&scratch.old, from, (old.start, retired.start));
             }
-            self.merge_changed_row(&scratch.old, &scratch.row, old, retired.clone());
+            self.merge_changed_row(&scratch.old, &scratch.row, old, retired);
+            scratch.retired_start.push(self.retired_gid.len() as u32);
         }
-        // the retired pairs of a run are still gone: not copied yet, but counted
-        let retired_end =
-            if unchanged { scratch.retired_start[i] as usize + retired.len() } else { self.retired_gid.len() };
         scratch.start.push(scratch.partner.len() as u32);
-        scratch.retired_start.push(retired_end as u32);
+    }
+
+    /// The histories of the unchanged owned rows `rows` stay where they are: the run of
+    /// unchanged rows (once histories have moved) begins at the first of them if not before,
+    /// and their retired pairs, not copied yet, are counted in the new retired starts. The
+    /// one bookkeeping of [`Self::place_row`] and [`Self::place_unchanged_rows`].
+    fn keep_unchanged_histories(
+        &self,
+        scratch: &mut BuildScratch,
+        placement: &mut Placement,
+        rows: std::ops::Range<usize>,
+    ) {
+        // rows past the old table (none on a one-rank rebuild) had no pairs, as in
+        // `compressed_row`
+        let old_rows = self.retired_start.len().saturating_sub(1);
+        let known = rows.start.min(old_rows)..rows.end.min(old_rows);
+        let (listed, retired) = if rows.start < old_rows {
+            (self.start[rows.start] as usize, self.retired_start[rows.start])
+        } else {
+            (0, 0)
+        };
+        if placement.moved {
+            placement.run.get_or_insert((listed, retired as usize));
+        }
+        let new_retired = *scratch.retired_start.last().expect("the retired starts begin with 0");
+        if !known.is_empty() {
+            let ends = &self.retired_start[known.start + 1..=known.end];
+            scratch.retired_start.extend(ends.iter().map(|&s| s - retired + new_retired));
+        }
+        let last = *scratch.retired_start.last().expect("the retired starts begin with 0");
+        scratch.retired_start.extend(std::iter::repeat_n(last, rows.len() - known.len()));
     }
 
     /// [`Self::place_row`] of each of the owned rows `rows`, none of which changed and whose
@@ -988,17 +1014,11 @@ impl NeighbourList {
         placement: &mut Placement,
         rows: std::ops::Range<usize>,
     ) {
-        let (listed, retired) = (self.start[rows.start], self.retired_start[rows.start]);
-        if placement.moved {
-            placement.run.get_or_insert((listed as usize, retired as usize));
-        }
+        self.keep_unchanged_histories(scratch, placement, rows.clone());
+        let listed = self.start[rows.start];
+        let new_listed = scratch.partner.len() as u32;
         scratch.partner.extend_from_slice(&self.partner[listed as usize..self.start[rows.end] as usize]);
-        let (new_listed, new_retired) = (scratch.partner.len() as u32, *scratch.retired_start.last().unwrap());
-        let new_listed = new_listed - (self.start[rows.end] - listed);
         scratch.start.extend(self.start[rows.start + 1..=rows.end].iter().map(|&s| s - listed + new_listed));
-        scratch
-            .retired_start
-            .extend(self.retired_start[rows.start + 1..=rows.end].iter().map(|&s| s - retired + new_retired));
     }
 
     /// Ends a build: the last run of unchanged rows' histories, the new rows, and the
