@@ -37,15 +37,24 @@ static METIS_STATE: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// METIS algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
+    /// METIS's multilevel k-way partitioning
     KWay,
+    /// METIS's multilevel recursive bisection
     RecursiveBisection,
 }
 
 /// Why a partition could not be made.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PartitionError {
+    /// More ranks than segments.
     #[error("cannot split {segments} yarn segments over {ranks} ranks: use fewer ranks or shorter segments (--segment-nodes)")]
-    TooFewSegments { segments: usize, ranks: usize },
+    TooFewSegments {
+        /// yarn segments
+        segments: usize,
+        /// ranks asked for
+        ranks: usize,
+    },
+    /// METIS reported an error.
     #[error("METIS failed: {0:?}")]
     Metis(metis::Error),
 }
@@ -55,6 +64,7 @@ pub enum PartitionError {
 pub struct ShotLine {
     /// impact point in the plane of the panel [m]
     pub x: f64,
+    /// (its y) [m]
     pub y: f64,
     /// radius around the shot line within which nodes become projectile candidates [m]
     pub radius: f64,
@@ -63,9 +73,13 @@ pub struct ShotLine {
 /// One yarn segment: positions `first..=last` of every fibre of yarn `yarn`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
+    /// the panel yarn
     pub yarn: u32,
+    /// first position along its fibres
     pub first: u32,
+    /// last position along its fibres
     pub last: u32,
+    /// nodes in the segment, every fibre of the yarn
     pub nodes: u64,
     /// expected work per step, in contact-list entries
     pub work: f64,
@@ -81,12 +95,14 @@ pub struct Segment {
     pub firing_entries: f64,
     /// box of the node centres grown by a contact radius [m]
     pub low: Vec3,
+    /// (its upper corner) [m]
     pub high: Vec3,
 }
 
 /// A neighbour of a segment and the ghosts an edge between them costs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adjacency {
+    /// the neighbouring segment
     pub segment: u32,
     /// nodes of the neighbour the segment's owner needs as ghosts if the edge is cut
     pub ghosts_needed: f64,
@@ -95,6 +111,7 @@ pub struct Adjacency {
 /// The yarn-segment graph of a fabric.
 #[derive(Clone, Debug)]
 pub struct SegmentGraph {
+    /// the yarn segments, the graph's vertices
     pub segments: Vec<Segment>,
     /// adjacency of each segment, ascending neighbour id
     pub adjacency: Vec<Vec<Adjacency>>,
@@ -290,7 +307,9 @@ pub fn segment_graph_at_rates(
 /// A partition: the rank of every yarn segment, and through it of every node.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Partition {
+    /// the rank of each segment
     pub rank_of_segment: Vec<Rank>,
+    /// ranks partitioned over
     pub ranks: usize,
     /// METIS edge cut (sum of the weights of cut edges)
     pub edge_cut: i64,
@@ -627,7 +646,9 @@ impl MetisGraph {
 /// Predicted cost of one rank's part.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RankReport {
+    /// the rank
     pub rank: u32,
+    /// nodes it owns
     pub owned_nodes: u64,
     /// predicted ghosts (chain stencil and contact reach)
     pub ghost_nodes: u64,
@@ -650,8 +671,11 @@ pub struct RankReport {
 /// Predicted quality of a partition.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QualityReport {
+    /// one report per rank
     pub ranks: Vec<RankReport>,
+    /// yarn segments partitioned
     pub segments: usize,
+    /// METIS edge cut (sum of the weights of cut edges)
     pub edge_cut: i64,
     /// max / mean expected work [-]
     pub load_imbalance: f64,
@@ -661,6 +685,7 @@ pub struct QualityReport {
     pub largest_stored_nodes: u64,
     /// ghost nodes / owned nodes, summed over ranks [-]
     pub ghost_fraction: f64,
+    /// bytes received by the forward halos per step, all ranks together
     pub halo_bytes_per_step: u64,
 }
 

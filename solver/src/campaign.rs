@@ -33,10 +33,23 @@ use crate::setup::{build, restore, SetupError};
 /// Why a campaign stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum CampaignError {
+    /// A shot's rank could not be set up.
     #[error("shot {id}: {error}")]
-    Setup { id: String, error: SetupError },
+    Setup {
+        /// the shot's id
+        id: String,
+        /// what went wrong
+        error: SetupError,
+    },
+    /// A shot's run failed.
     #[error("shot {id}: {error}")]
-    Run { id: String, error: RunError },
+    Run {
+        /// the shot's id
+        id: String,
+        /// what went wrong
+        error: RunError,
+    },
+    /// A record or report could not be read or written.
     #[error("{0}")]
     Output(String),
     /// the campaign asks for what its case cannot give (a unit-cell aim on straight yarns)
@@ -49,6 +62,7 @@ pub enum CampaignError {
 pub struct ShotRecord {
     /// `r<replicate>-<shot>`: the shot's place in its sequence
     pub id: String,
+    /// the replicate sequence it belongs to
     pub replicate: usize,
     /// position in its sequence (Monte Carlo: in the campaign)
     pub index: usize,
@@ -56,14 +70,19 @@ pub struct ShotRecord {
     pub velocity_m_s: f64,
     /// strength seed of the shot (`failure.seed` of its case)
     pub seed: u64,
+    /// the outcome: a complete penetration
     pub perforated: bool,
     /// [m/s]
     pub residual_velocity_m_s: f64,
     /// why the run stopped: perforated, rebounded or stopped (partials), or end_time_s
     pub stopped_by: String,
+    /// steps taken
     pub steps: u64,
+    /// wall time of the shot [s]
     pub wall_s: f64,
+    /// ranks it ran on
     pub ranks: usize,
+    /// largest contact force on the projectile [N]
     pub max_projectile_force_n: f64,
     /// where the shot aimed: the case's `offset_m` plus its drawn shift (x, y) [m]
     #[serde(default)]
@@ -103,7 +122,9 @@ impl ShotRecord {
 /// This rank's group: `index` of `count`, each with its own communicator.
 #[derive(Clone, Copy, Debug)]
 pub struct Group {
+    /// this group's index
     pub index: usize,
+    /// groups the ranks are split into
     pub count: usize,
 }
 
@@ -315,16 +336,23 @@ pub fn run_group<C: Comm>(
 /// The estimates from every shot on record.
 #[derive(Clone, Debug, Serialize)]
 pub struct CampaignReport {
+    /// the campaign file's name
     pub campaign: String,
+    /// every shot on record, in firing order
     pub shots: Vec<ShotRecord>,
+    /// partial penetrations among them
     pub partials: usize,
+    /// complete penetrations among them
     pub completes: usize,
     /// partials that were still undecided at the case's end time (see docs/theory.md V1)
     pub held_at_end: usize,
     /// each estimate, or why it cannot be made
     pub logistic: Result<Fit, String>,
+    /// (the probit fit)
     pub probit: Result<Fit, String>,
+    /// (MIL-STD-662F's V50)
     pub mil_std_662f: Result<MilStdEstimate, String>,
+    /// (the Lambert–Jonas fit of the residual velocities)
     pub lambert_jonas: Result<LambertJonas, String>,
     /// a bisection's final bracket per replicate: (highest partial, lowest complete) [m/s]
     pub bisection_brackets: Vec<(f64, f64)>,

@@ -182,8 +182,10 @@ impl<C: Comm> Distributed<C> {
 /// Why a restart failed.
 #[derive(Debug, thiserror::Error)]
 pub enum RestoreError {
+    /// The restored state is not finite or not stable.
     #[error("{0}")]
     Numerical(#[from] DomainError),
+    /// The checkpoint does not fit the case or the job.
     #[error("{0}")]
     Mismatch(String),
 }

@@ -15,6 +15,7 @@ use dea_projectile::mesh::{compact, HexMesh};
 
 /// The body, on rank 0.
 pub struct DeformableProjectile {
+    /// the elastic body and its state
     pub body: ElasticBody,
     /// body node of each surface vertex
     pub node_of_vertex: Vec<u32>,

@@ -38,7 +38,9 @@ pub struct RunRequests {
 /// collectives work on, and the run loop, tests and diagnostics read them directly; the
 /// rest is this rank's bookkeeping, read through methods and set within the solver.
 pub struct Distributed<C: Comm> {
+    /// the communicator of this run's ranks
     pub comm: C,
+    /// this rank's nodes, elements, contacts and projectile
     pub domain: Domain,
     pub(crate) partition: Partition,
     /// contact search distance: largest contact diameter plus the skin [m]

@@ -25,16 +25,21 @@ pub const STYLE_706_AREAL_DENSITY: f64 = 0.180;
 /// The panel a woven case builds.
 #[derive(Clone, Debug, Serialize)]
 pub struct PanelStatistics {
+    /// unit cells along each side of a layer
     pub cells_per_side: u32,
     /// [m]
     pub side_m: f64,
+    /// stacked layers
     pub layers: u32,
     /// distance between the node centres of neighbouring layers [m]
     pub layer_pitch_m: f64,
     /// from the top of the first layer to the bottom of the last, fibre surfaces included [m]
     pub thickness_m: f64,
+    /// yarns of the whole panel
     pub yarns: usize,
+    /// digital fibres of the whole panel
     pub fibres: usize,
+    /// nodes of the whole panel
     pub nodes: u64,
     /// nodes of the fine yarns (all of them unless hybrid)
     pub fine_nodes: u64,
@@ -59,8 +64,11 @@ pub struct PanelStatistics {
 /// One rank's share of the panel.
 #[derive(Clone, Debug, Serialize)]
 pub struct RankShare {
+    /// the rank
     pub rank: u32,
+    /// nodes it owns
     pub owned_nodes: u64,
+    /// ghost nodes it holds
     pub ghost_nodes: u64,
     /// generating the rank's nodes, fetching its ghosts and building its contact lists [s]
     pub build_s: f64,
@@ -71,6 +79,7 @@ pub struct RankShare {
 /// What `dea-mpi fabric` reports.
 #[derive(Clone, Debug, Serialize)]
 pub struct FabricReport {
+    /// the case's name
     pub case: String,
     /// the relaxation (none when the cell came from a file)
     pub relaxation: Option<RelaxReport>,
@@ -84,8 +93,11 @@ pub struct FabricReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coarse_relaxation: Option<RelaxReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    /// (its statistics)
     pub coarse_cell: Option<dea_fabric::weave::CellStatistics>,
+    /// the panel as built
     pub panel: PanelStatistics,
+    /// each rank's share
     pub ranks: Vec<RankShare>,
     /// (areal density of a layer / 180 g/m^2) - 1, for the style 706 preset
     pub style_706_areal_density_deviation: f64,
@@ -94,7 +106,9 @@ pub struct FabricReport {
 /// What `dea-mpi fabric` reports for a 3-D weave's cell (`fabric.json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct CellReport {
+    /// the case's name
     pub case: String,
+    /// how the relaxation went
     pub relaxation: RelaxReport,
     /// generating and relaxing the cell [s]
     pub relaxation_s: f64,
@@ -106,8 +120,11 @@ pub struct CellReport {
     pub crimp_by_role: std::collections::BTreeMap<String, f64>,
     /// size of the cell along x and y [m]
     pub period_m: [f64; 2],
+    /// each yarn's direction and role
     pub yarns: Vec<dea_fabric::cell::CellYarn>,
+    /// digital fibres of the cell
     pub fibres: usize,
+    /// nodes of the cell
     pub nodes: usize,
 }
 
@@ -175,13 +192,17 @@ fn write_relaxed_cell(case: &Case, out: &Path) -> Result<CellReport, SetupError>
 /// What one rank of a large job would hold, built alone ([`fabric_share`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct ShareReport {
+    /// the case's name
     pub case: String,
     /// the rank built, of `ranks`
     pub rank: u32,
+    /// (the job's rank count)
     pub ranks: usize,
     /// nodes of the whole panel, and of its fine yarns
     pub panel_nodes: u64,
+    /// (of its fine yarns)
     pub fine_nodes: u64,
+    /// ties where a hybrid's fine disc ends at coarse fibres
     pub ties: usize,
     /// relaxing the cells [s]
     pub relaxation_s: f64,
@@ -193,6 +214,7 @@ pub struct ShareReport {
     pub partition: dea_partition::QualityReport,
     /// nodes the rank generated (its own, no ghosts) and contact-list entries among them
     pub owned_nodes: u64,
+    /// (the contact-list entries among them)
     pub contact_entries: u64,
     /// generating the rank's nodes and building their contact lists [s]
     pub build_s: f64,

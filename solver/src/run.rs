@@ -18,11 +18,17 @@ use crate::step::{Stage, StageSeconds};
 /// What a run reports in `summary.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
+    /// the case's name
     pub case: String,
+    /// ranks of the job
     pub ranks: usize,
+    /// fibre nodes of the whole problem
     pub nodes: u64,
+    /// steps taken since the shot began
     pub steps: u64,
+    /// [s]
     pub time_step_s: f64,
+    /// simulated time at the end [s]
     pub simulated_time_s: f64,
     /// wall time of the whole run, every segment of a restarted one included (rank 0) [s]
     pub wall_s: f64,
@@ -41,11 +47,15 @@ pub struct Summary {
     pub normal_velocity_m_s: f64,
     /// largest contact force on the projectile [N]
     pub max_projectile_force_n: f64,
+    /// elements broken in tension (the shear term below 10 % of the criterion)
     pub broken_elements_tension: u64,
+    /// elements broken in shear (the tension term below 10 % of the criterion)
     pub broken_elements_shear: u64,
+    /// elements broken with both terms significant
     pub broken_elements_combined: u64,
     /// |E(t) - E(0)| / E(0) at the end [-]
     pub energy_balance_error: f64,
+    /// node-steps per second of wall time per rank [1/s]
     pub node_steps_per_s_per_core: f64,
     /// mean over ranks of the wall time of each stage [s]
     pub stage_seconds: StageSeconds,
@@ -55,6 +65,7 @@ pub struct Summary {
     pub ghost_fraction: f64,
     /// slowest rank's compute time (integration, forces, failure, rebuild) / the mean [-]
     pub load_imbalance: f64,
+    /// ghost and list rebuilds of this run segment
     pub neighbour_rebuilds: u64,
     /// the share of the nodes held whose neighbour rows a rebuild searched afresh, over every
     /// rebuild of this run segment and every rank (1 where each rebuild relists everything;
@@ -190,6 +201,7 @@ impl Judge {
 /// The run loop's own state at a checkpoint (rank 0's histories and scalars).
 #[derive(Clone, Debug, Default)]
 pub struct Resume {
+    /// the histories sampled so far
     pub histories: Histories,
     /// largest contact force on the projectile so far [N]
     pub max_force: f64,
@@ -231,15 +243,20 @@ pub struct CheckpointPolicy {
 
 /// What a run needs besides the rank's state.
 pub struct RunOptions<'a> {
+    /// the case's name, for the reports
     pub case_name: &'a str,
+    /// the case as resolved, written beside the results
     pub case_json: &'a str,
     /// [s]
     pub end_time: f64,
+    /// steps between history samples
     pub history_interval: u64,
+    /// stop once the shot is decided (docs/theory.md V1)
     pub stop_when_decided: bool,
     /// the unit vector of the initial line of flight, along which the residual velocity is
     /// measured
     pub flight_direction: Vec3,
+    /// the output directory
     pub out: &'a Path,
     /// fibres in the whole problem
     pub fibres: usize,
@@ -247,6 +264,7 @@ pub struct RunOptions<'a> {
     pub layers: usize,
     /// steps between field snapshots (none: no snapshots)
     pub snapshot_interval: Option<u64>,
+    /// when to write checkpoints
     pub checkpoints: CheckpointPolicy,
     /// the run loop's state when restarting from a checkpoint
     pub resume: Option<Resume>,
@@ -667,10 +685,13 @@ pub fn energy_floor(projectile_mass: f64) -> f64 {
 /// Why a run stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// A kernel found a numerical failure.
     #[error("numerical failure: {0}")]
     Numerical(dea_core::DomainError),
+    /// Results could not be written.
     #[error("cannot write results: {0}")]
     Output(String),
+    /// A signal stopped the run after its checkpoint.
     #[error("a signal asked the run to stop; the checkpoint {} holds it", .0.display())]
     Interrupted(std::path::PathBuf),
 }

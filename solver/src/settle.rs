@@ -15,6 +15,7 @@ use crate::step::compute_forces;
 /// What a settle before the shot did (every value agreed over the ranks).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct SettleReport {
+    /// steps of the settle
     pub steps: u64,
     /// [s]
     pub time_s: f64,
@@ -22,9 +23,11 @@ pub struct SettleReport {
     pub damping_per_s: f64,
     /// largest force on a free fibre node as built, and after the settle [N]
     pub largest_force_before_n: f64,
+    /// (after the settle) [N]
     pub largest_force_after_n: f64,
     /// deepest fibre contact over its contact distance, as built and after [-]
     pub largest_overlap_before: f64,
+    /// (after the settle) [-]
     pub largest_overlap_after: f64,
     /// how far the target's top rose, and the projectile with it [m]
     pub top_rise_m: f64,

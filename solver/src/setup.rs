@@ -43,15 +43,21 @@ pub const INITIAL_GAP: f64 = 1e-6;
 
 /// Everything about a case that needs no node: material, fabric, laws, projectile, time step.
 pub struct Problem {
+    /// the fibre's elastic and strength constants
     pub material: FibreMaterial,
+    /// the target's description, from which any node is generated
     pub fabric: Fabric,
     /// how the woven target's unit cell was relaxed (none when read from a cell file)
     pub relaxation: Option<RelaxReport>,
     /// how a hybrid woven target's coarse cell was relaxed
     pub coarse_relaxation: Option<RelaxReport>,
+    /// fibre–fibre contact and friction parameters
     pub contact: ContactParameters,
+    /// failure criterion and strengths
     pub failure: FailureParameters,
+    /// how the elements' tensile strengths are drawn
     pub strength: Strength,
+    /// the projectile at time zero
     pub projectile: RigidProjectile,
     /// where the projectile's line of flight crosses the target's top (x, y) [m]
     pub aim: [f64; 2],
@@ -88,8 +94,10 @@ impl Problem {
 /// Why a rank could not be set up.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
+    /// The target cannot be partitioned over the ranks.
     #[error("{0}")]
     Partition(String),
+    /// The state as built is not finite or not stable.
     #[error("{0}")]
     Numerical(#[from] DomainError),
     /// a checkpoint that cannot be read or does not fit the case
@@ -1005,8 +1013,11 @@ fn take_body(problem: &mut Problem, me: Rank) -> Option<DeformableProjectile> {
 
 /// A run restored from a checkpoint on this rank.
 pub struct Restored<C: Comm> {
+    /// the checkpoint's case
     pub case: Case,
+    /// this rank's part of the run
     pub run: Distributed<C>,
+    /// the checkpoint's whole-run state
     pub global: GlobalState,
 }
 

@@ -55,7 +55,9 @@ pub enum Stage {
 }
 
 impl Stage {
+    /// Stages of a step.
     pub const COUNT: usize = 18;
+    /// Every stage, in the order a step runs them.
     pub const ALL: [Stage; Self::COUNT] = [
         Stage::KickDrift,
         Stage::DeformableSubcycles,

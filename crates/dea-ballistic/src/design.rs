@@ -24,6 +24,7 @@ use crate::Shot;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Design {
+    /// bisect a bracket: the next shot halfway between the fastest stop and the slowest perforation
     Bisection {
         /// [m/s]
         low_m_s: f64,
@@ -32,25 +33,31 @@ pub enum Design {
         /// stop when the bracket is no wider [m/s]
         resolution_m_s: f64,
     },
+    /// up-and-down: a step down after each perforation, up after each stop
     UpAndDown {
         /// [m/s]
         start_m_s: f64,
         /// [m/s]
         step_m_s: f64,
+        /// shots to fire
         shots: usize,
     },
+    /// Langlie: each next shot from the outcomes so far, within the bounds
     Langlie {
         /// [m/s]
         low_m_s: f64,
         /// [m/s]
         high_m_s: f64,
+        /// shots to fire
         shots: usize,
     },
+    /// velocities drawn uniformly around a centre, independent of the outcomes
     MonteCarlo {
         /// [m/s]
         centre_m_s: f64,
         /// half-width of the uniform spread [m/s]
         spread_m_s: f64,
+        /// shots to fire
         shots: usize,
     },
     /// the listed velocities, one shot each, independent of the outcomes

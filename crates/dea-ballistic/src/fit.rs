@@ -78,26 +78,36 @@ pub struct Limit {
     pub standard_error: f64,
     /// 95 % confidence interval (delta method, symmetric) [m/s]
     pub low: f64,
+    /// (its upper end) [m/s]
     pub high: f64,
     /// 95 % profile-likelihood interval: the velocities whose best curve through them is
     /// within chi^2(1, 0.95) / 2 of the maximum log-likelihood; asymmetric, and better than
     /// the delta method for few shots [m/s] (infinite where the shots do not bound it)
     pub profile_low: f64,
+    /// (its upper end) [m/s]
     pub profile_high: f64,
 }
 
 /// A fitted curve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Fit {
+    /// the distribution function F of the curve (logit or probit)
     pub link: Link,
     /// `P(v) = F(intercept + slope v)` [-], [s/m]
     pub intercept: f64,
+    /// (the slope) [s/m]
     pub slope: f64,
+    /// velocity at 10 % probability of perforation
     pub v10: Limit,
+    /// velocity at 50 % probability of perforation: the V50
     pub v50: Limit,
+    /// velocity at 90 % probability of perforation
     pub v90: Limit,
+    /// the maximum log-likelihood reached [-]
     pub log_likelihood: f64,
+    /// shots fitted
     pub shots: usize,
+    /// Newton iterations taken
     pub iterations: u32,
 }
 

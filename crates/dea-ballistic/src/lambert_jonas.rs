@@ -14,7 +14,9 @@ use crate::{EstimateError, Shot};
 pub struct LambertJonas {
     /// ballistic limit [m/s]
     pub v_bl: f64,
+    /// the scale a of `v_r = a (v^p - v_bl^p)^(1/p)` [-]
     pub a: f64,
+    /// the exponent p [-]
     pub p: f64,
     /// root-mean-square residual of the fit [m/s]
     pub rms_m_s: f64,

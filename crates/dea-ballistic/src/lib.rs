@@ -32,14 +32,43 @@ pub struct Shot {
 /// Why an estimate cannot be made from the shots at hand.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EstimateError {
+    /// The outcomes do not overlap in velocity.
     #[error("no zone of mixed results: the lowest complete penetration ({lowest_complete:.1} m/s) is not below the highest partial ({highest_partial:.1} m/s), so the likelihood has no maximum")]
-    NoMixedZone { lowest_complete: f64, highest_partial: f64 },
+    NoMixedZone {
+        /// [m/s]
+        lowest_complete: f64,
+        /// [m/s]
+        highest_partial: f64,
+    },
+    /// Too few shots of one outcome.
     #[error("{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations")]
-    TooFewShots { needed: usize, partials: usize, completes: usize },
+    TooFewShots {
+        /// of each outcome
+        needed: usize,
+        /// partial penetrations at hand
+        partials: usize,
+        /// complete penetrations at hand
+        completes: usize,
+    },
+    /// The shots nearest the limit spread wider than the estimate allows.
     #[error("the {count} highest partials and {count} lowest completes span {spread:.1} m/s, more than the {allowed:.1} m/s allowed")]
-    SpreadTooWide { count: usize, spread: f64, allowed: f64 },
+    SpreadTooWide {
+        /// shots of each outcome taken
+        count: usize,
+        /// their spread [m/s]
+        spread: f64,
+        /// the largest spread allowed [m/s]
+        allowed: f64,
+    },
+    /// Too few perforations for the estimate.
     #[error("{needed} complete penetrations are needed, there are {completes}")]
-    TooFewPerforations { needed: usize, completes: usize },
+    TooFewPerforations {
+        /// complete penetrations needed
+        needed: usize,
+        /// complete penetrations at hand
+        completes: usize,
+    },
+    /// The fit's iterations did not converge.
     #[error("the fit did not converge")]
     NotConverged,
 }

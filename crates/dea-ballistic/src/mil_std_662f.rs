@@ -18,6 +18,7 @@ pub struct MilStdEstimate {
     pub spread: f64,
     /// the velocities used, partials then completes [m/s]
     pub partials: Vec<f64>,
+    /// (the completes) [m/s]
     pub completes: Vec<f64>,
 }
 

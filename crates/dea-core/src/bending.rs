@@ -19,6 +19,7 @@ pub struct BendingScratch {
 }
 
 impl BendingScratch {
+    /// Sizes every array to `n` nodes (new entries zero).
     pub fn resize(&mut self, n: usize) {
         self.on_prev.resize(n, Vec3::zeros());
         self.on_next.resize(n, Vec3::zeros());

@@ -16,7 +16,10 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum NormalLaw {
     /// Hertz-like elastic contact with transverse modulus E_T [Pa] (seed 4-8)
-    Elastic { transverse_modulus: f64 },
+    Elastic {
+        /// E_T [Pa]
+        transverse_modulus: f64,
+    },
     /// Kevlar KM2 transverse compression, loading on (4-9), unloading with slope (4-10)
     ElastoPlasticKm2,
 }
@@ -42,6 +45,8 @@ pub struct ContactGeometry {
 }
 
 impl ContactGeometry {
+    /// The geometry of a fibre of radius `radius` [m] with elements of length
+    /// `element_length` [m], strains taken over `reference_length` [m].
     pub fn new(radius: f64, element_length: f64, reference_length: f64) -> Self {
         Self { radius, element_length, reference_length, area_factor: 2.0 * radius.sqrt() * element_length / reference_length, inverse_reference_length: 1.0 / reference_length }
     }

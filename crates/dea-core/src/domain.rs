@@ -47,32 +47,77 @@ pub struct ContactParameters {
 /// A numerical failure found in a stage.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum DomainError {
+    /// A force or position is not finite.
     #[error("non-finite force or position at node {} in step {step} (time step too large or an unstable contact)", gid.0)]
-    NonFinite { step: u64, gid: GlobalNodeId },
+    NonFinite {
+        /// the step it was found in
+        step: u64,
+        /// the node
+        gid: GlobalNodeId,
+    },
+    /// A node's chain stencil lacks a node.
     #[error("node {} lacks the node at position {along} of its fibre within the chain stencil of {CHAIN_STENCIL}: a ghost is missing, so its forces cannot be computed", gid.0)]
-    MissingGhost { gid: GlobalNodeId, along: u32 },
+    MissingGhost {
+        /// the node whose stencil is incomplete
+        gid: GlobalNodeId,
+        /// the position along its fibre of the missing node
+        along: u32,
+    },
+    /// A node's stiffness needs a shorter time step than the run's.
     #[error("time step violated at node {} in step {step}: its current stiffness is stable only below dt = {limit:.3e} s, the run uses {time_step:.3e} s (contacts far deeper than the time step was chosen for; lower run.time_step_safety)", gid.0)]
-    TimeStep { step: u64, gid: GlobalNodeId, time_step: f64, limit: f64 },
+    TimeStep {
+        /// the step it was found in
+        step: u64,
+        /// the node
+        gid: GlobalNodeId,
+        /// the run's time step [s]
+        time_step: f64,
+        /// the largest stable time step at the node's present stiffness [s]
+        limit: f64,
+    },
+    /// A deformable projectile's element inverted.
     #[error("element {element} of the deformable projectile is inverted or no longer finite in step {step}: its elements cannot follow the deformation (a body this soft at this speed deforms more than its mesh holds: stiffen it, slow it, or round its striking edges more, so that their elements are not crushed; the neo_hookean model holds larger strains than the corotational one)")]
-    ProjectileInverted { step: u64, element: usize },
+    ProjectileInverted {
+        /// the step it was found in
+        step: u64,
+        /// the projectile's element
+        element: usize,
+    },
+    /// A tied node's partner is not held.
     #[error("node {} is tied to node {} of a hybrid yarn's transition, which is not present: a ghost is missing, so its forces cannot be computed", gid.0, partner.0)]
-    MissingTiePartner { gid: GlobalNodeId, partner: GlobalNodeId },
+    MissingTiePartner {
+        /// the tied node
+        gid: GlobalNodeId,
+        /// the node it is tied to, missing
+        partner: GlobalNodeId,
+    },
     /// The whole problem's energies (summed over the ranks, the same on each) are not all
     /// finite: a state no node check saw, such as the projectile's.
     #[error("the energies of step {step} are not finite ({kinds}): the run diverged (a time step too large, an unstable contact, or a state beyond the model)")]
-    NonFiniteEnergy { step: u64, kinds: String },
+    NonFiniteEnergy {
+        /// the step
+        step: u64,
+        /// the energies that are not finite, named
+        kinds: String,
+    },
 }
 
 /// Everything a rank needs to know of a node another rank owns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GhostRecord {
+    /// the node's global id
     pub gid: GlobalNodeId,
     /// [m]
     pub position: Vec3,
+    /// the fibre it belongs to
     pub fibre: FibreId,
+    /// its position along the fibre (0 at the fibre's first node)
     pub along: u32,
+    /// index of its fibre section in the domain's `sections`
     pub section: u16,
+    /// held fixed (a clamped edge)
     pub clamped: bool,
+    /// the last node of its fibre (it starts no element)
     pub last: bool,
     /// rest angle of the node's bending spring [rad]
     pub rest_angle: f64,
@@ -80,14 +125,18 @@ pub struct GhostRecord {
     pub rest_length: f64,
     /// tensile strength of the node's element [Pa]
     pub tensile_strength: f64,
+    /// how the node's element failed, if it did
     pub failure: FailureMode,
 }
 
 /// Per-owned-node running totals of dissipated and released energy [J].
 #[derive(Clone, Debug, Default)]
 pub struct NodeLedger {
+    /// friction work dissipated at each owned node's contacts [J]
     pub friction_dissipated: Vec<f64>,
+    /// plastic work of the contact law dissipated at each owned node [J]
     pub plastic_dissipated: Vec<f64>,
+    /// elastic energy released by each owned node's broken element [J]
     pub fracture_released: Vec<f64>,
 }
 
@@ -99,7 +148,10 @@ pub enum Phase {
     Shot,
     /// dynamic relaxation before the shot (theory F9): no friction between fibres, no
     /// failure, every fibre node damped at `damping` [1/s] (`dv/dt = F/m - c v`)
-    Settle { damping: f64 },
+    Settle {
+        /// [1/s]
+        damping: f64,
+    },
 }
 
 impl Phase {
@@ -123,24 +175,37 @@ pub struct NodeMotion {
 
 /// One rank's nodes, elements, contacts and projectile.
 pub struct Domain {
+    /// the fibre's elastic and strength constants
     pub material: FibreMaterial,
+    /// the fibre sections (digital fibre diameters, element lengths), indexed by a node's `section`
     pub sections: Vec<FibreSection>,
+    /// owned nodes first (ascending gid), then ghosts
     pub nodes: Nodes,
+    /// the element starting at each node: rest state, strain, failure
     pub elements: Elements,
+    /// fibre–fibre contact and friction parameters
     pub contact: ContactParameters,
+    /// failure criterion and strengths
     pub failure: FailureParameters,
+    /// fibre–fibre neighbour lists with their contact histories
     pub pairs: NeighbourList,
     /// rods joining fine fibres to coarse ones along hybrid yarns (docs/theory.md F12)
     pub ties: Ties,
+    /// the projectile (a copy on every rank but the one that owns it)
     pub projectile: Option<RigidProjectile>,
+    /// fibre nodes near the projectile and their contact histories
     pub projectile_contacts: ProjectileContacts,
+    /// the bending springs' forces, moments and angles of this step
     pub bending: BendingScratch,
+    /// per-node dissipated and released energies [J]
     pub ledger: NodeLedger,
+    /// elements broken so far, by mode
     pub broken: BrokenCount,
     /// time step [s]
     pub time_step: f64,
     /// simulated time [s]
     pub time: f64,
+    /// steps taken since the shot began
     pub step: u64,
     /// this domain integrates the projectile and counts its energy (rank 0); the others
     /// hold a copy that the driver overwrites every step

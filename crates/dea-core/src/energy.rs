@@ -90,15 +90,25 @@ impl EnergyReport {
 /// merge into the same bits (see [`ExactSum`]).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct EnergySums {
+    /// kinetic energy of the fibre nodes [J]
     pub fibre_kinetic: ExactSum,
+    /// kinetic energy of the projectile, translation and rotation [J]
     pub projectile_kinetic: ExactSum,
+    /// strain energy of a deformable projectile [J]
     pub projectile_strain: ExactSum,
+    /// axial strain energy of the fibre elements and ties [J]
     pub axial: ExactSum,
+    /// energy stored in the bending springs [J]
     pub bending: ExactSum,
+    /// elastic energy stored in the normal contacts [J]
     pub contact: ExactSum,
+    /// energy stored in the friction springs [J]
     pub friction_stored: ExactSum,
+    /// friction work dissipated so far [J]
     pub friction_dissipated: ExactSum,
+    /// plastic work of the contact law dissipated so far [J]
     pub plastic_dissipated: ExactSum,
+    /// elastic energy released by broken elements so far [J]
     pub fracture_released: ExactSum,
 }
 
@@ -144,6 +154,7 @@ impl EnergySums {
         self.kinds().iter().flat_map(|s| s.to_words()).collect()
     }
 
+    /// The sums whose words [`Self::to_words`] gave (or their element-wise sum over ranks).
     pub fn from_words(words: &[i64]) -> Self {
         let [fibre_kinetic, projectile_kinetic, projectile_strain, axial, bending, contact, friction_stored, friction_dissipated, plastic_dissipated, fracture_released] =
             std::array::from_fn(|k| ExactSum::from_words(&words[k * (LIMBS + 2)..(k + 1) * (LIMBS + 2)]));

@@ -33,6 +33,7 @@ impl Default for ExactSum {
 }
 
 impl ExactSum {
+    /// An empty sum: zero.
     pub fn new() -> Self {
         Self::default()
     }

@@ -53,12 +53,16 @@ pub fn combined_criterion(sigma: f64, sigma_u: f64, tau: f64, tau_u: f64) -> Opt
 /// Broken elements by mode, cumulative.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BrokenCount {
+    /// broken in tension (the shear term below 10 % of the criterion)
     pub tension: u64,
+    /// broken in shear (the tension term below 10 % of the criterion)
     pub shear: u64,
+    /// broken with both terms of the combined criterion significant
     pub combined: u64,
 }
 
 impl BrokenCount {
+    /// Every broken element.
     pub fn total(&self) -> u64 {
         self.tension + self.shear + self.combined
     }

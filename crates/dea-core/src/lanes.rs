@@ -30,6 +30,7 @@ macro_rules! binary {
     ($name:ident, $intrinsic:ident) => {
         #[target_feature(enable = "avx2")]
         #[inline]
+        /// Lane by lane.
         pub fn $name(self, other: Self) -> Self {
             Self($intrinsic(self.0, other.0))
         }
@@ -47,6 +48,7 @@ pub struct Mask(__m256d);
 impl F4 {
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// `value` in every lane.
     pub fn splat(value: f64) -> Self {
         Self(_mm256_set1_pd(value))
     }
@@ -79,6 +81,7 @@ impl F4 {
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// The four lanes, lowest first.
     pub fn to_array(self) -> [f64; 4] {
         let mut values = [0.0; 4];
         self.store(&mut values, 0);
@@ -92,6 +95,7 @@ impl F4 {
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// The square root of each lane.
     pub fn sqrt(self) -> Self {
         Self(_mm256_sqrt_pd(self.0))
     }
@@ -136,12 +140,14 @@ impl F4 {
 impl Mask {
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// Set in the lanes set in both.
     pub fn and(self, other: Self) -> Self {
         Self(_mm256_and_pd(self.0, other.0))
     }
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// Set in the lanes set in either.
     pub fn or(self, other: Self) -> Self {
         Self(_mm256_or_pd(self.0, other.0))
     }
@@ -168,6 +174,7 @@ pub struct U4(__m256i);
 impl U4 {
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// `value` in every lane.
     pub fn splat(value: u64) -> Self {
         Self(_mm256_set1_epi64x(value as i64))
     }
@@ -197,8 +204,11 @@ impl U4 {
 /// Four 3-vectors, one per lane, component by component.
 #[derive(Clone, Copy)]
 pub struct V4 {
+    /// x components
     pub x: F4,
+    /// y components
     pub y: F4,
+    /// z components
     pub z: F4,
 }
 
@@ -244,12 +254,14 @@ impl V4 {
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// The lanes' vector sums.
     pub fn add(self, other: Self) -> Self {
         Self { x: self.x.add(other.x), y: self.y.add(other.y), z: self.z.add(other.z) }
     }
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    /// The lanes' vector differences.
     pub fn sub(self, other: Self) -> Self {
         Self { x: self.x.sub(other.x), y: self.y.sub(other.y), z: self.z.sub(other.z) }
     }

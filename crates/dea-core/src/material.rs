@@ -47,7 +47,12 @@ pub enum InertiaModel {
     /// I_inf = pi d_d^4 / 64, the bundle bends as one rod (5-8)
     Locked {},
     /// I_e = (mu/k2)^k1 I_inf + (1 - (mu/k2)^k1) I_0 (5-10); seed §5.3: k1 = 0.8, k2 = 1
-    Effective { k1: f64, k2: f64 },
+    Effective {
+        /// the exponent k1 [-]
+        k1: f64,
+        /// the friction coefficient k2 at which the bundle locks [-]
+        k2: f64,
+    },
     /// no bending stiffness (the original DEA with frictionless pins)
     None {},
 }

@@ -18,6 +18,7 @@ use std::ops::Range;
 pub struct SectionRun {
     /// local node indices
     pub nodes: Range<usize>,
+    /// their fibre section
     pub section: u16,
 }
 

@@ -47,6 +47,7 @@ pub struct Nodes {
 #[repr(u8)]
 pub enum FailureMode {
     #[default]
+    /// not broken
     Intact = 0,
     /// shear term below 10% of the criterion
     Tension = 1,
@@ -89,6 +90,7 @@ impl Nodes {
         self.gid.len()
     }
 
+    /// No node is held.
     pub fn is_empty(&self) -> bool {
         self.gid.is_empty()
     }

@@ -17,9 +17,19 @@ use nalgebra::{Matrix3, UnitQuaternion};
 #[derive(Clone, Debug, PartialEq)]
 pub enum RigidShape {
     /// sphere of radius [m]
-    Sphere { radius: f64 },
+    Sphere {
+        /// [m]
+        radius: f64,
+    },
     /// right circular cylinder: radius, height and edge radius [m]
-    Cylinder { radius: f64, height: f64, edge_radius: f64 },
+    Cylinder {
+        /// [m]
+        radius: f64,
+        /// [m]
+        height: f64,
+        /// radius of the rounded edges of both faces [m]
+        edge_radius: f64,
+    },
     /// closed triangle surface
     Mesh(Arc<MeshShape>),
 }
@@ -28,6 +38,7 @@ pub enum RigidShape {
 /// density), in a body frame whose origin is the centroid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshShape {
+    /// the closed, outward-oriented surface, body frame [m]
     pub surface: TriangleSurface,
     /// inertia tensor about the centroid per unit mass, body frame [m^2]
     pub inertia_per_mass: Matrix3<f64>,
@@ -162,6 +173,7 @@ impl RigidShape {
 /// Rigid projectile state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RigidProjectile {
+    /// its geometry, body frame
     pub shape: RigidShape,
     /// mass [kg]
     pub mass: f64,
@@ -184,6 +196,8 @@ pub struct RigidProjectile {
 }
 
 impl RigidProjectile {
+    /// A projectile of `shape` and `mass` [kg], centre of mass at `position` [m] moving at
+    /// `velocity` [m/s], turned by `orientation` (body to world), not spinning and unloaded.
     pub fn new(shape: RigidShape, mass: f64, position: Vec3, velocity: Vec3, orientation: UnitQuaternion<f64>) -> Self {
         let inertia = shape.inertia(mass);
         Self {

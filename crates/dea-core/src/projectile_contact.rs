@@ -31,6 +31,7 @@ pub struct ProjectileContacts {
     /// a deforming surface's material point the friction is anchored to: the triangle and
     /// barycentric weights of the contact point at first touch (docs/theory.md I6)
     pub anchor_triangle: Vec<u32>,
+    /// (the weights, one per vertex of the triangle)
     pub anchor_weights: Vec<[f64; 3]>,
     /// stiffness of the friction spring at its last evaluation [N/m]
     pub spring_stiffness: Vec<f64>,
@@ -45,6 +46,7 @@ pub struct ProjectileContacts {
     /// triangle and barycentric weights of the contact point on a meshed surface
     /// ([`NONE`] on an analytic one): where a deformable body takes the reaction
     pub triangle: Vec<u32>,
+    /// (the weights, one per vertex of the triangle)
     pub weights: Vec<[f64; 3]>,
     /// surface vertices (body frame) at the last refresh: a deformable body's surface moves
     pub reference_vertices: Vec<Vec3>,
@@ -421,6 +423,7 @@ const CLEARANCE_MARGIN: f64 = 1e-12;
 /// The reaction of one fibre node on the projectile.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reaction {
+    /// the fibre node's global id
     pub gid: GlobalNodeId,
     /// contact force on the projectile [N]
     pub force: Vec3,
@@ -429,6 +432,7 @@ pub struct Reaction {
     /// triangle of a meshed surface the force acts on ([`NONE`]: analytic) and the
     /// barycentric weights that share it over the triangle's vertices (seed 4-1)
     pub triangle: u32,
+    /// (the weights, one per vertex of `triangle`)
     pub weights: [f64; 3],
 }
 

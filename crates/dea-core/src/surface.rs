@@ -72,6 +72,7 @@ pub struct SurfacePoint {
     pub normal: Vec3,
     /// the closest surface point [m]
     pub point: Vec3,
+    /// the triangle the point lies on
     pub triangle: u32,
     /// barycentric (area) weights of the point on its triangle (seed 4-1)
     pub weights: [f64; 3],
@@ -235,15 +236,29 @@ impl CellGrid {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SurfaceError {
     #[error("the surface is not closed or not consistently oriented at the edge from vertex {0} to vertex {1}")]
+    /// an edge without its opposite half-edge
     Open(u32, u32),
     #[error("triangle {0} has no area")]
+    /// a triangle of zero area
     Degenerate(usize),
     #[error("the enclosed volume is {0} m^3: the normals must point out of the solid")]
+    /// the normals point into the solid: the enclosed volume [m^3] is negative
     InsideOut(f64),
     /// The contact search would list the surface in more (cube, triangle) entries than
     /// [`MOST_SEARCH_ENTRIES`]: a surface large against the fibre it meets.
     #[error("its {area:.3e} m^2 of surface would be listed about {entries:.2e} times in the contact search's cubes of {cell:.2e} m (sized by the fibre it meets), about {gigabytes:.1} GB, and at most {most:.2e} listings are made: a smaller projectile, or a thicker fibre")]
-    TooLarge { area: f64, entries: f64, cell: f64, gigabytes: f64, most: f64 },
+    TooLarge {
+        /// the surface's area [m^2]
+        area: f64,
+        /// the listings it would need [-]
+        entries: f64,
+        /// the search cube's edge [m]
+        cell: f64,
+        /// the memory they would take [GB]
+        gigabytes: f64,
+        /// the most listings made [-]
+        most: f64,
+    },
 }
 
 /// The most (cube, triangle) listings the contact search of one surface may make, counted

@@ -21,8 +21,11 @@ use crate::{FibreMaterial, Vec3};
 /// One end of a tie: a node named by its global id, fibre and position along the fibre.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct TieEnd {
+    /// the node's global id
     pub gid: GlobalNodeId,
+    /// its fibre
     pub fibre: FibreId,
+    /// its position along the fibre
     pub along: u32,
 }
 
@@ -30,8 +33,11 @@ pub struct TieEnd {
 /// frame of the coarse fibre's end element (`coarse` and its chain neighbour `coarse_next`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tie {
+    /// the fine fibre's end node
     pub fine: TieEnd,
+    /// the coarse fibre's end node it is tied to
     pub coarse: TieEnd,
+    /// the coarse end node's chain neighbour, which with it sets the tie's frame
     pub coarse_next: TieEnd,
     /// distance of the fine end from the coarse end node along the end element's axis (away
     /// from `coarse_next`) as built: the axial spring's rest length [m]
@@ -149,10 +155,12 @@ impl Ties {
         ties
     }
 
+    /// Every tie of the domain.
     pub fn list(&self) -> &[Tie] {
         &self.list
     }
 
+    /// No tie.
     pub fn is_empty(&self) -> bool {
         self.list.is_empty()
     }

@@ -47,7 +47,9 @@ impl YarnRole {
 /// One yarn of a cell.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CellYarn {
+    /// along x (warp) or y (weft)
     pub direction: YarnDirection,
+    /// what the yarn does in the weave
     pub role: YarnRole,
     /// digital fibres in the yarn
     pub fibres: usize,
@@ -58,6 +60,7 @@ pub struct CellYarn {
 /// Why a cell's parts do not fit together.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CellError {
+    /// The arrays of the cell do not agree in length.
     #[error("inconsistent sizes: {0}")]
     Sizes(String),
 }

@@ -20,7 +20,9 @@ use dea_core::{Elements, FibreId, FibreMaterial, FibreSection, GlobalNodeId, Nod
 /// Direction of a straight yarn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Axis {
+    /// along x
     X,
+    /// along y
     Y,
 }
 
@@ -29,6 +31,7 @@ pub enum Axis {
 pub struct YarnLine {
     /// centre of the yarn's axis [m]
     pub centre: Vec3,
+    /// the direction the yarn runs along
     pub axis: Axis,
     /// digital fibres in the yarn
     pub fibres: usize,
@@ -41,6 +44,7 @@ pub struct YarnLine {
 /// rank can generate exactly the nodes it owns without building the rest.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StraightFabric {
+    /// the yarns, each a straight bundle of digital fibres
     pub yarns: Vec<YarnLine>,
     /// length of every yarn [m]
     pub length: f64,
@@ -69,7 +73,10 @@ pub enum SectionPacking {
     Hexagonal,
     /// rows on a square lattice with this many times as many fibres across the yarn as
     /// through it ([`rectangular_packing`])
-    Rectangular { across_per_through: usize },
+    Rectangular {
+        /// fibres across the yarn per fibre through it
+        across_per_through: usize,
+    },
 }
 
 /// Centres of `count` circles of diameter `pitch` on a square lattice, `across_per_through`
@@ -85,8 +92,11 @@ pub fn rectangular_packing(count: usize, across_per_through: usize, pitch: f64) 
 
 /// Built geometry, ready for a [`dea_core::Domain`].
 pub struct Built {
+    /// the fibre sections the nodes refer to
     pub sections: Vec<FibreSection>,
+    /// the nodes, ascending global id
     pub nodes: Nodes,
+    /// the element starting at each node
     pub elements: Elements,
     /// the ties with a built end (docs/theory.md F12)
     pub ties: Vec<dea_core::tie::Tie>,
@@ -329,7 +339,9 @@ impl StraightFabric {
 /// partitioner and the set-up need, with no node built.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Fabric {
+    /// straight yarns (the single-yarn fixture and the bench)
     Straight(StraightFabric),
+    /// a plain-woven panel, whole or hybrid
     Woven(panel::WovenPanel),
     /// a panel tiled from any periodic cell (a 3-D weave's)
     Tiled(tiled::TiledPanel),

@@ -29,7 +29,10 @@ pub enum Boundary {
     FixedEdges,
     /// every node outside a square opening of side `opening_m` centred on the panel is fixed
     /// (the seed's clamp fixture: 15 in fabric in a 12 in opening, §6.2.2)
-    Clamp { opening_m: f64 },
+    Clamp {
+        /// side of the square opening [m]
+        opening_m: f64,
+    },
 }
 
 impl Boundary {
@@ -48,11 +51,17 @@ impl Boundary {
 pub enum FineRegion {
     /// a yarn whose centreline passes within `half_width` of the panel's centre is fine over
     /// its whole length, the others coarse (the yarn-based mesh of seed Fig. 2-25) [m]
-    Band { half_width: f64 },
+    Band {
+        /// [m]
+        half_width: f64,
+    },
     /// a yarn is fine between its crossings within `radius` of the panel's centre and coarse
     /// beyond, its fine fibres tied to its coarse ones halfway between two crossings
     /// (docs/theory.md F12) [m]
-    Disc { radius: f64 },
+    Disc {
+        /// [m]
+        radius: f64,
+    },
 }
 
 /// The coarse yarns of a hybrid panel.
@@ -72,6 +81,7 @@ pub struct CoarseYarns {
 pub struct Piece {
     /// the panel yarn (layer, then warp before weft, then across)
     pub yarn: u32,
+    /// made of the coarse fibres of a hybrid yarn
     pub coarse: bool,
     /// position of the piece's first node along a whole fibre of its kind
     pub start: u32,
@@ -88,6 +98,7 @@ pub struct WovenPanel {
     pub coarse: Option<CoarseYarns>,
     /// unit cells along each side of a layer
     pub cells: u32,
+    /// stacked layers
     pub layers: u32,
     /// gap between the contact surfaces of neighbouring layers; 0 = touching [m]
     pub layer_gap: f64,
@@ -97,6 +108,7 @@ pub struct WovenPanel {
     /// which no node of one layer is closer than its pair's contact distance plus the gap to
     /// a node of the next ([`touching_pitch`]) [m]
     pub layer_pitch: f64,
+    /// how the panel is held
     pub boundary: Boundary,
     /// tensile strength given to every element before any Weibull sampling [Pa]
     pub tensile_strength: f64,
@@ -125,7 +137,9 @@ pub struct TransitionQuality {
 /// Where a panel yarn lies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct YarnPlace {
+    /// the layer, 0 on top
     pub layer: u32,
+    /// warp or weft
     pub direction: YarnDirection,
     /// index across the layer, 0 at the lowest coordinate
     pub index: u32,
@@ -605,14 +619,21 @@ pub(crate) fn first_fibres(yarns: usize, fibres: impl Fn(usize) -> usize) -> Vec
 /// A panel whose every node is a pure function of (yarn, fibre, k): what the builder needs,
 /// and what it gives (the plain-woven [`WovenPanel`], the [`crate::tiled::TiledPanel`]).
 pub trait Tiling {
+    /// Yarns of the whole panel (its pieces, for a hybrid disc).
     fn yarns(&self) -> usize;
     /// yarns of one layer (the first `yarns_in_layer()` yarns are layer 0)
     fn yarns_in_layer(&self) -> usize;
+    /// Digital fibres of yarn `yarn`.
     fn fibres_of(&self, yarn: usize) -> usize;
+    /// Global id of the first fibre of yarn `yarn`.
     fn first_fibre_of(&self, yarn: usize) -> u32;
+    /// Nodes of each fibre of yarn `yarn`.
     fn nodes_of(&self, yarn: usize) -> u32;
+    /// Nodes reserved per fibre in the global numbering.
     fn stride(&self) -> u32;
+    /// Index of yarn `yarn`'s fibre section in [`Self::all_sections`].
     fn section_of(&self, yarn: usize) -> usize;
+    /// Every fibre section of the panel.
     fn all_sections(&self) -> Vec<FibreSection>;
     /// position of node `k` of fibre `fibre` of yarn `yarn` [m]
     fn node_position(&self, yarn: usize, fibre: usize, k: u32) -> Vec3;
@@ -620,7 +641,9 @@ pub trait Tiling {
     fn node_rest_angle(&self, yarn: usize, fibre: usize, k: u32) -> f64;
     /// rest length of the fibre's elements [m]
     fn fibre_rest_length(&self, yarn: usize, fibre: usize) -> f64;
+    /// Whether node `k` of a fibre of yarn `yarn`, at `position` [m], is held fixed.
     fn held(&self, yarn: usize, position: &Vec3, k: u32) -> bool;
+    /// Tensile strength of every element before any Weibull sampling [Pa].
     fn strength(&self) -> f64;
     /// Ties joining fine fibres to coarse ones along a yarn (none unless a hybrid has them).
     fn ties(&self) -> &[Tie] {

@@ -49,6 +49,7 @@ impl Default for RelaxOptions {
 /// How the relaxation went.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct RelaxReport {
+    /// iterations taken
     pub iterations: u64,
     /// largest nodal force of the initial topology [N]
     pub initial_residual_n: f64,
@@ -69,10 +70,22 @@ pub struct RelaxReport {
 /// Why a cell could not be relaxed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RelaxError {
+    /// The largest nodal force did not fall far enough.
     #[error("relaxation did not converge: the largest nodal force fell by {reduction:.3e} in {iterations} iterations, {tolerance:.1e} was asked (raise relaxation.max_iterations or relax the tolerance)")]
-    NotConverged { iterations: u64, reduction: f64, tolerance: f64 },
+    NotConverged {
+        /// iterations taken
+        iterations: u64,
+        /// the largest nodal force's fall, final over initial [-]
+        reduction: f64,
+        /// the fall asked for [-]
+        tolerance: f64,
+    },
+    /// A nodal force is not finite.
     #[error("relaxation diverged at iteration {iteration}: a nodal force is not finite")]
-    NonFinite { iteration: u64 },
+    NonFinite {
+        /// the iteration
+        iteration: u64,
+    },
 }
 
 /// Two nodes of different fibres within reach of each other: `j`'s nearest image relative to

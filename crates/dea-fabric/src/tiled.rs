@@ -16,9 +16,11 @@ use crate::panel::{first_fibres, touching_pitch, Boundary, Tiling};
 /// origin in plan; layer 0 on top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TiledPanel {
+    /// the relaxed cell the panel repeats
     pub cell: Arc<PeriodicCell>,
     /// cells along x and y
     pub tiles: [u32; 2],
+    /// stacked layers
     pub layers: u32,
     /// in-plane shift of each layer relative to the one above (x, y) [m]
     pub layer_shift: [f64; 2],
@@ -26,6 +28,7 @@ pub struct TiledPanel {
     /// which no node of one is closer than a contact diameter plus the gap to a node of the
     /// next ([`touching_pitch`] with the shift) [m]
     pub layer_pitch: f64,
+    /// how the panel is held
     pub boundary: Boundary,
     /// tensile strength given to every element before any Weibull sampling [Pa]
     pub tensile_strength: f64,
@@ -63,6 +66,7 @@ impl TiledPanel {
         self.cell_yarns[0].len() * self.tiles[1] as usize + self.cell_yarns[1].len() * self.tiles[0] as usize
     }
 
+    /// Yarns of the whole panel.
     pub fn yarn_count(&self) -> usize {
         self.yarns_per_layer() * self.layers as usize
     }
@@ -94,10 +98,12 @@ impl TiledPanel {
         points.iter().map(|p| [p[1 - place.axis] - mean[1 - place.axis], p.z - mean.z]).collect()
     }
 
+    /// Digital fibres of yarn `yarn`.
     pub fn yarn_fibres(&self, yarn: usize) -> usize {
         self.cell.yarns[self.place(yarn).cell_yarn].fibres
     }
 
+    /// Global id of each yarn's first fibre.
     pub fn first_fibres(&self) -> &[u32] {
         &self.first_fibre
     }

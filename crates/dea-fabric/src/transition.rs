@@ -85,7 +85,9 @@ const SMALLEST_SHARE: f64 = 1e-6;
 /// A fibre's node at a transition: its name and position [m].
 #[derive(Clone, Copy, Debug)]
 pub struct EndNode {
+    /// the node, named
     pub end: TieEnd,
+    /// its position [m]
     pub at: Vec3,
 }
 

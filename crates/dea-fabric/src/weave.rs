@@ -14,12 +14,24 @@ use crate::cell::{CellYarn, PeriodicCell, YarnRole};
 /// Why a weave cannot be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WeaveError {
+    /// The packed yarn section is too wide for the yarn spacing.
     #[error("section_aspect: the packed yarn section ({packed_width:.3e} m wide) is too wide for yarns {spacing:.3e} m apart (its outer fibre centres must stay within 0.45 spacings of the yarn's axis)")]
-    TooWide { packed_width: f64, spacing: f64 },
+    TooWide {
+        /// width of the packed yarn section [m]
+        packed_width: f64,
+        /// centre distance of parallel yarns [m]
+        spacing: f64,
+    },
+    /// The crimp asked for cannot keep crossing yarns apart.
     #[error(
         "initial_crimp: {requested} needs a smaller amplitude than the {minimum:.4} that keeps crossing yarns apart"
     )]
-    CrimpTooSmall { requested: f64, minimum: f64 },
+    CrimpTooSmall {
+        /// the crimp asked for [-]
+        requested: f64,
+        /// the least that keeps crossing yarns apart [-]
+        minimum: f64,
+    },
 }
 
 /// Centres of `count` digital fibres in a flat yarn section: points of a hexagonal lattice of
@@ -88,9 +100,11 @@ pub const CELL_YARNS: [(YarnDirection, usize); 4] =
 /// yarns' packing). It reads as its periodic cell.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UnitCell {
+    /// the relaxed periodic cell
     pub periodic: PeriodicCell,
     /// centre distance of neighbouring parallel yarns; the cell is `2 s` square [m]
     pub yarn_spacing: f64,
+    /// digital fibres of every yarn
     pub fibres_per_yarn: usize,
     /// nodes of one fibre in one period
     pub nodes_per_period: u32,

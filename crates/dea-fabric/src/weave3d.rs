@@ -26,14 +26,37 @@ use crate::weave::elliptical_packing;
 /// Why a 3-D weave cannot be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum Weave3dError {
+    /// The weave's layout is inconsistent.
     #[error("{0}")]
     Topology(String),
+    /// A binder has no room to turn between filler columns.
     #[error("a filler yarn {filler_width:.3e} m wide leaves {room:.3e} m between filler columns, and a binder needs {needed:.3e} m there to turn (widen the pick spacing, narrow the filler with a smaller section_aspect, or thin the binder)")]
-    NoRoomToTurn { filler_width: f64, room: f64, needed: f64 },
+    NoRoomToTurn {
+        /// [m]
+        filler_width: f64,
+        /// gap between filler columns [m]
+        room: f64,
+        /// room a binder needs to turn [m]
+        needed: f64,
+    },
+    /// A binder cannot change gap this steeply.
     #[error("a binder changing gap by {levels} filler layer(s) cannot turn within {room:.3e} m between filler columns on arcs of radius {radius:.3e} m (widen the pick spacing)")]
-    TooSteep { levels: u32, room: f64, radius: f64 },
+    TooSteep {
+        /// filler layers the binder changes gap by
+        levels: u32,
+        /// gap between filler columns [m]
+        room: f64,
+        /// radius of the binder's arcs [m]
+        radius: f64,
+    },
+    /// Fibres of different yarns overlap.
     #[error("the yarns cannot be laid out apart: two fibres of different yarns stay {closest:.3e} m apart, under one contact diameter ({contact_diameter:.3e} m) (widen end_spacing_m or pick_spacing_m)")]
-    Crowded { closest: f64, contact_diameter: f64 },
+    Crowded {
+        /// closest distance of two fibres of different yarns [m]
+        closest: f64,
+        /// [m]
+        contact_diameter: f64,
+    },
 }
 
 impl Weave3dError {
@@ -81,7 +104,9 @@ pub struct WarpPath {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PathRole {
+    /// a straight warp yarn between the filler layers
     Stuffer,
+    /// a warp yarn that binds the filler layers together
     Binder,
 }
 
@@ -129,11 +154,14 @@ pub struct ThreeDWeave {
     pub pick_spacing: f64,
     /// centre distance of neighbouring warp-direction columns (along y) [m]
     pub end_spacing: f64,
+    /// the filler (weft) yarns
     pub filler: YarnKind,
     /// digital fibres of a filler yarn; every digital fibre has the filler's fibre section,
     /// so a yarn of area A holds round(A / a) of them (at least one)
     pub filler_fibres: usize,
+    /// the stuffer yarns
     pub stuffer: YarnKind,
+    /// the binder yarns
     pub binder: YarnKind,
     /// target element length / digital fibre diameter [-]
     pub element_length_ratio: f64,

@@ -24,7 +24,9 @@ const FORMAT: &str = "dea-mpi checkpoint 7";
 #[derive(Debug, thiserror::Error)]
 #[error("checkpoint {}: {message}", path.display())]
 pub struct CheckpointError {
+    /// the checkpoint's directory or file
     pub path: PathBuf,
+    /// what is wrong with it
     pub message: String,
 }
 
@@ -35,6 +37,7 @@ fn error(path: &Path, message: impl std::fmt::Display) -> CheckpointError {
 /// State of a set of owned nodes, ascending global id.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodeState {
+    /// global id of each node, ascending
     pub gid: Vec<u64>,
     /// [m]
     pub position: Vec<Vec3>,
@@ -50,7 +53,9 @@ pub struct NodeState {
     pub tensile_strength: Vec<f64>,
     /// dissipated and released energy so far [J]
     pub friction_dissipated: Vec<f64>,
+    /// (plastic work of the contact law) [J]
     pub plastic_dissipated: Vec<f64>,
+    /// (elastic energy released by failure) [J]
     pub fracture_released: Vec<f64>,
     /// projectile contact history: anchor (body frame) [m], touching, largest overlap [m]
     pub projectile_anchor: Vec<Vec3>,
@@ -58,25 +63,33 @@ pub struct NodeState {
     pub projectile_stretch: Vec<Vec3>,
     /// stiffness of the projectile friction spring at its last evaluation [N/m]
     pub projectile_spring_stiffness: Vec<f64>,
+    /// touching the projectile at the last evaluation (0 or 1)
     pub projectile_touching: Vec<u8>,
+    /// largest overlap with the projectile reached [m]
     pub projectile_max_overlap: Vec<f64>,
     /// a deforming projectile's material point the friction is anchored to: triangle and
     /// barycentric weights
     pub projectile_anchor_triangle: Vec<u32>,
+    /// (the barycentric weights of that point) [-]
     pub projectile_anchor_weights: Vec<Vec3>,
     /// fibre contact-list entries of each node
     pub row_length: Vec<u32>,
     /// per entry: partner gid, friction anchor [m], touching, largest overlap [m]
     pub partner_gid: Vec<u64>,
+    /// (the friction anchor) [m]
     pub anchor: Vec<Vec3>,
     /// friction spring stiffness at the last evaluation [N/m]
     pub spring_stiffness: Vec<f64>,
+    /// (touching: 0 or 1)
     pub touching: Vec<u8>,
+    /// (largest overlap reached) [m]
     pub max_overlap: Vec<f64>,
     /// retired contacts of each node (pairs dropped after touching): partner gid and
     /// largest overlap [m]
     pub retired_length: Vec<u32>,
+    /// (partner gid of each retired pair)
     pub retired_gid: Vec<u64>,
+    /// (largest overlap each retired pair reached) [m]
     pub retired_max_overlap: Vec<f64>,
 }
 
@@ -227,6 +240,7 @@ pub struct GlobalState {
     pub parts: u32,
     /// nodes in all parts together
     pub nodes: u64,
+    /// steps taken since the shot began
     pub step: u64,
     /// [s]
     pub time: f64,
@@ -237,10 +251,12 @@ pub struct GlobalState {
     pub broken: [u64; 3],
     /// ghost rebuilds and neighbour-list builds so far
     pub rebuilds: u64,
+    /// (the neighbour-list builds)
     pub list_builds: u64,
     /// run-loop scalars of rank 0 (largest force, initial energy, back face, …), in the
     /// solver's order
     pub run_scalars: Vec<f64>,
+    /// the run's sampled histories up to the checkpoint
     pub histories: Histories,
     /// the checksum ([`NodeState::checksum`]) of each rank's part, in rank order: binds the
     /// parts to this manifest, so a part of another checkpoint is refused

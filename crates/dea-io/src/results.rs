@@ -28,10 +28,13 @@ pub struct Histories {
     pub projectile_angular_velocity: Vec<Vec3>,
     /// contact force on the projectile [N]
     pub projectile_force: Vec<Vec3>,
+    /// the energy balance's terms [J]
     pub energy: Vec<EnergyReport>,
     /// cumulative broken elements by mode
     pub broken_tension: Vec<u64>,
+    /// (in shear)
     pub broken_shear: Vec<u64>,
+    /// (with both terms significant)
     pub broken_combined: Vec<u64>,
     /// cumulative broken elements of each layer (one row per sample)
     pub broken_by_layer: Vec<Vec<u64>>,

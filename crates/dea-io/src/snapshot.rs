@@ -45,10 +45,12 @@ impl SnapshotCells {
         self.failure.push(failure);
     }
 
+    /// Elements held.
     pub fn len(&self) -> usize {
         self.element_gid.len()
     }
 
+    /// No element is held.
     pub fn is_empty(&self) -> bool {
         self.element_gid.is_empty()
     }
@@ -63,8 +65,11 @@ pub struct SnapshotPart {
     pub velocity: Vec<Vec3>,
     /// position less the position as built, before any settle [m]
     pub displacement: Vec<Vec3>,
+    /// global id of each node
     pub gid: Vec<u64>,
+    /// its layer, 0 on top
     pub layer: Vec<u32>,
+    /// its panel yarn
     pub yarn: Vec<u32>,
     /// owning rank of each point (the one field that depends on the rank count)
     pub rank: Vec<u32>,
@@ -202,20 +207,24 @@ pub fn write_projectile_xdmf(out: &Path, last_step: u64) -> hdf5::Result<()> {
 pub struct IndexedPart {
     /// file name inside the fields directory
     pub file: String,
+    /// nodes written
     pub points: usize,
     /// intact elements
     pub cells: usize,
+    /// broken elements
     pub broken_cells: usize,
 }
 
 /// One snapshot on disk.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IndexedSnapshot {
+    /// steps taken when it was written
     pub step: u64,
     /// [s]
     pub time: f64,
     /// rank count of the run that wrote it
     pub ranks: usize,
+    /// one part per rank, in rank order
     pub parts: Vec<IndexedPart>,
 }
 
@@ -366,7 +375,9 @@ pub type MergedPoint = (u64, [u64; 3], [u64; 3], [u64; 3], u32, u32);
 /// element. Used to compare runs on different rank counts (the `rank` field is left out).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MergedSnapshot {
+    /// the simulated time's bits [s]
     pub time_bits: u64,
+    /// (gid, position bits, velocity bits, displacement bits, layer, yarn) by node
     pub points: Vec<MergedPoint>,
     /// (element gid, strain bits, stress bits, failure)
     pub cells: Vec<(u64, u64, u64, u8)>,

@@ -21,6 +21,7 @@ pub struct ElasticMaterial {
     pub youngs_modulus: f64,
     /// [-]
     pub poisson_ratio: f64,
+    /// the constitutive model
     pub model: ElasticModel,
 }
 
@@ -75,8 +76,10 @@ fn reference_gradients(corners: &[Vec3; 8], r: f64, s: f64, t: f64) -> ([Vec3; 8
 /// Why a mesh cannot be an elastic body.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ElasticError {
+    /// A hexahedron is inverted or degenerate.
     #[error("hexahedron {0} is inverted or degenerate at a Gauss point")]
     Inverted(usize),
+    /// The material constants are out of range.
     #[error("density, Young's modulus must be positive and Poisson's ratio in [0, 0.5): {0:?}")]
     Material(ElasticMaterial),
 }
@@ -86,6 +89,7 @@ pub enum ElasticError {
 pub struct ElasticBody {
     /// reference configuration
     pub mesh: HexMesh,
+    /// its elastic constants
     pub material: ElasticMaterial,
     /// current node positions [m]
     pub position: Vec<Vec3>,

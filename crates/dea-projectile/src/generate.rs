@@ -86,9 +86,20 @@ impl FspDimensions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Solid {
     /// [m]
-    Sphere { radius: f64 },
+    Sphere {
+        /// [m]
+        radius: f64,
+    },
     /// right circular cylinder with a rounded striking edge [m]
-    Cylinder { radius: f64, height: f64, edge_radius: f64 },
+    Cylinder {
+        /// [m]
+        radius: f64,
+        /// [m]
+        height: f64,
+        /// [m]
+        edge_radius: f64,
+    },
+    /// the fragment-simulating projectile's shape
     Fsp(FspDimensions),
 }
 

@@ -15,9 +15,11 @@ use crate::mesh::{compact, outer_triangles, Hex, HexMesh};
 /// Why a mesh file cannot be used.
 #[derive(Debug, PartialEq)]
 pub struct ImportError {
+    /// the mesh file
     pub path: String,
     /// 1-based line (ASCII), or byte offset prefixed in the message (binary); 0: the file
     pub line: usize,
+    /// what is wrong there
     pub message: String,
 }
 

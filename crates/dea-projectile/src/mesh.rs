@@ -18,12 +18,14 @@ pub(crate) const FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5,
 pub struct HexMesh {
     /// node positions in the body frame [m]
     pub nodes: Vec<Vec3>,
+    /// the hexahedra
     pub hexes: Vec<Hex>,
 }
 
 /// The outer surface: triangles of node indices, right-hand normal outward.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Surface {
+    /// node indices of each triangle, counter-clockwise seen from outside
     pub triangles: Vec<[u32; 3]>,
 }
 

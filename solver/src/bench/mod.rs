@@ -21,8 +21,11 @@ use crate::step::{compute_forces, Stage, StageSeconds};
 /// core-seconds: the sum over ranks of each stage's time, so they compare across ranks.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
+    /// nodes of the bench's yarn
     pub nodes: u64,
+    /// timed steps
     pub steps: u64,
+    /// ranks of the job
     pub ranks: usize,
     /// wall time of the timed steps (slowest rank) [s]
     pub wall_s: f64,
@@ -54,8 +57,11 @@ pub struct BenchReport {
     pub ns_per_node_rebuild_in_run: Option<f64>,
     /// touching pair entries per owned node during the run (each pair counted at both nodes)
     pub contacts_per_node: f64,
+    /// neighbour-list entries per owned node during the run
     pub listed_pairs_per_node: f64,
+    /// node-steps per second per core: the inverse of `ns_per_node_step`, scaled [1/s]
     pub node_steps_per_s_per_core: f64,
+    /// ghost and list rebuilds in the timed steps
     pub rebuilds: u64,
     /// share of the step's wall time spent in the forward halo (slowest rank) [-]
     pub halo_share: f64,
@@ -63,6 +69,7 @@ pub struct BenchReport {
     pub communication_share: f64,
     /// forward-halo bytes received per step, summed over ranks
     pub halo_bytes_per_step: f64,
+    /// ghost nodes / owned nodes, summed over ranks [-]
     pub ghost_fraction: f64,
     /// slowest rank's compute time / mean [-]
     pub load_imbalance: f64,

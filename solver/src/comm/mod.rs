@@ -15,7 +15,9 @@ use dea_core::Rank;
 /// A communicator: collectives over every rank, and point-to-point exchange with partners.
 /// Every rank must call the collectives in the same order.
 pub trait Comm {
+    /// This process's rank.
     fn rank(&self) -> Rank;
+    /// Ranks of the communicator.
     fn size(&self) -> usize;
     /// Ranks on this rank's host (sharing its memory) that run this job, this one included:
     /// this communicator's, or, for a group split from a larger one, the larger one's,

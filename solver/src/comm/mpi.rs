@@ -31,6 +31,7 @@ impl MpiSession {
         SimpleCommunicator::world().barrier();
     }
 
+    /// This process's rank in the communicator.
     pub fn rank(&self) -> Rank {
         Rank(SimpleCommunicator::world().rank() as u32)
     }

@@ -26,6 +26,7 @@ pub use resolve::{
 pub struct CaseError {
     /// dotted field path, or the file name for errors about the file itself
     pub path: String,
+    /// what is wrong, and what would be right
     pub message: String,
 }
 
@@ -47,9 +48,13 @@ pub struct Case {
     /// bending model (5-7)…(5-10); default: effective with k1 = 0.8, k2 = 1 (seed §5.3)
     #[serde(default = "default_bending")]
     pub bending: InertiaModel,
+    /// fibre–fibre and fibre–projectile contact
     pub contact: ContactSpec,
+    /// failure criterion and strengths
     pub failure: FailureSpec,
+    /// the projectile and its flight
     pub projectile: ProjectileSpec,
+    /// time, output and the settle
     pub run: RunSpec,
 }
 
@@ -208,6 +213,7 @@ pub enum TargetSpec {
     /// generated and relaxed with periodic boundaries by `dea-mpi fabric`. Panels of 3-D
     /// weaves are not built, so a run refuses it.
     ThreeDWeaveCell {
+        /// the 3-D weave to generate
         weave: Box<Weave3dSpec>,
         /// when the relaxation stops
         #[serde(default)]
@@ -222,6 +228,7 @@ pub enum TargetSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         cell_file: Option<std::path::PathBuf>,
         #[serde(default)]
+        /// when the relaxation of a generated weave stops
         relaxation: RelaxationSpec,
         /// side of the square panel, rounded to whole cells each way (at least one) [m]
         side_m: f64,
@@ -618,9 +625,11 @@ pub struct FailureSpec {
 pub struct WeibullSpec {
     /// gauge length L0 [m]
     pub gauge_length_m: f64,
+    /// Weibull modulus m of the first mode [-]
     pub shape_1: f64,
     /// [Pa]
     pub scale_1_pa: f64,
+    /// Weibull modulus of the second mode, for a bimodal strength [-]
     pub shape_2: Option<f64>,
     /// [Pa]
     pub scale_2_pa: Option<f64>,
@@ -631,6 +640,7 @@ pub struct WeibullSpec {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProjectileSpec {
+    /// a preset name, or none for an explicit shape
     pub preset: Option<String>,
     /// "sphere", "cylinder", "fsp" or "file" when no preset is given
     pub shape: Option<String>,
@@ -774,6 +784,7 @@ fn default_true() -> bool {
 /// Projectile resolved to SI values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResolvedProjectile {
+    /// its surface: analytic, generated or imported
     pub body: ProjectileBody,
     /// [kg]
     pub mass: f64,
@@ -796,6 +807,7 @@ pub struct ElasticBody {
     pub youngs_modulus: f64,
     /// Poisson's ratio [-]
     pub poisson_ratio: f64,
+    /// the constitutive model
     pub model: ElasticModel,
 }
 
@@ -805,9 +817,19 @@ pub enum ProjectileBody {
     /// the closed-form sphere or rounded cylinder
     Analytic(RigidShape),
     /// a built-in hexahedral mesh
-    Generated { solid: Solid, divisions: usize },
+    Generated {
+        /// the solid
+        solid: Solid,
+        /// mesh divisions across it
+        divisions: usize,
+    },
     /// a mesh file, lengths multiplied by `scale`
-    File { path: std::path::PathBuf, scale: f64 },
+    File {
+        /// the mesh file
+        path: std::path::PathBuf,
+        /// length factor to metres [-]
+        scale: f64,
+    },
 }
 
 /// Mesh divisions of the FSP when the case gives none: the edges are resolved at any
@@ -820,8 +842,11 @@ pub const FSP_17_GRAIN_MASS: f64 = 17.0 * 64.798_91e-6;
 /// Failure resolved.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Strength {
+    /// unbreakable fibres
     None,
+    /// every element the same tensile strength [Pa]
     Deterministic(f64),
+    /// Weibull-distributed strengths and the seed of their draw
     Weibull(WeibullStrength, u64),
 }
 
