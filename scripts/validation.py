@@ -53,7 +53,7 @@ def binary(args):
 
 def series_of(name):
     for prefix, series in (("panel-", "panel_size"), ("mesh-", "mesh"), ("layers-", "layers"), ("yarn-", "single_yarn"),
-                           ("low-end-", "panel_size_low_end")):
+                           ("low-end-yarn-", "single_yarn_low_end"), ("low-end-", "panel_size_low_end")):
         if name.startswith(prefix):
             return series
     return "other"
@@ -158,19 +158,37 @@ def status(campaigns):
           "(b: upper bound from the end time, m: mean of this campaign's finished shots)")
 
 
+def same_shot_but_speed(case, other):
+    """Whether two cases fire the same shot but for its striking speed and end time."""
+    def bare(c):
+        c = json.loads(json.dumps(c))
+        c.pop("name", None)
+        c.pop("run", None)
+        c.get("projectile", {}).pop("velocity_m_s", None)
+        return c
+    return bare(case) == bare(other)
+
+
 def refired(c, campaigns):
-    """The shots of `c`, a panel-size bisection, with those of the low-end campaigns of the
-    same panel: a low-end shot replaces one of `c` undecided at the end time at its velocity
-    (fired again with a longer end time), or, at a velocity `c` did not fire, extends the
-    bisection below its slowest shot; and a note of each for the method."""
+    """The shots of `c`, a panel-size or single-yarn bisection, with those of its low-end
+    campaigns (the same panel size and layers; for the single-yarn fixture the same case
+    but for the speed and the end time): a low-end shot replaces one of `c` undecided at the
+    end time at its velocity (fired again with a longer end time), or, at a velocity `c`
+    did not fire, extends the bisection below its slowest shot; and a note of each for the
+    method."""
     target = c.case["target"]
+    fixture = series_of(c.name) == "single_yarn"
     shots, notes = list(c.shots), []
     for other in sorted(campaigns, key=lambda o: o.name):
-        if series_of(other.name) != "panel_size_low_end":
-            continue
-        o_target = other.case["target"]
-        if (o_target.get("side_m"), o_target.get("layers")) != (target.get("side_m"), target.get("layers")):
-            continue
+        if fixture:
+            if series_of(other.name) != "single_yarn_low_end" or not same_shot_but_speed(c.case, other.case):
+                continue
+        else:
+            if series_of(other.name) != "panel_size_low_end":
+                continue
+            o_target = other.case["target"]
+            if (o_target.get("side_m"), o_target.get("layers")) != (target.get("side_m"), target.get("layers")):
+                continue
         for again in sorted(other.shots, key=lambda s: s["id"]):
             same = [s for s in shots if s["velocity_m_s"] == again["velocity_m_s"]]
             held = [s for s in same if not s["perforated"] and s["stopped_by"] == "end_time_s"]
@@ -202,7 +220,7 @@ def entry(c, campaigns=()):
         with open(report_path) as f:
             report = json.load(f)
     if design["kind"] == "bisection":
-        shots, notes = refired(c, campaigns) if series_of(c.name) == "panel_size" else (c.shots, [])
+        shots, notes = refired(c, campaigns) if series_of(c.name) in ("panel_size", "single_yarn") else (c.shots, [])
         lo, hi = bisection_bracket(design, shots)
         has_partial = any(not s["perforated"] for s in shots)
         has_complete = any(s["perforated"] for s in shots)
@@ -239,7 +257,7 @@ def entry(c, campaigns=()):
                           f"penetrations, within the bracket (highest partial, lowest complete); no interval: " + method)
     series = series_of(c.name)
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
-    if series == "single_yarn":
+    if series in ("single_yarn", "single_yarn_low_end"):
         experiment, seed_dea = None, None
         mu = c.case["contact"].get("friction_coefficient")
         free = (c.case.get("bending") or {}).get("model") == "free"
