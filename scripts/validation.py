@@ -197,6 +197,13 @@ def refired(c, campaigns):
             shots = [s for s in shots if s not in held] + [again]
             outcome = (f"perforated ({again['residual_velocity_m_s']:.1f} m/s left)" if again["perforated"]
                        else "undecided at its end time" if again["stopped_by"] == "end_time_s" else "stopped")
+            # a low-end campaign without a fixed scatter draws its own aim and yaw: then it is
+            # not the same shot, and the note says so
+            drawn = [again.get("aim_offset_m", [0.0, 0.0]), again.get("yaw_deg", 0.0), again.get("obliquity_deg", 0.0)]
+            if drawn != [[0.0, 0.0], 0.0, 0.0]:
+                x, y = (1e3 * a for a in drawn[0])
+                outcome += (f" (a different shot: it drew its aim {x:+.2f}, {y:+.2f} mm off and {drawn[1]:+.2f} deg "
+                            f"of yaw, {drawn[2]:+.2f} deg of obliquity)")
             if held:
                 notes.append(f"the {again['velocity_m_s']:.1f} m/s shot, undecided at the end time, fired again by "
                              f"{other.name} with a longer one: {outcome}")
