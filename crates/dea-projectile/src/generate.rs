@@ -85,18 +85,19 @@ impl FspDimensions {
 /// A built-in solid.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Solid {
-    /// [m]
+    /// a sphere, meshed in hexahedra
     Sphere {
         /// [m]
         radius: f64,
     },
-    /// right circular cylinder with a rounded striking edge [m]
+    /// a right circular cylinder, meshed in hexahedra (the analytic shape rounds both
+    /// faces' edges; this mesh only the striking one)
     Cylinder {
         /// [m]
         radius: f64,
         /// [m]
         height: f64,
-        /// [m]
+        /// radius of the rounded striking edge [m]
         edge_radius: f64,
     },
     /// the fragment-simulating projectile's shape
