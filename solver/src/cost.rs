@@ -100,7 +100,7 @@ pub enum Driver {
 /// The count each stage's cost follows.
 pub fn driver(stage: Stage) -> Driver {
     match stage {
-        Stage::HaloForward | Stage::GhostExchange | Stage::NeighbourRebuild => Driver::HeldNodes,
+        Stage::HaloForward | Stage::ListCheck | Stage::GhostExchange | Stage::NeighbourRebuild => Driver::HeldNodes,
         Stage::FibreContacts => Driver::ContactEntries,
         Stage::ProjectileContacts | Stage::ProjectileLoad => Driver::ProjectileCandidates,
         Stage::Rods | Stage::Ties | Stage::Failure | Stage::StateCheck => Driver::FiringNodes,

@@ -233,10 +233,12 @@ impl<C: Comm> Distributed<C> {
 
     /// Rebuilds the ghosts and lists when some rank's lists may miss a pair, given the
     /// `largest` motions over every rank: on one rank only the rows around the nodes that
-    /// moved (no ghosts to choose again). Stamps the ghost exchange and the list build.
+    /// moved (no ghosts to choose again). Stamps the list check, the ghost exchange and the
+    /// list build.
     pub(crate) fn rebuild_if_due(&mut self, largest: NodeMotion) -> Result<(), DomainError> {
         let alone = self.comm.size() == 1;
         let verdict = self.domain.lists_may_miss_a_pair(largest, (!alone).then(|| self.ghost_margin()));
+        self.timer.stamp(Stage::ListCheck);
         let rebuild = match verdict {
             None => false,
             Some(local) if alone => local,

@@ -25,7 +25,11 @@ pub enum Stage {
     MotionAgreement,
     /// owned positions and failure states to the ranks that hold them as ghosts
     HaloForward,
-    /// whether the lists may miss a pair, and at a rebuild the new ghosts (LAMMPS `borders`)
+    /// whether this rank's lists may miss a pair: its nodes' motions since the last build
+    /// against the skin (LAMMPS `check_distance`; no message)
+    ListCheck,
+    /// whether any rank's lists may miss a pair, and at a rebuild the new ghosts (LAMMPS
+    /// `borders`)
     GhostExchange,
     /// the neighbour lists, around the nodes that moved
     NeighbourRebuild,
@@ -56,7 +60,7 @@ pub enum Stage {
 
 impl Stage {
     /// Stages of a step.
-    pub const COUNT: usize = 18;
+    pub const COUNT: usize = 19;
     /// Every stage, in the order a step runs them.
     pub const ALL: [Stage; Self::COUNT] = [
         Stage::KickDrift,
@@ -64,6 +68,7 @@ impl Stage {
         Stage::ProjectileBroadcast,
         Stage::MotionAgreement,
         Stage::HaloForward,
+        Stage::ListCheck,
         Stage::GhostExchange,
         Stage::NeighbourRebuild,
         Stage::Rods,
@@ -87,6 +92,7 @@ impl Stage {
             Stage::ProjectileBroadcast => "projectile_broadcast",
             Stage::MotionAgreement => "motion_agreement",
             Stage::HaloForward => "halo_forward",
+            Stage::ListCheck => "list_check",
             Stage::GhostExchange => "ghost_exchange",
             Stage::NeighbourRebuild => "neighbour_rebuild",
             Stage::Rods => "rods",
@@ -109,6 +115,7 @@ impl Stage {
             self,
             Stage::KickDrift
                 | Stage::DeformableSubcycles
+                | Stage::ListCheck
                 | Stage::NeighbourRebuild
                 | Stage::Rods
                 | Stage::Ties
