@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Sets up and runs every test: unit and physics tests (cargo), the command-line tests, and
+# Sets up and runs every test: unit and physics tests (cargo), the command-line tests, the
+# validation script's bookkeeping, and
 # the runs under mpirun, the results opened in ParaView and plotted, the README's tour (its
 # quick commands, in order), and the SLURM scripts on
 # a single-node SLURM stood up for the purpose; and it counts the contact sweep's
@@ -9,6 +10,10 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 source scripts/mpi-env.sh
 cargo test --release --locked --workspace
+# the validation set's bookkeeping (how re-fired low ends merge into their bisections)
+source scripts/packages.sh
+ensure_packages test-validation --no-install-recommends python3
+/usr/bin/python3 scripts/test-validation.py
 scripts/mpi-tests.sh
 scripts/viz-tests.sh
 # the README's tour: its block is the script's list, and its quick commands run in order

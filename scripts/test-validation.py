@@ -1,0 +1,159 @@
+#!/usr/bin/env python3
+"""Tests of scripts/validation.py's bookkeeping: how low-end campaigns' shots merge into the
+bisections they re-fire (docs/theory.md V5) and what validation/summary.json then says.
+Campaigns are stand-ins built here (no dea-mpi run, no record on disk). Standard library
+only: run with /usr/bin/python3 scripts/test-validation.py."""
+import copy
+import importlib.util
+import os
+import types
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+spec = importlib.util.spec_from_file_location("validation", os.path.join(HERE, "validation.py"))
+validation = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(validation)
+
+FIXTURE_CASE = {
+    "name": "yarn-t-d-i-inf",
+    "target": {"kind": "straight_yarn", "fibres_per_yarn": 4, "length_m": 0.0254},
+    "bending": {"model": "locked"},
+    "contact": {"law": "elastic", "friction_coefficient": 0.3},
+    "failure": {"mode": "deterministic"},
+    "projectile": {"shape": "cylinder", "velocity_m_s": 150.0},
+    "run": {"end_time_s": 1.5e-4},
+}
+BISECTION = {"kind": "bisection", "low_m_s": 25.0, "high_m_s": 300.0, "resolution_m_s": 10.0}
+
+
+def shot(velocity, outcome, residual=0.0, index=0, **drawn):
+    """A shot record: outcome `P` perforated, `S` stopped, `U` undecided at the end time."""
+    record = {
+        "id": f"r000-{index:05}",
+        "velocity_m_s": velocity,
+        "perforated": outcome == "P",
+        "residual_velocity_m_s": residual,
+        "stopped_by": {"P": "perforated", "S": "stopped", "U": "end_time_s"}[outcome],
+        "steps": 1000,
+        "wall_s": 1.0,
+        "ranks": 1,
+    }
+    record.update(drawn)
+    return record
+
+
+def campaign(name, case, design, shots):
+    case = copy.deepcopy(case)
+    case["name"] = name
+    return types.SimpleNamespace(name=name, case=case, spec={"name": name, "design": design}, shots=shots, complete=False)
+
+
+def low_end(name, case, velocities_and_outcomes, end_time=8e-4, **drawn):
+    case = copy.deepcopy(case)
+    case["run"] = dict(case["run"], end_time_s=end_time)
+    shots = [shot(v, o, r, index=k, **drawn) for k, (v, o, r) in enumerate(velocities_and_outcomes)]
+    return campaign(name, case, {"kind": "velocities", "velocities_m_s": [v for v, _, _ in velocities_and_outcomes]}, shots)
+
+
+def fixture_bisection():
+    # the bisection as the 4-fibre fixture fired it: the two slowest shots undecided at 150 us
+    return campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,
+                    [shot(162.5, "P", 160.0, 0), shot(93.75, "P", 87.7, 1), shot(59.375, "P", 46.7, 2),
+                     shot(42.1875, "U", 22.3, 3), shot(50.78125, "U", 25.7, 4)])
+
+
+class FixtureLowEnds(unittest.TestCase):
+    def test_series_of_names_the_low_end_campaigns_apart(self):
+        self.assertEqual(validation.series_of("low-end-yarn-36-d-i0"), "single_yarn_low_end")
+        self.assertEqual(validation.series_of("low-end-10mm-4-layers"), "panel_size_low_end")
+        self.assertEqual(validation.series_of("yarn-36-d-i0"), "single_yarn")
+
+    def test_without_a_re_fire_the_undecided_low_end_is_not_established(self):
+        bisection = fixture_bisection()
+        entry = validation.entry(bisection, [bisection])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (50.78125, 59.375))
+        self.assertIn("not established", entry["method"])
+
+    def test_a_perforating_re_fire_moves_the_bracket_down_and_a_stop_settles_it(self):
+        bisection = fixture_bisection()
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(50.78125, "P", 17.5), (42.1875, "S", 0.0)])
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (42.1875, 50.78125))
+        self.assertNotIn("not established", entry["method"])
+        self.assertIn("the 50.8 m/s shot, undecided at the end time, fired again by low-end-yarn-t-d-i-inf", entry["method"])
+        self.assertIn("perforated (17.5 m/s left)", entry["method"])
+
+    def test_a_re_fire_still_undecided_leaves_the_bracket_as_it_was(self):
+        bisection = fixture_bisection()
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(50.78125, "U", 3.0)])
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (50.78125, 59.375))
+        self.assertIn("not established", entry["method"])
+
+    def test_every_shot_through_gives_no_bracket_but_a_bound(self):
+        bisection = campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,
+                             [shot(162.5, "P", 160.0, 0), shot(93.75, "P", 88.1, 1), shot(59.375, "P", 49.6, 2),
+                              shot(42.1875, "U", 28.3, 3), shot(50.78125, "P", 39.8, 4)])
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(42.1875, "P", 26.0)])
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertIsNone(entry["v50_m_s"])
+        self.assertEqual(entry["v50_below_m_s"], 42.1875)
+        # and a slower shot below the bisection's slowest extends it
+        lower = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(42.1875, "P", 26.0), (33.59375, "S", 0.0)])
+        entry = validation.entry(bisection, [bisection, lower])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (33.59375, 42.1875))
+        self.assertIn("a 33.6 m/s shot fired by low-end-yarn-t-d-i-inf: stopped", entry["method"])
+
+    def test_a_decided_shot_is_never_replaced(self):
+        bisection = fixture_bisection()
+        # 59.4 m/s perforated within 150 us: a re-fire that stopped does not overrule it
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(59.375, "S", 0.0)])
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertEqual(entry["v50_high_m_s"], 59.375)
+        self.assertNotIn("low-end-yarn-t-d-i-inf", entry["method"])
+
+    def test_a_low_end_campaign_of_another_case_is_not_merged(self):
+        bisection = fixture_bisection()
+        other = copy.deepcopy(FIXTURE_CASE)
+        other["target"]["fibres_per_yarn"] = 16
+        again = low_end("low-end-yarn-t-d-i-inf-16", other, [(50.78125, "P", 17.5)])
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (50.78125, 59.375))
+
+    def test_a_re_fire_that_drew_its_aim_is_named_a_different_shot(self):
+        bisection = fixture_bisection()
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(50.78125, "P", 17.5)],
+                        aim_offset_m=[2.9e-4, -1.1e-4], yaw_deg=1.37, obliquity_deg=0.0)
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertIn("a different shot: it drew its aim +0.29, -0.11 mm off and +1.37 deg of yaw", entry["method"])
+
+    def test_the_low_end_entries_carry_no_table_6_1_reference(self):
+        again = low_end("low-end-yarn-t-d-i-inf", FIXTURE_CASE, [(50.78125, "P", 17.5)])
+        entry = validation.entry(again, [again])
+        self.assertEqual(entry["series"], "single_yarn_low_end")
+        self.assertIsNone(entry["seed_dea_m_s"])
+        self.assertIsNone(entry["experiment_m_s"])
+
+
+class PanelLowEnds(unittest.TestCase):
+    PANEL_CASE = {"name": "panel-t", "target": {"kind": "woven_panel", "side_m": 0.01, "layers": 4},
+                  "contact": {}, "projectile": {"preset": "fsp_17_grain", "velocity_m_s": 300.0},
+                  "run": {"end_time_s": 1.5e-4}}
+
+    def test_a_panel_low_end_merges_by_size_and_layers(self):
+        design = {"kind": "bisection", "low_m_s": 100.0, "high_m_s": 500.0, "resolution_m_s": 25.0}
+        bisection = campaign("panel-t", self.PANEL_CASE, design,
+                             [shot(300.0, "P", 283.8, 0), shot(100.0, "P", 66.2, 1), shot(75.0, "U", 20.0, 2)])
+        again = low_end("low-end-t", self.PANEL_CASE, [(75.0, "P", 13.1)], end_time=6e-4)
+        entry = validation.entry(bisection, [bisection, again])
+        self.assertIsNone(entry["v50_m_s"])
+        self.assertEqual(entry["v50_below_m_s"], 75.0)
+        thicker = copy.deepcopy(self.PANEL_CASE)
+        thicker["target"]["layers"] = 8
+        elsewhere = low_end("low-end-t-8", thicker, [(75.0, "P", 13.1)], end_time=6e-4)
+        entry = validation.entry(bisection, [bisection, elsewhere])
+        self.assertIn("not established", entry["method"])
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
