@@ -169,26 +169,25 @@ def same_shot_but_speed(case, other):
     return bare(case) == bare(other)
 
 
+def re_fires(c, other):
+    """Whether `other` is a low-end campaign of `c`: for a panel-size bisection one of the
+    same panel size and layers, for a single-yarn one the same case but for the speed and
+    the end time."""
+    if series_of(c.name) == "single_yarn":
+        return series_of(other.name) == "single_yarn_low_end" and same_shot_but_speed(c.case, other.case)
+    mine, theirs = c.case["target"], other.case["target"]
+    return series_of(other.name) == "panel_size_low_end" and all(
+        mine.get(key) == theirs.get(key) for key in ("side_m", "layers"))
+
+
 def refired(c, campaigns):
     """The shots of `c`, a panel-size or single-yarn bisection, with those of its low-end
-    campaigns (the same panel size and layers; for the single-yarn fixture the same case
-    but for the speed and the end time): a low-end shot replaces one of `c` undecided at the
+    campaigns ([`re_fires`]): a low-end shot replaces one of `c` undecided at the
     end time at its velocity (fired again with a longer end time), or, at a velocity `c`
     did not fire, extends the bisection below its slowest shot; and a note of each for the
     method."""
-    target = c.case["target"]
-    fixture = series_of(c.name) == "single_yarn"
     shots, notes = list(c.shots), []
-    for other in sorted(campaigns, key=lambda o: o.name):
-        if fixture:
-            if series_of(other.name) != "single_yarn_low_end" or not same_shot_but_speed(c.case, other.case):
-                continue
-        else:
-            if series_of(other.name) != "panel_size_low_end":
-                continue
-            o_target = other.case["target"]
-            if (o_target.get("side_m"), o_target.get("layers")) != (target.get("side_m"), target.get("layers")):
-                continue
+    for other in sorted((o for o in campaigns if re_fires(c, o)), key=lambda o: o.name):
         for again in sorted(other.shots, key=lambda s: s["id"]):
             same = [s for s in shots if s["velocity_m_s"] == again["velocity_m_s"]]
             held = [s for s in same if not s["perforated"] and s["stopped_by"] == "end_time_s"]
