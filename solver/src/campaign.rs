@@ -18,7 +18,7 @@ use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
 use dea_ballistic::scatter::{Aim, Draws};
 use dea_ballistic::Shot;
-use dea_core::friction::FrictionSpring;
+use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::Rank;
 use dea_io::campaign::Campaign;
 use dea_io::case::Case;
@@ -98,15 +98,25 @@ pub struct ShotRecord {
     /// was fired with the seed's anchored one, the only one there was
     #[serde(default = "seeds_friction_spring")]
     pub projectile_friction_spring: String,
+    /// how the fibre–fibre friction spring kept its stretch, "anchored" or "projected"
+    /// (`contact.fibre_friction_spring`); a record written before the spring was named was
+    /// fired with the seed's anchored one, the only one there was
+    #[serde(default = "seeds_friction_spring")]
+    pub fibre_friction_spring: String,
 }
 
 fn seeds_friction_spring() -> String {
     FrictionSpring::Anchored.name().to_string()
 }
 
-/// The friction spring a shot's case asks for, by name.
+/// The fibre–projectile friction spring a shot's case asks for, by name.
 fn friction_spring_of(case: &Case) -> Result<&'static str, CampaignError> {
     case.projectile_friction_spring().map(FrictionSpring::name).map_err(|e| CampaignError::Output(e.to_string()))
+}
+
+/// The fibre–fibre friction spring a shot's case asks for, by name.
+fn fibre_friction_spring_of(case: &Case) -> Result<&'static str, CampaignError> {
+    case.fibre_friction_spring().map(FibreFrictionSpring::name).map_err(|e| CampaignError::Output(e.to_string()))
 }
 
 impl ShotRecord {
@@ -192,6 +202,14 @@ fn on_record(out: &Path, id: &str, shot: &Case) -> Result<Option<ShotRecord>, Ca
             record.projectile_friction_spring
         )));
     }
+    let fibre_spring = fibre_friction_spring_of(shot)?;
+    if record.fibre_friction_spring != fibre_spring {
+        return Err(CampaignError::Output(format!(
+            "{}: shot {id} on record was fired with the {} fibre–fibre friction spring, but the campaign now fires the {fibre_spring} one (contact.fibre_friction_spring, \"anchored\" unless the case says \"projected\"; records without it were fired with \"anchored\"): its shots must not be mixed; give it another --out, or set the spring the records were fired with",
+            out.display(),
+            record.fibre_friction_spring
+        )));
+    }
     if bits(asked) != bits(fired) {
         return Err(CampaignError::Output(format!(
             "{}: shot {id} on record was fired at {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg, but the campaign now asks for {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg: the campaign changed since; give it another --out",
@@ -247,6 +265,7 @@ fn fire<C: Comm>(
         yaw_deg: case.projectile.yaw_deg,
         obliquity_deg: case.projectile.obliquity_deg,
         projectile_friction_spring: friction_spring_of(&case)?.to_string(),
+        fibre_friction_spring: fibre_friction_spring_of(&case)?.to_string(),
     };
     if state.comm.rank() == Rank(0) {
         // written whole, then renamed: a record on disk is a finished shot

@@ -403,6 +403,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         friction_coefficient: resolved.friction_coefficient,
         projectile_friction_coefficient: resolved.projectile_friction_coefficient,
         projectile_friction_spring: resolved.projectile_friction_spring,
+        fibre_friction_spring: resolved.fibre_friction_spring,
         skin: case.contact.skin_m.unwrap_or(0.25 * section.contact_diameter),
     };
     // the lists hold every pair within a contact diameter plus the skin, and the projectile's

@@ -135,6 +135,21 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
     let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
     assert!(message.contains("fired with the anchored"), "{message}");
+    // the fibre–fibre spring likewise: the record names the seed's anchored one, and a case
+    // asking for the projected one is refused
+    value["projectile_friction_spring"] = "rotating".into();
+    assert_eq!(value["fibre_friction_spring"], "anchored");
+    std::fs::write(&record, value.to_string()).unwrap();
+    let mut projected = case.clone();
+    projected.contact.fibre_friction_spring = Some("projected".into());
+    let refused = run_local(1, |comm| run_group(&campaign, &projected, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("r000-00000")
+            && message.contains("fired with the anchored fibre–fibre")
+            && message.contains("fires the projected one"),
+        "{message}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

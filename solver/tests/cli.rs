@@ -287,6 +287,8 @@ fn check_prints_the_resolved_case() {
     // the friction spring the case leaves unsaid is named as resolved
     assert!(printed["case"]["contact"]["projectile_friction_spring"].is_null());
     assert_eq!(printed["resolved"]["projectile_friction_spring"], "rotating");
+    assert!(printed["case"]["contact"]["fibre_friction_spring"].is_null());
+    assert_eq!(printed["resolved"]["fibre_friction_spring"], "anchored");
 }
 
 #[test]

@@ -511,6 +511,23 @@ fn a_yarn_drawn_over_the_cylinders_edge_keeps_its_energy_under_the_rotating_fric
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The projected fibre–fibre friction spring moves each touching pair's anchor at every
+/// evaluation: the pair is still evaluated once, at its node of lower gid, on any partition.
+#[test]
+fn the_projected_fibre_friction_spring_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
+    let mut case = panel_case();
+    case.contact.fibre_friction_spring = Some("projected".into());
+    let dir = scratch("projected-spring");
+    run_on(&case, 1, &dir.join("1"));
+    case.contact.fibre_friction_spring = None;
+    run_on(&case, 1, &dir.join("anchored"));
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("anchored/results.h5")).unwrap();
+    assert!(!differences.is_empty(), "the spring acts: the seed's anchor gives the same results");
+    case.contact.fibre_friction_spring = Some("projected".into());
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_long_shear_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     let mut value = serde_json::to_value(panel_case()).unwrap();

@@ -24,6 +24,7 @@ fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
         friction_coefficient: 0.0,
         projectile_friction_coefficient: 0.0,
         projectile_friction_spring: FrictionSpring::Rotating,
+        fibre_friction_spring: dea_core::friction::FibreFrictionSpring::Anchored,
         skin: 5e-6,
     }
 }
@@ -229,6 +230,7 @@ fn loaded_bundle(rotation: &Rotation3<f64>) -> Domain {
         friction_coefficient: 0.3,
         projectile_friction_coefficient: 0.3,
         projectile_friction_spring: FrictionSpring::Rotating,
+        fibre_friction_spring: dea_core::friction::FibreFrictionSpring::Anchored,
         skin: 5e-6,
     };
     let mut run =
@@ -301,6 +303,7 @@ fn a_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
         friction_coefficient: 0.3,
         projectile_friction_coefficient: 0.3,
         projectile_friction_spring: FrictionSpring::Rotating,
+        fibre_friction_spring: dea_core::friction::FibreFrictionSpring::Anchored,
         skin: 5e-6,
     };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
@@ -361,6 +364,7 @@ fn a_3d_woven_panel_starts_in_the_equilibrium_of_its_relaxed_cell() {
         friction_coefficient: 0.3,
         projectile_friction_coefficient: 0.3,
         projectile_friction_spring: FrictionSpring::Rotating,
+        fibre_friction_spring: dea_core::friction::FibreFrictionSpring::Anchored,
         skin: 5e-6,
     };
     let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);
@@ -404,6 +408,7 @@ fn woven_fibres_rest_in_their_crimp_unless_asked_to_rest_straight() {
             friction_coefficient: 0.3,
             projectile_friction_coefficient: 0.3,
             projectile_friction_spring: FrictionSpring::Rotating,
+            fibre_friction_spring: dea_core::friction::FibreFrictionSpring::Anchored,
             skin: 5e-6,
         };
         let dt = stable_time_step(&material, &built.sections, &contact.law, 0.3, 0.5, 0.5);

@@ -10,7 +10,7 @@ use crate::dispatch::Compilation;
 use crate::energy::{EnergyReport, EnergySums};
 use crate::failure::{self, BrokenCount, FailureParameters};
 use crate::fibre_contact::{self, FibreContactSums, RunningSums};
-use crate::friction::FrictionSpring;
+use crate::friction::{FibreFrictionSpring, FrictionSpring};
 use crate::guides::Guides;
 use crate::integrate;
 use crate::multi_rate::{section_runs, Firing, SectionRun};
@@ -40,6 +40,8 @@ pub struct ContactParameters {
     pub projectile_friction_coefficient: f64,
     /// how the fibre–projectile friction spring keeps its stretch
     pub projectile_friction_spring: FrictionSpring,
+    /// how the fibre–fibre friction spring keeps its stretch
+    pub fibre_friction_spring: FibreFrictionSpring,
     /// Verlet skin of the neighbour lists [m]
     pub skin: f64,
 }
@@ -703,6 +705,7 @@ impl Domain {
             compilation,
             law,
             mu,
+            self.contact.fibre_friction_spring,
             &self.nodes.position,
             &self.nodes.section,
             &mut self.pairs,

@@ -9,7 +9,7 @@ use std::cell::Cell;
 use crate::contact::NormalLaw;
 use crate::dispatch::{in_compilation, prefetch, Compilation};
 use crate::domain::NodeLedger;
-use crate::friction::stick_slip;
+use crate::friction::{stick_slip, stick_slip_projected, FibreFrictionSpring};
 use crate::neighbour::{LowerGhostEntry, NeighbourList};
 use crate::pair_data::{PairData, PairDataTable};
 use crate::Vec3;
@@ -108,12 +108,13 @@ impl RunningSums {
 
 /// Evaluates the pair of a list entry at its node, `relative` being the partner's position
 /// relative to the node, and updates the pair's history: its terms for the node, or none
-/// when the pair does not touch.
+/// when the pair does not touch. `spring` says how the friction anchor is kept.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn evaluate_pair(
     law: NormalLaw,
     mu: f64,
+    spring: FibreFrictionSpring,
     relative: Vec3,
     data: PairData,
     touching: &Cell<bool>,
@@ -144,7 +145,16 @@ pub fn evaluate_pair(
         *anchor = relative;
         *spring_stiffness = mu * response.stiffness;
     } else if mu > 0.0 {
-        let response = stick_slip(relative, normal, anchor, spring_stiffness, response.force, response.stiffness, mu);
+        let (force, stiffness) = (response.force, response.stiffness);
+        // one case's spring throughout: the branch is always predicted
+        let response = match spring {
+            FibreFrictionSpring::Anchored => {
+                stick_slip(relative, normal, anchor, spring_stiffness, force, stiffness, mu)
+            }
+            FibreFrictionSpring::Projected => {
+                stick_slip_projected(relative, normal, anchor, spring_stiffness, force, stiffness, mu)
+            }
+        };
         friction = Some((response.force, 0.5 * response.dissipated));
     }
     Some(PairTerms { normal_force: normal * response.force, stiffness: response.stiffness, plastic, friction })
@@ -163,8 +173,10 @@ pub fn evaluate_pair(
 /// a pair of factor 0 is not evaluated (its history waits for its next instant), the others'
 /// forces are multiplied by it (stiffness and dissipation are the pair's own); a row whose
 /// `row_fires` is false has no pair that fires now, and its entries are not visited.
+/// `PROJECTED`: the friction anchors are kept by [`FibreFrictionSpring::Projected`], else by
+/// the seed's [`FibreFrictionSpring::Anchored`].
 #[inline(always)]
-fn sweep_fibre_contacts<const SCALED: bool>(
+fn sweep_fibre_contacts<const SCALED: bool, const PROJECTED: bool>(
     law: NormalLaw,
     mu: f64,
     positions: &[Vec3],
@@ -174,6 +186,8 @@ fn sweep_fibre_contacts<const SCALED: bool>(
     row_fires: &[bool],
     data_of: impl Fn(usize, usize) -> PairData,
 ) {
+    // a constant in the compiled sweep (the closure of `in_compilation` would carry a value)
+    let spring = if PROJECTED { FibreFrictionSpring::Projected } else { FibreFrictionSpring::Anchored };
     // sliced to the owned nodes once: their per-node reads and sums need no bounds checks
     let (owned_positions, starts, uppers) = (&positions[..owned], &pairs.start[..=owned], &pairs.upper_start[..owned]);
     let (forces, plastic_sums, friction_sums, stiffnesses, running) = (
@@ -210,6 +224,7 @@ fn sweep_fibre_contacts<const SCALED: bool>(
             if let Some(terms) = evaluate_pair(
                 law,
                 mu,
+                spring,
                 relative,
                 data,
                 &touching_flags[k],
@@ -250,9 +265,17 @@ fn sweep_fibre_contacts<const SCALED: bool>(
             if SCALED && data.scale == 0.0 {
                 continue;
             }
-            if let Some(terms) =
-                evaluate_pair(law, mu, positions[j] - xi, data, touching, max_overlap_reached, anchor, spring_stiffness)
-            {
+            if let Some(terms) = evaluate_pair(
+                law,
+                mu,
+                spring,
+                positions[j] - xi,
+                data,
+                touching,
+                max_overlap_reached,
+                anchor,
+                spring_stiffness,
+            ) {
                 let terms = if SCALED { terms.scaled(data.scale) } else { terms };
                 sum.add(&terms);
                 // an owned partner (of higher gid, so its row is still to come); a ghost's
@@ -272,13 +295,61 @@ fn sweep_fibre_contacts<const SCALED: bool>(
 /// Adds the fibre contacts of the `owned` nodes to `sums` by the sweep compiled for
 /// `compilation`, which the processor must run: `positions` and `section` of every local node,
 /// `pairs` the lists with their histories, `law` and `mu` the normal law and the friction
-/// coefficient [-]; with several sections, `row_fires` says of each owned row whether a pair
-/// of its upper part may fire now (multi-rate stepping; all true without). Never inlined (one call a step), so `scripts/count-instructions.sh` counts
-/// the sweep, with its callees, by this name; a flat profile of a run shows the sweep as the
-/// compilation's function, `in_compilation::avx512` (or `::avx2`), which only it calls there.
+/// coefficient [-], `spring` how the friction anchors are kept (decided here, once a sweep: a
+/// branch per pair cost the seed's anchored sweep 4 of its 133 instructions per touching
+/// entry); with several sections, `row_fires` says of each owned row whether a pair of its
+/// upper part may fire now (multi-rate stepping; all true without). Never inlined (one call
+/// a step), so `scripts/count-instructions.sh` counts the sweep, with its callees, by this
+/// name; a flat profile of a run shows the sweep as the compilation's function,
+/// `in_compilation::avx512` (or `::avx2`), which only it calls there.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub fn add_fibre_contacts_compiled_for(
+    compilation: Compilation,
+    law: NormalLaw,
+    mu: f64,
+    spring: FibreFrictionSpring,
+    positions: &[Vec3],
+    section: &[u16],
+    pairs: &mut NeighbourList,
+    pair_data: &PairDataTable,
+    sums: FibreContactSums,
+    owned: usize,
+    row_fires: &[bool],
+) {
+    match spring {
+        FibreFrictionSpring::Anchored => sweep_compiled_for::<false>(
+            compilation,
+            law,
+            mu,
+            positions,
+            section,
+            pairs,
+            pair_data,
+            sums,
+            owned,
+            row_fires,
+        ),
+        FibreFrictionSpring::Projected => sweep_compiled_for::<true>(
+            compilation,
+            law,
+            mu,
+            positions,
+            section,
+            pairs,
+            pair_data,
+            sums,
+            owned,
+            row_fires,
+        ),
+    }
+}
+
+/// [`add_fibre_contacts_compiled_for`] with the spring fixed: `PROJECTED` for
+/// [`FibreFrictionSpring::Projected`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sweep_compiled_for<const PROJECTED: bool>(
     compilation: Compilation,
     law: NormalLaw,
     mu: f64,
@@ -295,14 +366,14 @@ pub fn add_fibre_contacts_compiled_for(
         in_compilation(
             compilation,
             #[inline(always)]
-            move || sweep_fibre_contacts::<false>(law, mu, positions, pairs, sums, owned, &[], |_, _| data),
+            move || sweep_fibre_contacts::<false, PROJECTED>(law, mu, positions, pairs, sums, owned, &[], |_, _| data),
         );
     } else {
         in_compilation(
             compilation,
             #[inline(always)]
             move || {
-                sweep_fibre_contacts::<true>(law, mu, positions, pairs, sums, owned, row_fires, |i, j| {
+                sweep_fibre_contacts::<true, PROJECTED>(law, mu, positions, pairs, sums, owned, row_fires, |i, j| {
                     pair_data.of(section[i], section[j])
                 })
             },
@@ -353,6 +424,7 @@ mod tests {
                     if let Some(terms) = evaluate_pair(
                         domain.contact.law,
                         domain.contact.friction_coefficient,
+                        domain.contact.fibre_friction_spring,
                         relative,
                         data,
                         Cell::from_mut(&mut h.touching),
@@ -398,10 +470,12 @@ mod tests {
             .into_iter()
             .flat_map(|s| [false, true].map(|g| (s, g)))
             .flat_map(|(s, g)| compilations.iter().map(move |&c| (s, g, c)))
+            .flat_map(|(s, g, c)| [FibreFrictionSpring::Anchored, FibreFrictionSpring::Projected].map(|f| (s, g, c, f)))
             .collect();
-        for (sections, ghosts, compilation) in cases {
-            let case = format!("sections {sections}, ghosts {ghosts}, compiled for {compilation:?}");
+        for (sections, ghosts, compilation, spring) in cases {
+            let case = format!("sections {sections}, ghosts {ghosts}, compiled for {compilation:?}, {spring:?} spring");
             let mut domain = squeezed_yarn(sections, ghosts);
+            domain.contact.fibre_friction_spring = spring;
             let owned = domain.nodes.n_owned;
             assert_eq!(domain.pairs.lower_ghosts.is_empty(), !ghosts, "{case}");
             let mut reference = FullRowSweep::new(&domain);

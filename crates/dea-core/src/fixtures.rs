@@ -63,6 +63,7 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
         friction_coefficient: 0.3,
         projectile_friction_coefficient: 0.0,
         projectile_friction_spring: crate::friction::FrictionSpring::Rotating,
+        fibre_friction_spring: crate::friction::FibreFrictionSpring::Anchored,
         skin: 0.5 * sections[0].contact_diameter,
     };
     let failure = FailureParameters { shear_strength: 0.7672e9, enabled: false, shear_measure: ShearMeasure::Element };

@@ -8,6 +8,7 @@ use std::time::Instant;
 use dea_core::contact::NormalLaw;
 use dea_core::dispatch::{in_compilation, Compilation};
 use dea_core::fibre_contact::{evaluate_pair, RunningSums};
+use dea_core::friction::FibreFrictionSpring;
 use dea_core::pair_data::PairData;
 use dea_core::{Domain, Vec3};
 
@@ -38,6 +39,7 @@ fn sweep_packed_pairs(
         if let Some(terms) = evaluate_pair(
             law,
             mu,
+            FibreFrictionSpring::Anchored,
             relative[k],
             data_of(k),
             &touching[k],

@@ -118,6 +118,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             "projectile": setup::describe_projectile(projectile, &resolved.projectile.body, problem.deformable.as_ref()),
             "yarns": problem.fabric.yarn_count(),
             "projectile_friction_spring": resolved.projectile_friction_spring.name(),
+            "fibre_friction_spring": resolved.fibre_friction_spring.name(),
             "relaxation": problem.relaxation,
             "fibres": fibres,
             "nodes": nodes,

@@ -590,6 +590,11 @@ pub struct ContactSpec {
     /// which creates energy where the normal turns under a sliding node)
     #[serde(default)]
     pub projectile_friction_spring: Option<String>,
+    /// how the fibre–fibre friction spring keeps its stretch: "anchored" (the default, the
+    /// seed's (4-13) as written) or "projected" (the anchor kept in the tangent plane, so a
+    /// press along one normal never turns into stretch along a later one; docs/theory.md I6d)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fibre_friction_spring: Option<String>,
     /// Verlet skin [m]; default a quarter of the largest contact diameter
     pub skin_m: Option<f64>,
 }
@@ -1156,6 +1161,7 @@ pub fn default_case() -> Case {
             friction_coefficient: 0.3,
             projectile_friction_coefficient: 0.3,
             projectile_friction_spring: None,
+            fibre_friction_spring: None,
             skin_m: None,
         },
         failure: FailureSpec {
@@ -1362,6 +1368,25 @@ mod tests {
         let e = named("fixed").unwrap_err();
         assert_eq!(e.path, "contact.projectile_friction_spring", "{e}");
         assert!(e.to_string().contains("\"rotating\" or \"anchored\", got \"fixed\""), "{e}");
+    }
+
+    #[test]
+    fn the_fibre_friction_spring_is_the_seeds_anchor_unless_the_projected_one_is_asked_for() {
+        use dea_core::friction::FibreFrictionSpring;
+        let spring = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = serde_json::to_value(default_case()).unwrap();
+            edit(&mut value);
+            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.fibre_friction_spring)
+        };
+        assert_eq!(spring(&|_| {}).unwrap(), FibreFrictionSpring::Anchored);
+        let named = |name: &str| spring(&|v| v["contact"]["fibre_friction_spring"] = name.into());
+        assert_eq!(named("anchored").unwrap(), FibreFrictionSpring::Anchored);
+        assert_eq!(named("projected").unwrap(), FibreFrictionSpring::Projected);
+        for (name, says) in [("rotating", "keep one anchor per pair"), ("turned", "got \"turned\"")] {
+            let e = named(name).unwrap_err();
+            assert_eq!(e.path, "contact.fibre_friction_spring", "{e}");
+            assert!(e.to_string().contains("\"anchored\" or \"projected\"") && e.to_string().contains(says), "{e}");
+        }
     }
 
     #[test]

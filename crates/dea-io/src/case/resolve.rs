@@ -3,7 +3,7 @@
 //! set-up builds from without checking again.
 
 use super::*;
-use dea_core::friction::FrictionSpring;
+use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::shear_gauge::ShearMeasure;
 use dea_fabric::panel::FineRegion;
 use dea_fabric::relax::RelaxOptions;
@@ -54,6 +54,8 @@ pub struct ResolvedCase {
     pub projectile_friction_coefficient: f64,
     /// how the fibre–projectile friction spring keeps its stretch
     pub projectile_friction_spring: FrictionSpring,
+    /// how the fibre–fibre friction spring keeps its stretch
+    pub fibre_friction_spring: FibreFrictionSpring,
     /// the elements' tensile strength: none, one value, or Weibull draws
     pub strength: Strength,
     /// fibre shear strength tau_u [Pa] (infinite when failure is off and none is given)
@@ -279,6 +281,21 @@ impl Case {
                 "contact.projectile_friction_spring",
                 format!("must be \"rotating\" or \"anchored\", got \"{other}\""),
             )),
+        }
+    }
+
+    /// How the fibre–fibre friction spring keeps its stretch: the seed's "anchored" unless
+    /// "projected" is asked for.
+    pub fn fibre_friction_spring(&self) -> Result<FibreFrictionSpring, CaseError> {
+        let path = "contact.fibre_friction_spring";
+        match self.contact.fibre_friction_spring.as_deref() {
+            None | Some("anchored") => Ok(FibreFrictionSpring::Anchored),
+            Some("projected") => Ok(FibreFrictionSpring::Projected),
+            Some("rotating") => Err(invalid(
+                path,
+                "must be \"anchored\" or \"projected\": the fibre–fibre lists keep one anchor per pair and no stretch, which \"rotating\" needs; \"projected\" is its one-anchor form".to_string(),
+            )),
+            Some(other) => Err(invalid(path, format!("must be \"anchored\" or \"projected\", got \"{other}\""))),
         }
     }
 
@@ -512,6 +529,7 @@ impl Case {
         let shear_strength = self.shear_strength()?;
         let shear_measure = self.shear_measure()?;
         let projectile_friction_spring = self.projectile_friction_spring()?;
+        let fibre_friction_spring = self.fibre_friction_spring()?;
         let projectile = self.projectile()?;
         let friction_coefficient =
             ranged("contact.friction_coefficient", self.contact.friction_coefficient, 0.0, MOST_FRICTION_COEFFICIENT)?;
@@ -776,6 +794,7 @@ impl Case {
             section_inertia,
             projectile_friction_coefficient: self.contact.projectile_friction_coefficient,
             projectile_friction_spring,
+            fibre_friction_spring,
             strength,
             shear_strength,
             shear_measure,
