@@ -612,8 +612,8 @@ impl NeighbourList {
         self.retired_max_overlap.clear();
     }
 
-    /// Drops every listed and retired pair's history.
-    fn clear_histories(&mut self) {
+    /// Drops every listed and retired pair's history, leaving `owned` rows, each empty.
+    fn clear_histories(&mut self, owned: usize) {
         self.partner_gid.clear();
         self.anchor.clear();
         self.spring_stiffness.clear();
@@ -621,6 +621,11 @@ impl NeighbourList {
         self.max_overlap.clear();
         self.retired_gid.clear();
         self.retired_max_overlap.clear();
+        // the old rows' ranges would index the cleared histories: every row empty instead
+        for starts in [&mut self.start, &mut self.retired_start] {
+            starts.clear();
+            starts.resize(owned + 1, 0);
+        }
     }
 
     /// Retired pairs of owned node `i`.
@@ -644,7 +649,7 @@ impl NeighbourList {
         let has_history = self.start.len() == nodes.n_owned + 1;
         if !has_history {
             // histories of other rows, if any: none carries over
-            self.clear_histories();
+            self.clear_histories(nodes.n_owned);
         }
         // the same local numbering as at the last build: an old row's local indices can be
         // checked against the candidates directly
@@ -2108,6 +2113,38 @@ mod tests {
             assert_lists_a_full_build_at_the_references(&list, &nodes, &sections, round);
         }
         assert_eq!(appended_total, 150);
+    }
+
+    #[test]
+    fn a_rebuild_for_another_owned_count_starts_afresh() {
+        // owned nodes are fixed per rank today; lists rebuilt for another owned count must
+        // still carry nothing over and be the lists a new one builds, for fewer owned nodes
+        // and for more
+        let (mut nodes, sections) = random_cloud(400, 7);
+        let mut list = NeighbourList::new(5e-6);
+        list.rebuild(&nodes, &sections);
+        for k in 0..list.len() {
+            list.max_overlap[k] = 1.0;
+            list.touching[k] = true;
+        }
+        list.retired_gid.push(GlobalNodeId(3));
+        list.retired_max_overlap.push(1.0);
+        *list.retired_start.last_mut().unwrap() += 1;
+        for owned in [300, 400] {
+            nodes.n_owned = owned;
+            list.rebuild(&nodes, &sections);
+            let mut fresh = NeighbourList::new(5e-6);
+            fresh.rebuild(&nodes, &sections);
+            assert_eq!(
+                (&list.start, &list.partner, &list.partner_gid),
+                (&fresh.start, &fresh.partner, &fresh.partner_gid)
+            );
+            assert!(list.max_overlap.iter().all(|&m| m == 0.0) && !list.touching.iter().any(|&t| t), "{owned}");
+            assert!(list.retired_gid.is_empty() && list.retired_start.iter().all(|&s| s == 0), "{owned}");
+            for k in 0..list.len() {
+                list.max_overlap[k] = 1.0;
+            }
+        }
     }
 
     #[test]
