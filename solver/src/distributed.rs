@@ -181,7 +181,7 @@ impl<C: Comm> Distributed<C> {
         Ok(distributed)
     }
 
-    /// [`Self::assemble`], then the initial forces: a fresh run.
+    /// `Self::assemble`, then the initial forces: a fresh run.
     pub fn new(
         comm: C,
         domain: Domain,

@@ -677,7 +677,7 @@ pub fn energy_balance_error(histories: &Histories, initial_energy: f64, floor: f
 const FLOOR_SPEED: f64 = 1.0;
 
 /// The energy below which a run's energy balance is noise [J]: its projectile at
-/// [`FLOOR_SPEED`].
+/// `FLOOR_SPEED`.
 pub fn energy_floor(projectile_mass: f64) -> f64 {
     0.5 * projectile_mass * FLOOR_SPEED * FLOOR_SPEED
 }

@@ -44,7 +44,7 @@ impl<C: Comm> Distributed<C> {
     /// Lets the target settle for `duration` before the shot, on every rank together: the
     /// projectile is set aside, friction and failure are off, and the nodes are damped at
     /// `damping`; then the shot starts from the settled positions at rest with fresh
-    /// contact histories ([`Domain::start_afresh`]), the projectile raised by as much as the
+    /// contact histories ([`dea_core::Domain::start_afresh`]), the projectile raised by as much as the
     /// target's top rose. Deterministic like any step: the same bits on any number of ranks.
     pub fn settle(&mut self, duration: f64, damping: f64) -> Result<SettleReport, DomainError> {
         let clock = Instant::now();

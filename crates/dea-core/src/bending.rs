@@ -8,9 +8,9 @@ use crate::{FibreSection, Vec3};
 /// next node; the moment vector feeds the element shear (5-4).
 #[derive(Clone, Debug, Default)]
 pub struct BendingScratch {
-    /// force of the spring at node i on node prev[i] [N]
+    /// force of the spring at node i on node `prev[i]` [N]
     pub on_prev: Vec<Vec3>,
-    /// force of the spring at node i on node next[i] [N]
+    /// force of the spring at node i on node `next[i]` [N]
     pub on_next: Vec<Vec3>,
     /// bending moment vector M_i = K_t theta_i n_i (5-1) [N m]
     pub moment: Vec<Vec3>,
@@ -274,7 +274,7 @@ fn atan_over_argument_in_lanes(x: crate::lanes::F4) -> crate::lanes::F4 {
     F4::splat(1.0).sub(odd.add(even))
 }
 
-/// Shear force in element i -> next[i], seed (5-4): `Q = |M_i - M_j| / l0` [N], from the
+/// Shear force in element `i -> next[i]`, seed (5-4): `Q = |M_i - M_j| / l0` [N], from the
 /// springs' moments ([`BendingScratch::moment`]) or the failure stage's gauge moments.
 #[inline]
 pub fn element_shear_force(nodes: &Nodes, elements: &Elements, moment: &[Vec3], i: usize) -> f64 {

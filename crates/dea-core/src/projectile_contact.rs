@@ -260,7 +260,7 @@ impl ProjectileContacts {
         )
     }
 
-    /// The friction spring's stored energy of touching node `i` (as [`Self::friction`] would
+    /// The friction spring's stored energy of touching node `i` (as `Self::friction` would
     /// find it, without changing the history) [J].
     #[allow(clippy::too_many_arguments)]
     pub fn friction_stored(

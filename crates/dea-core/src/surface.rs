@@ -592,7 +592,7 @@ impl TriangleSurface {
 
     /// [`Self::closest`], the same answer, found without a search when `p` lies over the
     /// interior of triangle `hint` (say the triangle it was found over a step before) of a
-    /// rigid surface ([`Self::over_face`]). Any `hint` gives the same answer;
+    /// rigid surface (`Self::over_face`). Any `hint` gives the same answer;
     /// [`crate::NONE`] searches.
     #[inline]
     pub fn closest_near(&self, p: &Vec3, hint: u32) -> Option<SurfacePoint> {

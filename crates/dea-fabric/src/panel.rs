@@ -278,7 +278,7 @@ impl WovenPanel {
         panel
     }
 
-    /// The ties of a fine disc's transitions ([`Self::tie_transitions`]).
+    /// The ties of a fine disc's transitions (`Self::tie_transitions`).
     pub fn ties(&self) -> &[Tie] {
         &self.ties
     }

@@ -1,4 +1,4 @@
-//! Dynamic relaxation of a unit cell with periodic boundaries (seed §3.1, ref. [2] of the
+//! Dynamic relaxation of a unit cell with periodic boundaries (seed §3.1, ref. \[2\] of the
 //! seed): the fibres of the initial topology carry an initial yarn tension; rods, bending
 //! springs and fibre–fibre contact (the elastic law 4-8 on the modified diameter 3-1…3-3)
 //! act on every node; nodes near the cell's edges see the images of the nodes across it, and
