@@ -40,9 +40,11 @@ axes.plot(counts, [validation.TABLE_5_2_I_INF[n] for n in counts], "rv--", mfc="
 pending = []
 for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     chosen = sorted(
-        # Table 5-2 is at mu = 0.3; the friction series of Table 5-3 is not drawn here
+        # Table 5-2 is at mu = 0.3; the friction series of Table 5-3 is not drawn here, nor the
+        # opt-in projected fibre-fibre friction spring (docs/theory.md I6d)
         (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model
-         and (e.get("seed_reference") or {}).get("friction_coefficient", 0.3) == 0.3),
+         and (e.get("seed_reference") or {}).get("friction_coefficient", 0.3) == 0.3
+         and e.get("fibre_friction_spring", "anchored") == "anchored"),
         key=lambda e: e["fibres_per_yarn"],
     )
     drawn = [e for e in chosen if e["v50_m_s"] is not None]

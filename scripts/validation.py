@@ -290,6 +290,8 @@ def entry(c, campaigns=()):
         "projectile": c.case["projectile"].get("preset") or c.case["projectile"].get("shape"),
         # how the fibre-projectile friction spring kept its stretch (docs/theory.md I6c)
         "projectile_friction_spring": c.case["contact"].get("projectile_friction_spring") or "rotating",
+        # and the fibre-fibre one (docs/theory.md I6d)
+        "fibre_friction_spring": c.case["contact"].get("fibre_friction_spring") or "anchored",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,
