@@ -146,7 +146,7 @@ pub fn evaluate_pair(
         *spring_stiffness = mu * response.stiffness;
     } else if mu > 0.0 {
         let (force, stiffness) = (response.force, response.stiffness);
-        // one case's spring throughout: the branch is always predicted
+        // the sweep passes a constant (its `PROJECTED`), so this match folds away there
         let response = match spring {
             FibreFrictionSpring::Anchored => {
                 stick_slip(relative, normal, anchor, spring_stiffness, force, stiffness, mu)
