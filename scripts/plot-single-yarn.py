@@ -41,10 +41,12 @@ pending = []
 for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     chosen = sorted(
         # Table 5-2 is at mu = 0.3; the friction series of Table 5-3 is not drawn here, nor the
-        # opt-in projected fibre-fibre friction spring (docs/theory.md I6d)
+        # opt-in projected fibre-fibre friction spring (docs/theory.md I6d); the series was
+        # fired with broken elements acting one more step (failure.unload "next_step", I7)
         (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model
          and (e.get("seed_reference") or {}).get("friction_coefficient", 0.3) == 0.3
-         and e.get("fibre_friction_spring", "anchored") == "anchored"),
+         and e.get("fibre_friction_spring", "anchored") == "anchored"
+         and e.get("unload", "next_step") == "next_step"),
         key=lambda e: e["fibres_per_yarn"],
     )
     drawn = [e for e in chosen if e["v50_m_s"] is not None]

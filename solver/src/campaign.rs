@@ -18,6 +18,7 @@ use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
 use dea_ballistic::scatter::{Aim, Draws};
 use dea_ballistic::Shot;
+use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::Rank;
 use dea_io::campaign::Campaign;
@@ -103,6 +104,61 @@ pub struct ShotRecord {
     /// fired with the seed's anchored one, the only one there was
     #[serde(default = "seeds_friction_spring")]
     pub fibre_friction_spring: String,
+    /// when its broken elements stopped acting, "at_break" or "next_step" (`failure.unload`);
+    /// a record written before the choice was named was fired with "next_step", the only
+    /// order there was
+    #[serde(default = "unload_before_it_was_named")]
+    pub unload: String,
+}
+
+fn unload_before_it_was_named() -> String {
+    Unload::NextStep.name().to_string()
+}
+
+/// A model choice a shot is fired with, by name, which every shot of a campaign must share:
+/// (what it is, the case field, the value a case without it gets, the value of a record
+/// without it, the name on record, the name the campaign asks for now).
+type Choice<'a> = (&'a str, &'a str, &'a str, &'a str, &'a str, &'static str);
+
+/// The choices of a shot `record` against those `shot` asks for: the first that differs is
+/// an error, since shots fired with two choices must not be pooled in one V50.
+fn check_choices(out: &Path, id: &str, record: &ShotRecord, shot: &Case) -> Result<(), CampaignError> {
+    let anchored = FrictionSpring::Anchored.name();
+    let choices: [Choice; 3] = [
+        (
+            "fibre–projectile friction spring",
+            "contact.projectile_friction_spring",
+            FrictionSpring::Rotating.name(),
+            anchored,
+            &record.projectile_friction_spring,
+            friction_spring_of(shot)?,
+        ),
+        (
+            "fibre–fibre friction spring",
+            "contact.fibre_friction_spring",
+            FibreFrictionSpring::Anchored.name(),
+            anchored,
+            &record.fibre_friction_spring,
+            fibre_friction_spring_of(shot)?,
+        ),
+        (
+            "unloading of broken elements",
+            "failure.unload",
+            Unload::AtBreak.name(),
+            Unload::NextStep.name(),
+            &record.unload,
+            unload_of(shot)?,
+        ),
+    ];
+    for (what, field, default, before, fired, asked) in choices {
+        if fired != asked {
+            return Err(CampaignError::Output(format!(
+                "{}: shot {id} on record was fired with the {what} \"{fired}\", but the campaign now asks for \"{asked}\" ({field}, \"{default}\" unless the case names another; records without it were fired with \"{before}\"): its shots must not be mixed; give it another --out, or set {field} to what the records were fired with",
+                out.display(),
+            )));
+        }
+    }
+    Ok(())
 }
 
 fn seeds_friction_spring() -> String {
@@ -112,6 +168,11 @@ fn seeds_friction_spring() -> String {
 /// The fibre–projectile friction spring a shot's case asks for, by name.
 fn friction_spring_of(case: &Case) -> Result<&'static str, CampaignError> {
     case.projectile_friction_spring().map(FrictionSpring::name).map_err(|e| CampaignError::Output(e.to_string()))
+}
+
+/// When a shot's broken elements stop acting, by name.
+fn unload_of(case: &Case) -> Result<&'static str, CampaignError> {
+    case.unload().map(Unload::name).map_err(|e| CampaignError::Output(e.to_string()))
 }
 
 /// The fibre–fibre friction spring a shot's case asks for, by name.
@@ -194,22 +255,7 @@ fn on_record(out: &Path, id: &str, shot: &Case) -> Result<Option<ShotRecord>, Ca
     let bits = |(v, s, [x, y], yaw, obliquity): (f64, u64, [f64; 2], f64, f64)| {
         (v.to_bits(), s, x.to_bits(), y.to_bits(), yaw.to_bits(), obliquity.to_bits())
     };
-    let spring = friction_spring_of(shot)?;
-    if record.projectile_friction_spring != spring {
-        return Err(CampaignError::Output(format!(
-            "{}: shot {id} on record was fired with the {} fibre–projectile friction spring, but the campaign now fires the {spring} one (contact.projectile_friction_spring, \"rotating\" unless the case says \"anchored\"; records without it were fired with \"anchored\"): its shots must not be mixed; give it another --out, or set the spring the records were fired with",
-            out.display(),
-            record.projectile_friction_spring
-        )));
-    }
-    let fibre_spring = fibre_friction_spring_of(shot)?;
-    if record.fibre_friction_spring != fibre_spring {
-        return Err(CampaignError::Output(format!(
-            "{}: shot {id} on record was fired with the {} fibre–fibre friction spring, but the campaign now fires the {fibre_spring} one (contact.fibre_friction_spring, \"anchored\" unless the case says \"projected\"; records without it were fired with \"anchored\"): its shots must not be mixed; give it another --out, or set the spring the records were fired with",
-            out.display(),
-            record.fibre_friction_spring
-        )));
-    }
+    check_choices(out, id, &record, shot)?;
     if bits(asked) != bits(fired) {
         return Err(CampaignError::Output(format!(
             "{}: shot {id} on record was fired at {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg, but the campaign now asks for {} m/s, seed {}, aim {:?} m, yaw {} deg, obliquity {} deg: the campaign changed since; give it another --out",
@@ -234,6 +280,13 @@ fn fire<C: Comm>(
     let setup = |error| CampaignError::Setup { id: id.to_string(), error };
     let (case, mut state, resume) = if manifest_path(&checkpoint).exists() {
         let restored = restore(&checkpoint, comm, Method::KWay).map_err(setup)?;
+        let (stepped, asked) = (unload_of(&restored.case)?, unload_of(case)?);
+        if stepped != asked {
+            return Err(CampaignError::Output(format!(
+                "{}: the checkpoint of shot {id} was stepped with failure.unload \"{stepped}\" (a checkpoint that does not name it was written before the choice existed, with \"next_step\"), but the campaign asks for \"{asked}\": remove the checkpoint to fire the shot afresh, or set failure.unload to \"{stepped}\"",
+                checkpoint.display()
+            )));
+        }
         let resume = Resume::from_checkpoint(&restored.global);
         (restored.case, restored.run, resume)
     } else {
@@ -266,6 +319,7 @@ fn fire<C: Comm>(
         obliquity_deg: case.projectile.obliquity_deg,
         projectile_friction_spring: friction_spring_of(&case)?.to_string(),
         fibre_friction_spring: fibre_friction_spring_of(&case)?.to_string(),
+        unload: unload_of(&case)?.to_string(),
     };
     if state.comm.rank() == Rank(0) {
         // written whole, then renamed: a record on disk is a finished shot

@@ -193,7 +193,7 @@ impl<C: Comm> Distributed<C> {
         let mut distributed = Self::assemble(comm, domain, partition, nodes_per_fibre, reach, deformable)?;
         let instant = distributed.domain.step;
         let forces = compute_forces(&mut distributed.domain, &mut distributed.timer, instant);
-        distributed.agree(forces)?;
+        distributed.agree_on_forces(forces)?;
         distributed.gather_projectile_load();
         Ok(distributed)
     }
@@ -264,6 +264,24 @@ impl<C: Comm> Distributed<C> {
             );
         }
         self.timer.stamp(Stage::ErrorAgreement);
+        Ok(())
+    }
+
+    /// The agreement after the force stages: a rank's error everyone's, and when any rank
+    /// broke an element that unloads at its break, the ghosts' failure states of this step
+    /// brought in and the broken elements' forces taken out of the owned nodes' (theory I7;
+    /// one reduction either way, the halo only in such steps).
+    pub(crate) fn agree_on_forces(&mut self, forces: Result<(), DomainError>) -> Result<(), DomainError> {
+        let (step, time_step) = (self.domain.step, self.domain.time_step);
+        let unload = agree::agree_and_any(&self.comm, forces, self.domain.unloads_now(), step, time_step)?;
+        self.timer.stamp(Stage::ErrorAgreement);
+        if unload {
+            // positions are those sent at the start of the step; the failure states are new
+            self.halo_bytes += self.halo.forward(&self.comm, &mut self.domain.nodes, &mut self.domain.elements.failure);
+            self.timer.stamp(Stage::HaloForward);
+            self.domain.unload_broken();
+            self.timer.stamp(Stage::Failure);
+        }
         Ok(())
     }
 

@@ -616,7 +616,7 @@ pub fn write_checkpoint<C: Comm>(
     let mut placed = Ok(());
     if is_root {
         let global = dea_io::checkpoint::GlobalState {
-            case_json: options.case_json.to_string(),
+            case_json: naming_unload(options.case_json, run.domain.failure.unload),
             parts: run.comm.size() as u32,
             nodes: counts[0] as u64,
             step: run.domain.step,
@@ -694,4 +694,17 @@ pub enum RunError {
     /// A signal stopped the run after its checkpoint.
     #[error("a signal asked the run to stop; the checkpoint {} holds it", .0.display())]
     Interrupted(std::path::PathBuf),
+}
+
+/// The case JSON a checkpoint stores: `failure.unload` named as the run steps it, so a
+/// checkpoint without the name is one written before the choice existed (`setup::restore`).
+fn naming_unload(case_json: &str, unload: dea_core::failure::Unload) -> String {
+    let Ok(mut case) = serde_json::from_str::<serde_json::Value>(case_json) else { return case_json.to_string() };
+    match case.get_mut("failure").and_then(|f| f.as_object_mut()) {
+        Some(failure) => {
+            failure.insert("unload".into(), unload.name().into());
+            case.to_string()
+        }
+        None => case_json.to_string(),
+    }
 }

@@ -84,7 +84,7 @@ impl<C: Comm> Distributed<C> {
         self.domain.start_afresh();
         let instant = self.domain.step;
         let forces = compute_forces(&mut self.domain, &mut self.timer, instant);
-        self.agree(forces)?;
+        self.agree_on_forces(forces)?;
         self.gather_projectile_load();
         let report = SettleReport {
             steps,

@@ -420,6 +420,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         shear_strength,
         enabled: !matches!(strength, Strength::None),
         shear_measure: resolved_shear_measure,
+        unload: resolved.unload,
     };
     let resolved = resolved.projectile.clone();
     // a node overlaps the surface closer than its contact radius, and is a candidate within
@@ -1052,8 +1053,14 @@ fn unreadable_checkpoint() -> SetupError {
 pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Restored<C>, SetupError> {
     let global = read_manifest(directory).map_err(|e| SetupError::Checkpoint(e.to_string()));
     let global = agree_on(&comm, global, unreadable_checkpoint)?;
-    let case = parse_case(&global.case_json, &manifest_path(directory).display().to_string())
+    let mut case = parse_case(&global.case_json, &manifest_path(directory).display().to_string())
         .map_err(|e| SetupError::Checkpoint(e.to_string()))?;
+    // a checkpoint names how broken elements unload (Case::with_named_unload); one without
+    // the name was stepped before the choice existed, when they acted for one more step,
+    // and continues so
+    if case.failure.unload.is_none() {
+        case.failure.unload = Some(dea_core::failure::Unload::NextStep.name().to_string());
+    }
     let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();

@@ -241,8 +241,7 @@ impl<C: Comm> Distributed<C> {
         // the drift above brought the positions to the next step's instant
         let instant = self.domain.step + 1;
         let forces = compute_forces(&mut self.domain, &mut self.timer, instant);
-        self.agree(forces)?;
-        self.timer.stamp(Stage::ErrorAgreement);
+        self.agree_on_forces(forces)?;
         self.gather_projectile_load();
         self.timer.stamp(Stage::ProjectileLoad);
         // the nodes' part of the closing kick rides on the next step's first pass

@@ -86,6 +86,21 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert!(checkpoint.join("manifest.h5").exists(), "the third shot left a checkpoint");
     let first_segment = dea_io::checkpoint::read_manifest(&checkpoint).unwrap().run_scalars[3];
     assert!(first_segment > 0.0, "the checkpoint keeps the wall time so far");
+    // a checkpoint names the unloading of broken elements it was stepped with; one that does
+    // not was written before the choice existed, with "next_step", and a campaign unloading
+    // at the break does not continue it
+    let manifest = dea_io::checkpoint::read_manifest(&checkpoint).unwrap();
+    assert!(manifest.case_json.contains(r#""unload":"at_break""#), "{}", manifest.case_json);
+    let mut unnamed = manifest.clone();
+    let mut stored: serde_json::Value = serde_json::from_str(&unnamed.case_json).unwrap();
+    stored["failure"].as_object_mut().unwrap().remove("unload");
+    unnamed.case_json = stored.to_string();
+    let manifest_path = dea_io::checkpoint::manifest_path(&checkpoint);
+    dea_io::checkpoint::write_manifest(&manifest_path, &unnamed).unwrap();
+    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains(r#"stepped with failure.unload "next_step""#), "{message}");
+    dea_io::checkpoint::write_manifest(&manifest_path, &manifest).unwrap();
     assert_eq!(report(&campaign, &out).unwrap().shots.len(), 2, "two shots on record");
     stop.store(false, Ordering::SeqCst);
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())).unwrap());
@@ -124,7 +139,10 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     let refused = run_local(1, |comm| run_group(&campaign, &other_spring, comm, group, &out, None, None));
     let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
     assert!(
-        message.contains("r000-00000") && message.contains("fired with the rotating") && message.contains("anchored"),
+        message.contains("r000-00000")
+            && message.contains("fired with the fibre–projectile friction spring \"rotating\"")
+            && message.contains("now asks for \"anchored\"")
+            && message.contains("contact.projectile_friction_spring"),
         "{message}"
     );
     let record = out.join("shots/r000-00000.json");
@@ -134,7 +152,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     std::fs::write(&record, value.to_string()).unwrap();
     let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
     let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(message.contains("fired with the anchored"), "{message}");
+    assert!(message.contains("fired with the fibre–projectile friction spring \"anchored\""), "{message}");
     // the fibre–fibre spring likewise: the record names the seed's anchored one, and a case
     // asking for the projected one is refused
     value["projectile_friction_spring"] = "rotating".into();
@@ -146,10 +164,33 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
     assert!(
         message.contains("r000-00000")
-            && message.contains("fired with the anchored fibre–fibre")
-            && message.contains("fires the projected one"),
+            && message.contains("fired with the fibre–fibre friction spring \"anchored\"")
+            && message.contains("now asks for \"projected\""),
         "{message}"
     );
+    // and the unloading of broken elements: a record names it, one from before it was named
+    // was fired with "next_step", which a campaign may go on with only by naming it
+    assert_eq!(value["unload"], "at_break");
+    let mut next_step = case.clone();
+    next_step.failure.unload = Some("next_step".into());
+    let refused = run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("unloading of broken elements \"at_break\"") && message.contains("failure.unload"),
+        "{message}"
+    );
+    value.as_object_mut().unwrap().remove("unload");
+    std::fs::write(&record, value.to_string()).unwrap();
+    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("\"next_step\", but the campaign now asks for \"at_break\""), "{message}");
+    let records = std::fs::read_dir(out.join("shots")).unwrap().map(|e| e.unwrap().path());
+    for path in records.filter(|p| p.extension().is_some_and(|e| e == "json")) {
+        let mut other: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        other.as_object_mut().unwrap().remove("unload");
+        std::fs::write(&path, other.to_string()).unwrap();
+    }
+    run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None).unwrap());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

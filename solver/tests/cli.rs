@@ -289,6 +289,7 @@ fn check_prints_the_resolved_case() {
     assert_eq!(printed["resolved"]["projectile_friction_spring"], "rotating");
     assert!(printed["case"]["contact"]["fibre_friction_spring"].is_null());
     assert_eq!(printed["resolved"]["fibre_friction_spring"], "anchored");
+    assert_eq!(printed["resolved"]["unload"], "at_break");
 }
 
 #[test]

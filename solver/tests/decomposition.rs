@@ -151,7 +151,10 @@ fn the_verlet_skin_changes_no_result() {
 
 /// Asserts that the rigid body of `case`'s deformable projectile mesh, run to `dir/rigid`,
 /// strikes like the deformable one did in `reference`: peak force within 3 % and not above
-/// the rigid body's (a compliant nose takes longer to load), residual velocity within 3 %.
+/// the rigid body's by more than the fibres' breaks move it (a compliant nose takes longer to
+/// load; which elements break in which step moves the peak by a few tenths of a percent
+/// either way: +0.18 % for the steel sphere once broken elements unload at their break),
+/// residual velocity within 3 %.
 fn assert_strikes_like_the_rigid_body(case: &Case, reference: &Summary, dir: &Path) {
     let mut rigid = case.clone();
     rigid.projectile.deformable = None;
@@ -159,7 +162,7 @@ fn assert_strikes_like_the_rigid_body(case: &Case, reference: &Summary, dir: &Pa
     let relative = |a: f64, b: f64| (a / b - 1.0).abs();
     assert!(
         relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.03
-            && reference.max_projectile_force_n <= rigid.max_projectile_force_n,
+            && reference.max_projectile_force_n <= 1.005 * rigid.max_projectile_force_n,
         "{} vs {}",
         reference.max_projectile_force_n,
         rigid.max_projectile_force_n

@@ -3,10 +3,11 @@
 //! `tests/golden/<case>/`. A change of any result fails here, whatever the rank count.
 //!
 //! Each case runs twice: as shipped (its results in `tests/golden/<case>/`) and with the seed's
-//! forms as written where the defaults depart from them, `failure.shear_measure` "element" and
-//! `contact.projectile_friction_spring` "anchored" (in `tests/golden/<case>/seed/`: the results
-//! every case gave before the gauge measure and the rotating spring became the defaults, kept
-//! to show that the named options reproduce them bit for bit; docs/theory.md I9b, I6c).
+//! forms as written where the defaults depart from them, `failure.shear_measure` "element",
+//! `contact.projectile_friction_spring` "anchored" and `failure.unload` "next_step" (in
+//! `tests/golden/<case>/seed/`: the results every case gave before the gauge measure, the
+//! rotating spring and the unloading at the break became the defaults, kept to show that the
+//! named options reproduce them bit for bit; docs/theory.md I9b, I6c, I7).
 //!
 //! To re-bless after a change that is meant to change results, run
 //! `DEA_BLESS_GOLDEN=1 cargo test --release -p dea-mpi --test golden` and commit the new files
@@ -76,6 +77,7 @@ fn the_golden_cases_keep_their_bits() {
             let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
             value["failure"]["shear_measure"] = serde_json::Value::from("element");
             value["contact"]["projectile_friction_spring"] = serde_json::Value::from("anchored");
+            value["failure"]["unload"] = serde_json::Value::from("next_step");
             case_path = scratch.join(format!("{case}-{variant}.json"));
             std::fs::write(&case_path, serde_json::to_string_pretty(&value).unwrap()).unwrap();
         }

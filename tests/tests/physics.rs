@@ -15,8 +15,12 @@ use dea_mpi::comm::local::LocalComm;
 use dea_mpi::distributed::Distributed;
 use nalgebra::{Rotation3, UnitQuaternion};
 
-const NO_FAILURE: FailureParameters =
-    FailureParameters { shear_strength: 0.7672e9, enabled: false, shear_measure: ShearMeasure::Element };
+const NO_FAILURE: FailureParameters = FailureParameters {
+    shear_strength: 0.7672e9,
+    enabled: false,
+    shear_measure: ShearMeasure::Element,
+    unload: dea_core::failure::Unload::AtBreak,
+};
 
 fn elastic_frictionless(material: &FibreMaterial) -> ContactParameters {
     ContactParameters {

@@ -19,7 +19,10 @@ use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::pair_data::{PairData, PairDataTable};
 use crate::projectile::RigidProjectile;
 use crate::projectile_contact::{sum_reactions, ProjectileContacts, Reaction};
-use crate::rod::{compute_element_tension, compute_element_tension_over, set_chain_forces, set_scaled_chain_forces};
+use crate::rod::{
+    chain_forces, compute_element_tension, compute_element_tension_over, replace_chain_forces, set_chain_forces,
+    set_scaled_chain_forces,
+};
 use crate::tie::{Tie, Ties};
 use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
@@ -231,6 +234,9 @@ pub struct Domain {
     /// were last replaced (appending ghosts cannot lose one)
     stencil_checked: bool,
     newly_broken: Vec<(u32, FailureMode)>,
+    /// the chain forces the rods stage set, while [`Self::unload_broken`] replaces them
+    /// (scratch: grows at the first step that breaks an element, then keeps its room) [N]
+    chain_force_set: Vec<Vec3>,
     /// the failure stage's section hats and gauge moments (scratch of
     /// [`failure::break_elements`])
     measured_moment: crate::shear_gauge::GaugeScratch,
@@ -323,6 +329,7 @@ impl Domain {
             running_contact_sums: vec![RunningSums::default(); n_owned],
             stencil_checked: false,
             newly_broken: Vec::new(),
+            chain_force_set: Vec::new(),
             measured_moment: Default::default(),
             deferred_kick: None,
         }
@@ -646,10 +653,20 @@ impl Domain {
     /// Under multi-rate stepping only the sections whose terms fire now ([`Self::fire_at`]),
     /// their forces times the factor; the other owned nodes' forces start at zero.
     pub fn add_rod_forces(&mut self) {
+        self.compute_rods();
+        if self.firing.single {
+            set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
+        } else {
+            set_scaled_chain_forces(&mut self.nodes, &self.elements, &self.bending, &self.firing.section_scale);
+        }
+    }
+
+    /// The elements' tensions and the springs' forces of the present positions and failure
+    /// states, over the elements whose terms fire now.
+    fn compute_rods(&mut self) {
         if self.firing.single {
             compute_element_tension(&self.nodes, &mut self.elements, &self.sections, &self.material);
             compute_bending(&self.nodes, &self.elements, &self.sections, &mut self.bending);
-            set_chain_forces(&mut self.nodes, &self.elements, &self.bending);
             return;
         }
         // every element first: a spring reads the elements on both sides, which on a rank
@@ -666,7 +683,35 @@ impl Domain {
         for range in &self.firing.active {
             compute_bending_over(&self.nodes, &self.elements, &self.sections, &mut self.bending, range.clone());
         }
-        set_scaled_chain_forces(&mut self.nodes, &self.elements, &self.bending, &self.firing.section_scale);
+    }
+
+    /// Whether the failure stage broke an owned element in this step that
+    /// [`Self::unload_broken`] must take out.
+    pub fn unloads_now(&self) -> bool {
+        self.failure.unload == failure::Unload::AtBreak && !self.newly_broken.is_empty()
+    }
+
+    /// Takes the forces of the elements broken in this step out of the owned nodes' forces
+    /// when the case unloads them at the break ([`failure::Unload::AtBreak`], theory I7):
+    /// the chain force the rods stage set is replaced by the one of the present failure
+    /// states, at the nodes where the two differ. Run it after the failure stage on every
+    /// rank once any rank broke an element, with the ghosts' failure states of this step:
+    /// an owned node's chain force reads elements and springs up to two positions away,
+    /// which another rank may own. Each node's result is a function of its own stencil,
+    /// so it has the same bits on any ranks.
+    pub fn unload_broken(&mut self) {
+        if self.failure.unload != failure::Unload::AtBreak {
+            return;
+        }
+        // held aside while the rods stage borrows the domain (it reads only the ranges)
+        let section_scale = std::mem::take(&mut self.firing.section_scale);
+        let scale = (!self.firing.single).then_some(&section_scale[..]);
+        let mut set = std::mem::take(&mut self.chain_force_set);
+        chain_forces(&self.nodes, &self.elements, &self.bending, scale, &mut set);
+        self.compute_rods();
+        replace_chain_forces(&mut self.nodes, &self.elements, &self.bending, scale, &set);
+        self.chain_force_set = set;
+        self.firing.section_scale = section_scale;
     }
 
     /// The forces of the rods tying fine fibres to coarse ones in hybrid yarns (theory F12).
@@ -782,6 +827,7 @@ impl Domain {
     /// The failure stage ([`failure::break_elements`]); none while the target settles.
     pub fn break_elements(&mut self) {
         if self.phase != Phase::Shot {
+            self.newly_broken.clear();
             return;
         }
         failure::break_elements(

@@ -18,6 +18,39 @@ pub struct FailureParameters {
     pub enabled: bool,
     /// how an element's shear force is measured ([`ShearMeasure`])
     pub shear_measure: ShearMeasure,
+    /// when an element that breaks stops acting ([`Unload`])
+    pub unload: Unload,
+}
+
+/// When a broken element's forces leave its nodes (docs/theory.md I7). The failure stage
+/// reads the strains and moments of the forces just computed, so an element found broken
+/// has already loaded its nodes for the step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Unload {
+    /// in the step of the break: its axial force and the springs it disables are taken out
+    /// of the step's forces before the closing kick, so an element whose energy is booked as
+    /// released does no more work (the default)
+    #[default]
+    AtBreak,
+    /// from the next step on: the element's forces of the step of its break stay for that
+    /// step's closing half-kick and the next one's opening (the order of every result before
+    /// the choice was named, kept to reproduce them)
+    NextStep,
+}
+
+impl Unload {
+    /// The name a case gives it (`failure.unload`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Unload::AtBreak => "at_break",
+            Unload::NextStep => "next_step",
+        }
+    }
+
+    /// The choice of a name, if it is one.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Unload::AtBreak, Unload::NextStep].into_iter().find(|u| u.name() == name)
+    }
 }
 
 impl FailureParameters {
@@ -99,10 +132,10 @@ pub fn break_elements(
     measured_moment: &mut GaugeScratch,
     firing: &[std::ops::Range<usize>],
 ) {
+    newly_broken.clear();
     if !parameters.enabled {
         return;
     }
-    newly_broken.clear();
     let moment: &[Vec3] = match parameters.shear_measure {
         ShearMeasure::Element => &bending.moment,
         measure => {
@@ -221,6 +254,57 @@ fn may_break_in_lanes(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The centre fibre of the squeezed yarn with bending springs, element 10 stretched 10 %
+    /// (beyond 3.4 GPa) and node 12 pushed aside so the springs about it act; the rods and
+    /// the fibre contacts have set the step's forces. With `broken_before`, element 10 is
+    /// marked broken first (the step after its break).
+    fn stretched_fibre(unload: Unload, broken_before: bool) -> crate::Domain {
+        let mut domain = crate::fixtures::squeezed_yarn(1, false);
+        domain.sections[0].torsional_stiffness = 1e-5;
+        domain.failure.enabled = true;
+        domain.failure.unload = unload;
+        domain.phase = crate::domain::Phase::Shot;
+        let l0 = domain.elements.rest_length[0];
+        for i in (11..40).filter(|&i| domain.nodes.fibre[i].0 == 0) {
+            domain.nodes.position[i].x += 0.1 * l0;
+        }
+        domain.nodes.position[12].y += 0.02 * l0;
+        if broken_before {
+            domain.elements.failure[10] = FailureMode::Tension;
+        }
+        domain.add_rod_forces();
+        domain.add_fibre_contacts();
+        domain
+    }
+
+    #[test]
+    fn an_element_unloaded_at_its_break_leaves_the_forces_of_its_step() {
+        let after = stretched_fibre(Unload::AtBreak, true);
+        let mut breaking = stretched_fibre(Unload::AtBreak, false);
+        let loaded = breaking.nodes.force.clone();
+        breaking.break_elements();
+        assert!(breaking.unloads_now());
+        assert_eq!(breaking.elements.failure[10], FailureMode::Tension);
+        breaking.unload_broken();
+        let largest = after.nodes.force.iter().map(|f| f.norm()).fold(0.0, f64::max);
+        for i in 0..breaking.nodes.n_owned {
+            let (now, fresh) = (breaking.nodes.force[i], after.nodes.force[i]);
+            assert!((now - fresh).norm() <= 1e-12 * largest, "node {i}: {now:?} against {fresh:?}");
+            // only the nodes the element and its two springs reach change
+            assert_eq!(now == loaded[i], !(9..=12).contains(&i), "node {i}");
+        }
+        // the spring at node 11 acted before the break, and is gone
+        assert!((loaded[11] - after.nodes.force[11]).norm() > 1e-3 * largest);
+
+        // the seed's order keeps them for the step
+        let mut next = stretched_fibre(Unload::NextStep, false);
+        next.break_elements();
+        assert_eq!(next.elements.failure[10], FailureMode::Tension);
+        assert!(!next.unloads_now());
+        next.unload_broken();
+        assert_eq!(next.nodes.force, loaded);
+    }
 
     #[test]
     fn criterion_on_its_boundary() {

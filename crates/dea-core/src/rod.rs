@@ -154,6 +154,54 @@ pub fn set_scaled_chain_forces(
     }
 }
 
+/// The chain force every owned node gets from the present scratch of the rods stage, as
+/// [`set_chain_forces`] sets it (`section_scale`: as [`set_scaled_chain_forces`] does), into
+/// `forces` [N].
+pub fn chain_forces(
+    nodes: &Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    section_scale: Option<&[f64]>,
+    forces: &mut Vec<crate::Vec3>,
+) {
+    forces.clear();
+    forces.extend((0..nodes.n_owned).map(|i| scaled_chain_force(nodes, elements, bending, section_scale, i)));
+}
+
+/// Replaces in each owned node's force the chain force `before` (of [`chain_forces`], what
+/// the rods stage set) by the one of the present scratch, where the two differ: the node's
+/// other forces stay as the later stages added them (theory I7, an element broken in this
+/// step). A node whose chain force did not change keeps its bits.
+pub fn replace_chain_forces(
+    nodes: &mut Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    section_scale: Option<&[f64]>,
+    before: &[crate::Vec3],
+) {
+    for (i, &before) in before.iter().enumerate() {
+        let after = scaled_chain_force(nodes, elements, bending, section_scale, i);
+        if after != before {
+            nodes.force[i] = (nodes.force[i] - before) + after;
+        }
+    }
+}
+
+#[inline]
+fn scaled_chain_force(
+    nodes: &Nodes,
+    elements: &Elements,
+    bending: &BendingScratch,
+    section_scale: Option<&[f64]>,
+    i: usize,
+) -> crate::Vec3 {
+    match section_scale.map(|s| s[nodes.section[i] as usize]) {
+        None => chain_force(nodes, elements, bending, i),
+        Some(scale) if scale == 0.0 => crate::Vec3::zeros(),
+        Some(scale) => chain_force(nodes, elements, bending, i) * scale,
+    }
+}
+
 /// Axial force of an element of section area `area` at `strain` (4-2): `E_L A eps`, scaled
 /// in compression [N].
 #[inline]

@@ -119,6 +119,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             "yarns": problem.fabric.yarn_count(),
             "projectile_friction_spring": resolved.projectile_friction_spring.name(),
             "fibre_friction_spring": resolved.fibre_friction_spring.name(),
+            "unload": resolved.unload.name(),
             "relaxation": problem.relaxation,
             "fibres": fibres,
             "nodes": nodes,

@@ -10,6 +10,19 @@ use super::Comm;
 /// rank reported (the kind first), with the same message; `step` and `time_step` [s] are the
 /// step's, which every rank knows alike.
 pub fn agree<C: Comm>(comm: &C, local: Result<(), DomainError>, step: u64, time_step: f64) -> Result<(), DomainError> {
+    agree_and_any(comm, local, false, step, time_step).map(|_| ())
+}
+
+/// [`agree`], and whether any rank says `flag`, in the same reduction: the force stages'
+/// agreement carries whether any rank broke an element (the unloading at the break then
+/// needs every rank, theory I7).
+pub fn agree_and_any<C: Comm>(
+    comm: &C,
+    local: Result<(), DomainError>,
+    flag: bool,
+    step: u64,
+    time_step: f64,
+) -> Result<bool, DomainError> {
     let code = match &local {
         Ok(()) => u64::MAX,
         Err(DomainError::NonFinite { gid, .. }) => (1 << 60) | gid.0,
@@ -20,11 +33,11 @@ pub fn agree<C: Comm>(comm: &C, local: Result<(), DomainError>, step: u64, time_
         // found from sums every rank holds alike, so usually agreed already
         Err(DomainError::NonFiniteEnergy { .. }) => 6 << 60,
     };
-    let mut agreed = [code];
+    let mut agreed = [code, u64::from(!flag)];
     comm.min_u64(&mut agreed);
-    let agreed = agreed[0];
+    let [agreed, no_flag] = agreed;
     if agreed == u64::MAX {
-        return Ok(());
+        return Ok(no_flag == 0);
     }
     let gid = GlobalNodeId(agreed & ((1 << 60) - 1));
     // the detail only the reporting rank knows travels in a second reduction

@@ -617,6 +617,11 @@ pub struct FailureSpec {
     /// gauge length of the "gauge" shear measure in digital fibre diameters [-] (default 1)
     #[serde(default)]
     pub shear_gauge_diameters: Option<f64>,
+    /// when a broken element stops acting: "at_break" (the default: its forces leave the
+    /// step of its break) or "next_step" (they stay for that step, the order of every result
+    /// before the choice was named; docs/theory.md I7)
+    #[serde(default)]
+    pub unload: Option<String>,
     /// bimodal Weibull law (2-1) for mode "weibull"
     pub weibull: Option<WeibullSpec>,
     /// seed of the strength streams
@@ -1170,6 +1175,7 @@ pub fn default_case() -> Case {
             shear_strength_pa: Some(0.7672e9),
             shear_measure: None,
             shear_gauge_diameters: None,
+            unload: None,
             weibull: None,
             seed: 1,
         },
@@ -1359,7 +1365,9 @@ mod tests {
         let spring = |edit: &dyn Fn(&mut serde_json::Value)| {
             let mut value = serde_json::to_value(default_case()).unwrap();
             edit(&mut value);
-            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.projectile_friction_spring)
+            parse_case(&value.to_string(), "x.json")
+                .and_then(|case| case.resolve())
+                .map(|r| r.projectile_friction_spring)
         };
         assert_eq!(spring(&|_| {}).unwrap(), FrictionSpring::Rotating);
         let named = |name: &str| spring(&|v| v["contact"]["projectile_friction_spring"] = name.into());
@@ -1387,6 +1395,29 @@ mod tests {
             assert_eq!(e.path, "contact.fibre_friction_spring", "{e}");
             assert!(e.to_string().contains("\"anchored\" or \"projected\"") && e.to_string().contains(says), "{e}");
         }
+    }
+
+    #[test]
+    fn broken_elements_unload_at_their_break_unless_the_next_step_is_asked_for() {
+        use dea_core::failure::Unload;
+        let unload = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = serde_json::to_value(default_case()).unwrap();
+            edit(&mut value);
+            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.unload)
+        };
+        assert_eq!(unload(&|_| {}).unwrap(), Unload::AtBreak);
+        let named = |name: &str| unload(&|v| v["failure"]["unload"] = name.into());
+        assert_eq!(named("at_break").unwrap(), Unload::AtBreak);
+        assert_eq!(named("next_step").unwrap(), Unload::NextStep);
+        let e = named("later").unwrap_err();
+        assert_eq!(e.path, "failure.unload", "{e}");
+        assert!(e.to_string().contains("\"at_break\" or \"next_step\", got \"later\""), "{e}");
+        // a checkpoint stores the name (Case::with_named_unload), the one the case resolves to
+        let case = default_case().with_named_unload();
+        assert_eq!(case.failure.unload.as_deref(), Some("at_break"));
+        let mut next = default_case();
+        next.failure.unload = Some("next_step".into());
+        assert_eq!(next.with_named_unload(), next);
     }
 
     #[test]

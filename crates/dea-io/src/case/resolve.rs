@@ -3,6 +3,7 @@
 //! set-up builds from without checking again.
 
 use super::*;
+use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::shear_gauge::ShearMeasure;
 use dea_fabric::panel::FineRegion;
@@ -62,6 +63,8 @@ pub struct ResolvedCase {
     pub shear_strength: f64,
     /// how the failure criterion measures an element's shear force
     pub shear_measure: ShearMeasure,
+    /// when a broken element stops acting
+    pub unload: Unload,
     /// the projectile's body, mass, launch and material
     pub projectile: ResolvedProjectile,
     /// the target, with what set-up builds it from
@@ -299,6 +302,27 @@ impl Case {
         }
     }
 
+    /// The case with `failure.unload` named where it was left to the default: what a
+    /// checkpoint stores, so a checkpoint without the name is one written before the choice
+    /// existed, when broken elements acted for one more step (`setup::restore`).
+    pub fn with_named_unload(&self) -> Case {
+        let mut case = self.clone();
+        if case.failure.unload.is_none() {
+            case.failure.unload = Some(Unload::AtBreak.name().to_string());
+        }
+        case
+    }
+
+    /// When a broken element stops acting: at its break unless "next_step" is asked for.
+    pub fn unload(&self) -> Result<Unload, CaseError> {
+        match self.failure.unload.as_deref() {
+            None => Ok(Unload::AtBreak),
+            Some(name) => Unload::from_name(name).ok_or_else(|| {
+                invalid("failure.unload", format!("must be \"at_break\" or \"next_step\", got \"{name}\""))
+            }),
+        }
+    }
+
     /// The shear measure of the failure criterion: the gauge of `shear_gauge_diameters`
     /// (default 1) digital fibre diameters unless "element" is asked for.
     pub(super) fn shear_measure(&self) -> Result<ShearMeasure, CaseError> {
@@ -528,6 +552,7 @@ impl Case {
         let strength = self.strength()?;
         let shear_strength = self.shear_strength()?;
         let shear_measure = self.shear_measure()?;
+        let unload = self.unload()?;
         let projectile_friction_spring = self.projectile_friction_spring()?;
         let fibre_friction_spring = self.fibre_friction_spring()?;
         let projectile = self.projectile()?;
@@ -798,6 +823,7 @@ impl Case {
             strength,
             shear_strength,
             shear_measure,
+            unload,
             projectile,
             target,
         })
