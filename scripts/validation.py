@@ -293,7 +293,7 @@ def entry(c, campaigns=()):
         # and the fibre-fibre one (docs/theory.md I6d)
         "fibre_friction_spring": c.case["contact"].get("fibre_friction_spring") or "anchored",
         # and when broken elements stop acting (docs/theory.md I7)
-        "unload": c.case["failure"].get("unload") or "at_break",
+        "unload": (c.case.get("failure") or {}).get("unload") or "at_break",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,
