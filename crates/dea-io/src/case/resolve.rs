@@ -302,9 +302,9 @@ impl Case {
         }
     }
 
-    /// The case with `failure.unload` named where it was left to the default: what a
-    /// checkpoint stores, so a checkpoint without the name is one written before the choice
-    /// existed, when broken elements acted for one more step (`setup::restore`).
+    /// The case with `failure.unload` named where it was left to the default, so a case
+    /// that names the default compares equal to one that leaves it unsaid (`run --restart`
+    /// with a case file; a checkpoint stores the name, `run::naming_unload`).
     pub fn with_named_unload(&self) -> Case {
         let mut case = self.clone();
         if case.failure.unload.is_none() {
