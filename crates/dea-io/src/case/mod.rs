@@ -1412,7 +1412,7 @@ mod tests {
         let e = named("later").unwrap_err();
         assert_eq!(e.path, "failure.unload", "{e}");
         assert!(e.to_string().contains("\"at_break\" or \"next_step\", got \"later\""), "{e}");
-        // a checkpoint stores the name (Case::with_named_unload), the one the case resolves to
+        // naming the default changes nothing but the name (a --restart with its case file)
         let case = default_case().with_named_unload();
         assert_eq!(case.failure.unload.as_deref(), Some("at_break"));
         let mut next = default_case();
