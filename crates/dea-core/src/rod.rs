@@ -51,19 +51,22 @@ pub(crate) fn element_tension(
     }
     let axis = nodes.position[j as usize] - nodes.position[i];
     let length = axis.norm();
-    let inverse_length = 1.0 / length;
-    let direction = axis * inverse_length;
-    elements.direction[i] = direction;
-    elements.inverse_length[i] = inverse_length;
     let rest = elements.rest_length[i];
     let strain = (length - rest) / rest;
     elements.strain[i] = strain;
-    elements.axial_force[i] = if elements.is_intact(nodes, i) {
-        // force on the first node points along the element when stretched (4-2)
-        axial_force(material, sections[nodes.section[i] as usize].area, strain)
-    } else {
-        0.0
-    };
+    if !elements.is_intact(nodes, i) {
+        // the two loose ends of a broken element may meet exactly (length 0): a direction
+        // of 0/0 would turn its zero force into NaN, so a broken element has none
+        elements.direction[i] = crate::Vec3::zeros();
+        elements.inverse_length[i] = 0.0;
+        elements.axial_force[i] = 0.0;
+        return;
+    }
+    let inverse_length = 1.0 / length;
+    elements.direction[i] = axis * inverse_length;
+    elements.inverse_length[i] = inverse_length;
+    // force on the first node points along the element when stretched (4-2)
+    elements.axial_force[i] = axial_force(material, sections[nodes.section[i] as usize].area, strain);
 }
 
 /// [`compute_element_tension`] four elements at a time where four intact elements follow
@@ -230,4 +233,58 @@ pub fn element_strain_energy(
 pub fn axial_energy(material: &FibreMaterial, area: f64, rest_length: f64, strain: f64) -> f64 {
     let scale = if strain >= 0.0 { 1.0 } else { material.compressive_stiffness_ratio };
     0.5 * scale * material.longitudinal_modulus * area * rest_length * strain * strain
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ids::{FibreId, GlobalNodeId};
+    use crate::material::InertiaModel;
+    use crate::Vec3;
+
+    /// A broken element whose two loose ends meet exactly has length 0; its force must
+    /// stay zero and finite, not 0/0 (a 36-digital-fibre shot stopped on that NaN).
+    #[test]
+    fn a_broken_element_of_zero_length_gives_finite_forces() {
+        let material = FibreMaterial::kevlar_km2();
+        let l0 = 25e-6;
+        let sections = vec![FibreSection::new(
+            &material,
+            2.4e-9,
+            l0,
+            InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
+        )];
+        let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
+        // nodes 1 and 2 at the same point: the ends of the broken element 1
+        let x = [0.0, 1.01 * l0, 1.01 * l0, 2.02 * l0];
+        for (along, &xk) in x.iter().enumerate() {
+            let last = along + 1 == x.len();
+            nodes.push(
+                GlobalNodeId(along as u64),
+                Vec3::new(xk, 0.0, 0.0),
+                Vec3::zeros(),
+                1e-12,
+                FibreId(0),
+                along as u32,
+                0,
+                false,
+                last,
+            );
+            let failure = if along == 1 { FailureMode::Shear } else { FailureMode::Intact };
+            elements.push(l0, 3.9e9, failure);
+        }
+        nodes.n_owned = nodes.len();
+        nodes.link_chains();
+        compute_element_tension(&nodes, &mut elements, &sections, &material);
+        let mut bending = BendingScratch::default();
+        bending.resize(nodes.len());
+        crate::bending::compute_bending(&nodes, &elements, &sections, &mut bending);
+        let mut forces = Vec::new();
+        chain_forces(&nodes, &elements, &bending, None, &mut forces);
+        assert!(forces.iter().all(|f| f.iter().all(|c| c.is_finite())), "{forces:?}");
+        assert_eq!(elements.axial_force[1], 0.0);
+        // the intact neighbours, stretched 1 %, still pull their loose ends back
+        let pull = material.longitudinal_modulus * sections[0].area * 0.01;
+        assert!((forces[1].x + pull).abs() < 1e-9 * pull && (forces[2].x - pull).abs() < 1e-9 * pull, "{forces:?}");
+    }
 }
