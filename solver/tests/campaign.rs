@@ -1,6 +1,9 @@
 //! V50 campaigns in process: a campaign interrupted mid-shot and run again equals one run
 //! without a break, shot for shot and bit for bit; a bisection closes on its bracket.
 
+mod common;
+
+use common::Scratch;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -14,10 +17,8 @@ fn cases() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dea-campaign-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+fn scratch(name: &str) -> Scratch {
+    Scratch::new(format!("dea-campaign-{name}-{}", std::process::id()), false)
 }
 
 /// What must not depend on how the campaign was run.

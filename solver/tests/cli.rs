@@ -1,5 +1,8 @@
 //! The command line as users and scripts see it: exit codes, error messages, outputs.
 
+mod common;
+
+use common::Scratch;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -60,11 +63,8 @@ fn run_changed(dir: &std::path::Path, case: &serde_json::Value) -> PathBuf {
     out
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dea-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> Scratch {
+    Scratch::new(format!("dea-cli-{}-{name}", std::process::id()), true)
 }
 
 #[test]
