@@ -71,9 +71,10 @@ pub struct Elements {
     /// axial force of the element, positive in tension [N] (scratch; it pulls its first node
     /// along `direction`)
     pub axial_force: Vec<f64>,
-    /// unit vector from the first to the second node (scratch, reused by bending)
+    /// unit vector from the first to the second node; zero for a broken element, whose
+    /// ends may meet (scratch, reused by bending)
     pub direction: Vec<Vec3>,
-    /// 1 / current length [1/m] (scratch, reused by bending)
+    /// 1 / current length [1/m]; zero for a broken element (scratch, reused by bending)
     pub inverse_length: Vec<f64>,
 }
 
