@@ -287,6 +287,11 @@ def entry(c, campaigns=()):
         "fine_radius_m": hybrid.get("fine_radius_m"),
         "coarse_fibres_per_yarn": hybrid.get("fibres_per_yarn"),
         "element_length_ratio": weave.get("element_length_ratio") or target.get("element_length_ratio") or 0.5,
+        # the coarse yarns' own l0/d (hybrid.element_length_ratio; absent: the fine one's)
+        "coarse_element_length_ratio": (hybrid.get("element_length_ratio") or weave.get("element_length_ratio") or 0.5)
+        if hybrid else None,
+        # the coarse yarns stepped at their own, longer step (run.multi_rate, docs/theory.md T1)
+        "multi_rate": bool(c.case["run"].get("multi_rate")),
         "projectile": c.case["projectile"].get("preset") or c.case["projectile"].get("shape"),
         # how the fibre-projectile friction spring kept its stretch (docs/theory.md I6c)
         "projectile_friction_spring": c.case["contact"].get("projectile_friction_spring") or "rotating",
