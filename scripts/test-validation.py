@@ -3,11 +3,14 @@
 bisections they re-fire (docs/theory.md V5) and what validation/summary.json then says.
 Campaigns are stand-ins built here (no dea-mpi run, no record on disk). Standard library
 only: run with /usr/bin/python3 scripts/test-validation.py."""
+import contextlib
 import copy
+import io
 import importlib.util
 import os
 import types
 import unittest
+from unittest import mock
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 spec = importlib.util.spec_from_file_location("validation", os.path.join(HERE, "validation.py"))
@@ -153,6 +156,19 @@ class PanelLowEnds(unittest.TestCase):
         elsewhere = low_end("low-end-t-8", thicker, [(75.0, "P", 13.1)], end_time=6e-4)
         entry = validation.entry(bisection, [bisection, elsewhere])
         self.assertIn("not established", entry["method"])
+
+
+class Run(unittest.TestCase):
+    def test_a_filtered_run_says_its_filter_is_done_not_every_campaign(self):
+        done = campaign("yarn-t-d-i0", FIXTURE_CASE, BISECTION, [])
+        done.complete = True
+        waiting = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
+        args = types.SimpleNamespace(only="yarn-t", max_shots=None)
+        printed = io.StringIO()
+        with mock.patch.object(validation, "load_all", lambda _: [done, waiting]), contextlib.redirect_stdout(printed):
+            self.assertEqual(validation.run(args, [done]), 0)
+        self.assertIn("whose name contains 'yarn-t' is complete; 1 other(s) still to run", printed.getvalue())
+        self.assertNotIn("every validation campaign is complete", printed.getvalue())
 
 
 if __name__ == "__main__":

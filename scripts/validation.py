@@ -406,7 +406,12 @@ def run(args, campaigns):
                 return code
             if not new and not c.complete:
                 sys.exit(f"{c.name}: dea-mpi v50 fired no shot and the design is not complete")
-    print("every validation campaign is complete")
+    if args.only:
+        left = [c.name for c in load_all(args) if not c.complete and args.only not in c.name]
+        print(f"every validation campaign whose name contains {args.only!r} is complete"
+              + (f"; {len(left)} other(s) still to run (validation.py status)" if left else ""))
+    else:
+        print("every validation campaign is complete")
     return 0
 
 
