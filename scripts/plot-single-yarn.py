@@ -59,7 +59,7 @@ for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     axes.errorbar(xs, vs, yerr=errors, fmt="-", color=colour, capsize=4, label=f"dea-mpi, {label} (bisection bracket)")
     # hollow where the bracket's low end was still moving at the end time (validation.py's method)
     for x, v, e in zip(xs, vs, drawn):
-        hollow = "not established" in (e["method"] or "")
+        hollow = e.get("v50_low_established") is False
         axes.plot([x], [v], "o", color=colour, mfc="white" if hollow else colour)
 axes.set_xlabel("digital fibres per yarn")
 axes.set_ylabel("V50 [m/s]")

@@ -46,7 +46,7 @@ def bar(axes, x, entry, colour, label):
 
 
 def undecided(entry):
-    return "not established" in (entry["method"] or "")
+    return entry.get("v50_low_established") is False
 
 
 def draw(axes, chosen, x, label):

@@ -76,6 +76,7 @@ class FixtureLowEnds(unittest.TestCase):
         entry = validation.entry(bisection, [bisection])
         self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (50.78125, 59.375))
         self.assertIn("not established", entry["method"])
+        self.assertIs(entry["v50_low_established"], False)
 
     def test_a_perforating_re_fire_moves_the_bracket_down_and_a_stop_settles_it(self):
         bisection = fixture_bisection()
@@ -83,6 +84,8 @@ class FixtureLowEnds(unittest.TestCase):
         entry = validation.entry(bisection, [bisection, again])
         self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (42.1875, 50.78125))
         self.assertNotIn("not established", entry["method"])
+        # settled, though the method's note of the re-fire says "undecided"
+        self.assertIs(entry["v50_low_established"], True)
         self.assertIn("the 50.8 m/s shot, undecided at the end time, fired again by low-end-yarn-t-d-i-inf", entry["method"])
         self.assertIn("perforated (17.5 m/s left)", entry["method"])
 
@@ -92,6 +95,7 @@ class FixtureLowEnds(unittest.TestCase):
         entry = validation.entry(bisection, [bisection, again])
         self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (50.78125, 59.375))
         self.assertIn("not established", entry["method"])
+        self.assertIs(entry["v50_low_established"], False)
 
     def test_every_shot_through_gives_no_bracket_but_a_bound(self):
         bisection = campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,

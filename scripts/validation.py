@@ -219,6 +219,9 @@ def entry(c, campaigns=()):
     layers = target.get("layers", 1)
     design = c.spec["design"]
     v50 = low = high = below = None
+    # a bisection's bracket: whether its low end is a decided partial (not one still moving at
+    # its end time)
+    established = None
     method = None
     report_path = os.path.join(RESULTS, c.name, "v50.json")
     report = None
@@ -234,6 +237,7 @@ def entry(c, campaigns=()):
             v50, low, high = 0.5 * (lo + hi), lo, hi
             method = "bisection bracket (highest partial, lowest complete)"
             held = [s for s in shots if not s["perforated"] and s["velocity_m_s"] == lo and s["stopped_by"] == "end_time_s"]
+            established = not held
             if held:
                 method += (f"; the partial at {lo:.1f} m/s was undecided at the end time (still moving at "
                            f"{held[0]['residual_velocity_m_s']:.1f} m/s), so the bracket's low end is not established")
@@ -304,6 +308,8 @@ def entry(c, campaigns=()):
         "v50_m_s": v50,
         "v50_low_m_s": low,
         "v50_high_m_s": high,
+        # a bisection's bracket whose low end was still moving at its end time: false
+        "v50_low_established": established,
         # a bisection whose every shot perforated (re-fired shots counted): V50 lies below this
         "v50_below_m_s": below,
         "method": method,

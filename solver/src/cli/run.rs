@@ -237,7 +237,9 @@ fn panel_sizes(entries: Option<Vec<serde_json::Value>>) -> String {
         .filter_map(|e| {
             let side = 1e3 * e["side_m"].as_f64()?;
             if let (Some(low), Some(high)) = (e["v50_low_m_s"].as_f64(), e["v50_high_m_s"].as_f64()) {
-                let undecided = e["method"].as_str().is_some_and(|m| m.contains("undecided"));
+                // validation.py's own reading: the low end still moving at its end time (a
+                // re-fire's note in the method may say "undecided" of a shot since settled)
+                let undecided = e["v50_low_established"] == false;
                 return Some(format!(
                     "{side:.1} mm {low:.0}-{high:.0} m/s{}",
                     if undecided { " (low end undecided)" } else { "" }
@@ -276,8 +278,10 @@ mod tests {
         let entries = serde_json::json!([
             { "series": "panel_size", "side_m": 0.0254, "v50_low_m_s": null, "v50_high_m_s": null, "method": "bisection: no bracket yet (all perforated)",
               "shot_records": [{ "velocity_m_s": 300.0, "perforated": true }, { "velocity_m_s": 125.0, "perforated": true }] },
-            { "series": "panel_size", "side_m": 0.0762, "v50_low_m_s": 200.0, "v50_high_m_s": 250.0, "method": "bisection bracket; the partial at 200.0 m/s was undecided at the end time",
-              "shot_records": [] },
+            { "series": "panel_size", "side_m": 0.0762, "v50_low_m_s": 200.0, "v50_high_m_s": 250.0, "v50_low_established": false,
+              "method": "bisection bracket; the partial at 200.0 m/s was undecided at the end time", "shot_records": [] },
+            { "series": "panel_size", "side_m": 0.01, "v50_low_m_s": 50.0, "v50_high_m_s": 75.0, "v50_low_established": true,
+              "method": "bisection bracket; the 75.0 m/s shot, undecided at the end time, fired again: perforated", "shot_records": [] },
             { "series": "mesh", "side_m": 0.0762, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
             { "series": "panel_size", "side_m": 0.01, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
             { "series": "panel_size", "side_m": 0.02, "v50_low_m_s": null, "v50_high_m_s": null, "v50_below_m_s": 75.0, "method": "",
@@ -285,7 +289,7 @@ mod tests {
         ]);
         let text = panel_sizes(serde_json::from_value(entries).ok());
         assert!(
-            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided), 20.0 mm below 75 m/s (every shot so far perforated); the seed's Table 6-1"),
+            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided), 10.0 mm 50-75 m/s, 20.0 mm below 75 m/s (every shot so far perforated); the seed's Table 6-1"),
             "{text}"
         );
         assert!(panel_sizes(None).contains("docs/validation.md") && !panel_sizes(None).contains("panel side"));
