@@ -163,6 +163,14 @@ class PanelLowEnds(unittest.TestCase):
 
 
 class Run(unittest.TestCase):
+    def test_a_commit_subject_stays_within_72_characters(self):
+        short = validation.commit_subject("yarn-4-d-i0", ["145.3 m/s perforated, 2.5 m/s left"])
+        self.assertEqual(short, "validation: yarn-4-d-i0 145.3 m/s perforated, 2.5 m/s left")
+        name = "mesh-3in-4-fibres-6mm-l0-0.5-rotating-spring-at-break"
+        for words in (["400.0 m/s perforated, 338.9 m/s left"], ["400.0 m/s perforated, 338.9 m/s left"] * 3):
+            self.assertLessEqual(len(validation.commit_subject(name, words)), 72)
+        self.assertEqual(validation.commit_subject("layers-8-3in", ["a"] * 40), "validation: layers-8-3in, 40 shot(s)")
+
     def test_a_filtered_run_says_its_filter_is_done_not_every_campaign(self):
         done = campaign("yarn-t-d-i0", FIXTURE_CASE, BISECTION, [])
         done.complete = True

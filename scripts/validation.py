@@ -349,11 +349,19 @@ def commit(c, new_ids):
         s = shots[i]
         outcome = f"perforated, {s['residual_velocity_m_s']:.1f} m/s left" if s["perforated"] else f"stopped ({s['stopped_by']})"
         words.append(f"{s['velocity_m_s']:.1f} m/s {outcome}")
-    subject = f"validation: {c.name} " + "; ".join(words)
-    if len(subject) > 72:
-        subject = f"validation: {c.name}, {len(new_ids)} shot(s)"
-    body = "\n".join(f"{i}: {json.dumps(shots[i])}" for i in new_ids)
-    git_commit_paths(paths, subject, body)
+    body = "\n".join([f"campaign {c.name}"] + [f"{i}: {json.dumps(shots[i])}" for i in new_ids])
+    git_commit_paths(paths, commit_subject(c.name, words), body)
+
+
+def commit_subject(name, words):
+    """The subject of a record's commit, at most 72 characters: the campaign and each shot's
+    outcome, else the campaign and the count, else the count alone (the body names the
+    campaign)."""
+    for subject in (f"validation: {name} " + "; ".join(words), f"validation: {name}, {len(words)} shot(s)",
+                    f"validation: {len(words)} shot(s) of a campaign named in the body"):
+        if len(subject) <= 72:
+            return subject
+    return subject
 
 
 def git_commit_paths(paths, subject, body):
