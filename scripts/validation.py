@@ -282,6 +282,7 @@ def entry(c, campaigns=()):
     if os.path.exists(provenance_path):
         with open(provenance_path) as f:
             commit = json.load(f).get("git_commit")
+    fine_ratio = weave.get("element_length_ratio") or target.get("element_length_ratio") or 0.5
     out = {
         "name": c.name,
         "series": series,
@@ -290,10 +291,9 @@ def entry(c, campaigns=()):
         "fibres_per_yarn": fibres,
         "fine_radius_m": hybrid.get("fine_radius_m"),
         "coarse_fibres_per_yarn": hybrid.get("fibres_per_yarn"),
-        "element_length_ratio": weave.get("element_length_ratio") or target.get("element_length_ratio") or 0.5,
+        "element_length_ratio": fine_ratio,
         # the coarse yarns' own l0/d (hybrid.element_length_ratio; absent: the fine one's)
-        "coarse_element_length_ratio": (hybrid.get("element_length_ratio") or weave.get("element_length_ratio") or 0.5)
-        if hybrid else None,
+        "coarse_element_length_ratio": (hybrid.get("element_length_ratio") or fine_ratio) if hybrid else None,
         # the coarse yarns stepped at their own, longer step (run.multi_rate, docs/theory.md T1)
         "multi_rate": bool(c.case["run"].get("multi_rate")),
         "projectile": c.case["projectile"].get("preset") or c.case["projectile"].get("shape"),
