@@ -6,7 +6,8 @@
 Left: V50 (bracket or interval as an error bar) of the 4-layer panels against their side,
 with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers of a
 15 in panel; a campaign whose every shot so far perforated is drawn as an upper bound (a
-hollow downward triangle at its slowest shot, an arrow beneath). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
+hollow downward triangle at its slowest shot, an arrow beneath), one whose every shot was
+stopped as a lower bound (an upward triangle at its fastest, an arrow above). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
 the layer series where it has results. A campaign without a V50 yet is listed under the
 plot with its state, not drawn. Residual velocities of the mesh series are printed, not
 plotted.
@@ -49,31 +50,38 @@ def undecided(entry):
     return entry.get("v50_low_established") is False
 
 
-def draw(axes, chosen, x, label):
-    """Draws the entries that have a V50 (each kind of marker labelled once), lists the
-    others; whether any was drawn."""
+def draw(axes, chosen, x, label, colour=lambda e: "tab:blue"):
+    """Draws the entries that have a V50 (each kind of marker labelled once), and a bound for
+    those whose every shot so far went one way; lists the others; whether any was drawn."""
     labelled = set()
     for e in chosen:
         if e["v50_m_s"] is None:
-            # every shot so far went through: the V50 lies below the slowest of them, drawn as
-            # an upper bound (a downward triangle at that speed, an arrow beneath)
             shots = e.get("shot_records") or []
+            # every shot so far went through: the V50 lies below the slowest of them, drawn as
+            # an upper bound (a downward triangle at that speed, an arrow beneath);
             # validation.py's reading counts shots a low-end campaign fired again
             slowest = e.get("v50_below_m_s")
             if slowest is None and shots and all(r["perforated"] for r in shots):
                 slowest = min(r["velocity_m_s"] for r in shots)
-            if slowest is not None:
-                text = "dea-mpi: every shot perforated, V50 below the slowest"
-                axes.errorbar([x(e)], [slowest], yerr=[[40.0], [0.0]], uplims=False, lolims=False, fmt="v",
-                              color="tab:blue", mfc="white", capsize=0, linestyle="none",
-                              label=None if text in labelled else text)
-                axes.annotate("", xy=(x(e), slowest - 45.0), xytext=(x(e), slowest),
-                              arrowprops=dict(arrowstyle="->", color="tab:blue"))
+            # every shot so far was stopped, none of them only held at its end time: the V50
+            # lies above the fastest, drawn as a lower bound (an upward triangle, an arrow above)
+            fastest = None
+            if shots and all(not r["perforated"] and r["stopped_by"] != "end_time_s" for r in shots):
+                fastest = max(r["velocity_m_s"] for r in shots)
+            for bound, marker, direction, text in (
+                    (slowest, "v", -1.0, "dea-mpi: every shot perforated, V50 below the slowest"),
+                    (fastest, "^", 1.0, "dea-mpi: every shot stopped, V50 above the fastest")):
+                if bound is None:
+                    continue
+                axes.plot([x(e)], [bound], marker, color=colour(e), mfc="white", linestyle="none",
+                          label=None if text in labelled else text)
+                axes.annotate("", xy=(x(e), bound + direction * 45.0), xytext=(x(e), bound),
+                              arrowprops=dict(arrowstyle="->", color=colour(e)))
                 labelled.add(text)
             pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
             continue
         text = label(e) + (" (hollow: the bracket's low end was undecided)" if undecided(e) else "")
-        bar(axes, x(e), e, "tab:blue", None if text in labelled else text)
+        bar(axes, x(e), e, colour(e), None if text in labelled else text)
         labelled.add(text)
     return bool(labelled)
 
@@ -93,10 +101,25 @@ size_axes.legend(fontsize=7, loc="upper left")
 
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_EXPERIMENT, "ks--", label="experiment (Table 6-1)")
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_MODIFIED_DEA, "r^:", label="seed modified DEA (Table 6-1)")
-layers = sorted((e for e in entries if e["series"] == "layers"), key=lambda e: e["layers"])
-if not draw(layer_axes, layers, lambda e: e["layers"], lambda e: f"dea-mpi, {1000 * e['side_m']:.0f} mm panel"
-                                            + (" (MIL-STD-662F in its bracket, no mixed zone yet)"
-                                               if (e["method"] or "").startswith("MIL-STD") else " (logistic, 95 %)")):
+layers = sorted((e for e in entries if e["series"] == "layers"), key=lambda e: (e["layers"], e["name"]))
+# several campaigns of one layer count (a finer step about the first one's limit) side by side,
+# 0.6 layers apart, each labelled with its campaign
+alongside = {e["name"]: [o["name"] for o in layers if o["layers"] == e["layers"]] for e in layers}
+
+
+def layer_position(e):
+    same = alongside[e["name"]]
+    return e["layers"] + 0.6 * (same.index(e["name"]) - 0.5 * (len(same) - 1))
+
+
+def layer_label(e):
+    return (f"dea-mpi, {1000 * e['side_m']:.0f} mm panel" + (f", {e['name']}" if len(alongside[e["name"]]) > 1 else "")
+            + (" (MIL-STD-662F in its bracket, no mixed zone)" if (e["method"] or "").startswith("MIL-STD")
+               else " (logistic, 95 %)"))
+
+
+if not draw(layer_axes, layers, layer_position, layer_label,
+            lambda e: ("tab:blue", "tab:green", "tab:purple")[alongside[e["name"]].index(e["name"]) % 3]):
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 layer_axes.set_xlabel("layers")
 layer_axes.set_ylabel("V50 [m/s]")
@@ -104,7 +127,7 @@ layer_axes.set_title("V50 against layers")
 layer_axes.set_xlim(0, 30)
 layer_axes.set_ylim(0, 700)
 layer_axes.grid(alpha=0.3)
-layer_axes.legend(fontsize=7, loc="upper left")
+layer_axes.legend(fontsize=7, loc="lower right")
 if pending:
     figure.text(0.01, 0.01, "not yet decided: " + "; ".join(pending), fontsize=6, wrap=True)
 figure.tight_layout(rect=(0, 0.05 if pending else 0, 1, 1))
