@@ -171,6 +171,15 @@ class Run(unittest.TestCase):
             self.assertLessEqual(len(validation.commit_subject(name, words)), 72)
         self.assertEqual(validation.commit_subject("layers-8-3in", ["a"] * 40), "validation: layers-8-3in, 40 shot(s)")
 
+    def test_a_shot_is_not_bound_to_the_cores_another_loop_holds(self):
+        c = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
+        c.path = "jobs/campaigns/validation/layers-t.json"
+        for ranks in (1, 2, 64):
+            command = validation.shot_command(types.SimpleNamespace(ranks=ranks, binary="dea-mpi"), c)
+            self.assertEqual(command[:5], ["mpirun", "--bind-to", "none", "-np", str(ranks)])
+            self.assertEqual("--oversubscribe" in command, ranks > os.cpu_count())
+            self.assertEqual(command[command.index("dea-mpi"):][:2], ["dea-mpi", "v50"])
+
     def test_a_filtered_run_says_its_filter_is_done_not_every_campaign(self):
         done = campaign("yarn-t-d-i0", FIXTURE_CASE, BISECTION, [])
         done.complete = True

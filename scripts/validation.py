@@ -394,6 +394,17 @@ def commit_pending(campaigns, chosen):
             commit(c, new)
 
 
+def shot_command(args, c):
+    """The `mpirun` that fires `c`'s next shot. Unbound (`--bind-to none`): Open MPI binds
+    a job of one or two ranks to cores counted from core 0, so two campaigns run side by side
+    here, each its own `mpirun -np 1`, both ran on core 0 at half speed while core 1 idled
+    (found 2026-11-28; every pair of loops before then shared a core)."""
+    command = ["mpirun", "--bind-to", "none", "-np", str(args.ranks)]
+    if args.ranks > os.cpu_count():
+        command.append("--oversubscribe")
+    return command + [binary(args), "v50", c.path, "--out", os.path.join(RESULTS, c.name), "--shots-per-group", "1"]
+
+
 def run(args, campaigns):
     fired = 0
     for c in campaigns:
@@ -402,10 +413,7 @@ def run(args, campaigns):
                 print(f"stopped after --max-shots {args.max_shots}")
                 return 0
             before = {s["id"] for s in c.shots}
-            command = ["mpirun", "-np", str(args.ranks)]
-            if args.ranks > os.cpu_count():
-                command.append("--oversubscribe")
-            command += [binary(args), "v50", c.path, "--out", os.path.join(RESULTS, c.name), "--shots-per-group", "1"]
+            command = shot_command(args, c)
             print("+", " ".join(command), flush=True)
             code = subprocess.run(command).returncode
             c.refresh()
