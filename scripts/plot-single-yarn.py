@@ -7,7 +7,9 @@ Fig. 5-6), from validation/summary.json only.
 The seed's Table 5-2 rows (I0: filaments bend freely, the upper bound; I_inf: the bundle
 bends as one rod, the lower bound) beside this code's bisection brackets for the same two
 bending models and for the effective inertia (5-10) with k1 = 0.8, k2 = 1, which the seed
-found flat in the fibre count. A campaign without a bracket yet is listed under the plot.
+found flat in the fibre count. A campaign without a bracket yet is listed under the plot,
+and one whose every shot so far perforated is drawn as a bound (a filled downward triangle
+at its slowest shot, an arrow beneath).
 """
 import argparse
 import json
@@ -51,6 +53,17 @@ for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     )
     drawn = [e for e in chosen if e["v50_m_s"] is not None]
     pending += [f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}" for e in chosen if e["v50_m_s"] is None]
+    # a bisection whose every shot so far went through (validation.py's v50_below_m_s, which
+    # counts re-fired shots): the V50 lies below its slowest, a downward triangle (filled:
+    # the seed's are hollow) with an arrow beneath
+    for e in chosen:
+        below = e.get("v50_below_m_s") if e["v50_m_s"] is None else None
+        if below is not None:
+            x = e["fibres_per_yarn"] + shift
+            text = "dea-mpi: every shot so far perforated, V50 below the slowest"
+            axes.plot([x], [below], "v", color=colour, linestyle="none",
+                      label=text if text not in axes.get_legend_handles_labels()[1] else None)
+            axes.annotate("", xy=(x, below - 30.0), xytext=(x, below), arrowprops=dict(arrowstyle="->", color=colour))
     if not drawn:
         continue
     xs = [e["fibres_per_yarn"] + shift for e in drawn]
