@@ -61,16 +61,18 @@ def main():
     print(f"{name}: {nodes:,} nodes, at most {cost['steps']:,} steps per shot "
           f"({cost['settle_steps']:,} of them the settle's)")
     network = f", of it {1e3 * cost['network_s']:.3f} ms between hosts" if cost["network_s"] > 0 else ""
-    print(f"per shot on {cost['ranks']} rank(s), {cost['ranks_per_host']} per host: at most {figure(cost['core_hours'])} "
+    print(f"per shot on {cost['ranks']} rank(s), {cost['ranks_per_host']} per host: about {figure(cost['core_hours'])} "
           f"core-hours, {figure(cost['wall_s'] / 3600)} h of wall ({1e3 * cost['step_s']:.3f} ms per step{network}; "
           f"slowest rank {cost['imbalance']:.2f} x the mean)")
     shots = cost["campaign"]["shots"] if "campaign" in cost else 1
     groups = args.tasks // args.ranks_per_shot
     rounds = math.ceil(shots / groups)
     if "campaign" in cost:
-        print(f"campaign: {shots} shots, at most {figure(cost['campaign']['core_hours'])} core-hours")
+        print(f"campaign: {shots} shots, about {figure(cost['campaign']['core_hours'])} core-hours")
     print(f"on {args.tasks} tasks in {groups} group(s) of {args.ranks_per_shot}: {rounds} round(s), "
-          f"at most {figure(rounds * cost['wall_s'] / 3600)} h of wall time")
+          f"about {figure(rounds * cost['wall_s'] / 3600)} h of wall time (the steps to the end time at the reference "
+          f"shot's rates: a shot decided earlier stops there, and a perforation phase has cost half as much "
+          f"again per step or more, docs/performance.md)")
     print(f"calibration: {cost['calibration']}")
     if cost.get("interconnect"):
         print(f"interconnect: {cost['interconnect']}")

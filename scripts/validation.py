@@ -15,10 +15,12 @@ not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script's `
 checkpoints the shot and ends the script with 75.
 
 Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
-campaign's finished shots (wall time x ranks) when it has any, otherwise the upper bound
-`dea-mpi check --ranks R` prices a shot at (the cost model calibrated on the reference shot,
-docs/theory.md C1: steps to the end time after the settle; shots stop when decided, so most
-cost less).
+campaign's finished shots (wall time x ranks) when it has any, otherwise the price
+`dea-mpi check --ranks R` gives a shot (the cost model calibrated on the reference shot,
+docs/theory.md C1: steps to the end time after the settle at the reference window's rates;
+shots stop when decided, so most take fewer steps, but a perforation phase has cost half
+as much again per step or more). Walls of shots fired beside another loop before 2026-11-28
+overstate their cost (docs/validation.md).
 
 `validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
 laboratory scale", says what each field means).
@@ -155,7 +157,7 @@ def status(campaigns):
         state = "complete" if c.complete else "to run"
         print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
     print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours "
-          "(b: upper bound from the end time, m: mean of this campaign's finished shots)")
+          "(b: the cost model's price to the end time, m: mean of this campaign's finished shots)")
 
 
 def same_shot_but_speed(case, other):

@@ -951,7 +951,7 @@ fn check_prices_a_case_on_the_ranks_meant_and_a_campaign_by_its_shots() {
         let out = dea(args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{stderr}");
-        assert!(stderr.lines().any(|l| l.starts_with("cost: at most ")), "{stderr}");
+        assert!(stderr.lines().any(|l| l.starts_with("cost: about ")), "{stderr}");
         serde_json::from_slice(&out.stdout).unwrap()
     };
     let printed = priced(&["check", "../cases/default.json", "--ranks", "2"]);
@@ -1014,7 +1014,7 @@ fn the_cost_scripts_print_what_check_prices() {
     // three figures of check's core-hours in the per-shot line
     let quoted: f64 = text
         .lines()
-        .find_map(|l| l.strip_prefix("per shot on 2 rank(s), 2 per host: at most ")?.split(' ').next()?.parse().ok())
+        .find_map(|l| l.strip_prefix("per shot on 2 rank(s), 2 per host: about ")?.split(' ').next()?.parse().ok())
         .unwrap_or_else(|| panic!("{text}"));
     assert!((quoted / hours - 1.0).abs() < 5e-3, "{text} / {hours}");
     assert!(text.contains("2 group(s) of 2") && !text.contains("campaign:"), "{text}");

@@ -165,10 +165,13 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
         );
     }
     let campaign_line = shots.map_or(String::new(), |shots| {
-        format!("; the campaign's {shots} shots at most {:.3} core-hours", shots as f64 * price.core_hours)
+        format!("; the campaign's {shots} shots about {:.3} core-hours", shots as f64 * price.core_hours)
     });
+    // "about", not "at most": the price runs every shot to its end time, which bounds the
+    // steps, but at the reference window's per-step rates, and a whole shot's perforation
+    // phase rebuilds its lists more often (docs/performance.md, "Cost model")
     eprintln!(
-        "cost: at most {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps of {:.3} ms, the slowest rank {:.2} x the mean){campaign_line}",
+        "cost: about {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps to the end time, {:.3} ms each at the reference shot's rates, the slowest rank {:.2} x the mean; a shot decided earlier stops there, and a perforation phase has cost half as much again per step or more){campaign_line}",
         price.core_hours,
         price.ranks,
         price.wall_s,
