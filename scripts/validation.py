@@ -398,9 +398,9 @@ def commit_pending(campaigns, chosen):
 
 def shot_command(args, c):
     """The `mpirun` that fires `c`'s next shot. Unbound (`--bind-to none`): Open MPI binds
-    a job of one or two ranks to cores counted from core 0, so two campaigns run side by side
-    here, each its own `mpirun -np 1`, both ran on core 0 at half speed while core 1 idled
-    (found 2026-11-28; every pair of loops before then shared a core)."""
+    a job of one or two ranks to cores counted from core 0, so two campaigns run side by side,
+    each its own `mpirun`, would share core 0 while core 1 idles (docs/performance.md, "jobs
+    side by side run unbound")."""
     command = ["mpirun", "--bind-to", "none", "-np", str(args.ranks)]
     if args.ranks > os.cpu_count():
         command.append("--oversubscribe")
