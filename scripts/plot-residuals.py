@@ -8,7 +8,8 @@ Every shot of the layer series (`series` "layers"), of the 3 in panel-size bisec
 the layer series' twins on other meshes (`mesh-layers-*`) is a marker: filled at its
 residual velocity when it perforated, hollow below the axis when the fabric stopped it (the
 count beside it when several were stopped at one speed; each campaign's stopped shots on a
-row of their own just below the axis). A campaign's Lambert–Jonas fit
+row of their own just below the axis), a cross at its speed then when the end time came
+before either. A campaign's Lambert–Jonas fit
 (`vr = a (vs^p - v_bl^p)^(1/p)`, dea-ballistic's `lambert_jonas`, as `dea-mpi v50` wrote it)
 is its dashed curve. The mesh series' shot on the layer series' own mesh at 400 m/s is drawn
 for scale, and the line vr = vs is what a panel that took nothing would leave.
@@ -83,8 +84,12 @@ for axes, layers in zip(axes_list[0], layer_counts):
         colour = colours[k % len(colours)]
         records = entry["shot_records"]
         through = [r for r in records if r["perforated"]]
-        stopped = Counter(r["velocity_m_s"] for r in records if not r["perforated"])
-        label = f"{entry['name']} ({len(through)} through, {sum(stopped.values())} not)"
+        # still moving into the panel when the end time came: neither through nor stopped
+        undecided = [r for r in records if not r["perforated"] and r["stopped_by"] == "end_time_s"]
+        stopped = Counter(r["velocity_m_s"] for r in records
+                          if not r["perforated"] and r["stopped_by"] != "end_time_s")
+        label = f"{entry['name']} ({len(through)} through, {sum(stopped.values())} stopped" + (
+            f", {len(undecided)} undecided)" if undecided else ")")
         # the stopped shots of each campaign on a row of their own just below the axis
         row = -STOPPED_ROW_M_S * (k + 1)
         if through:
@@ -92,6 +97,9 @@ for axes, layers in zip(axes_list[0], layer_counts):
                       "o", color=colour, label=label)
         axes.plot(list(stopped), [row] * len(stopped), "o", color=colour, mfc="white",
                   label=None if through else label)
+        if undecided:
+            axes.plot([r["velocity_m_s"] for r in undecided], [r["residual_velocity_m_s"] for r in undecided],
+                      "x", color=colour, label=None)
         for speed, count in stopped.items():
             if count > 1:
                 axes.annotate(f"{count}", (speed, row), textcoords="offset points", xytext=(5, -3),
@@ -114,8 +122,8 @@ for axes, layers in zip(axes_list[0], layer_counts):
     axes.grid(alpha=0.3)
     axes.legend(fontsize=7, loc="upper left")
 figure.text(0.01, 0.01, "filled: perforated, at its residual velocity; hollow, below the axis "
-            "(a row per campaign): stopped, with the number of shots stopped at that speed beside it",
-            fontsize=7)
+            "(a row per campaign): stopped, with the number of shots stopped at that speed beside it; "
+            "x: undecided at the end time, at its speed then", fontsize=7)
 figure.tight_layout(rect=(0, 0.03, 1, 1))
 os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
 figure.savefig(args.out, dpi=110)
