@@ -70,17 +70,18 @@ if not layer_counts:
     raise SystemExit("plot-residuals: no 3 in FSP shots in validation/summary.json yet")
 figure, axes_list = plt.subplots(1, len(layer_counts), figsize=(5.6 * len(layer_counts), 4.6), squeeze=False)
 colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+reference = next((e for e in entries if e["name"] == MESH_REFERENCE), None)
 for axes, layers in zip(axes_list[0], layer_counts):
-    speeds = [r["velocity_m_s"] for e in chosen if e["layers"] == layers for r in e["shot_records"]]
+    campaigns = [e for e in chosen if e["layers"] == layers]
+    speeds = [r["velocity_m_s"] for e in campaigns for r in e["shot_records"]]
     low, high = min(speeds) - 50.0, max(speeds) + 50.0
-    reference = next((e for e in entries if e["name"] == MESH_REFERENCE), None)
     if layers == 4 and reference and reference.get("shot_records"):
         shot = reference["shot_records"][0]
         high = max(high, shot["velocity_m_s"] + 25.0)
         axes.plot([shot["velocity_m_s"]], [shot["residual_velocity_m_s"]], "D", color="grey",
                   label=f"the series' mesh at {shot['velocity_m_s']:.0f} m/s (mesh series)")
     axes.plot([0.0, high], [0.0, high], ":", color="lightgrey", label="vr = vs (nothing taken)")
-    for k, entry in enumerate(e for e in chosen if e["layers"] == layers):
+    for k, entry in enumerate(campaigns):
         colour = colours[k % len(colours)]
         records = entry["shot_records"]
         through = [r for r in records if r["perforated"]]
@@ -114,7 +115,7 @@ for axes, layers in zip(axes_list[0], layer_counts):
         axes.axvline(experiment, color="black", linestyle="--", linewidth=0.8,
                      label=f"V50 measured, {layers} layers, 15 in panel (Table 6-1)")
     axes.set_xlim(low, high)
-    axes.set_ylim(-STOPPED_ROW_M_S * (k + 2), high)
+    axes.set_ylim(-STOPPED_ROW_M_S * (len(campaigns) + 1), high)
     axes.axhline(0.0, color="grey", linewidth=0.6)
     axes.set_xlabel("striking velocity [m/s]")
     axes.set_ylabel("residual velocity [m/s]")
