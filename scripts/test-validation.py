@@ -192,5 +192,25 @@ class Run(unittest.TestCase):
         self.assertNotIn("every validation campaign is complete", printed.getvalue())
 
 
+class ShotTables(unittest.TestCase):
+    def test_every_shot_on_record_is_a_row_with_its_draws_and_outcome(self):
+        fired = campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,
+                         [shot(162.5, "P", 160.0, 0, aim_offset_m=[3e-4, 4e-4], yaw_deg=-1.25, obliquity_deg=0.0),
+                          shot(59.375, "S", -0.4, 1), shot(42.1875, "U", 22.3, 2)])
+        waiting = campaign("layers-t", FIXTURE_CASE, {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0,
+                                                      "shots": 12}, [])
+        campaigns = [fired, waiting]
+        text = validation.shots_markdown(campaigns, [validation.entry(c, campaigns) for c in campaigns])
+        self.assertIn("## yarn-t-d-i-inf", text)
+        self.assertIn("bisection from [25, 300] m/s to 10 m/s; 3 on record, in progress.", text)
+        self.assertIn("| r000-00000 | 162.50 | 0.50 | -1.25 | +0.00 | perforated | 160.0 | 1000 | 0.00 |", text)
+        self.assertIn("| r000-00001 | 59.38 | – | – | – | stopped (turned back) | -0.4 |", text)
+        self.assertIn("| r000-00002 | 42.19 | – | – | – | undecided at the end time | 22.3 |", text)
+        # the bracket the entry gives is the table's too
+        self.assertIn("V50 110.9 m/s (59.4–162.5)", text)
+        self.assertNotIn("## layers-t", text)
+        self.assertIn("## Not fired yet\n\n`layers-t`.", text)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

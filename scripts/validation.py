@@ -3,7 +3,7 @@
 
     scripts/validation.py status                      # what is done, what is left, its core-hours
     scripts/validation.py run [--ranks 2] [--max-shots N] [--only TEXT] [--commit]
-    scripts/validation.py summary                     # rewrite validation/summary.json only
+    scripts/validation.py summary                     # rewrite validation/summary.json and shots.md only
 
 Each campaign of `jobs/campaigns/validation/` runs into `validation/<campaign name>/`; a
 finished shot leaves its record there (`shots/<id>.json`, written whole by `dea-mpi v50`),
@@ -23,7 +23,8 @@ as much again per step or more). Walls of shots fired beside another loop before
 overstate their cost (docs/validation.md).
 
 `validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
-laboratory scale", says what each field means).
+laboratory scale", says what each field means); `validation/shots.md` every shot on record,
+campaign by campaign, as tables.
 """
 import argparse
 import glob
@@ -330,20 +331,92 @@ def entry(c, campaigns=()):
 
 
 def write_summary(campaigns):
+    """Writes validation/summary.json and, from the same entries, validation/shots.md."""
     os.makedirs(RESULTS, exist_ok=True)
-    entries = [entry(c, campaigns) for c in sorted(campaigns, key=lambda c: c.name)]
+    ordered = sorted(campaigns, key=lambda c: c.name)
+    entries = [entry(c, campaigns) for c in ordered]
     path = os.path.join(RESULTS, "summary.json")
     with open(path + ".partial", "w") as f:
         json.dump(entries, f, indent=1)
         f.write("\n")
     os.replace(path + ".partial", path)
+    tables = os.path.join(RESULTS, "shots.md")
+    with open(tables + ".partial", "w") as f:
+        f.write(shots_markdown(ordered, entries))
+    os.replace(tables + ".partial", tables)
     return path
+
+
+def outcome_words(s):
+    """What a shot record says happened, in the words of docs/theory.md V1."""
+    if s["perforated"]:
+        return "perforated"
+    if s["stopped_by"] == "end_time_s":
+        return "undecided at the end time"
+    return "stopped (turned back)"
+
+
+def design_words(design):
+    kind = design["kind"]
+    if kind == "bisection":
+        return f"bisection from [{design['low_m_s']:g}, {design['high_m_s']:g}] m/s to {design['resolution_m_s']:g} m/s"
+    if kind == "up_and_down":
+        return f"up-and-down from {design['start_m_s']:g} m/s by {design['step_m_s']:g} m/s, {design['shots']} shots planned"
+    if kind == "velocities":
+        return "fixed striking speeds " + ", ".join(f"{v:g}" for v in design["velocities_m_s"]) + " m/s"
+    return kind.replace("_", " ")
+
+
+def shots_markdown(campaigns, entries):
+    """Every shot on record, campaign by campaign, as tables (validation/shots.md): what each
+    shot drew, what happened to it and what it cost, read from the records so that no shot is
+    transcribed by hand. Shots are listed in the order they were fired."""
+    lines = ["# Validation shots", "",
+             "Written by `scripts/validation.py` (run, summary) from the records in "
+             "`validation/<campaign>/shots/`; do not edit. What the campaigns compare and what the results "
+             "say is in docs/validation.md. *Aim* is the aim point's distance from the panel's centre as "
+             "drawn (the scatter of the campaign file), *left* the projectile's speed when the shot ended "
+             "(for a stopped shot, about zero or slightly negative: it turned back), *core-h* the wall time "
+             "times ranks (walls of shots fired beside another loop before 2026-11-28 overstate it, "
+             "docs/validation.md). Campaigns with no shot yet are listed at the end.", ""]
+    waiting = []
+    for c, e in zip(campaigns, entries):
+        if not c.shots:
+            waiting.append(c.name)
+            continue
+        state = "complete" if c.complete else "in progress"
+        lines.append(f"## {c.name}")
+        lines.append("")
+        described = f"{design_words(c.spec['design'])}; {len(c.shots)} on record, {state}."
+        if e["v50_m_s"] is not None:
+            described += (f" V50 {e['v50_m_s']:.1f} m/s ({e['v50_low_m_s']:.1f}–{e['v50_high_m_s']:.1f}): "
+                          f"{e['method']}.")
+        elif e["method"]:
+            described += f" {e['method'][0].upper()}{e['method'][1:]}."
+        lines.append(described)
+        lines.append("")
+        lines.append("| shot | striking (m/s) | aim (mm) | yaw (°) | obliquity (°) | outcome | left (m/s) | steps | core-h |")
+        lines.append("|---|---|---|---|---|---|---|---|---|")
+        for s in sorted(c.shots, key=lambda s: s["id"]):
+            aim = s.get("aim_offset_m")
+            aim = f"{1e3 * (aim[0] ** 2 + aim[1] ** 2) ** 0.5:.2f}" if aim is not None else "–"
+            yaw = f"{s['yaw_deg']:+.2f}" if "yaw_deg" in s else "–"
+            obliquity = f"{s['obliquity_deg']:+.2f}" if "obliquity_deg" in s else "–"
+            lines.append(f"| {s['id']} | {s['velocity_m_s']:.2f} | {aim} | {yaw} | {obliquity} | {outcome_words(s)} "
+                         f"| {s['residual_velocity_m_s']:.1f} | {s['steps']} | {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
+        lines.append("")
+    if waiting:
+        lines.append("## Not fired yet")
+        lines.append("")
+        lines.append(", ".join(f"`{name}`" for name in waiting) + ".")
+        lines.append("")
+    return "\n".join(lines)
 
 
 def commit(c, new_ids):
     paths = [os.path.join(RESULTS, c.name, "shots", f"{i}.json") for i in new_ids]
     paths += [os.path.join(RESULTS, c.name, f) for f in ("v50.json", "provenance.json")]
-    paths.append(os.path.join(RESULTS, "summary.json"))
+    paths += [os.path.join(RESULTS, "summary.json"), os.path.join(RESULTS, "shots.md")]
     paths = [p for p in paths if os.path.exists(p)]
     shots = {s["id"]: s for s in c.shots}
     words = []
