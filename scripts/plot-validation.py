@@ -112,10 +112,19 @@ def layer_position(e):
     return e["layers"] + 0.6 * (same.index(e["name"]) - 0.5 * (len(same) - 1))
 
 
+def estimate_words(method):
+    """What the error bar is, from the start of validation.py's `method`."""
+    for start, words in (("MIL-STD", "MIL-STD-662F in its bracket, no mixed zone"),
+                         ("bracket", "bracket and its midpoint, no mixed zone"),
+                         ("logistic maximum likelihood", "logistic, 95 %")):
+        if (method or "").startswith(start):
+            return words
+    raise ValueError(f"a layer series' V50 of an unknown kind: {method!r}")
+
+
 def layer_label(e):
     return (f"dea-mpi, {1000 * e['side_m']:.0f} mm panel" + (f", {e['name']}" if len(alongside[e["name"]]) > 1 else "")
-            + (" (MIL-STD-662F in its bracket, no mixed zone)" if (e["method"] or "").startswith("MIL-STD")
-               else " (logistic, 95 %)"))
+            + f" ({estimate_words(e['method'])})")
 
 
 if not draw(layer_axes, layers, layer_position, layer_label,

@@ -192,6 +192,44 @@ class Run(unittest.TestCase):
         self.assertNotIn("every validation campaign is complete", printed.getvalue())
 
 
+class UpAndDown(unittest.TestCase):
+    UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0, "shots": 2}
+    NO_ZONE = "no zone of mixed results"
+
+    def entry_of(self, shots, mil_std):
+        c = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, shots)
+        report = {"logistic": {"Err": self.NO_ZONE}, "mil_std_662f": mil_std}
+        with mock.patch.object(validation, "campaign_report", lambda name: report):
+            return validation.entry(c, [c])
+
+    def test_two_shots_that_bracket_the_limit_give_the_bracket(self):
+        e = self.entry_of([shot(300.0, "S", -0.4, 0), shot(325.0, "P", 94.6, 1)],
+                          {"Err": "3 shots of each outcome are needed"})
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (300.0, 312.5, 325.0))
+        self.assertIn("no MIL-STD-662F: 3 shots of each outcome are needed", e["method"])
+        self.assertIn(self.NO_ZONE, e["method"])
+
+    def test_mil_std_gives_its_mean_within_the_bracket(self):
+        shots = [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 61.6, 1)]
+        e = self.entry_of(shots, {"Ok": {"v50": 212.5, "count": 3}})
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (200.0, 212.5, 225.0))
+        self.assertTrue(e["method"].startswith("MIL-STD-662F mean of the 3"))
+
+    def test_a_low_end_only_undecided_is_not_established(self):
+        undecided = [shot(300.0, "U", 22.1, 0), shot(325.0, "P", 94.6, 1)]
+        e = self.entry_of(undecided, {"Err": "3 shots of each outcome are needed"})
+        self.assertIs(e["v50_low_established"], False)
+        self.assertIn("not established", e["method"])
+        e = self.entry_of(undecided + [shot(300.0, "S", -0.4, 2)], {"Err": "3 shots of each outcome are needed"})
+        self.assertIs(e["v50_low_established"], True)
+        self.assertNotIn("not established", e["method"])
+
+    def test_one_outcome_only_gives_no_bracket(self):
+        e = self.entry_of([shot(300.0, "S", -0.4, 0)], {"Err": "3 shots of each outcome are needed"})
+        self.assertIsNone(e["v50_m_s"])
+        self.assertIsNone(e["v50_low_m_s"])
+
+
 class ShotTables(unittest.TestCase):
     def test_every_shot_on_record_is_a_row_with_its_draws_and_outcome(self):
         fired = campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,

@@ -214,6 +214,15 @@ def refired(c, campaigns):
     return shots, notes
 
 
+def campaign_report(name):
+    """The campaign's `v50.json` as `dea-mpi v50` last wrote it, or None before its first shot."""
+    path = os.path.join(RESULTS, name, "v50.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return json.load(f)
+
+
 def entry(c, campaigns=()):
     """One campaign's line of validation/summary.json."""
     target = c.case["target"]
@@ -222,15 +231,11 @@ def entry(c, campaigns=()):
     layers = target.get("layers", 1)
     design = c.spec["design"]
     v50 = low = high = below = None
-    # a bisection's bracket: whether its low end is a decided partial (not one still moving at
-    # its end time)
+    # a bracket's low end: whether it rests on a decided partial (not only on shots still
+    # moving at their end time)
     established = None
     method = None
-    report_path = os.path.join(RESULTS, c.name, "v50.json")
-    report = None
-    if os.path.exists(report_path):
-        with open(report_path) as f:
-            report = json.load(f)
+    report = campaign_report(c.name)
     if design["kind"] == "bisection":
         shots, notes = refired(c, campaigns) if series_of(c.name) in ("panel_size", "single_yarn") else (c.shots, [])
         lo, hi = bisection_bracket(design, shots)
@@ -264,10 +269,24 @@ def entry(c, campaigns=()):
             mil = report.get("mil_std_662f", {})
             partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
             completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
-            if "Ok" in mil and partials and completes and max(partials) < min(completes):
-                v50, low, high = mil["Ok"]["v50"], max(partials), min(completes)
-                method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
-                          f"penetrations, within the bracket (highest partial, lowest complete); no interval: " + method)
+            if partials and completes and max(partials) < min(completes):
+                # a low end resting only on shots still moving at the end time is not established
+                at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == max(partials)]
+                established = any(s["stopped_by"] != "end_time_s" for s in at_low)
+                if "Ok" in mil:
+                    v50, low, high = mil["Ok"]["v50"], max(partials), min(completes)
+                    method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
+                              f"penetrations, within the bracket (highest partial, lowest complete); no interval: "
+                              + method)
+                else:
+                    # too few shots for MIL-STD-662F: the bracket still bounds the limit
+                    low, high = max(partials), min(completes)
+                    v50 = 0.5 * (low + high)
+                    method = (f"bracket (highest partial, lowest complete) and its midpoint; no MIL-STD-662F: "
+                              f"{mil.get('Err', 'no estimate')}; no interval: " + method)
+                if not established:
+                    method += (f"; every partial at {max(partials):.1f} m/s was undecided at the end time, so the "
+                               f"bracket's low end is not established")
     series = series_of(c.name)
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series in ("single_yarn", "single_yarn_low_end"):
@@ -311,7 +330,7 @@ def entry(c, campaigns=()):
         "v50_m_s": v50,
         "v50_low_m_s": low,
         "v50_high_m_s": high,
-        # a bisection's bracket whose low end was still moving at its end time: false
+        # a bracket whose low end was still moving at its end time: false
         "v50_low_established": established,
         # a bisection whose every shot perforated (re-fired shots counted): V50 lies below this
         "v50_below_m_s": below,
