@@ -21,7 +21,7 @@ use dea_ballistic::Shot;
 use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::Rank;
-use dea_io::campaign::Campaign;
+use dea_io::campaign::{Campaign, MilStdSpec};
 use dea_io::case::Case;
 use dea_io::checkpoint::manifest_path;
 use dea_partition::Method;
@@ -431,8 +431,8 @@ pub struct CampaignReport {
     pub bisection_brackets: Vec<(f64, f64)>,
 }
 
-/// Reads every shot record of the campaign in `out` and estimates the ballistic limit.
-pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, CampaignError> {
+/// Every shot record in the campaign directory `out`, in firing order (by id).
+pub fn records(out: &Path) -> Result<Vec<ShotRecord>, CampaignError> {
     let directory = shots_directory(out);
     let mut shots: Vec<ShotRecord> = Vec::new();
     let entries =
@@ -448,8 +448,12 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
         }
     }
     shots.sort_by(|a, b| a.id.cmp(&b.id));
-    let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
-    let text = |e: dea_ballistic::EstimateError| e.to_string();
+    Ok(shots)
+}
+
+/// Reads every shot record of the campaign in `out` and estimates the ballistic limit.
+pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, CampaignError> {
+    let shots = records(out)?;
     let bisection_brackets = match campaign.design {
         Design::Bisection { low_m_s, high_m_s, resolution_m_s } => (0..campaign.replicates)
             .map(|r| {
@@ -460,19 +464,30 @@ pub fn report(campaign: &Campaign, out: &Path) -> Result<CampaignReport, Campaig
             .collect(),
         _ => Vec::new(),
     };
-    Ok(CampaignReport {
-        campaign: campaign.name.clone(),
+    Ok(estimate(campaign.name.clone(), shots, &campaign.mil_std_662f, bisection_brackets))
+}
+
+/// The estimates from `shots` (in firing order), named `name`.
+pub fn estimate(
+    name: String,
+    shots: Vec<ShotRecord>,
+    mil_std: &MilStdSpec,
+    bisection_brackets: Vec<(f64, f64)>,
+) -> CampaignReport {
+    let outcomes: Vec<Shot> = shots.iter().map(ShotRecord::shot).collect();
+    let text = |e: dea_ballistic::EstimateError| e.to_string();
+    CampaignReport {
+        campaign: name,
         partials: outcomes.iter().filter(|s| !s.perforated).count(),
         held_at_end: shots.iter().filter(|s| s.stopped_by == "end_time_s").count(),
         completes: outcomes.iter().filter(|s| s.perforated).count(),
         logistic: fit(&outcomes, Link::Logistic).map_err(text),
         probit: fit(&outcomes, Link::Probit).map_err(text),
-        mil_std_662f: mil_std_662f(&outcomes, campaign.mil_std_662f.count, campaign.mil_std_662f.spread_m_s)
-            .map_err(text),
+        mil_std_662f: mil_std_662f(&outcomes, mil_std.count, mil_std.spread_m_s).map_err(text),
         lambert_jonas: lambert_jonas(&outcomes).map_err(text),
         bisection_brackets,
         shots,
-    })
+    }
 }
 
 pub use crate::provenance::GIT_COMMIT;

@@ -5,14 +5,15 @@
 pub mod bench;
 pub mod campaign;
 pub mod checkpoint;
-pub mod cost;
 pub mod comm;
+pub mod cost;
 pub mod deflection;
 pub mod deformable;
 pub mod diagnostics;
 pub mod distributed;
 pub mod fabric;
 pub mod output_dir;
+pub mod pool;
 pub mod progress;
 pub mod provenance;
 pub mod run;

@@ -1048,3 +1048,78 @@ fn the_cost_scripts_print_what_check_prices() {
     assert_eq!(rows.len(), 3, "{text}");
     assert!(rows[2].starts_with("| 3 | 1 |"), "{text}");
 }
+
+/// A campaign directory as `dea-mpi v50` leaves it (provenance.json and shot records) for the
+/// tiny Monte Carlo campaign named `name`, its case changed by `change`, with `shots`
+/// (velocity, perforated) on record.
+fn fired_campaign(dir: &std::path::Path, name: &str, change: impl Fn(&mut serde_json::Value), shots: &[(f64, bool)]) {
+    let checked = dea(&["check", "../cases/v50_tiny_monte_carlo.json"]);
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    let checked: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
+    let mut campaign = case_file("v50_tiny_monte_carlo.json");
+    campaign["name"] = name.into();
+    let mut case = checked["case"].clone();
+    change(&mut case);
+    std::fs::create_dir_all(dir.join("shots")).unwrap();
+    let provenance = serde_json::json!({ "campaign": campaign, "case": case });
+    std::fs::write(dir.join("provenance.json"), provenance.to_string()).unwrap();
+    for (index, &(velocity, perforated)) in shots.iter().enumerate() {
+        let id = format!("r000-{index:05}");
+        let record = serde_json::json!({
+            "id": id, "replicate": 0, "index": index, "velocity_m_s": velocity, "seed": case["failure"]["seed"],
+            "perforated": perforated, "residual_velocity_m_s": if perforated { 0.3 * velocity } else { -0.5 },
+            "stopped_by": if perforated { "perforated" } else { "stopped" }, "steps": 1000, "wall_s": 1.0,
+            "ranks": 1, "max_projectile_force_n": 100.0, "unload": "at_break",
+            "projectile_friction_spring": "rotating", "fibre_friction_spring": "anchored",
+        });
+        std::fs::write(dir.join("shots").join(format!("{id}.json")), record.to_string()).unwrap();
+    }
+}
+
+#[test]
+fn fit_pools_campaigns_of_one_target_and_refuses_any_other() {
+    let dir = scratch("fit");
+    let (first, finer) = (dir.join("first"), dir.join("finer"));
+    // a coarse series that separates cleanly, and a finer one with its own seed and end time
+    fired_campaign(&first, "first", |_| {}, &[(150.0, false), (175.0, true), (150.0, false), (175.0, true)]);
+    let other_draws = |case: &mut serde_json::Value| {
+        case["failure"]["seed"] = 7.into();
+        case["run"]["end_time_s"] = 2.0e-5.into();
+    };
+    fired_campaign(&finer, "finer", other_draws, &[(162.5, true), (156.25, false), (168.75, false), (175.0, true)]);
+    let (a, b) = (first.to_str().unwrap(), finer.to_str().unwrap());
+    // alone, the first has no zone of mixed results; pooled, the finer one gives it one
+    let alone = dea(&["fit", a]);
+    assert!(alone.status.success(), "{}", String::from_utf8_lossy(&alone.stderr));
+    assert!(String::from_utf8_lossy(&alone.stdout).contains("logistic: no zone of mixed results"));
+    let pooled = dea(&["fit", a, b, "--json"]);
+    assert!(pooled.status.success(), "{}", String::from_utf8_lossy(&pooled.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&pooled.stdout).unwrap();
+    assert_eq!(report["campaign"], "first + finer");
+    assert_eq!((report["partials"].as_u64(), report["completes"].as_u64()), (Some(4), Some(4)));
+    assert_eq!(report["shots"][4]["id"], "finer/r000-00000");
+    let v50 = report["logistic"]["Ok"]["v50"]["velocity"].as_f64().expect("a pooled logistic V50");
+    assert!(v50 > 150.0 && v50 < 175.0, "{v50}");
+    let printed = dea(&["fit", a, b]);
+    assert!(String::from_utf8_lossy(&printed.stdout).starts_with("first + finer: 8 shots (4 partial, 4 complete)"));
+
+    // another target: refused, naming the field
+    let rougher = dir.join("rougher");
+    fired_campaign(&rougher, "rougher", |case| case["contact"]["friction_coefficient"] = 0.5.into(), &[(160.0, true)]);
+    let stderr = stderr_of_exit(3, &["fit", a, rougher.to_str().unwrap()]);
+    assert!(
+        stderr.contains("cannot be pooled: their shot cases differ at case.contact.friction_coefficient"),
+        "{stderr}"
+    );
+    // another model choice on record: refused, naming it
+    let unloaded = dir.join("unloaded");
+    fired_campaign(&unloaded, "unloaded", |_| {}, &[(160.0, true)]);
+    let record = unloaded.join("shots/r000-00000.json");
+    let text = std::fs::read_to_string(&record).unwrap().replace("at_break", "next_step");
+    std::fs::write(&record, text).unwrap();
+    let stderr = stderr_of_exit(3, &["fit", a, unloaded.to_str().unwrap()]);
+    assert!(stderr.contains("was fired with unload \"next_step\""), "{stderr}");
+    // not a campaign directory
+    let stderr = stderr_of_exit(4, &["fit", a, dir.join("nothing").to_str().unwrap()]);
+    assert!(stderr.contains("nothing: no provenance.json"), "{stderr}");
+}

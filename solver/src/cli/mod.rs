@@ -6,6 +6,7 @@ pub mod bench;
 pub mod check;
 pub mod compare;
 pub mod fabric;
+pub mod fit;
 pub mod partition;
 pub mod run;
 pub mod v50;
@@ -39,6 +40,7 @@ const EXAMPLES: &str = "Examples:
   dea-mpi check case.json           # validate and print the resolved case
   dea-mpi fabric case.json          # relax a woven case's cell, report the fabric
   mpirun -np 4 dea-mpi v50 campaign.json --ranks-per-shot 2   # a V50 campaign, two shots at a time
+  dea-mpi fit out/v50 out/v50-finer # V50 from the shots of two campaigns of one target, pooled
   dea-mpi bench --json              # node-step cost, one JSON object
   dea-mpi compare a/results.h5 b/results.h5   # bitwise identity of two runs
 
@@ -67,6 +69,8 @@ pub enum Command {
     Fabric(fabric::Args),
     #[command(about = v50::ABOUT, long_about = v50::LONG_ABOUT, after_help = v50::EXAMPLES)]
     V50(v50::Args),
+    #[command(about = fit::ABOUT, long_about = fit::LONG_ABOUT, after_help = fit::EXAMPLES)]
+    Fit(fit::Args),
     #[command(about = check::ABOUT, long_about = check::LONG_ABOUT, after_help = check::EXAMPLES)]
     Check(check::Args),
     #[command(about = partition::ABOUT, long_about = partition::LONG_ABOUT, after_help = partition::EXAMPLES)]
@@ -84,6 +88,7 @@ impl Command {
             Command::Run(args) => run::main(args),
             Command::Fabric(args) => fabric::main(args),
             Command::V50(args) => v50::main(args),
+            Command::Fit(args) => fit::main(args),
             Command::Check(args) => check::main(args),
             Command::Partition(args) => partition::main(args),
             Command::Compare(args) => compare::main(args),

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use dea_core::Rank;
-use dea_mpi::campaign::{CampaignError, Group, Progress};
+use dea_mpi::campaign::{CampaignError, CampaignReport, Group, Progress};
 use dea_mpi::comm::mpi::MpiComm;
 use dea_mpi::comm::Comm;
 use dea_mpi::run::RunError;
@@ -123,6 +123,12 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
         per_shot,
         out.display()
     );
+    print_estimates(&report);
+    ExitCode::SUCCESS
+}
+
+/// The estimates as `v50` and `fit` print them, one line each.
+pub fn print_estimates(report: &CampaignReport) {
     if report.held_at_end > 0 {
         println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
     }
@@ -151,5 +157,4 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
     for (r, (low, high)) in report.bisection_brackets.iter().enumerate() {
         println!("bisection {r}: between {low:.1} and {high:.1} m/s (V50 ~ {:.1})", 0.5 * (low + high));
     }
-    ExitCode::SUCCESS
 }
