@@ -55,7 +55,8 @@ def drawn(entry):
     """Whether a summary entry's shots belong on these plots."""
     on_panel = entry["projectile"] == "fsp_17_grain" and abs(entry["side_m"] - SIDE_M) < 1e-6
     kind = entry["series"] in ("layers", "panel_size") or entry["name"].startswith("mesh-layers-")
-    return on_panel and kind and bool(entry.get("shot_records"))
+    # a pooled entry's shots are its campaigns' own, drawn with them
+    return on_panel and kind and bool(entry.get("shot_records")) and not entry.get("pooled_from")
 
 
 parser = argparse.ArgumentParser()

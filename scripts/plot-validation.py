@@ -34,7 +34,7 @@ args = parser.parse_args()
 with open(os.path.join(ROOT, "validation", "summary.json")) as f:
     entries = json.load(f)
 
-figure, (size_axes, layer_axes) = plt.subplots(1, 2, figsize=(11.0, 4.4))
+figure, (size_axes, layer_axes) = plt.subplots(1, 2, figsize=(11.0, 5.8))
 pending = []
 
 
@@ -136,7 +136,8 @@ layer_axes.set_title("V50 against layers")
 layer_axes.set_xlim(0, 30)
 layer_axes.set_ylim(0, 700)
 layer_axes.grid(alpha=0.3)
-layer_axes.legend(fontsize=7, loc="lower right")
+# below the axes: the layer series sit low at 4 and 8 layers, where a legend inside would hide them
+layer_axes.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14))
 if pending:
     figure.text(0.01, 0.01, "not yet decided: " + "; ".join(pending), fontsize=6, wrap=True)
 figure.tight_layout(rect=(0, 0.05 if pending else 0, 1, 1))

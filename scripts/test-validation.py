@@ -230,6 +230,34 @@ class UpAndDown(unittest.TestCase):
         self.assertIsNone(e["v50_low_m_s"])
 
 
+class Pools(unittest.TestCase):
+    UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 250.0, "step_m_s": 25.0, "shots": 4}
+
+    def test_a_step_series_pools_with_the_campaign_it_refines_once_it_has_shots(self):
+        coarse = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 60.0, 1)])
+        finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
+        unfired = campaign("layers-u-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [])
+        alone = campaign("layers-v-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
+        pairs = validation.step_pools([finer, coarse, unfired, alone])
+        self.assertEqual([(a.name, b.name) for a, b in pairs], [("layers-t", "layers-t-step-6.25")])
+
+    def test_a_pooled_entry_gives_the_fit_of_the_shots_together(self):
+        coarse = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 60.0, 1)])
+        finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN,
+                         [shot(212.5, "S", -0.3, 0), shot(218.75, "P", 20.0, 1), shot(212.5, "P", 10.0, 2)])
+        pooled_shots = [dict(s, id=f"{c.name}/{s['id']}") for c in (coarse, finer) for s in c.shots]
+        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 213.0, "low": 205.0, "high": 221.0}}}}
+        e = validation.pooled_entry(coarse, finer, [coarse, finer], report)
+        self.assertEqual(e["name"], "layers-t + step-6.25")
+        self.assertEqual(e["pooled_from"], ["layers-t", "layers-t-step-6.25"])
+        self.assertEqual((e["shots"], e["v50_m_s"], e["v50_low_m_s"], e["v50_high_m_s"]), (5, 213.0, 205.0, 221.0))
+        self.assertTrue(e["method"].startswith("logistic maximum likelihood"))
+        # its core-hours are its campaigns' own: not counted twice
+        self.assertIsNone(e["core_hours"])
+        text = validation.shots_markdown([coarse, finer], [validation.entry(c, [coarse, finer]) for c in (coarse, finer)] + [e])
+        self.assertIn("- `layers-t` and `layers-t-step-6.25`, 5 shots: V50 213.0 m/s (205.0–221.0)", text)
+
+
 class ShotTables(unittest.TestCase):
     def test_every_shot_on_record_is_a_row_with_its_draws_and_outcome(self):
         fired = campaign("yarn-t-d-i-inf", FIXTURE_CASE, BISECTION,

@@ -30,9 +30,11 @@ import argparse
 import glob
 import json
 import os
+import re
 import subprocess
 import sys
 import time
+import types
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAMPAIGNS = os.path.join(ROOT, "jobs", "campaigns", "validation")
@@ -106,6 +108,8 @@ def check(args, campaign_path):
 class Campaign:
     def __init__(self, args, path):
         self.path = path
+        # the dea-mpi that fires its shots and fits pooled series (`fit`)
+        self.binary = binary(args)
         with open(path) as f:
             self.spec = json.load(f)
         self.name = self.spec["name"]
@@ -223,7 +227,7 @@ def campaign_report(name):
         return json.load(f)
 
 
-def entry(c, campaigns=()):
+def entry(c, campaigns=(), report=None):
     """One campaign's line of validation/summary.json."""
     target = c.case["target"]
     weave = target.get("weave") or {}
@@ -235,7 +239,7 @@ def entry(c, campaigns=()):
     # moving at their end time)
     established = None
     method = None
-    report = campaign_report(c.name)
+    report = report if report is not None else campaign_report(c.name)
     if design["kind"] == "bisection":
         shots, notes = refired(c, campaigns) if series_of(c.name) in ("panel_size", "single_yarn") else (c.shots, [])
         lo, hi = bisection_bracket(design, shots)
@@ -349,11 +353,50 @@ def entry(c, campaigns=()):
     return out
 
 
+def step_pools(campaigns):
+    """(coarse, finer) pairs: a campaign named `<name>-step-<m/s>` with shots on record is a
+    finer series about the bracket of the campaign `<name>`, and the two are pooled
+    (docs/theory.md V10)."""
+    by_name = {c.name: c for c in campaigns}
+    pairs = []
+    for c in sorted(campaigns, key=lambda c: c.name):
+        found = re.fullmatch(r"(.+)-step-[0-9.]+", c.name)
+        if found and found.group(1) in by_name and c.shots:
+            pairs.append((by_name[found.group(1)], c))
+    return pairs
+
+
+def fit_pooled(coarse, finer):
+    """`dea-mpi fit --json` of the two campaigns' directories: their estimates together."""
+    command = [coarse.binary, "fit", os.path.join(RESULTS, coarse.name), os.path.join(RESULTS, finer.name), "--json"]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{coarse.name} and {finer.name}: `{' '.join(command)}` failed (exit {done.returncode}; "
+                 f"`fit` is in dea-mpi since 030b8aa):\n{done.stderr.strip()}")
+    return json.loads(done.stdout)
+
+
+def pooled_entry(coarse, finer, campaigns, report):
+    """The summary entry of two series of one target pooled: the estimates `report` of
+    `dea-mpi fit`, the pooled shots, named `<coarse> + step-<m/s>`; its core-hours are the
+    pooled campaigns' own entries'."""
+    name = f"{coarse.name} + {finer.name[len(coarse.name) + 1:]}"
+    pooled = types.SimpleNamespace(name=name, case=coarse.case, shots=report["shots"],
+                                   spec={"name": name, "design": {"kind": "pooled"}},
+                                   complete=coarse.complete and finer.complete)
+    out = entry(pooled, campaigns, report)
+    out["pooled_from"] = [coarse.name, finer.name]
+    out["core_hours"] = None
+    out["git_commit"] = None
+    return out
+
+
 def write_summary(campaigns):
     """Writes validation/summary.json and, from the same entries, validation/shots.md."""
     os.makedirs(RESULTS, exist_ok=True)
     ordered = sorted(campaigns, key=lambda c: c.name)
     entries = [entry(c, campaigns) for c in ordered]
+    entries += [pooled_entry(coarse, finer, campaigns, fit_pooled(coarse, finer)) for coarse, finer in step_pools(ordered)]
     path = os.path.join(RESULTS, "summary.json")
     with open(path + ".partial", "w") as f:
         json.dump(entries, f, indent=1)
@@ -381,6 +424,8 @@ def design_words(design):
         return f"bisection from [{design['low_m_s']:g}, {design['high_m_s']:g}] m/s to {design['resolution_m_s']:g} m/s"
     if kind == "up_and_down":
         return f"up-and-down from {design['start_m_s']:g} m/s by {design['step_m_s']:g} m/s, {design['shots']} shots planned"
+    if kind == "pooled":
+        return "two series pooled"
     if kind == "velocities":
         return "fixed striking speeds " + ", ".join(f"{v:g}" for v in design["velocities_m_s"]) + " m/s"
     return kind.replace("_", " ")
@@ -423,6 +468,17 @@ def shots_markdown(campaigns, entries):
             obliquity = f"{s['obliquity_deg']:+.2f}" if "obliquity_deg" in s else "–"
             lines.append(f"| {s['id']} | {s['velocity_m_s']:.2f} | {aim} | {yaw} | {obliquity} | {outcome_words(s)} "
                          f"| {s['residual_velocity_m_s']:.1f} | {s['steps']} | {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
+        lines.append("")
+    pools = [e for e in entries if e.get("pooled_from")]
+    if pools:
+        lines.append("## Pooled series")
+        lines.append("")
+        lines.append("Two series of one target, their shots together (`dea-mpi fit`, docs/theory.md V10):")
+        lines.append("")
+        for e in pools:
+            v50 = (f"V50 {e['v50_m_s']:.1f} m/s ({e['v50_low_m_s']:.1f}–{e['v50_high_m_s']:.1f}): {e['method']}"
+                   if e["v50_m_s"] is not None else e["method"])
+            lines.append(f"- `{e['pooled_from'][0]}` and `{e['pooled_from'][1]}`, {e['shots']} shots: {v50}.")
         lines.append("")
     if waiting:
         lines.append("## Not fired yet")
