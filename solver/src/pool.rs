@@ -96,6 +96,21 @@ fn choices(s: &ShotRecord) -> [(&'static str, &str); 3] {
 /// module's doc) and a directory without shots.
 pub fn pooled_report(directories: &[PathBuf]) -> Result<CampaignReport, CampaignError> {
     let fired: Vec<Fired> = directories.iter().map(|d| read(d)).collect::<Result<_, _>>()?;
+    // one campaign given twice (or a copy of it) would count its shots twice
+    for (k, f) in fired.iter().enumerate() {
+        let again = fired[..k].iter().find(|g| {
+            g.campaign.name == f.campaign.name
+                || std::fs::canonicalize(&g.directory).ok() == std::fs::canonicalize(&f.directory).ok()
+        });
+        if let Some(g) = again {
+            return Err(CampaignError::Output(format!(
+                "{} and {} are the same campaign ({}): its shots would count twice",
+                g.directory.display(),
+                f.directory.display(),
+                f.campaign.name
+            )));
+        }
+    }
     let Some(first) = fired.first() else {
         return Err(CampaignError::Output("no campaign directory to pool".to_string()));
     };

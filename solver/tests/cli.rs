@@ -1119,6 +1119,13 @@ fn fit_pools_campaigns_of_one_target_and_refuses_any_other() {
     std::fs::write(&record, text).unwrap();
     let stderr = stderr_of_exit(3, &["fit", a, unloaded.to_str().unwrap()]);
     assert!(stderr.contains("was fired with unload \"next_step\""), "{stderr}");
+    // one campaign twice, or a copy of it under another directory
+    let stderr = stderr_of_exit(3, &["fit", a, b, a]);
+    assert!(stderr.contains("are the same campaign (first): its shots would count twice"), "{stderr}");
+    let copy = dir.join("copy");
+    fired_campaign(&copy, "first", |_| {}, &[(150.0, false)]);
+    let stderr = stderr_of_exit(3, &["fit", a, copy.to_str().unwrap()]);
+    assert!(stderr.contains("are the same campaign (first)"), "{stderr}");
     // not a campaign directory
     let stderr = stderr_of_exit(4, &["fit", a, dir.join("nothing").to_str().unwrap()]);
     assert!(stderr.contains("nothing: no provenance.json"), "{stderr}");
