@@ -578,15 +578,14 @@ fn help_texts_list_subcommands_briefly_and_name_files_that_exist() {
     let top = String::from_utf8(dea(&["--help"]).stdout).unwrap();
     let commands: Vec<&str> =
         top.lines().skip_while(|l| !l.starts_with("Commands:")).skip(1).take_while(|l| !l.is_empty()).collect();
-    assert_eq!(commands.len(), 8, "{top}");
+    assert_eq!(commands.len(), 9, "{top}");
     assert!(commands.iter().all(|l| l.len() <= 100), "{top}");
-    for subcommand in ["run", "fabric", "v50", "check", "partition", "compare", "bench"] {
+    for subcommand in ["run", "fabric", "v50", "fit", "check", "partition", "compare", "bench"] {
         let help = String::from_utf8(dea(&[subcommand, "--help"]).stdout).unwrap();
         assert!(help.contains("Example"), "{subcommand}: {help}");
-        for word in help
-            .split_whitespace()
-            .filter(|w| (w.starts_with("cases/") || w.starts_with("jobs/")) && w.ends_with(".json"))
-        {
+        for word in help.split_whitespace().filter(|w| {
+            (w.starts_with("cases/") || w.starts_with("jobs/")) && w.ends_with(".json") || w.starts_with("validation/")
+        }) {
             assert!(
                 std::path::Path::new("..").join(word).exists(),
                 "`dea-mpi {subcommand} --help` names {word}, which does not exist"
