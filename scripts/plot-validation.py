@@ -80,7 +80,7 @@ def draw(axes, chosen, x, label, colour=lambda e: "tab:blue"):
                 labelled.add(text)
             pending.append(f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}")
             continue
-        text = label(e) + (" (hollow: the bracket's low end was undecided)" if undecided(e) else "")
+        text = label(e) + (" (hollow: low end undecided)" if undecided(e) else "")
         bar(axes, x(e), e, colour(e), None if text in labelled else text)
         labelled.add(text)
     return bool(labelled)

@@ -215,6 +215,12 @@ class UpAndDown(unittest.TestCase):
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (200.0, 212.5, 225.0))
         self.assertTrue(e["method"].startswith("MIL-STD-662F mean of the 3"))
 
+    def test_a_mil_std_mean_outside_the_bracket_gives_the_bracket(self):
+        shots = [shot(200.0, "S", -0.9, 0), shot(218.75, "S", -0.3, 1), shot(225.0, "P", 61.6, 2)]
+        e = self.entry_of(shots, {"Ok": {"v50": 217.7, "count": 3}})
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (218.75, 221.875, 225.0))
+        self.assertIn("217.7 m/s, falls outside it", e["method"])
+
     def test_a_low_end_only_undecided_is_not_established(self):
         undecided = [shot(300.0, "U", 22.1, 0), shot(325.0, "P", 94.6, 1)]
         e = self.entry_of(undecided, {"Err": "3 shots of each outcome are needed"})

@@ -277,8 +277,17 @@ def entry(c, campaigns=(), report=None):
                 # a low end resting only on shots still moving at the end time is not established
                 at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == max(partials)]
                 established = any(s["stopped_by"] != "end_time_s" for s in at_low)
-                if "Ok" in mil:
-                    v50, low, high = mil["Ok"]["v50"], max(partials), min(completes)
+                mean = mil["Ok"]["v50"] if "Ok" in mil else None
+                if mean is not None and not max(partials) <= mean <= min(completes):
+                    # the mean of partials reaching far below a high partial (one near the
+                    # lowest complete) can fall outside the bracket it is meant to lie in
+                    low, high = max(partials), min(completes)
+                    v50 = 0.5 * (low + high)
+                    method = (f"bracket (highest partial, lowest complete) and its midpoint; MIL-STD-662F's mean of "
+                              f"the {mil['Ok']['count']} highest partials and lowest complete penetrations, "
+                              f"{mean:.1f} m/s, falls outside it; no interval: " + method)
+                elif mean is not None:
+                    v50, low, high = mean, max(partials), min(completes)
                     method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
                               f"penetrations, within the bracket (highest partial, lowest complete); no interval: "
                               + method)
