@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use dea_io::campaign::Campaign;
-use dea_io::case::Case;
+use dea_io::case::{first_difference, Case};
 use serde_json::Value;
 
 use crate::campaign::{estimate, records, CampaignError, CampaignReport, ShotRecord};
@@ -31,13 +31,14 @@ struct Fired {
 
 /// Case fields that may differ between campaigns pooled into one estimate: the name, the
 /// strength seed (each campaign draws its own), the striking speed (each shot has its own) and
-/// the end time and checkpoint interval (they only end or save a shot).
-const MAY_DIFFER: [&[&str]; 5] = [
+/// the end time and checkpoint intervals (they only end or save a shot).
+const MAY_DIFFER: [&[&str]; 6] = [
     &["name"],
     &["failure", "seed"],
     &["projectile", "velocity_m_s"],
     &["run", "end_time_s"],
     &["run", "checkpoint_interval_minutes"],
+    &["run", "checkpoint_interval_steps"],
 ];
 
 fn read(directory: &Path) -> Result<Fired, CampaignError> {
@@ -60,26 +61,6 @@ fn read(directory: &Path) -> Result<Fired, CampaignError> {
     }
     let shots = records(directory)?;
     Ok(Fired { directory: directory.to_path_buf(), campaign, comparable, shots })
-}
-
-/// The first field (a dotted path) at which `a` and `b` differ.
-fn first_difference(a: &Value, b: &Value, path: &str) -> Option<String> {
-    match (a, b) {
-        (Value::Object(x), Value::Object(y)) => {
-            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
-            keys.sort();
-            keys.dedup();
-            keys.into_iter().find_map(|key| {
-                let inner = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
-                match (x.get(key), y.get(key)) {
-                    (Some(p), Some(q)) => first_difference(p, q, &inner),
-                    _ => Some(inner),
-                }
-            })
-        }
-        _ if a == b => None,
-        _ => Some(if path.is_empty() { "(the whole value)".to_string() } else { path.to_string() }),
-    }
 }
 
 /// The model choices a record was fired with (docs/theory.md I6c, I6d, I7).

@@ -103,6 +103,24 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert!(message.contains(r#"stepped with failure.unload "next_step""#), "{message}");
     dea_io::checkpoint::write_manifest(&manifest_path, &manifest).unwrap();
     assert_eq!(report(&campaign, &out).unwrap().shots.len(), 2, "two shots on record");
+    // a checkpoint continues under the campaign's end time (in a copy: half the time the
+    // third shot takes ends it there, undecided)...
+    let straight: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("whole/shots/r000-00002/summary.json")).unwrap()).unwrap();
+    let (steps, time_step) = (straight["steps"].as_u64().unwrap(), straight["time_step_s"].as_f64().unwrap());
+    let mut shorter = case.clone();
+    shorter.run.end_time_s = 0.5 * steps as f64 * time_step;
+    let copy = dir.join("copy");
+    copy_tree(&out, &copy);
+    run_local(1, |comm| run_group(&campaign, &shorter, comm, group, &copy, Some(1), None).unwrap());
+    let cut = report(&campaign, &copy).unwrap().shots[2].clone();
+    assert!(cut.stopped_by == "end_time_s" && cut.steps.abs_diff(steps / 2) <= 1, "{cut:?} of {steps} steps");
+    // ...but under nothing else the campaign changed since it was written
+    let mut rougher = case.clone();
+    rougher.contact.friction_coefficient += 0.1;
+    let refused = run_local(1, |comm| run_group(&campaign, &rougher, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("stepped with another contact.friction_coefficient"), "{message}");
     stop.store(false, Ordering::SeqCst);
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())).unwrap());
     let resumed = report(&campaign, &out).unwrap();
@@ -220,4 +238,17 @@ fn a_bisection_closes_on_the_limit() {
     );
     assert_eq!(result.held_at_end, 0, "every shot decided");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `from` copied into `to`, directories and files.
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        if entry.file_type().unwrap().is_dir() {
+            copy_tree(&entry.path(), &to.join(entry.file_name()));
+        } else {
+            std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+        }
+    }
 }

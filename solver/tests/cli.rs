@@ -801,9 +801,27 @@ fn an_output_directory_belongs_to_one_run_and_a_checkpoint_to_its_case() {
     let other_path = dir.join("other.json");
     std::fs::write(&other_path, other.to_string()).unwrap();
     let wrong = stderr_of_exit(3, &["run", other_path.to_str().unwrap(), "--restart", k, "--out", o]);
-    assert!(wrong.contains("continues case"), "{wrong}");
+    assert!(wrong.contains("continues case") && wrong.contains("differ in projectile.velocity_m_s"), "{wrong}");
     let continued = dea(&["run", c, "--restart", k, "--out", o]);
     assert!(continued.status.success(), "{}", String::from_utf8_lossy(&continued.stderr));
+    // ...but for how long it runs: a run ended early goes on to the case file's later end
+    // time, with the bits of a run straight through
+    let mut shorter = case.clone();
+    shorter["run"]["end_time_s"] = (0.6 * case["run"]["end_time_s"].as_f64().unwrap()).into();
+    let shorter_path = dir.join("shorter.json");
+    std::fs::write(&shorter_path, shorter.to_string()).unwrap();
+    let early = dir.join("early");
+    let e = early.to_str().unwrap();
+    let first = dea(&["run", shorter_path.to_str().unwrap(), "--out", e]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let steps = |out: &std::path::Path| summary_in(out)["steps"].as_u64().unwrap();
+    assert!(steps(&early) < steps(&out), "{} < {}", steps(&early), steps(&out));
+    let longer = dea(&["run", c, "--restart", early.join("checkpoint").to_str().unwrap(), "--out", e]);
+    assert!(longer.status.success(), "{}", String::from_utf8_lossy(&longer.stderr));
+    assert_eq!(steps(&early), steps(&out));
+    // (the histories; the fields hold one more snapshot, the state at the earlier end)
+    let differences = dea_io::results::compare_results(&early.join("results.h5"), &out.join("results.h5")).unwrap();
+    assert!(differences.is_empty(), "{differences:#?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -31,7 +31,8 @@ pub struct Args {
     pub method: PartitionMethod,
     /// continue from a checkpoint directory (OUT/checkpoint of an earlier run), on any
     /// number of ranks; the case comes from the checkpoint (a CASE given too must be the
-    /// checkpoint's: a job script's leftover checkpoint cannot continue another case)
+    /// checkpoint's: a job script's leftover checkpoint cannot continue another case; but its
+    /// run.end_time_s and checkpoint intervals apply, so an undecided run can go on longer)
     #[arg(long)]
     pub restart: Option<PathBuf>,
     /// delete the outputs of an earlier run in OUT first (without it, a fresh run into a
@@ -94,24 +95,25 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, progress, pan
     let case_path = case.clone();
     let (case, mut run, resume) = match restart {
         Some(directory) => match setup::restore(&directory, comm, method_of(method)) {
-            Ok(restored)
-                if expected
-                    .as_ref()
-                    .is_some_and(|expected| expected.with_named_unload() != restored.case.with_named_unload()) =>
-            {
-                return fail_all(
-                    &session,
-                    Exit::BadCase,
-                    format!(
-                        "{}: this checkpoint continues case {:?}, not the case of {} ({:?}); remove the checkpoint to start that case afresh",
-                        directory.display(),
-                        restored.case.name,
-                        case.as_ref().map_or(String::new(), |p| p.display().to_string()),
-                        expected.as_ref().map_or("", |c| c.name.as_str())
-                    ),
-                );
-            }
-            Ok(restored) => {
+            Ok(mut restored) => {
+                // a case file given with the checkpoint must be the checkpoint's case, but for
+                // how long the run goes on and how often it saves itself, which it sets
+                if let Some(expected) = &expected {
+                    if let Some(field) = restored.case.not_continued_by(expected) {
+                        return fail_all(
+                            &session,
+                            Exit::BadCase,
+                            format!(
+                                "{}: this checkpoint continues case {:?}, not the case of {} ({:?}): they differ in {field} (a restart may change only run.end_time_s and the checkpoint intervals); remove the checkpoint to start that case afresh",
+                                directory.display(),
+                                restored.case.name,
+                                case.as_ref().map_or(String::new(), |p| p.display().to_string()),
+                                expected.name
+                            ),
+                        );
+                    }
+                    restored.case = restored.case.with_run_length_of(expected);
+                }
                 let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                 if resume.is_none() {
                     return fail_all(

@@ -1005,6 +1005,29 @@ pub fn parse_case(text: &str, source: &str) -> Result<Case, CaseError> {
     Ok(case)
 }
 
+/// The first field (a dotted path below `path`, such as `run.end_time_s` below `""` or
+/// `case.run.end_time_s` below `"case"`; fields in alphabetical order) at which two JSON
+/// documents differ; `None` when they are equal. Names what keeps two cases apart where one
+/// must continue or pool with the other.
+pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value, path: &str) -> Option<String> {
+    match (a, b) {
+        (serde_json::Value::Object(x), serde_json::Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|key| {
+                let inner = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                match (x.get(key), y.get(key)) {
+                    (Some(p), Some(q)) => first_difference(p, q, &inner),
+                    _ => Some(inner),
+                }
+            })
+        }
+        _ if a == b => None,
+        _ => Some(if path.is_empty() { "(the whole value)".to_string() } else { path.to_string() }),
+    }
+}
+
 /// The field an error inside an internally tagged enum is about. serde reads such an enum
 /// (a `target`, a `design`, a `boundary`) whole before it looks at its fields, so its errors
 /// carry only the enum's own path. The culprit is the deepest field under `path` whose
@@ -1210,6 +1233,26 @@ mod tests {
         let mut value = default_json();
         edit(&mut value);
         parse_case(&value.to_string(), "case.json").unwrap_err()
+    }
+
+    #[test]
+    fn a_checkpoint_continues_under_another_run_length_only() {
+        let case: Case = serde_json::from_value(default_json()).unwrap();
+        let mut longer = case.clone();
+        longer.run.end_time_s *= 2.0;
+        longer.run.checkpoint_interval_minutes = 5.0;
+        longer.run.checkpoint_interval_steps = Some(1000);
+        assert_eq!(case.not_continued_by(&longer), None);
+        assert_eq!(case.with_run_length_of(&longer), longer);
+        // the default unloading named or left unsaid is the same case
+        let mut named = case.clone();
+        named.failure.unload = Some("at_break".into());
+        assert_eq!(case.not_continued_by(&named), None);
+        let mut other = longer.clone();
+        other.run.history_interval_steps += 1;
+        assert_eq!(case.not_continued_by(&other).as_deref(), Some("run.history_interval_steps"));
+        other.projectile.velocity_m_s += 1.0;
+        assert_eq!(case.not_continued_by(&other).as_deref(), Some("projectile.velocity_m_s"));
     }
 
     #[test]

@@ -313,6 +313,27 @@ impl Case {
         case
     }
 
+    /// The case with `other`'s run length: its end time and checkpoint intervals. They decide
+    /// when a run stops and when it saves itself, never how it moves (docs/theory.md V1), so a
+    /// checkpoint of this case continues under `other` when the two then compare equal: a
+    /// shot undecided at its end time runs on to a later one (`run --restart` with a case
+    /// file, a campaign shot resumed after the campaign's end time was raised).
+    pub fn with_run_length_of(&self, other: &Case) -> Case {
+        let mut case = self.clone();
+        case.run.end_time_s = other.run.end_time_s;
+        case.run.checkpoint_interval_steps = other.run.checkpoint_interval_steps;
+        case.run.checkpoint_interval_minutes = other.run.checkpoint_interval_minutes;
+        case
+    }
+
+    /// Why a checkpoint of this case does not continue under `asked`: the first field, other
+    /// than the run length ([`Case::with_run_length_of`]) and a defaulted `failure.unload`, in
+    /// which the two differ; `None` when it continues.
+    pub fn not_continued_by(&self, asked: &Case) -> Option<String> {
+        let value = |case: &Case| serde_json::to_value(case.with_named_unload()).expect("a case serialises");
+        super::first_difference(&value(&self.with_run_length_of(asked)), &value(asked), "")
+    }
+
     /// When a broken element stops acting: at its break unless "next_step" is asked for.
     pub fn unload(&self) -> Result<Unload, CaseError> {
         match self.failure.unload.as_deref() {
