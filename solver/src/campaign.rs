@@ -301,7 +301,9 @@ fn fire<C: Comm>(
         (case.clone(), build(case, comm, Method::KWay, None).map_err(setup)?, None)
     };
     let json = serde_json::to_string(&case).expect("case serialises");
-    let options = RunOptions::for_case(&case, &json, &directory, &state, stop_signal, resume);
+    let mut options = RunOptions::for_case(&case, &json, &directory, &state, stop_signal, resume);
+    // a shot undecided at the end time can be resumed under a later one (v50's warning)
+    options.checkpoints.at_end = true;
     let summary = run(&mut state, &options).map_err(|error| CampaignError::Run { id: id.to_string(), error })?;
     // the group's rank 0 has the summary; every rank needs the outcome for the next velocity
     let outcome = state.from_rank0(

@@ -239,6 +239,9 @@ pub struct CheckpointPolicy {
     pub every_seconds: f64,
     /// set by SIGTERM or SIGUSR1: checkpoint and stop
     pub stop_signal: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// also at the end time when the run reaches it (a shot still undecided there): a later
+    /// end time then continues it from where it ended (a campaign's shots, docs/theory.md V1)
+    pub at_end: bool,
 }
 
 /// What a run needs besides the rank's state.
@@ -298,6 +301,7 @@ impl<'a> RunOptions<'a> {
                 every_steps: case.run.checkpoint_interval_steps,
                 every_seconds: 60.0 * case.run.checkpoint_interval_minutes,
                 stop_signal,
+                at_end: false,
             },
             resume,
             progress: ProgressMode::Auto,
@@ -380,6 +384,15 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     // terms share: there each node's force is whole, and a restart computes it again
     let largest_rate = run.domain.rates().iter().copied().max().unwrap_or(1) as u64;
     let mut held = RunRequests::default();
+    let mut checkpointed_at = None;
+    // what a checkpoint keeps of the loop's own state
+    let resume_at = |histories: &Histories, max_force: f64, back_face: f64| Resume {
+        histories: histories.clone(),
+        max_force,
+        initial_energy,
+        back_face,
+        wall_s: earlier_wall + start.elapsed().as_secs_f64(),
+    };
     while run.domain.time + 0.5 * run.domain.time_step < options.end_time
         || !run.domain.step.is_multiple_of(largest_rate)
     {
@@ -410,15 +423,10 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         let due_by_steps = options.checkpoints.every_steps.is_some_and(|n| run.domain.step.is_multiple_of(n));
         if (stop || due_by_time || due_by_steps) && run.domain.step.is_multiple_of(largest_rate) {
             held = RunRequests::default();
-            let resume = Resume {
-                histories: histories.clone(),
-                max_force,
-                initial_energy,
-                back_face: judge.back_face,
-                wall_s: earlier_wall + start.elapsed().as_secs_f64(),
-            };
+            let resume = resume_at(&histories, max_force, judge.back_face);
             let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
             last_checkpoint = Instant::now();
+            checkpointed_at = Some(run.domain.step);
             if stop {
                 return Err(RunError::Interrupted(directory));
             }
@@ -427,6 +435,13 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             let flight = run.domain.projectile.as_ref().map_or(Flight::default(), |p| judge.flight(p));
             progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories), flight);
         }
+        run.timer.stamp(Stage::Output);
+    }
+    // before the closing sample below, which a run going on past this instant does not take
+    if options.checkpoints.at_end && stopped_by == "end_time_s" && checkpointed_at != Some(run.domain.step) {
+        run.timer.start();
+        let resume = resume_at(&histories, max_force, judge.back_face);
+        write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
         run.timer.stamp(Stage::Output);
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {

@@ -115,6 +115,19 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     run_local(1, |comm| run_group(&campaign, &shorter, comm, group, &copy, Some(1), None).unwrap());
     let cut = report(&campaign, &copy).unwrap().shots[2].clone();
     assert!(cut.stopped_by == "end_time_s" && cut.steps.abs_diff(steps / 2) <= 1, "{cut:?} of {steps} steps");
+    // and an undecided shot checkpoints at its end: its record withdrawn, the campaign's
+    // own end time takes it on from there to the shot fired straight through
+    let at_end = dea_io::checkpoint::read_manifest(&copy.join("shots/r000-00002/checkpoint")).unwrap();
+    assert_eq!(at_end.step, cut.steps, "the checkpoint is the shot's last step");
+    std::fs::remove_file(copy.join("shots/r000-00002.json")).unwrap();
+    run_local(1, |comm| run_group(&campaign, &case, comm, group, &copy, Some(1), None).unwrap());
+    assert_eq!(outcome(&report(&campaign, &copy).unwrap().shots[2]), outcome(&whole.shots[2]));
+    let differences = dea_io::results::compare_results(
+        &dir.join("whole/shots/r000-00002/results.h5"),
+        &copy.join("shots/r000-00002/results.h5"),
+    )
+    .unwrap();
+    assert!(differences.is_empty(), "the shot taken on: {differences:#?}");
     // ...but under nothing else the campaign changed since it was written
     let mut rougher = case.clone();
     rougher.contact.friction_coefficient += 0.1;

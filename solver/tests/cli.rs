@@ -1119,6 +1119,16 @@ fn fit_pools_campaigns_of_one_target_and_refuses_any_other() {
     assert!(v50 > 150.0 && v50 < 175.0, "{v50}");
     let printed = dea(&["fit", a, b]);
     assert!(String::from_utf8_lossy(&printed.stdout).starts_with("first + finer: 8 shots (4 partial, 4 complete)"));
+    // a partial undecided at its end time is named, with how to decide it
+    let record = finer.join("shots/r000-00001.json");
+    let text = std::fs::read_to_string(&record).unwrap().replace(r#""stopped""#, r#""end_time_s""#);
+    std::fs::write(&record, text).unwrap();
+    let held = String::from_utf8_lossy(&dea(&["fit", a, b]).stdout).into_owned();
+    assert!(
+        held.contains("1 partial(s) were still undecided at the case's end time (finer/r000-00001)")
+            && held.contains("remove their records (shots/<id>.json) and run the campaign again"),
+        "{held}"
+    );
 
     // another target: refused, naming the field
     let rougher = dir.join("rougher");

@@ -52,7 +52,7 @@ fn options<'a>(
         fibres: fibres(case),
         layers: problem(case).unwrap().layers(),
         snapshot_interval: case.run.snapshot_interval_steps,
-        checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None },
+        checkpoints: CheckpointPolicy { every_steps, every_seconds: f64::INFINITY, stop_signal: None, at_end: false },
         resume,
         progress: dea_mpi::progress::ProgressMode::Lines,
     }

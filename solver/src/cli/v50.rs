@@ -130,7 +130,13 @@ pub fn main(Args { campaign, out, ranks_per_shot, shots_per_group }: Args) -> Ex
 /// The estimates as `v50` and `fit` print them, one line each.
 pub fn print_estimates(report: &CampaignReport) {
     if report.held_at_end > 0 {
-        println!("warning: {} partial(s) were still undecided at the case's end time; a longer run.end_time_s would decide them", report.held_at_end);
+        let held: Vec<&str> =
+            report.shots.iter().filter(|s| s.stopped_by == "end_time_s").map(|s| s.id.as_str()).collect();
+        println!(
+            "warning: {} partial(s) were still undecided at the case's end time ({}); a longer run.end_time_s would decide them: raise it in the case, remove their records (shots/<id>.json) and run the campaign again, and each goes on from the checkpoint at its end (shots/<id>/checkpoint) where that is still on disk",
+            report.held_at_end,
+            held.join(", ")
+        );
     }
     for (name, fit) in [("logistic", &report.logistic), ("probit", &report.probit)] {
         match fit {
