@@ -192,6 +192,67 @@ class Run(unittest.TestCase):
         self.assertNotIn("every validation campaign is complete", printed.getvalue())
 
 
+def at(velocity, outcome, index, replicate):
+    """A shot record with its place in the campaign, as `dea-mpi v50` writes it."""
+    record = shot(velocity, outcome, index=index, replicate=replicate)
+    record["id"], record["index"] = f"r{replicate:03}-{index:05}", index
+    return record
+
+
+class HeldShots(unittest.TestCase):
+    """A shot undecided at an end time the campaign has since raised goes on from its
+    checkpoint, when it is the last of its replicate and its run directory is on the machine."""
+
+    def held(self, shots, states, end_time=2.5e-4):
+        case = copy.deepcopy(FIXTURE_CASE)
+        case["run"]["end_time_s"] = end_time
+        c = campaign("layers-t", case, {"kind": "up_and_down"}, shots)
+        return validation.held_to_take_on(c, lambda name, shot_id: states.get(shot_id, (None, False)))
+
+    def test_the_last_shot_held_at_a_shorter_end_time_is_taken_on(self):
+        shots = [at(212.5, "S", 0, 0), at(218.75, "U", 1, 0)]
+        self.assertEqual(self.held(shots, {"r000-00001": (1.5e-4, True)}), [("r000-00001", 1.5e-4)])
+
+    def test_a_shot_held_at_the_campaign_end_time_is_left(self):
+        shots = [at(218.75, "U", 0, 0)]
+        self.assertEqual(self.held(shots, {"r000-00000": (2.5e-4, True)}), [])
+
+    def test_a_shot_without_its_run_directory_or_checkpoint_is_left(self):
+        shots = [at(218.75, "U", 0, 0)]
+        self.assertEqual(self.held(shots, {}), [])
+        self.assertEqual(self.held(shots, {"r000-00000": (1.5e-4, False)}), [])
+
+    def test_a_held_shot_with_later_shots_on_record_is_left(self):
+        shots = [at(218.75, "U", 0, 0), at(225.0, "P", 1, 0)]
+        self.assertEqual(self.held(shots, {"r000-00000": (1.5e-4, True)}), [])
+        # another replicate's later shots do not hold it
+        shots = [at(218.75, "U", 0, 0), at(225.0, "P", 1, 1)]
+        self.assertEqual(self.held(shots, {"r000-00000": (1.5e-4, True)}), [("r000-00000", 1.5e-4)])
+
+    def test_a_run_withdraws_the_record_and_fires_the_shot_again(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results:
+            shots_dir = os.path.join(results, "layers-t", "shots")
+            os.makedirs(os.path.join(shots_dir, "r000-00000", "checkpoint"))
+            held = at(218.75, "U", 0, 0)
+            for path, text in ((os.path.join(shots_dir, "r000-00000.json"), validation.json.dumps(held)),
+                               (os.path.join(shots_dir, "r000-00000", "summary.json"), '{"simulated_time_s": 1.5e-4}'),
+                               (os.path.join(shots_dir, "r000-00000", "checkpoint", "manifest.h5"), "")):
+                with open(path, "w") as f:
+                    f.write(text)
+            case = copy.deepcopy(FIXTURE_CASE)
+            case["run"]["end_time_s"] = 2.5e-4
+            c = campaign("layers-t", case, {"kind": "up_and_down"}, [held])
+            c.refresh = lambda: setattr(c, "shots", validation.records("layers-t"))
+            printed = io.StringIO()
+            with mock.patch.object(validation, "RESULTS", results), contextlib.redirect_stdout(printed):
+                validation.take_on_held(c)
+            self.assertEqual(c.shots, [])
+            self.assertFalse(os.path.exists(os.path.join(shots_dir, "r000-00000.json")))
+            self.assertIn("shot r000-00000 was undecided at its end, 150.0 us, and the campaign now ends at 250.0 us",
+                          printed.getvalue())
+
+
 class UpAndDown(unittest.TestCase):
     UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0, "shots": 2}
     NO_ZONE = "no zone of mixed results"

@@ -12,7 +12,9 @@ and with `--commit` the record, the campaign's `v50.json` and `provenance.json` 
 checkout skips every shot on record and goes on with the next; an interrupted shot resumes
 from its checkpoint when it is still on the machine (the run directories `shots/<id>/` are
 not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script's `mpirun`
-checkpoints the shot and ends the script with 75.
+checkpoints the shot and ends the script with 75. A campaign's last shot undecided at its
+end time, when the campaign's end time has since been raised and the shot's checkpoint is
+still on the machine, has its record withdrawn and goes on from there (`held_to_take_on`).
 
 Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
 campaign's finished shots (wall time x ranks) when it has any, otherwise the price
@@ -563,9 +565,59 @@ def shot_command(args, c):
     return command + [binary(args), "v50", c.path, "--out", os.path.join(RESULTS, c.name), "--shots-per-group", "1"]
 
 
+def run_state(name, shot_id):
+    """How far a shot's run directory (not committed: on the machine that fired it) got: its
+    simulated time [s] from summary.json, and whether a checkpoint is there to go on from;
+    (None, False) without one."""
+    directory = os.path.join(RESULTS, name, "shots", shot_id)
+    try:
+        with open(os.path.join(directory, "summary.json")) as f:
+            time_s = float(json.load(f)["simulated_time_s"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None, False
+    return time_s, os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))
+
+
+def held_to_take_on(c, state=run_state):
+    """The shots of `c` undecided at an end time shorter than the campaign's now, whose run
+    directory keeps a checkpoint to go on from (dea-mpi continues a checkpoint under a
+    campaign's later end time, docs/theory.md V1): [(id, simulated time [s])]. Only the last
+    shot of its replicate: the speeds after a shot rest on its outcome, so a decided shot with
+    later ones on record is left as it is (it would no longer be the campaign's)."""
+    end = float(c.case["run"]["end_time_s"])
+    last = {}
+    for s in c.shots:
+        replicate = s.get("replicate", 0)
+        last[replicate] = max(last.get(replicate, -1), s.get("index", 0))
+    chosen = []
+    for s in c.shots:
+        if s["stopped_by"] != "end_time_s" or s.get("index", 0) != last[s.get("replicate", 0)]:
+            continue
+        time_s, resumable = state(c.name, s["id"])
+        if time_s is not None and resumable and time_s < end * (1.0 - 1e-9):
+            chosen.append((s["id"], time_s))
+    return chosen
+
+
+def take_on_held(c):
+    """Withdraws the records of `held_to_take_on(c)`, so that the campaign's next run
+    continues those shots to its end time; the shot's new record replaces the old in the
+    commit of its outcome (until then a checkout keeps the old)."""
+    end = float(c.case["run"]["end_time_s"])
+    held = held_to_take_on(c)
+    for shot_id, time_s in held:
+        os.remove(os.path.join(RESULTS, c.name, "shots", f"{shot_id}.json"))
+        print(f"{c.name}: shot {shot_id} was undecided at its end, {1e6 * time_s:.1f} us, and the campaign now "
+              f"ends at {1e6 * end:.1f} us: its record is withdrawn and the shot goes on from its checkpoint",
+              flush=True)
+    if held:
+        c.refresh()
+
+
 def run(args, campaigns):
     fired = 0
     for c in campaigns:
+        take_on_held(c)
         while not c.complete:
             if args.max_shots is not None and fired >= args.max_shots:
                 print(f"stopped after --max-shots {args.max_shots}")
