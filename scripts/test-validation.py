@@ -253,6 +253,27 @@ class HeldShots(unittest.TestCase):
                           printed.getvalue())
 
 
+    def test_a_withdrawn_record_is_not_committed_as_a_finished_shot(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as root:
+            shots_dir = os.path.join(root, "validation", "layers-t", "shots")
+            os.makedirs(shots_dir)
+            finished = at(212.5, "S", 0, 0)
+            with open(os.path.join(shots_dir, "r000-00000.json"), "w") as f:
+                f.write(validation.json.dumps(finished))
+            c = campaign("layers-t", FIXTURE_CASE, {"kind": "up_and_down"}, [finished])
+            # git lists the new record and the withdrawn one (deleted from the tree)
+            listed = "validation/layers-t/shots/r000-00000.json\nvalidation/layers-t/shots/r000-00001.json\n"
+            committed = []
+            with mock.patch.object(validation, "ROOT", root), \
+                    mock.patch.object(validation, "RESULTS", os.path.join(root, "validation")), \
+                    mock.patch.object(validation.subprocess, "run", lambda *a, **k: types.SimpleNamespace(stdout=listed)), \
+                    mock.patch.object(validation, "write_summary", lambda campaigns: None), \
+                    mock.patch.object(validation, "commit", lambda c, new: committed.append(new)):
+                validation.commit_pending([c], [c])
+            self.assertEqual(committed, [["r000-00000"]])
+
+
 class UpAndDown(unittest.TestCase):
     UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0, "shots": 2}
     NO_ZONE = "no zone of mixed results"

@@ -548,7 +548,10 @@ def commit_pending(campaigns, chosen):
     for c in chosen:
         listed = subprocess.run(["git", "-C", ROOT, "ls-files", "--others", "--modified", "--exclude-standard", "--",
                                  os.path.join(RESULTS, c.name, "shots")], capture_output=True, text=True).stdout.split()
-        new = sorted(os.path.basename(p)[:-5] for p in listed if p.endswith(".json"))
+        # a record withdrawn to take its shot on (`take_on_held`) is listed too, as deleted:
+        # its shot is not finished, and the commit of its outcome will carry it
+        new = sorted(os.path.basename(p)[:-5] for p in listed
+                     if p.endswith(".json") and os.path.exists(os.path.join(ROOT, p)))
         if new:
             write_summary(campaigns)
             commit(c, new)
