@@ -8,7 +8,8 @@ with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers o
 15 in panel; a campaign whose every shot so far perforated is drawn as an upper bound (a
 hollow downward triangle at its slowest shot, an arrow beneath), one whose every shot was
 stopped as a lower bound (an upward triangle at its fastest, an arrow above). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
-the layer series where it has results. A campaign without a V50 yet is listed under the
+the layer series where it has results; a finer series about a first one's limit is drawn
+pooled with it (validation.py's `pooled_from`), not alone. A campaign without a V50 yet is listed under the
 plot with its state, not drawn. Residual velocities of the mesh series are printed, not
 plotted.
 """
@@ -101,7 +102,10 @@ size_axes.legend(fontsize=7, loc="upper left")
 
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_EXPERIMENT, "ks--", label="experiment (Table 6-1)")
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_MODIFIED_DEA, "r^:", label="seed modified DEA (Table 6-1)")
-layers = sorted((e for e in entries if e["series"] == "layers"), key=lambda e: (e["layers"], e["name"]))
+# a finer series is drawn pooled with the one it refines (its shots alone are a part of that)
+refining = {e["pooled_from"][-1] for e in entries if e.get("pooled_from")}
+layers = sorted((e for e in entries if e["series"] == "layers" and e["name"] not in refining),
+                key=lambda e: (e["layers"], e["name"]))
 # several campaigns of one layer count (a finer step about the first one's limit) side by side,
 # 0.6 layers apart, each labelled with its campaign
 alongside = {e["name"]: [o["name"] for o in layers if o["layers"] == e["layers"]] for e in layers}
