@@ -281,23 +281,20 @@ def entry(c, campaigns=(), report=None):
                 at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == low]
                 established = any(s["stopped_by"] != "end_time_s" for s in at_low)
                 mean = mil["Ok"]["v50"] if "Ok" in mil else None
-                if mean is not None and not low <= mean <= high:
-                    # the mean of partials reaching far below a high partial (one near the
-                    # lowest complete) can fall outside the bracket it is meant to lie in
-                    v50 = 0.5 * (low + high)
-                    method = (f"bracket (highest partial, lowest complete) and its midpoint; MIL-STD-662F's mean of "
-                              f"the {mil['Ok']['count']} highest partials and lowest complete penetrations, "
-                              f"{mean:.1f} m/s, falls outside it; no interval: " + method)
-                elif mean is not None:
+                if mean is not None and low <= mean <= high:
                     v50 = mean
                     method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
                               f"penetrations, within the bracket (highest partial, lowest complete); no interval: "
                               + method)
                 else:
-                    # too few shots for MIL-STD-662F: the bracket still bounds the limit
+                    # too few shots for MIL-STD-662F, or its mean outside the bracket (partials
+                    # reaching far below a high one near the lowest complete): the bracket still
+                    # bounds the limit
+                    why = (f"MIL-STD-662F's mean of the {mil['Ok']['count']} highest partials and lowest complete "
+                           f"penetrations, {mean:.1f} m/s, falls outside it" if mean is not None
+                           else f"no MIL-STD-662F: {mil.get('Err', 'no estimate')}")
                     v50 = 0.5 * (low + high)
-                    method = (f"bracket (highest partial, lowest complete) and its midpoint; no MIL-STD-662F: "
-                              f"{mil.get('Err', 'no estimate')}; no interval: " + method)
+                    method = f"bracket (highest partial, lowest complete) and its midpoint; {why}; no interval: " + method
                 if not established:
                     method += (f"; every partial at {low:.1f} m/s was undecided at the end time, so the "
                                f"bracket's low end is not established")
