@@ -289,14 +289,14 @@ fn fire<C: Comm>(
         }
         // the checkpoint continues under the campaign's end time and checkpoint intervals (a
         // shot undecided at an earlier end time runs on to the later one), nothing else
-        if let Some(field) = restored.case.not_continued_by(case) {
-            return Err(CampaignError::Output(format!(
+        let continued = restored.case.continued_by(case).map_err(|field| {
+            CampaignError::Output(format!(
                 "{}: the checkpoint of shot {id} was stepped with another {field} than the campaign asks for now: remove the checkpoint to fire the shot afresh, or give the campaign another --out",
                 checkpoint.display()
-            )));
-        }
+            ))
+        })?;
         let resume = Resume::from_checkpoint(&restored.global);
-        (restored.case.with_run_length_of(case), restored.run, resume)
+        (continued, restored.run, resume)
     } else {
         (case.clone(), build(case, comm, Method::KWay, None).map_err(setup)?, None)
     };

@@ -1156,4 +1156,10 @@ fn fit_pools_campaigns_of_one_target_and_refuses_any_other() {
     // not a campaign directory
     let stderr = stderr_of_exit(4, &["fit", a, dir.join("nothing").to_str().unwrap()]);
     assert!(stderr.contains("nothing: no provenance.json"), "{stderr}");
+    // a campaign directory whose shot records are gone: a file error too
+    let bare = dir.join("bare");
+    std::fs::create_dir_all(&bare).unwrap();
+    std::fs::copy(dir.join("first/provenance.json"), bare.join("provenance.json")).unwrap();
+    let stderr = stderr_of_exit(4, &["fit", a, bare.to_str().unwrap()]);
+    assert!(stderr.contains("bare: no shots/ directory"), "{stderr}");
 }

@@ -32,6 +32,15 @@ pub fn main(Args { campaigns, json }: Args) -> ExitCode {
             format!("{}: no provenance.json: not a campaign directory that `dea-mpi v50` wrote", missing.display()),
         );
     }
+    if let Some(bare) = campaigns.iter().find(|d| !d.join("shots").is_dir()) {
+        return fail(
+            Exit::File,
+            format!(
+                "{}: no shots/ directory beside its provenance.json: the campaign's shot records are missing",
+                bare.display()
+            ),
+        );
+    }
     let report = match dea_mpi::pool::pooled_report(&campaigns) {
         Ok(report) => report,
         Err(e) => return fail(Exit::BadCase, e),

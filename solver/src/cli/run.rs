@@ -99,20 +99,22 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, progress, pan
                 // a case file given with the checkpoint must be the checkpoint's case, but for
                 // how long the run goes on and how often it saves itself, which it sets
                 if let Some(expected) = &expected {
-                    if let Some(field) = restored.case.not_continued_by(expected) {
-                        return fail_all(
-                            &session,
-                            Exit::BadCase,
-                            format!(
-                                "{}: this checkpoint continues case {:?}, not the case of {} ({:?}): they differ in {field} (a restart may change only run.end_time_s and the checkpoint intervals); remove the checkpoint to start that case afresh",
-                                directory.display(),
-                                restored.case.name,
-                                case.as_ref().map_or(String::new(), |p| p.display().to_string()),
-                                expected.name
-                            ),
-                        );
-                    }
-                    restored.case = restored.case.with_run_length_of(expected);
+                    restored.case = match restored.case.continued_by(expected) {
+                        Ok(continued) => continued,
+                        Err(field) => {
+                            return fail_all(
+                                &session,
+                                Exit::BadCase,
+                                format!(
+                                    "{}: this checkpoint continues case {:?}, not the case of {} ({:?}): they differ in {field} (a restart may change only run.end_time_s and the checkpoint intervals); remove the checkpoint to start that case afresh",
+                                    directory.display(),
+                                    restored.case.name,
+                                    case.as_ref().map_or(String::new(), |p| p.display().to_string()),
+                                    expected.name
+                                ),
+                            )
+                        }
+                    };
                 }
                 let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                 if resume.is_none() {

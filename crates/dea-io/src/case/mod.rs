@@ -1242,17 +1242,16 @@ mod tests {
         longer.run.end_time_s *= 2.0;
         longer.run.checkpoint_interval_minutes = 5.0;
         longer.run.checkpoint_interval_steps = Some(1000);
-        assert_eq!(case.not_continued_by(&longer), None);
-        assert_eq!(case.with_run_length_of(&longer), longer);
+        assert_eq!(case.continued_by(&longer), Ok(longer.clone()));
         // the default unloading named or left unsaid is the same case
         let mut named = case.clone();
         named.failure.unload = Some("at_break".into());
-        assert_eq!(case.not_continued_by(&named), None);
+        assert_eq!(case.continued_by(&named), Ok(case.clone()));
         let mut other = longer.clone();
         other.run.history_interval_steps += 1;
-        assert_eq!(case.not_continued_by(&other).as_deref(), Some("run.history_interval_steps"));
+        assert_eq!(case.continued_by(&other), Err("run.history_interval_steps".to_string()));
         other.projectile.velocity_m_s += 1.0;
-        assert_eq!(case.not_continued_by(&other).as_deref(), Some("projectile.velocity_m_s"));
+        assert_eq!(case.continued_by(&other), Err("projectile.velocity_m_s".to_string()));
     }
 
     #[test]

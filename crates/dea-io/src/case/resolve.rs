@@ -314,11 +314,8 @@ impl Case {
     }
 
     /// The case with `other`'s run length: its end time and checkpoint intervals. They decide
-    /// when a run stops and when it saves itself, never how it moves (docs/theory.md V1), so a
-    /// checkpoint of this case continues under `other` when the two then compare equal: a
-    /// shot undecided at its end time runs on to a later one (`run --restart` with a case
-    /// file, a campaign shot resumed after the campaign's end time was raised).
-    pub fn with_run_length_of(&self, other: &Case) -> Case {
+    /// when a run stops and when it saves itself, never how it moves (docs/theory.md V1).
+    fn with_run_length_of(&self, other: &Case) -> Case {
         let mut case = self.clone();
         case.run.end_time_s = other.run.end_time_s;
         case.run.checkpoint_interval_steps = other.run.checkpoint_interval_steps;
@@ -326,12 +323,18 @@ impl Case {
         case
     }
 
-    /// Why a checkpoint of this case does not continue under `asked`: the first field, other
-    /// than the run length ([`Case::with_run_length_of`]) and a defaulted `failure.unload`, in
-    /// which the two differ; `None` when it continues.
-    pub fn not_continued_by(&self, asked: &Case) -> Option<String> {
+    /// The case a checkpoint of this case continues under when `asked` for: this case with
+    /// `asked`'s run length, so a shot undecided at its end time runs on to a later one
+    /// (`run --restart` with a case file, a campaign shot resumed after the campaign's end
+    /// time was raised). `Err` names the first field, other than the run length and a
+    /// defaulted `failure.unload`, in which the two differ: such a checkpoint does not continue.
+    pub fn continued_by(&self, asked: &Case) -> Result<Case, String> {
+        let continued = self.with_run_length_of(asked);
         let value = |case: &Case| serde_json::to_value(case.with_named_unload()).expect("a case serialises");
-        super::first_difference(&value(&self.with_run_length_of(asked)), &value(asked), "")
+        match super::first_difference(&value(&continued), &value(asked), "") {
+            Some(field) => Err(field),
+            None => Ok(continued),
+        }
     }
 
     /// When a broken element stops acting: at its break unless "next_step" is asked for.
