@@ -274,6 +274,33 @@ class HeldShots(unittest.TestCase):
             self.assertEqual(committed, [["r000-00000"]])
 
 
+class Begun(unittest.TestCase):
+    """`status` names the shots begun on this machine and not yet on record."""
+
+    def test_a_begun_shot_is_named_with_its_time_and_whether_it_goes_on(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results:
+            shots_dir = os.path.join(results, "layers-t", "shots")
+            for shot_id, checkpointed in (("r000-00000", False), ("r000-00001", True), ("r000-00002", True)):
+                os.makedirs(os.path.join(shots_dir, shot_id, "checkpoint"))
+                with open(os.path.join(shots_dir, shot_id, "progress.json"), "w") as f:
+                    f.write('{"simulated_time_s": 3.7e-6, "end_time_s": 2.5e-4}')
+                if checkpointed:
+                    open(os.path.join(shots_dir, shot_id, "checkpoint", "manifest.h5"), "w").close()
+            # r000-00000 is on record: finished, not begun
+            with open(os.path.join(shots_dir, "r000-00000.json"), "w") as f:
+                f.write(validation.json.dumps(at(212.5, "S", 0, 0)))
+            # a run directory without progress.json (set-up not done) is not named
+            os.makedirs(os.path.join(shots_dir, "r000-00003"))
+            with mock.patch.object(validation, "RESULTS", results):
+                started = validation.begun("layers-t")
+            self.assertEqual([s[0] for s in started], ["r000-00001", "r000-00002"])
+            self.assertEqual(validation.begun_words([("r000-00001", 3.7e-6, 2.5e-4, True),
+                                                     ("r000-00002", 1.2e-5, 2.5e-4, False)]),
+                             "r000-00001 at 3.7 of 250 us, goes on from its checkpoint; "
+                             "r000-00002 at 12.0 of 250 us, no checkpoint: starts again")
+
+
 class UpAndDown(unittest.TestCase):
     UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0, "shots": 2}
     NO_ZONE = "no zone of mixed results"

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The validation set against the seed's Table 6-1, run resumably, a shot at a time.
 
-    scripts/validation.py status                      # what is done, what is left, its core-hours
+    scripts/validation.py status                      # what is done, what is left (begun here), its core-hours
     scripts/validation.py run [--ranks 2] [--max-shots N] [--only TEXT] [--commit]
     scripts/validation.py summary                     # rewrite validation/summary.json and shots.md only
 
@@ -155,6 +155,32 @@ def load(args):
     return sorted(campaigns, key=lambda c: (c.per_shot_core_hours()[0], c.name))
 
 
+def begun(name):
+    """The shots of campaign `name` begun on this machine and not on record: [(id, simulated
+    time [s], end time [s], whether a checkpoint is there to go on from)], from each run
+    directory's progress.json (rank 0 rewrites it as the shot runs)."""
+    found = []
+    for directory in sorted(glob.glob(os.path.join(RESULTS, name, "shots", "r*-*"))):
+        shot_id = os.path.basename(directory)
+        if not os.path.isdir(directory) or os.path.exists(directory + ".json"):
+            continue
+        try:
+            with open(os.path.join(directory, "progress.json")) as f:
+                progress = json.load(f)
+            time_s, end_s = float(progress["simulated_time_s"]), float(progress["end_time_s"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        found.append((shot_id, time_s, end_s, os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))))
+    return found
+
+
+def begun_words(shots):
+    """What `status` says of the shots `begun` gave."""
+    return "; ".join(f"{shot_id} at {1e6 * time_s:.1f} of {1e6 * end_s:.0f} us, "
+                     + ("goes on from its checkpoint" if resumable else "no checkpoint: starts again")
+                     for shot_id, time_s, end_s, resumable in shots)
+
+
 def status(campaigns):
     total = 0.0
     print(f"{'campaign':<36} {'nodes':>9} {'shots':>7} {'left':>5} {'core-h/shot':>12}  state")
@@ -162,6 +188,9 @@ def status(campaigns):
         per_shot, how = c.per_shot_core_hours()
         total += c.left() * per_shot
         state = "complete" if c.complete else "to run"
+        started = begun(c.name)
+        if started and not c.complete:
+            state += f" ({begun_words(started)})"
         print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
     print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours "
           "(b: the cost model's price to the end time, m: mean of this campaign's finished shots)")
