@@ -103,7 +103,7 @@ size_axes.legend(fontsize=7, loc="upper left")
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_EXPERIMENT, "ks--", label="experiment (Table 6-1)")
 layer_axes.plot(TABLE_6_1_LAYERS, TABLE_6_1_MODIFIED_DEA, "r^:", label="seed modified DEA (Table 6-1)")
 # a finer series is drawn pooled with the one it refines (its shots alone are a part of that)
-refining = {e["pooled_from"][-1] for e in entries if e.get("pooled_from")}
+refining = {name for e in entries if e.get("pooled_from") for name in e["pooled_from"][1:]}
 layers = sorted((e for e in entries if e["series"] == "layers" and e["name"] not in refining),
                 key=lambda e: (e["layers"], e["name"]))
 # several campaigns of one layer count (a finer step about the first one's limit) side by side,

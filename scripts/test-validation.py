@@ -353,8 +353,13 @@ class Pools(unittest.TestCase):
         finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
         unfired = campaign("layers-u-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [])
         alone = campaign("layers-v-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
-        pairs = validation.step_pools([finer, coarse, unfired, alone])
-        self.assertEqual([(a.name, b.name) for a, b in pairs], [("layers-t", "layers-t-step-6.25")])
+        groups = validation.step_pools([finer, coarse, unfired, alone])
+        self.assertEqual([(a.name, [b.name for b in f]) for a, f in groups], [("layers-t", ["layers-t-step-6.25"])])
+        # a still finer series joins the same pool, coarsest step first
+        finest = campaign("layers-t-step-3.125", FIXTURE_CASE, self.UP_AND_DOWN, [shot(215.625, "P", 5.0, 0)])
+        groups = validation.step_pools([finest, finer, coarse])
+        self.assertEqual([(a.name, [b.name for b in f]) for a, f in groups],
+                         [("layers-t", ["layers-t-step-6.25", "layers-t-step-3.125"])])
 
     def test_a_pooled_entry_gives_the_fit_of_the_shots_together(self):
         coarse = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 60.0, 1)])
@@ -362,7 +367,7 @@ class Pools(unittest.TestCase):
                          [shot(212.5, "S", -0.3, 0), shot(218.75, "P", 20.0, 1), shot(212.5, "P", 10.0, 2)])
         pooled_shots = [dict(s, id=f"{c.name}/{s['id']}") for c in (coarse, finer) for s in c.shots]
         report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 213.0, "low": 205.0, "high": 221.0}}}}
-        e = validation.pooled_entry(coarse, finer, [coarse, finer], report)
+        e = validation.pooled_entry(coarse, [finer], [coarse, finer], report)
         self.assertEqual(e["name"], "layers-t + step-6.25")
         self.assertEqual(e["pooled_from"], ["layers-t", "layers-t-step-6.25"])
         self.assertEqual((e["shots"], e["v50_m_s"], e["v50_low_m_s"], e["v50_high_m_s"]), (5, 213.0, 205.0, 221.0))
@@ -371,6 +376,21 @@ class Pools(unittest.TestCase):
         self.assertIsNone(e["core_hours"])
         text = validation.shots_markdown([coarse, finer], [validation.entry(c, [coarse, finer]) for c in (coarse, finer)] + [e])
         self.assertIn("- `layers-t` and `layers-t-step-6.25`, 5 shots: V50 213.0 m/s (205.0–221.0)", text)
+
+
+    def test_three_series_pool_into_one_entry_named_by_their_steps(self):
+        coarse = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 60.0, 1)])
+        finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
+        finest = campaign("layers-t-step-3.125", FIXTURE_CASE, self.UP_AND_DOWN, [shot(215.625, "P", 5.0, 0)])
+        pooled_shots = [dict(s, id=f"{c.name}/{s['id']}") for c in (coarse, finer, finest) for s in c.shots]
+        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 214.0, "low": 207.0, "high": 221.0}}}}
+        every = [coarse, finer, finest]
+        e = validation.pooled_entry(coarse, [finer, finest], every, report)
+        self.assertEqual(e["name"], "layers-t + step-6.25 + step-3.125")
+        self.assertEqual(e["pooled_from"], ["layers-t", "layers-t-step-6.25", "layers-t-step-3.125"])
+        self.assertEqual(e["shots"], 4)
+        text = validation.shots_markdown(every, [validation.entry(c, every) for c in every] + [e])
+        self.assertIn("- `layers-t`, `layers-t-step-6.25` and `layers-t-step-3.125`, 4 shots: V50 214.0 m/s", text)
 
 
 class ShotTables(unittest.TestCase):

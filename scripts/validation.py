@@ -389,39 +389,47 @@ def entry(c, campaigns=(), report=None):
     return out
 
 
+def step_of(name):
+    """The step [m/s] of a campaign named `<name>-step-<m/s>`, else None."""
+    found = re.fullmatch(r".+-step-([0-9.]+)", name)
+    return float(found.group(1)) if found else None
+
+
 def step_pools(campaigns):
-    """(coarse, finer) pairs: a campaign named `<name>-step-<m/s>` with shots on record is a
-    finer series about the bracket of the campaign `<name>`, and the two are pooled
-    (docs/theory.md V10)."""
+    """(coarse, [finer, ...]) groups: a campaign named `<name>-step-<m/s>` with shots on
+    record is a finer series about the bracket of the campaign `<name>`, and all of them are
+    pooled with it (docs/theory.md V10), coarsest step first."""
     by_name = {c.name: c for c in campaigns}
-    pairs = []
-    for c in sorted(campaigns, key=lambda c: c.name):
+    groups = {}
+    for c in campaigns:
         found = re.fullmatch(r"(.+)-step-[0-9.]+", c.name)
         if found and found.group(1) in by_name and c.shots:
-            pairs.append((by_name[found.group(1)], c))
-    return pairs
+            groups.setdefault(found.group(1), []).append(c)
+    return [(by_name[name], sorted(finer, key=lambda c: -step_of(c.name))) for name, finer in sorted(groups.items())]
 
 
 def fit_pooled(coarse, finer):
-    """`dea-mpi fit --json` of the two campaigns' directories: their estimates together."""
-    command = [coarse.binary, "fit", os.path.join(RESULTS, coarse.name), os.path.join(RESULTS, finer.name), "--json"]
+    """`dea-mpi fit --json` of the campaigns' directories (`coarse`, then each of `finer`):
+    their estimates together."""
+    names = [coarse.name] + [c.name for c in finer]
+    command = [coarse.binary, "fit"] + [os.path.join(RESULTS, name) for name in names] + ["--json"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
-        sys.exit(f"{coarse.name} and {finer.name}: `{' '.join(command)}` failed (exit {done.returncode}; "
+        sys.exit(f"{' and '.join(names)}: `{' '.join(command)}` failed (exit {done.returncode}; "
                  f"`fit` is in dea-mpi since 030b8aa):\n{done.stderr.strip()}")
     return json.loads(done.stdout)
 
 
 def pooled_entry(coarse, finer, campaigns, report):
-    """The summary entry of two series of one target pooled: the estimates `report` of
-    `dea-mpi fit`, the pooled shots, named `<coarse> + step-<m/s>`; its core-hours are the
-    pooled campaigns' own entries'."""
-    name = f"{coarse.name} + {finer.name[len(coarse.name) + 1:]}"
+    """The summary entry of several series of one target pooled: the estimates `report` of
+    `dea-mpi fit`, the pooled shots, named `<coarse> + step-<m/s> [+ step-<m/s> ...]`; its
+    core-hours are the pooled campaigns' own entries'."""
+    name = " + ".join([coarse.name] + [c.name[len(coarse.name) + 1:] for c in finer])
     pooled = types.SimpleNamespace(name=name, case=coarse.case, shots=report["shots"],
                                    spec={"name": name, "design": {"kind": "pooled"}},
-                                   complete=coarse.complete and finer.complete)
+                                   complete=coarse.complete and all(c.complete for c in finer))
     out = entry(pooled, campaigns, report)
-    out["pooled_from"] = [coarse.name, finer.name]
+    out["pooled_from"] = [coarse.name] + [c.name for c in finer]
     out["core_hours"] = None
     out["git_commit"] = None
     return out
@@ -509,12 +517,13 @@ def shots_markdown(campaigns, entries):
     if pools:
         lines.append("## Pooled series")
         lines.append("")
-        lines.append("Two series of one target, their shots together (`dea-mpi fit`, docs/theory.md V10):")
+        lines.append("Series of one target, their shots together (`dea-mpi fit`, docs/theory.md V10):")
         lines.append("")
         for e in pools:
             v50 = (f"V50 {e['v50_m_s']:.1f} m/s ({e['v50_low_m_s']:.1f}–{e['v50_high_m_s']:.1f}): {e['method']}"
                    if e["v50_m_s"] is not None else e["method"])
-            lines.append(f"- `{e['pooled_from'][0]}` and `{e['pooled_from'][1]}`, {e['shots']} shots: {v50}.")
+            names = [f"`{name}`" for name in e["pooled_from"]]
+            lines.append(f"- {', '.join(names[:-1])} and {names[-1]}, {e['shots']} shots: {v50}.")
         lines.append("")
     if waiting:
         lines.append("## Not fired yet")
