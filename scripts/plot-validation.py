@@ -108,11 +108,14 @@ layers = sorted((e for e in entries if e["series"] == "layers" and e["name"] not
                 key=lambda e: (e["layers"], e["name"]))
 # several campaigns of one layer count (a finer step about the first one's limit) side by side,
 # 0.6 layers apart, each labelled with its campaign
-alongside = {e["name"]: [o["name"] for o in layers if o["layers"] == e["layers"]] for e in layers}
+# (a campaign without shots is only listed below the plot, and takes no place)
+alongside = {e["name"]: [o["name"] for o in layers if o["layers"] == e["layers"] and o["shots"]] for e in layers}
 
 
 def layer_position(e):
     same = alongside[e["name"]]
+    if e["name"] not in same:
+        return e["layers"]
     return e["layers"] + 0.6 * (same.index(e["name"]) - 0.5 * (len(same) - 1))
 
 
@@ -132,7 +135,8 @@ def layer_label(e):
 
 
 if not draw(layer_axes, layers, layer_position, layer_label,
-            lambda e: ("tab:blue", "tab:green", "tab:purple")[alongside[e["name"]].index(e["name"]) % 3]):
+            lambda e: ("tab:blue", "tab:green", "tab:purple")[alongside[e["name"]].index(e["name"]) % 3]
+            if e["name"] in alongside[e["name"]] else "tab:gray"):
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 layer_axes.set_xlabel("layers")
 layer_axes.set_ylabel("V50 [m/s]")
