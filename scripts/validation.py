@@ -155,6 +155,12 @@ def load(args):
     return sorted(campaigns, key=lambda c: (c.per_shot_core_hours()[0], c.name))
 
 
+def resumable(directory):
+    """Whether a shot's run directory holds a checkpoint to go on from (a checkpoint is
+    renamed into place only once complete, docs/output.md)."""
+    return os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))
+
+
 def begun(name):
     """The shots of campaign `name` begun on this machine and not on record: [(id, simulated
     time [s], end time [s], whether a checkpoint is there to go on from)], from each run
@@ -170,7 +176,7 @@ def begun(name):
             time_s, end_s = float(progress["simulated_time_s"]), float(progress["end_time_s"])
         except (OSError, ValueError, KeyError, TypeError):
             continue
-        found.append((shot_id, time_s, end_s, os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))))
+        found.append((shot_id, time_s, end_s, resumable(directory)))
     return found
 
 
@@ -613,7 +619,7 @@ def run_state(name, shot_id):
             time_s = float(json.load(f)["simulated_time_s"])
     except (OSError, ValueError, KeyError, TypeError):
         return None, False
-    return time_s, os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))
+    return time_s, resumable(directory)
 
 
 def held_to_take_on(c, state=run_state):
