@@ -191,6 +191,64 @@ class Run(unittest.TestCase):
         self.assertIn("whose name contains 'yarn-t' is complete; 1 other(s) still to run", printed.getvalue())
         self.assertNotIn("every validation campaign is complete", printed.getvalue())
 
+    def test_a_signal_to_the_script_reaches_mpirun_as_usr1_and_ends_the_run_with_75(self):
+        # A stand-in for mpirun as Open MPI 4 behaves: SIGUSR1 is forwarded to the ranks, which
+        # checkpoint and exit 75; SIGTERM kills them and mpirun exits 1.
+        import signal
+        import sys
+        import tempfile
+        import threading
+        import time
+        with tempfile.TemporaryDirectory() as scratch:
+            ready, got = os.path.join(scratch, "ready"), os.path.join(scratch, "got")
+            stand_in = (
+                "import signal, sys, time\n"
+                f"def on(signum, _):\n    open({got!r}, 'w').write(signal.Signals(signum).name)\n"
+                "    sys.exit(75 if signum == signal.SIGUSR1 else 1)\n"
+                "signal.signal(signal.SIGUSR1, on)\nsignal.signal(signal.SIGTERM, on)\n"
+                f"open({ready!r}, 'w').close()\n"
+                "time.sleep(60)\nsys.exit(0)\n")
+            c = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
+            c.refresh = lambda: None
+            later = campaign("layers-u", FIXTURE_CASE, BISECTION, [])
+            fired = []
+
+            def command(_args, campaign_fired):
+                fired.append(campaign_fired.name)
+                return [sys.executable, "-c", stand_in]
+
+            def signal_when_ready():
+                for _ in range(600):
+                    if os.path.exists(ready):
+                        break
+                    time.sleep(0.05)
+                os.kill(os.getpid(), signal.SIGTERM)
+
+            args = types.SimpleNamespace(only=None, max_shots=None, commit=False)
+            before = signal.getsignal(signal.SIGTERM)
+            errors = io.StringIO()
+            with mock.patch.object(validation, "shot_command", command), \
+                    mock.patch.object(validation, "take_on_held", lambda _: None), \
+                    contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(errors):
+                threading.Thread(target=signal_when_ready).start()
+                code = validation.run(args, [c, later])
+            with open(got) as f:
+                self.assertEqual(f.read(), "SIGUSR1")
+            self.assertEqual(code, 75)
+            self.assertEqual(fired, ["layers-t"])
+            self.assertIn("signal SIGTERM: the shot checkpoints and the run stops", errors.getvalue())
+            self.assertIs(signal.getsignal(signal.SIGTERM), before)
+
+    def test_a_signal_between_shots_fires_no_further_shot(self):
+        c = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
+        stop = validation.StopForwarder()
+        stop.asked = True
+        args = types.SimpleNamespace(only=None, max_shots=None, commit=False)
+        errors = io.StringIO()
+        with mock.patch.object(validation, "take_on_held", lambda _: None), contextlib.redirect_stderr(errors):
+            self.assertEqual(validation.run_until_stopped(args, [c], stop), 75)
+        self.assertIn("layers-t: stopped by a signal before its next shot", errors.getvalue())
+
 
 def at(velocity, outcome, index, replicate):
     """A shot record with its place in the campaign, as `dea-mpi v50` writes it."""

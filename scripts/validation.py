@@ -11,8 +11,10 @@ and with `--commit` the record, the campaign's `v50.json` and `provenance.json` 
 `validation/summary.json` are committed at once, one commit per shot. A later run on a fresh
 checkout skips every shot on record and goes on with the next; an interrupted shot resumes
 from its checkpoint when it is still on the machine (the run directories `shots/<id>/` are
-not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script's `mpirun`
-checkpoints the shot and ends the script with 75. A campaign's last shot undecided at its
+not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script (not to its
+`mpirun`, which on SIGTERM kills its ranks and exits 1, losing the shot) is passed on to `mpirun`
+as SIGUSR1: the shot checkpoints (at its first step, if it was still being set up) and the script
+ends with 75 without firing another. A campaign's last shot undecided at its
 end time, when the campaign's end time has since been raised and the shot's checkpoint is
 still on the machine, has its record withdrawn and goes on from there (`held_to_take_on`).
 
@@ -33,6 +35,7 @@ import glob
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -658,7 +661,52 @@ def take_on_held(c):
         c.refresh()
 
 
+class StopForwarder:
+    """While a run lasts, SIGTERM and SIGUSR1 to this script set `asked` and reach the running
+    `mpirun` as SIGUSR1, which Open MPI forwards to its ranks (each checkpoints and exits 75);
+    SIGTERM to `mpirun` itself would kill the ranks and lose the shot since its last checkpoint
+    (jobs/README.md, the validation set)."""
+
+    SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
+
+    def __init__(self):
+        self.asked = False
+        self.process = None
+
+    def __enter__(self):
+        self.previous = {s: signal.signal(s, self.forward) for s in self.SIGNALS}
+        return self
+
+    def __exit__(self, *_):
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
+
+    def forward(self, signum, _frame):
+        self.asked = True
+        print(f"signal {signal.Signals(signum).name}: the shot checkpoints and the run stops", file=sys.stderr,
+              flush=True)
+        if self.process is not None and self.process.poll() is None:
+            self.process.send_signal(signal.SIGUSR1)
+
+    def call(self, command):
+        """Run `command` to its end; its exit code."""
+        self.process = subprocess.Popen(command)
+        try:
+            while True:
+                try:
+                    return self.process.wait()
+                except InterruptedError:
+                    continue
+        finally:
+            self.process = None
+
+
 def run(args, campaigns):
+    with StopForwarder() as stop:
+        return run_until_stopped(args, campaigns, stop)
+
+
+def run_until_stopped(args, campaigns, stop):
     fired = 0
     for c in campaigns:
         take_on_held(c)
@@ -666,10 +714,13 @@ def run(args, campaigns):
             if args.max_shots is not None and fired >= args.max_shots:
                 print(f"stopped after --max-shots {args.max_shots}")
                 return 0
+            if stop.asked:
+                print(f"{c.name}: stopped by a signal before its next shot; run again to go on", file=sys.stderr)
+                return 75
             before = {s["id"] for s in c.shots}
             command = shot_command(args, c)
             print("+", " ".join(command), flush=True)
-            code = subprocess.run(command).returncode
+            code = stop.call(command)
             c.refresh()
             new = sorted({s["id"] for s in c.shots} - before)
             if new:
