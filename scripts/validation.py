@@ -689,14 +689,11 @@ class StopForwarder:
             self.process.send_signal(signal.SIGUSR1)
 
     def call(self, command):
-        """Run `command` to its end; its exit code."""
+        """Run `command` to its end (a signal handled meanwhile does not end the wait, PEP 475);
+        its exit code."""
         self.process = subprocess.Popen(command)
         try:
-            while True:
-                try:
-                    return self.process.wait()
-                except InterruptedError:
-                    continue
+            return self.process.wait()
         finally:
             self.process = None
 
