@@ -66,8 +66,8 @@ def draw(axes, chosen, x, label, colour=lambda e: "tab:blue"):
                 slowest = min(r["velocity_m_s"] for r in shots)
             # every shot so far was stopped, none of them only held at its end time: the V50
             # lies above the fastest, drawn as a lower bound (an upward triangle, an arrow above)
-            fastest = None
-            if shots and all(not r["perforated"] and r["stopped_by"] != "end_time_s" for r in shots):
+            fastest = e.get("v50_above_m_s")
+            if fastest is None and shots and all(not r["perforated"] and r["stopped_by"] != "end_time_s" for r in shots):
                 fastest = max(r["velocity_m_s"] for r in shots)
             for bound, marker, direction, text in (
                     (slowest, "v", -1.0, "dea-mpi: every shot perforated, V50 below the slowest"),

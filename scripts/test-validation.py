@@ -111,6 +111,20 @@ class FixtureLowEnds(unittest.TestCase):
         self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"]), (33.59375, 42.1875))
         self.assertIn("a 33.6 m/s shot fired by low-end-yarn-t-d-i-inf: stopped", entry["method"])
 
+    def test_every_shot_stopped_gives_a_lower_bound_once_each_is_decided(self):
+        bisection = campaign("panel-t-4-layers", FIXTURE_CASE, BISECTION, [shot(250.0, "S", -0.5, 0)])
+        entry = validation.entry(bisection, [bisection])
+        self.assertIsNone(entry["v50_m_s"])
+        self.assertEqual((entry["v50_above_m_s"], entry["v50_below_m_s"]), (250.0, None))
+        self.assertEqual(entry["method"], "bisection: no bracket yet (none perforated)")
+        # a shot only held at its end time is no stop: no bound
+        bisection.shots.append(shot(275.0, "U", 12.0, 1))
+        self.assertIsNone(validation.entry(bisection, [bisection])["v50_above_m_s"])
+        # a perforation makes a bracket and the bound goes
+        bisection.shots[1] = shot(275.0, "P", 40.0, 1)
+        entry = validation.entry(bisection, [bisection])
+        self.assertEqual((entry["v50_low_m_s"], entry["v50_high_m_s"], entry["v50_above_m_s"]), (250.0, 275.0, None))
+
     def test_a_decided_shot_is_never_replaced(self):
         bisection = fixture_bisection()
         # 59.4 m/s perforated within 150 us: a re-fire that stopped does not overrule it

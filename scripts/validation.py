@@ -274,7 +274,7 @@ def entry(c, campaigns=(), report=None):
     hybrid = target.get("hybrid") or {}
     layers = target.get("layers", 1)
     design = c.spec["design"]
-    v50 = low = high = below = None
+    v50 = low = high = below = above = None
     # a bracket's low end: whether it rests on a decided partial (not only on shots still
     # moving at their end time)
     established = None
@@ -297,6 +297,9 @@ def entry(c, campaigns=(), report=None):
             method = "bisection: no bracket yet (" + ("all perforated" if has_complete else "none perforated") + ")"
             if has_complete:
                 below = min(s["velocity_m_s"] for s in shots)
+            elif all(s["stopped_by"] != "end_time_s" for s in shots):
+                # every shot turned back or came to rest (none only held at its end time)
+                above = max(s["velocity_m_s"] for s in shots)
         method = "; ".join([method] + notes) if method else method
     elif design["kind"] == "velocities":
         method = "residual velocity at a fixed striking speed"
@@ -383,6 +386,8 @@ def entry(c, campaigns=(), report=None):
         "v50_low_established": established,
         # a bisection whose every shot perforated (re-fired shots counted): V50 lies below this
         "v50_below_m_s": below,
+        # a bisection whose every shot was stopped, each decided: V50 lies above this
+        "v50_above_m_s": above,
         "method": method,
         "experiment_m_s": experiment,
         "seed_dea_m_s": seed_dea,
