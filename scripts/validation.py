@@ -668,9 +668,8 @@ def take_on_held(c):
 
 class StopForwarder:
     """While a run lasts, SIGTERM and SIGUSR1 to this script set `asked` and reach the running
-    `mpirun` as SIGUSR1, which Open MPI forwards to its ranks (each checkpoints and exits 75);
-    SIGTERM to `mpirun` itself would kill the ranks and lose the shot since its last checkpoint
-    (jobs/README.md, the validation set)."""
+    `mpirun` as SIGUSR1, the one signal Open MPI forwards to its ranks (the module's doc says
+    why not SIGTERM)."""
 
     SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
 
