@@ -668,8 +668,8 @@ def take_on_held(c):
 
 class StopForwarder:
     """While a run lasts, SIGTERM and SIGUSR1 to this script set `asked` and reach the running
-    `mpirun` as SIGUSR1, the one signal Open MPI forwards to its ranks (the module's doc says
-    why not SIGTERM)."""
+    `mpirun` as SIGUSR1, which Open MPI forwards to its ranks; SIGTERM would make it kill them
+    (the module's doc)."""
 
     SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
 
