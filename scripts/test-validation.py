@@ -485,5 +485,78 @@ class ShotTables(unittest.TestCase):
         self.assertIn("## Not fired yet\n\n`layers-t`.", text)
 
 
+class Traces(unittest.TestCase):
+    """A finished shot's trace: the projectile's course and the breaks from its run
+    directory's history.csv, kept beside its record and committed with it."""
+
+    HEADER = ["time_s", "projectile_position_x_m", "projectile_position_z_m", "projectile_velocity_x_m_s",
+              "projectile_velocity_z_m_s", "projectile_angular_velocity_y_rad_s", "projectile_force_x_N", "projectile_force_z_N", "energy_total_J",
+              "broken_tension", "broken_layer_0", "back_face_largest_m", "back_face_at_axis_m"]
+    KEPT = ["time_s", "projectile_position_z_m", "projectile_velocity_x_m_s", "projectile_velocity_z_m_s",
+            "projectile_angular_velocity_y_rad_s", "projectile_force_z_N", "broken_tension", "broken_layer_0", "back_face_at_axis_m"]
+
+    def history(self, results, rows):
+        directory = os.path.join(results, "layers-t", "shots", "r000-00000")
+        os.makedirs(directory)
+        with open(os.path.join(directory, "history.csv"), "w") as f:
+            f.write(",".join(self.HEADER) + "\n")
+            for i in range(rows):
+                # digits a float formatter would not give back as written
+                f.write(",".join(f"{i}.10000000000000001e-7" if k == 0 else str(i * 10 + k)
+                                 for k in range(len(self.HEADER))) + "\n")
+
+    def read(self, path):
+        with open(path) as f:
+            return [line.rstrip("\n").split(",") for line in f]
+
+    def test_a_short_history_is_kept_whole_in_the_kept_columns_with_its_digits(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            self.history(results, 5)
+            path = validation.write_trace("layers-t", "r000-00000")
+            self.assertEqual(path, os.path.join(results, "layers-t", "shots", "r000-00000.trace.csv"))
+            rows = self.read(path)
+        self.assertEqual(rows[0], self.KEPT)
+        self.assertEqual(len(rows), 6)
+        self.assertEqual(rows[3], ["2.10000000000000001e-7", "22", "23", "24", "25", "27", "29", "30", "32"])
+
+    def test_a_long_history_is_thinned_evenly_keeping_its_first_and_last_rows(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            self.history(results, 2337)
+            rows = self.read(validation.write_trace("layers-t", "r000-00000"))[1:]
+        self.assertEqual(len(rows), validation.TRACE_ROWS)
+        times = [float(r[0]) for r in rows]
+        self.assertEqual(times[0], 0.10000000000000001e-7)
+        self.assertEqual(rows[-1][0], "2336.10000000000000001e-7")
+        gaps = {round((b - a) * 1e7) for a, b in zip(times, times[1:])}
+        self.assertLessEqual(max(gaps) - min(gaps), 1)
+
+    def test_a_shot_without_its_run_directory_has_no_trace_and_the_commit_leaves_it_out(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            os.makedirs(os.path.join(results, "layers-t", "shots"))
+            self.assertIsNone(validation.write_trace("layers-t", "r000-00000"))
+            self.history(results, 3)
+            c = campaign("layers-t", FIXTURE_CASE, {"kind": "up_and_down"}, [at(212.5, "S", 0, 0)])
+            # `summary` writes the trace a record lacks where its run directory is
+            self.assertEqual(validation.write_missing_traces([c]),
+                             [os.path.join(results, "layers-t", "shots", "r000-00000.trace.csv")])
+            self.assertEqual(validation.write_missing_traces([c]), [])
+            committed = []
+            with mock.patch.object(validation, "git_commit_paths", lambda paths, *_: committed.extend(paths)):
+                validation.commit(c, ["r000-00000"])
+                os.remove(validation.trace_path("layers-t", "r000-00000"))
+                with open(os.path.join(results, "layers-t", "shots", "r000-00000.json"), "w") as f:
+                    f.write(validation.json.dumps(at(212.5, "S", 0, 0)))
+                committed.append("--")
+                validation.commit(c, ["r000-00000"])
+        names = [os.path.basename(p) for p in committed]
+        first, second = names[:names.index("--")], names[names.index("--") + 1:]
+        self.assertIn("r000-00000.trace.csv", first)
+        self.assertNotIn("r000-00000.trace.csv", second)
+        self.assertIn("r000-00000.json", second)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -3,13 +3,16 @@
 
     scripts/validation.py status                      # what is done, what is left (begun here), its core-hours
     scripts/validation.py run [--ranks 2] [--max-shots N] [--only TEXT] [--commit]
-    scripts/validation.py summary                     # rewrite validation/summary.json and shots.md only
+    scripts/validation.py summary                     # rewrite validation/summary.json and shots.md, and the
+                                                      # traces missing where run directories are here
 
 Each campaign of `jobs/campaigns/validation/` runs into `validation/<campaign name>/`; a
 finished shot leaves its record there (`shots/<id>.json`, written whole by `dea-mpi v50`),
 and with `--commit` the record, the campaign's `v50.json` and `provenance.json` and
 `validation/summary.json` are committed at once, one commit per shot. A later run on a fresh
-checkout skips every shot on record and goes on with the next; an interrupted shot resumes
+checkout skips every shot on record and goes on with the next. Beside each record goes the
+shot's trace (`shots/<id>.trace.csv`: the projectile's course and the breaks from its
+history.csv, thinned to 400 rows), committed with it. An interrupted shot resumes
 from its checkpoint when it is still on the machine (the run directories `shots/<id>/` are
 not committed), otherwise it starts again. SIGTERM or SIGUSR1 to this script (not to its
 `mpirun`, which on SIGTERM kills its ranks and exits 1, losing the shot) is passed on to `mpirun`
@@ -31,6 +34,7 @@ laboratory scale", says what each field means); `validation/shots.md` every shot
 campaign by campaign, as tables.
 """
 import argparse
+import csv
 import glob
 import json
 import os
@@ -547,8 +551,65 @@ def shots_markdown(campaigns, entries):
     return "\n".join(lines)
 
 
+# What a shot's trace keeps of its run directory's history.csv (docs/output.md): the
+# projectile's course and the breaks, every column whose name starts with one of these.
+TRACE_COLUMN_STARTS = ("time_s", "projectile_position_z_m", "projectile_velocity_", "projectile_angular_velocity_",
+                       "projectile_force_z_N", "broken_", "back_face_at_axis_m")
+# at most this many rows, evenly spread over the history, its first and last kept: a yarn shot
+# of 800 us writes thousands, and a trace is for reading a shot's course back, not for restarts
+TRACE_ROWS = 400
+
+
+def trace_path(name, shot_id):
+    return os.path.join(RESULTS, name, "shots", f"{shot_id}.trace.csv")
+
+
+def write_trace(name, shot_id):
+    """Writes `shots/<id>.trace.csv` beside the shot's record from its run directory's
+    history.csv, so that what the docs say of a shot's course (its speed at a given time, when
+    it turned, how many elements broke in which layer) can be read from a checkout after the
+    run directory, which stays on the machine that fired it, is gone. The columns of
+    TRACE_COLUMN_STARTS, as history.csv wrote them (the same digits), thinned to TRACE_ROWS
+    rows. Returns the path, or None when the run directory holds no history (a shot fired on
+    another machine)."""
+    history = os.path.join(RESULTS, name, "shots", shot_id, "history.csv")
+    try:
+        with open(history, newline="") as f:
+            rows = list(csv.reader(f))
+    except OSError:
+        return None
+    if len(rows) < 2:
+        return None
+    header, body = rows[0], rows[1:]
+    kept = [k for k, column in enumerate(header) if column.startswith(TRACE_COLUMN_STARTS)]
+    if len(body) > TRACE_ROWS:
+        last = len(body) - 1
+        body = [body[i] for i in sorted({round(j * last / (TRACE_ROWS - 1)) for j in range(TRACE_ROWS)})]
+    path = trace_path(name, shot_id)
+    with open(path + ".partial", "w", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        for row in [header] + body:
+            writer.writerow([row[k] for k in kept])
+    os.replace(path + ".partial", path)
+    return path
+
+
+def write_missing_traces(campaigns):
+    """The traces of the shots on record that have none and whose run directory is still on
+    this machine; the paths written."""
+    written = []
+    for c in campaigns:
+        for s in c.shots:
+            if not os.path.exists(trace_path(c.name, s["id"])):
+                path = write_trace(c.name, s["id"])
+                if path is not None:
+                    written.append(path)
+    return written
+
+
 def commit(c, new_ids):
     paths = [os.path.join(RESULTS, c.name, "shots", f"{i}.json") for i in new_ids]
+    paths += [trace_path(c.name, i) for i in new_ids]
     paths += [os.path.join(RESULTS, c.name, f) for f in ("v50.json", "provenance.json")]
     paths += [os.path.join(RESULTS, "summary.json"), os.path.join(RESULTS, "shots.md")]
     paths = [p for p in paths if os.path.exists(p)]
@@ -602,6 +663,9 @@ def commit_pending(campaigns, chosen):
         new = sorted(os.path.basename(p)[:-5] for p in listed
                      if p.endswith(".json") and os.path.exists(os.path.join(ROOT, p)))
         if new:
+            for shot_id in new:
+                if not os.path.exists(trace_path(c.name, shot_id)):
+                    write_trace(c.name, shot_id)
             write_summary(campaigns)
             commit(c, new)
 
@@ -724,6 +788,8 @@ def run_until_stopped(args, campaigns, stop):
             code = stop.call(command)
             c.refresh()
             new = sorted({s["id"] for s in c.shots} - before)
+            for shot_id in new:
+                write_trace(c.name, shot_id)
             if new:
                 write_summary(load_all(args))
                 if args.commit:
@@ -765,7 +831,10 @@ def main():
         status(campaigns)
         return 0
     if args.action == "summary":
-        print(write_summary(load_all(args)))
+        everything = load_all(args)
+        for path in write_missing_traces(everything):
+            print(path)
+        print(write_summary(everything))
         return 0
     status(campaigns)
     if args.commit:
