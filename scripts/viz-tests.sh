@@ -26,5 +26,8 @@ check fabric-of-a-3d-weave target/release/dea-mpi fabric cases/weave3d_km2_ortho
 check paraview-opens-the-3d-cell /usr/bin/python3 scripts/paraview-cell.py "$work/weave3d"
 check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer back_face panel_side; do test -s $work/panel/plots/\$f.png || exit 1; done"
 check campaign-plot bash -c "target/release/dea-mpi v50 cases/v50_tiny_monte_carlo.json --out $work/v50 >/dev/null 2>&1 && /usr/bin/python3 scripts/plot-campaign.py $work/v50 && test -s $work/v50/v50.png"
+# the committed traces of the 6 in panel's shots (validation.py writes one beside each record)
+check traces-plot bash -c "/usr/bin/python3 scripts/plot-traces.py panel-6in-4-layers --out $work/traces.png && test -s $work/traces.png"
+check traces-plot-names-an-unknown-campaign bash -c "! /usr/bin/python3 scripts/plot-traces.py no-such-campaign --out $work/none.png 2>$work/none.err && grep -q \"no campaign 'no-such-campaign'\" $work/none.err"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
