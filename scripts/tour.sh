@@ -38,6 +38,7 @@ jobs/cost.py cases/v50_tiny_bisection.json --ranks-per-shot 1 --tasks 2   # core
 LOCAL=1 RANKS=1 jobs/v50-layer-sweep.sh cases/v50_tiny_bisection.json out/sweep 1 2 && /usr/bin/python3 scripts/plot-layer-sweep.py out/sweep   # V50 against layers from a campaign template (the 3 mm toy; jobs/campaigns/table_6_1_*.json for Table 6-1 on a cluster)
 /usr/bin/python3 scripts/plot-validation.py --out out/validation-v50.png   # the validation set's V50 by panel size so far, beside the seed's Table 6-1
 /usr/bin/python3 scripts/plot-residuals.py --out out/validation-residuals.png   # the 3 in panel's shots: residual against striking velocity, with the Lambert–Jonas fits
+/usr/bin/python3 scripts/plot-traces.py panel-6in-4-layers --out out/traces-6in.png   # the 6 in panel's shots: speed along the shot line and elements broken per layer against time, from their committed traces
 target/release/dea-mpi fit validation/layers-4-3in validation/layers-4-3in-step-6.25   # V50 from the shots of two series of one panel (25 and 6.25 m/s steps), pooled; a different target is refused
 scripts/bench-scaling.sh   # [long] 1 -> 2 rank speed-up of the bench
 scripts/bench-shot.py --ranks 1,2   # [long] what a real shot costs: the 3 in reference shot, 10 us, core-s per simulated us (~15 min; --baseline OLD for paired ratios)
