@@ -520,6 +520,17 @@ class Traces(unittest.TestCase):
         self.assertEqual(len(rows), 6)
         self.assertEqual(rows[3], ["2.10000000000000001e-7", "22", "23", "24", "25", "27", "29", "30", "32"])
 
+    def test_a_history_with_a_short_row_is_refused_naming_its_line(self):
+        import tempfile
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            self.history(results, 3)
+            with open(os.path.join(results, "layers-t", "shots", "r000-00000", "history.csv"), "a") as f:
+                f.write("1e-6,2,3\n")
+            with self.assertRaises(SystemExit) as refused:
+                validation.write_trace("layers-t", "r000-00000")
+            self.assertFalse(os.path.exists(validation.trace_path("layers-t", "r000-00000")))
+        self.assertIn("history.csv: line 5 has 3 fields where the header has 13", str(refused.exception))
+
     def test_a_long_history_is_thinned_evenly_keeping_its_first_and_last_rows(self):
         import tempfile
         with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):

@@ -581,6 +581,10 @@ def write_trace(name, shot_id):
     if len(rows) < 2:
         return None
     header, body = rows[0], rows[1:]
+    for line, row in enumerate(body, start=2):
+        if len(row) != len(header):
+            sys.exit(f"{history}: line {line} has {len(row)} fields where the header has {len(header)}; "
+                     "no trace written (is the shot still running?)")
     kept = [k for k, column in enumerate(header) if column.startswith(TRACE_COLUMN_STARTS)]
     if len(body) > TRACE_ROWS:
         last = len(body) - 1
@@ -722,6 +726,8 @@ def take_on_held(c):
     end = float(c.case["run"]["end_time_s"])
     held = held_to_take_on(c)
     for shot_id, time_s in held:
+        # its trace (if any) stays, as the old record does in a checkout, until the shot's
+        # outcome writes the new one and commits both
         os.remove(os.path.join(RESULTS, c.name, "shots", f"{shot_id}.json"))
         print(f"{c.name}: shot {shot_id} was undecided at its end, {1e6 * time_s:.1f} us, and the campaign now "
               f"ends at {1e6 * end:.1f} us: its record is withdrawn and the shot goes on from its checkpoint",
