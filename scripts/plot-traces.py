@@ -12,7 +12,6 @@ machine whose run directory is gone) is named under the plot, not drawn.
 """
 import argparse
 import csv
-import json
 import os
 
 import matplotlib
