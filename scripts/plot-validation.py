@@ -130,6 +130,8 @@ def layer_position(e):
 
 def estimate_words(method):
     """What the error bar is, from the start of validation.py's `method`."""
+    if "around those that mix" in (method or ""):
+        return ("MIL-STD-662F" if method.startswith("MIL-STD") else "midpoint") + " about its mixed results, no interval"
     for start, words in (("MIL-STD", "MIL-STD-662F in its bracket, no mixed zone"),
                          ("bracket", "bracket and its midpoint, no mixed zone"),
                          ("logistic maximum likelihood", "logistic, 95 %")):

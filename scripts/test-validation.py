@@ -402,6 +402,20 @@ class UpAndDown(unittest.TestCase):
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (218.75, 221.875, 225.0))
         self.assertIn("217.7 m/s, falls outside it", e["method"])
 
+    def test_outcomes_mixed_at_one_speed_give_the_speeds_around_it(self):
+        # both outcomes at 218.75 m/s: the logistic has no maximum (quasi-complete separation),
+        # so the range is the nearest speeds at which every shot went one way
+        shots = [shot(215.625, "S", -0.4, 0), shot(218.75, "P", 8.5, 1), shot(218.75, "S", -0.6, 2),
+                 shot(225.0, "P", 61.6, 3)]
+        e = self.entry_of(shots, {"Ok": {"v50": 217.7, "count": 3}})
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (215.625, 217.7, 225.0))
+        self.assertIn("around those that mix (218.8 m/s): 215.6–225.0 m/s", e["method"])
+        self.assertIs(e["v50_low_established"], True)
+        # nothing above the mixed speed went through every time: the range ends there
+        e = self.entry_of(shots[:3], {"Err": "3 shots of each outcome are needed"})
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (215.625, 217.1875, 218.75))
+        self.assertTrue(e["method"].startswith("The nearest speeds with one outcome"))
+
     def test_a_low_end_only_undecided_is_not_established(self):
         undecided = [shot(300.0, "U", 22.1, 0), shot(325.0, "P", 94.6, 1)]
         e = self.entry_of(undecided, {"Err": "3 shots of each outcome are needed"})

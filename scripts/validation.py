@@ -315,22 +315,33 @@ def entry(c, campaigns=(), report=None):
             method = "logistic maximum likelihood, 95 % interval (delta method)"
         else:
             method = "logistic: " + str(fit.get("Err", "no fit"))
-            # without a zone of mixed results, MIL-STD-662F's mean within the bracket of the
-            # highest partial and the lowest complete penetration, which is its range
+            # without a fit, MIL-STD-662F's mean within the bracket of the highest partial and
+            # the lowest complete penetration, which is its range; when outcomes mix only where
+            # the logistic still has no maximum (both at one speed: quasi-complete separation),
+            # the bracket is the nearest speeds below and above the mixed ones that went one way
             mil = report.get("mil_std_662f", {})
             partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
             completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
-            if partials and completes and max(partials) < min(completes):
-                low, high = max(partials), min(completes)
+            if partials and completes:
+                mixed = max(partials) >= min(completes)
+                bracket_words = "the bracket (highest partial, lowest complete)"
+                if mixed:
+                    zone = (min(completes), max(partials))
+                    low = max((v for v in partials if v < zone[0]), default=zone[0])
+                    high = min((v for v in completes if v > zone[1]), default=zone[1])
+                    at = f"{zone[0]:.1f} m/s" if zone[0] == zone[1] else f"{zone[0]:.1f}–{zone[1]:.1f} m/s"
+                    bracket_words = (f"the nearest speeds with one outcome around those that mix ({at}): "
+                                     f"{low:.1f}–{high:.1f} m/s")
+                else:
+                    low, high = max(partials), min(completes)
                 # a low end resting only on shots still moving at the end time is not established
-                at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] == low]
+                at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] >= low]
                 established = any(s["stopped_by"] != "end_time_s" for s in at_low)
                 mean = mil["Ok"]["v50"] if "Ok" in mil else None
                 if mean is not None and low <= mean <= high:
                     v50 = mean
                     method = (f"MIL-STD-662F mean of the {mil['Ok']['count']} highest partials and lowest complete "
-                              f"penetrations, within the bracket (highest partial, lowest complete); no interval: "
-                              + method)
+                              f"penetrations, within {bracket_words}; no interval: " + method)
                 else:
                     # too few shots for MIL-STD-662F, or its mean outside the bracket (partials
                     # reaching far below a high one near the lowest complete): the bracket still
@@ -339,7 +350,9 @@ def entry(c, campaigns=(), report=None):
                            f"penetrations, {mean:.1f} m/s, falls outside it" if mean is not None
                            else f"no MIL-STD-662F: {mil.get('Err', 'no estimate')}")
                     v50 = 0.5 * (low + high)
-                    method = f"bracket (highest partial, lowest complete) and its midpoint; {why}; no interval: " + method
+                    method = (f"bracket (highest partial, lowest complete) and its midpoint; {why}; no interval: "
+                              if not mixed else f"{bracket_words[0].upper()}{bracket_words[1:]}, and its midpoint; "
+                              f"{why}; no interval: ") + method
                 if not established:
                     method += (f"; every partial at {low:.1f} m/s was undecided at the end time, so the "
                                f"bracket's low end is not established")
