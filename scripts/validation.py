@@ -323,17 +323,18 @@ def entry(c, campaigns=(), report=None):
             partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
             completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
             if partials and completes:
-                mixed = max(partials) >= min(completes)
+                # without mixing these are the highest partial and the lowest complete
+                zone = (min(completes), max(partials))
+                low = max((v for v in partials if v < zone[0]), default=zone[0])
+                high = min((v for v in completes if v > zone[1]), default=zone[1])
+                mixed = zone[1] >= zone[0]
                 bracket_words = "the bracket (highest partial, lowest complete)"
+                midpoint_words = "bracket (highest partial, lowest complete) and its midpoint"
                 if mixed:
-                    zone = (min(completes), max(partials))
-                    low = max((v for v in partials if v < zone[0]), default=zone[0])
-                    high = min((v for v in completes if v > zone[1]), default=zone[1])
                     at = f"{zone[0]:.1f} m/s" if zone[0] == zone[1] else f"{zone[0]:.1f}–{zone[1]:.1f} m/s"
                     bracket_words = (f"the nearest speeds with one outcome around those that mix ({at}): "
                                      f"{low:.1f}–{high:.1f} m/s")
-                else:
-                    low, high = max(partials), min(completes)
+                    midpoint_words = f"{bracket_words[0].upper()}{bracket_words[1:]}, and its midpoint"
                 # a low end resting only on shots still moving at the end time is not established
                 at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] >= low]
                 established = any(s["stopped_by"] != "end_time_s" for s in at_low)
@@ -350,9 +351,7 @@ def entry(c, campaigns=(), report=None):
                            f"penetrations, {mean:.1f} m/s, falls outside it" if mean is not None
                            else f"no MIL-STD-662F: {mil.get('Err', 'no estimate')}")
                     v50 = 0.5 * (low + high)
-                    method = (f"bracket (highest partial, lowest complete) and its midpoint; {why}; no interval: "
-                              if not mixed else f"{bracket_words[0].upper()}{bracket_words[1:]}, and its midpoint; "
-                              f"{why}; no interval: ") + method
+                    method = f"{midpoint_words}; {why}; no interval: " + method
                 if not established:
                     method += (f"; every partial at {low:.1f} m/s was undecided at the end time, so the "
                                f"bracket's low end is not established")
