@@ -134,7 +134,8 @@ def estimate_words(method):
         return ("MIL-STD-662F" if method.startswith("MIL-STD") else "midpoint") + " about its mixed results, no interval"
     for start, words in (("MIL-STD", "MIL-STD-662F in its bracket, no mixed zone"),
                          ("bracket", "bracket and its midpoint, no mixed zone"),
-                         ("logistic maximum likelihood", "logistic, 95 %")):
+                         ("logistic maximum likelihood", "logistic, 95 %"),
+                         ("Firth's penalised logistic", "Firth's penalised logistic, 95 %")):
         if (method or "").startswith(start):
             return words
     raise ValueError(f"a layer series' V50 of an unknown kind: {method!r}")

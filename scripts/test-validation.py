@@ -377,10 +377,13 @@ class UpAndDown(unittest.TestCase):
     UP_AND_DOWN = {"kind": "up_and_down", "start_m_s": 300.0, "step_m_s": 25.0, "shots": 2}
     NO_ZONE = "no zone of mixed results"
 
-    def entry_of(self, shots, mil_std):
+    def entry_of(self, shots, mil_std, firth=None):
         c = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, shots)
         report = {"logistic": {"Err": self.NO_ZONE}, "mil_std_662f": mil_std}
-        with mock.patch.object(validation, "campaign_report", lambda name: report):
+        if firth is not None:
+            velocity, low, high = firth
+            report["firth_logistic"] = {"Ok": {"v50": {"velocity": velocity, "profile_low": low, "profile_high": high}}}
+        with mock.patch.object(validation, "campaign_report", lambda c: report):
             return validation.entry(c, [c])
 
     def test_two_shots_that_bracket_the_limit_give_the_bracket(self):
@@ -415,6 +418,32 @@ class UpAndDown(unittest.TestCase):
         e = self.entry_of(shots[:3], {"Err": "3 shots of each outcome are needed"})
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (215.625, 217.1875, 218.75))
         self.assertTrue(e["method"].startswith("The nearest speeds with one outcome"))
+
+    def test_firth_within_the_speeds_fired_gives_its_v50_and_interval(self):
+        # the 4-layer series' shape: mixed at 218.75 only; Firth's interval lies within the
+        # speeds fired, so it is the entry's
+        shots = [shot(200.0, "S", -0.9, 0), shot(215.625, "S", -0.4, 1), shot(218.75, "P", 8.5, 2),
+                 shot(218.75, "S", -0.6, 3), shot(225.0, "P", 61.6, 4)]
+        e = self.entry_of(shots, {"Ok": {"v50": 217.7, "count": 3}}, firth=(217.6, 214.1, 220.6))
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (214.1, 217.6, 220.6))
+        self.assertTrue(e["method"].startswith("Firth's penalised logistic, 95 % profile"), e["method"])
+        self.assertIn(self.NO_ZONE, e["method"])
+        self.assertIs(e["v50_low_established"], True)
+        # a partial undecided at its end time counts as one, and the low end is not established
+        e = self.entry_of(shots[:4] + [shot(210.0, "U", 3.0, 5), shot(225.0, "P", 61.6, 4)],
+                          {"Ok": {"v50": 217.7, "count": 3}}, firth=(217.6, 214.1, 220.6))
+        self.assertIs(e["v50_low_established"], False)
+        self.assertIn("undecided at the end time", e["method"])
+
+    def test_firth_reaching_beyond_the_speeds_fired_keeps_the_bracket(self):
+        # three shots: Firth's interval spans hundreds of m/s (or is unbounded, null in JSON);
+        # the bracket stands and the method names Firth's numbers
+        shots = [shot(300.0, "S", -0.4, 0), shot(312.5, "P", 40.0, 1), shot(325.0, "P", 94.6, 2)]
+        for interval, words in (((-95.8, 717.0), "(-95.8 to 717.0 m/s)"), ((290.0, None), "(290.0 to unbounded m/s)")):
+            e = self.entry_of(shots, {"Err": "3 shots of each outcome are needed"}, firth=(307.2, *interval))
+            self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (300.0, 306.25, 312.5))
+            self.assertIn(f"Firth's penalised logistic gives V50 307.2 m/s, but its 95 % interval {words} "
+                          "reaches beyond the speeds fired (300.0–325.0 m/s)", e["method"])
 
     def test_a_low_end_only_undecided_is_not_established(self):
         undecided = [shot(300.0, "U", 22.1, 0), shot(325.0, "P", 94.6, 1)]

@@ -262,13 +262,13 @@ def refired(c, campaigns):
     return shots, notes
 
 
-def campaign_report(name):
-    """The campaign's `v50.json` as `dea-mpi v50` last wrote it, or None before its first shot."""
-    path = os.path.join(RESULTS, name, "v50.json")
-    if not os.path.exists(path):
+def campaign_report(c):
+    """The estimates from the campaign's shots on record, by this dea-mpi (`dea-mpi fit` of its
+    directory, so that every entry's fits are this binary's, whichever fired the shots), or
+    None before its first shot."""
+    if not c.shots or not os.path.exists(os.path.join(RESULTS, c.name, "provenance.json")):
         return None
-    with open(path) as f:
-        return json.load(f)
+    return fit_pooled(c, [])
 
 
 def entry(c, campaigns=(), report=None):
@@ -283,7 +283,6 @@ def entry(c, campaigns=(), report=None):
     # moving at their end time)
     established = None
     method = None
-    report = report if report is not None else campaign_report(c.name)
     if design["kind"] == "bisection":
         shots, notes = refired(c, campaigns) if series_of(c.name) in ("panel_size", "single_yarn") else (c.shots, [])
         lo, hi = bisection_bracket(design, shots)
@@ -307,12 +306,28 @@ def entry(c, campaigns=(), report=None):
         method = "; ".join([method] + notes) if method else method
     elif design["kind"] == "velocities":
         method = "residual velocity at a fixed striking speed"
-    elif report is not None:
+    elif (report := report if report is not None else campaign_report(c)) is not None:
         fit = report.get("logistic", {})
+        # Firth's penalised logistic (docs/theory.md V11), which has an estimate where the
+        # outcomes separate; its interval is quoted only where it lies within the speeds fired,
+        # since beyond them it rests on the logistic shape rather than on shots
+        firth = report.get("firth_logistic", {}).get("Ok", {}).get("v50")
+        speeds = [s["velocity_m_s"] for s in c.shots]
+        firth_bounded = (firth is not None and None not in (firth["profile_low"], firth["profile_high"])
+                         and min(speeds) <= firth["profile_low"] and firth["profile_high"] <= max(speeds))
         if "Ok" in fit:
             f = fit["Ok"]["v50"]
             v50, low, high = f["velocity"], f["low"], f["high"]
             method = "logistic maximum likelihood, 95 % interval (delta method)"
+        elif firth_bounded:
+            v50, low, high = firth["velocity"], firth["profile_low"], firth["profile_high"]
+            method = ("Firth's penalised logistic, 95 % profile penalised-likelihood interval (docs/theory.md V11); "
+                      "the maximum-likelihood logistic has none: " + str(fit.get("Err", "no fit")))
+            undecided = [s for s in c.shots if not s["perforated"] and s["stopped_by"] == "end_time_s"]
+            established = not undecided
+            if undecided:
+                method += (f"; {len(undecided)} partial(s) were undecided at the end time and count as partials, "
+                           f"so the interval's low end is not established")
         else:
             method = "logistic: " + str(fit.get("Err", "no fit"))
             # without a fit, MIL-STD-662F's mean within the bracket of the highest partial and
@@ -355,6 +370,10 @@ def entry(c, campaigns=(), report=None):
                 if not established:
                     method += (f"; every partial at {low:.1f} m/s was undecided at the end time, so the "
                                f"bracket's low end is not established")
+            if firth is not None:
+                ends = " to ".join("unbounded" if e is None else f"{e:.1f}" for e in (firth["profile_low"], firth["profile_high"]))
+                method += (f"; Firth's penalised logistic gives V50 {firth['velocity']:.1f} m/s, but its 95 % interval "
+                           f"({ends} m/s) reaches beyond the speeds fired ({min(speeds):.1f}–{max(speeds):.1f} m/s)")
     series = series_of(c.name)
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series in ("single_yarn", "single_yarn_low_end"):

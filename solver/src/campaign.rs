@@ -13,6 +13,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use dea_ballistic::design::{bisection_bounds, bracket, Design};
+use dea_ballistic::firth::firth_logistic;
 use dea_ballistic::fit::{fit, Fit, Link};
 use dea_ballistic::lambert_jonas::{lambert_jonas, LambertJonas};
 use dea_ballistic::mil_std_662f::{mil_std_662f, MilStdEstimate};
@@ -433,6 +434,9 @@ pub struct CampaignReport {
     pub logistic: Result<Fit, String>,
     /// (the probit fit)
     pub probit: Result<Fit, String>,
+    /// (the logistic fit by Firth's penalised likelihood, finite where the outcomes separate
+    /// by velocity and the two above have none; docs/theory.md V11)
+    pub firth_logistic: Result<Fit, String>,
     /// (MIL-STD-662F's V50)
     pub mil_std_662f: Result<MilStdEstimate, String>,
     /// (the Lambert–Jonas fit of the residual velocities)
@@ -493,6 +497,7 @@ pub fn estimate(
         completes: outcomes.iter().filter(|s| s.perforated).count(),
         logistic: fit(&outcomes, Link::Logistic).map_err(text),
         probit: fit(&outcomes, Link::Probit).map_err(text),
+        firth_logistic: firth_logistic(&outcomes).map_err(text),
         mil_std_662f: mil_std_662f(&outcomes, mil_std.count, mil_std.spread_m_s).map_err(text),
         lambert_jonas: lambert_jonas(&outcomes).map_err(text),
         bisection_brackets,

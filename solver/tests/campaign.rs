@@ -50,7 +50,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
         whole.shots.iter().filter(|s| s.perforated).map(|s| s.velocity_m_s).fold(f64::INFINITY, f64::min);
     let highest_partial = whole.shots.iter().filter(|s| !s.perforated).map(|s| s.velocity_m_s).fold(0.0, f64::max);
     assert!(lowest_complete < highest_partial, "a mixed zone: {lowest_complete} < {highest_partial}");
-    for fit in [&whole.logistic, &whole.probit] {
+    for fit in [&whole.logistic, &whole.probit, &whole.firth_logistic] {
         let v50 = fit.as_ref().expect("a fitted V50").v50;
         assert!(v50.low < v50.velocity && v50.velocity < v50.high && (145.0..205.0).contains(&v50.velocity), "{v50:?}");
     }
@@ -106,7 +106,8 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     // a checkpoint continues under the campaign's end time (in a copy: half the time the
     // third shot takes ends it there, undecided)...
     let straight: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("whole/shots/r000-00002/summary.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("whole/shots/r000-00002/summary.json")).unwrap())
+            .unwrap();
     let (steps, time_step) = (straight["steps"].as_u64().unwrap(), straight["time_step_s"].as_f64().unwrap());
     let mut shorter = case.clone();
     shorter.run.end_time_s = 0.5 * steps as f64 * time_step;

@@ -1108,7 +1108,11 @@ fn fit_pools_campaigns_of_one_target_and_refuses_any_other() {
     // alone, the first has no zone of mixed results; pooled, the finer one gives it one
     let alone = dea(&["fit", a]);
     assert!(alone.status.success(), "{}", String::from_utf8_lossy(&alone.stderr));
-    assert!(String::from_utf8_lossy(&alone.stdout).contains("logistic: no zone of mixed results"));
+    let alone = String::from_utf8_lossy(&alone.stdout).into_owned();
+    assert!(alone.contains("logistic: no zone of mixed results"), "{alone}");
+    // Firth's penalised fit still has one: two of each outcome at two speeds put it at their
+    // midpoint (the log-odds ln(1/5) and ln(5) with a half added to each count)
+    assert!(alone.contains("Firth: V50 162.5 m/s") && alone.contains("Firth's penalised likelihood"), "{alone}");
     let pooled = dea(&["fit", a, b, "--json"]);
     assert!(pooled.status.success(), "{}", String::from_utf8_lossy(&pooled.stderr));
     let report: serde_json::Value = serde_json::from_slice(&pooled.stdout).unwrap();

@@ -8,7 +8,7 @@
 //! overlap: a complete penetration below a partial one.
 
 use serde::Serialize;
-use statrs::distribution::{ContinuousCDF, Continuous, Normal};
+use statrs::distribution::{Continuous, ContinuousCDF, Normal};
 
 use crate::{EstimateError, Shot};
 
@@ -88,9 +88,22 @@ pub struct Limit {
     pub profile_high: f64,
 }
 
+/// How the curve's parameters were estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Estimator {
+    /// the maximum of the likelihood; exists only where the outcomes overlap
+    MaximumLikelihood,
+    /// the maximum of the likelihood times Jeffreys' prior (Firth 1993, [`crate::firth`]);
+    /// finite for any shots with both outcomes
+    FirthPenalised,
+}
+
 /// A fitted curve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Fit {
+    /// what was maximised
+    pub estimator: Estimator,
     /// the distribution function F of the curve (logit or probit)
     pub link: Link,
     /// `P(v) = F(intercept + slope v)` [-], [s/m]
@@ -103,7 +116,7 @@ pub struct Fit {
     pub v50: Limit,
     /// velocity at 90 % probability of perforation
     pub v90: Limit,
-    /// the maximum log-likelihood reached [-]
+    /// the maximum log-likelihood reached (penalised, for Firth's estimator) [-]
     pub log_likelihood: f64,
     /// shots fitted
     pub shots: usize,
@@ -111,33 +124,87 @@ pub struct Fit {
     pub iterations: u32,
 }
 
-/// Checks that a maximum-likelihood estimate exists.
-pub fn check_mixed_zone(shots: &[Shot]) -> Result<(), EstimateError> {
-    let lowest_complete = shots.iter().filter(|s| s.perforated).map(|s| s.velocity).fold(f64::INFINITY, f64::min);
-    let highest_partial = shots.iter().filter(|s| !s.perforated).map(|s| s.velocity).fold(f64::NEG_INFINITY, f64::max);
-    let (partials, completes) = (shots.iter().filter(|s| !s.perforated).count(), shots.iter().filter(|s| s.perforated).count());
+/// Checks that the shots hold one of each outcome.
+pub fn check_both_outcomes(shots: &[Shot]) -> Result<(), EstimateError> {
+    let (partials, completes) =
+        (shots.iter().filter(|s| !s.perforated).count(), shots.iter().filter(|s| s.perforated).count());
     if partials == 0 || completes == 0 {
         return Err(EstimateError::TooFewShots { needed: 1, partials, completes });
     }
-    if lowest_complete >= highest_partial {
+    Ok(())
+}
+
+/// Checks that a maximum-likelihood estimate exists.
+pub fn check_mixed_zone(shots: &[Shot]) -> Result<(), EstimateError> {
+    check_both_outcomes(shots)?;
+    let lowest_complete = shots.iter().filter(|s| s.perforated).map(|s| s.velocity).fold(f64::INFINITY, f64::min);
+    let highest_partial = shots.iter().filter(|s| !s.perforated).map(|s| s.velocity).fold(f64::NEG_INFINITY, f64::max);
+    if lowest_complete == highest_partial {
+        return Err(EstimateError::MixedAtOneSpeed { velocity: lowest_complete });
+    }
+    if lowest_complete > highest_partial {
         return Err(EstimateError::NoMixedZone { lowest_complete, highest_partial });
     }
     Ok(())
 }
 
-/// Fits `P(v) = F(a + b v)` by maximum likelihood.
-pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
-    check_mixed_zone(shots)?;
+/// The mean and the standard deviation of the shots' velocities [m/s]: the standardisation
+/// `u = (v - mean) / scale` that keeps the fits' numbers of order one.
+pub(crate) fn standardisation(shots: &[Shot]) -> (f64, f64) {
     let n = shots.len() as f64;
     let mean = shots.iter().map(|s| s.velocity).sum::<f64>() / n;
     let scale = (shots.iter().map(|s| (s.velocity - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-9);
+    (mean, scale)
+}
+
+/// `V_p` with its delta-method and profile intervals, from the standardised fit (a, b), its
+/// covariance, and `deviance(q, m)`: twice the fall of the (penalised) log-likelihood from its
+/// maximum to the best curve through `F^-1(p) = q` at standardised velocity `m`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn limit(
+    link: Link,
+    p: f64,
+    (a, b): (f64, f64),
+    covariance: [[f64; 2]; 2],
+    (mean, scale): (f64, f64),
+    deviance: impl Fn(f64, f64) -> f64,
+) -> Limit {
+    let z = standard_normal().inverse_cdf(0.975);
+    let q = link.quantile(p);
+    let velocity = mean + scale * (q - a) / b;
+    // d V / d(a, b)
+    let gradient = [-scale / b, -scale * (q - a) / (b * b)];
+    let variance = gradient[0] * gradient[0] * covariance[0][0]
+        + 2.0 * gradient[0] * gradient[1] * covariance[0][1]
+        + gradient[1] * gradient[1] * covariance[1][1];
+    let standard_error = variance.max(0.0).sqrt();
+    let (profile_low, profile_high) = profile_interval(|m| deviance(q, m), mean, scale, (velocity - mean) / scale);
+    Limit {
+        probability: p,
+        velocity,
+        standard_error,
+        low: velocity - z * standard_error,
+        high: velocity + z * standard_error,
+        profile_low,
+        profile_high,
+    }
+}
+
+/// Fits `P(v) = F(a + b v)` by maximum likelihood.
+pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
+    check_mixed_zone(shots)?;
+    let (mean, scale) = standardisation(shots);
     let standard = |s: &Shot| (s.velocity - mean) / scale;
     let log_likelihood = |a: f64, b: f64| -> f64 {
         shots
             .iter()
             .map(|s| {
                 let p = link.cdf(a + b * standard(s));
-                if s.perforated { p.max(f64::MIN_POSITIVE).ln() } else { (1.0 - p).max(f64::MIN_POSITIVE).ln() }
+                if s.perforated {
+                    p.max(f64::MIN_POSITIVE).ln()
+                } else {
+                    (1.0 - p).max(f64::MIN_POSITIVE).ln()
+                }
             })
             .sum()
     };
@@ -188,18 +255,13 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         return Err(EstimateError::NotConverged);
     }
     let covariance = [[h[1][1] / det, -h[0][1] / det], [-h[1][0] / det, h[0][0] / det]];
-    let z = standard_normal().inverse_cdf(0.975);
     let limit = |p: f64| {
-        let q = link.quantile(p);
-        let velocity = mean + scale * (q - a) / b;
-        // d V / d(a, b)
-        let gradient = [-scale / b, -scale * (q - a) / (b * b)];
-        let variance = gradient[0] * gradient[0] * covariance[0][0] + 2.0 * gradient[0] * gradient[1] * covariance[0][1] + gradient[1] * gradient[1] * covariance[1][1];
-        let standard_error = variance.max(0.0).sqrt();
-        let (profile_low, profile_high) = profile_interval(shots, link, mean, scale, q, (velocity - mean) / scale, b, current);
-        Limit { probability: p, velocity, standard_error, low: velocity - z * standard_error, high: velocity + z * standard_error, profile_low, profile_high }
+        limit(link, p, (a, b), covariance, (mean, scale), |q, m| {
+            2.0 * (current - profile(shots, link, mean, scale, q, m, b))
+        })
     };
     Ok(Fit {
+        estimator: Estimator::MaximumLikelihood,
         link,
         intercept: a - b * mean / scale,
         slope: b / scale,
@@ -213,7 +275,7 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
 }
 
 /// chi^2 with one degree of freedom at 0.95.
-const CHI2_95: f64 = 3.841_458_820_694_124;
+pub(crate) const CHI2_95: f64 = 3.841_458_820_694_124;
 
 /// Largest log-likelihood of the curves through `F^-1(p) = q` at standardised velocity `m`:
 /// `z = q + b (u - m)`, maximised over the slope `b > 0` by Newton's method from `b0` (the
@@ -225,7 +287,11 @@ fn profile(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m: f64, b0
             .iter()
             .map(|s| {
                 let p = link.cdf(q + b * ((s.velocity - mean) / scale - m));
-                if s.perforated { p.max(f64::MIN_POSITIVE).ln() } else { (1.0 - p).max(f64::MIN_POSITIVE).ln() }
+                if s.perforated {
+                    p.max(f64::MIN_POSITIVE).ln()
+                } else {
+                    (1.0 - p).max(f64::MIN_POSITIVE).ln()
+                }
             })
             .sum()
     };
@@ -261,11 +327,9 @@ fn profile(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m: f64, b0
 }
 
 /// The profile-likelihood interval of `V_p` around its estimate `m_hat` (standardised), in
-/// m/s: each bound found by stepping out until the deviance exceeds chi^2(1, 0.95), then
-/// bisecting.
-#[allow(clippy::too_many_arguments)]
-fn profile_interval(shots: &[Shot], link: Link, mean: f64, scale: f64, q: f64, m_hat: f64, b_hat: f64, best: f64) -> (f64, f64) {
-    let deviance = |m: f64| 2.0 * (best - profile(shots, link, mean, scale, q, m, b_hat));
+/// m/s, from `deviance(m)`: each bound found by stepping out until the deviance exceeds
+/// chi^2(1, 0.95), then bisecting; infinite where it never does.
+fn profile_interval(deviance: impl Fn(f64) -> f64, mean: f64, scale: f64, m_hat: f64) -> (f64, f64) {
     let bound = |direction: f64| -> f64 {
         let (mut inside, mut step) = (m_hat, 0.05);
         let mut outside = None;
@@ -318,14 +382,21 @@ mod tests {
             for seed in 0..200 {
                 let shots = simulated(link, v50, width, 60, seed);
                 let fit = fit(&shots, link).unwrap();
-                assert!((fit.v50.velocity - v50).abs() < 5.0 * fit.v50.standard_error, "{link:?} seed {seed}: {:?}", fit.v50);
+                assert!(
+                    (fit.v50.velocity - v50).abs() < 5.0 * fit.v50.standard_error,
+                    "{link:?} seed {seed}: {:?}",
+                    fit.v50
+                );
                 covered += (fit.v50.low <= v50 && v50 <= fit.v50.high) as usize;
                 profile_covered += (fit.v50.profile_low <= v50 && v50 <= fit.v50.profile_high) as usize;
                 assert!(fit.v50.profile_low < fit.v50.velocity && fit.v50.velocity < fit.v50.profile_high);
                 assert!(fit.v10.velocity < fit.v50.velocity && fit.v50.velocity < fit.v90.velocity);
             }
             assert!((180..=197).contains(&covered), "{link:?}: {covered} of 200 intervals hold the true V50");
-            assert!((180..=197).contains(&profile_covered), "{link:?}: {profile_covered} of 200 profile intervals hold the true V50");
+            assert!(
+                (180..=197).contains(&profile_covered),
+                "{link:?}: {profile_covered} of 200 profile intervals hold the true V50"
+            );
             // a large campaign pins the curve down
             let fit = fit(&simulated(link, v50, width, 4000, 7), link).unwrap();
             assert!((fit.v50.velocity - v50).abs() < 2.0, "{:?}", fit.v50);
@@ -344,7 +415,8 @@ mod tests {
         let scale = (shots.iter().map(|s| (s.velocity - mean).powi(2)).sum::<f64>() / n).sqrt();
         let b_hat = fit.slope * scale;
         for end in [fit.v50.profile_low, fit.v50.profile_high] {
-            let deviance = 2.0 * (fit.log_likelihood - profile(&shots, Link::Logistic, mean, scale, 0.0, (end - mean) / scale, b_hat));
+            let deviance = 2.0
+                * (fit.log_likelihood - profile(&shots, Link::Logistic, mean, scale, 0.0, (end - mean) / scale, b_hat));
             assert!((deviance - CHI2_95).abs() < 1e-6, "deviance {deviance} at {end}");
         }
         let (below, above) = (fit.v50.velocity - fit.v50.profile_low, fit.v50.profile_high - fit.v50.velocity);
@@ -356,10 +428,17 @@ mod tests {
         let shots = simulated(Link::Probit, 250.0, 20.0, 40, 3);
         let fit = fit(&shots, Link::Probit).unwrap();
         let ll = |a: f64, b: f64| -> f64 {
-            shots.iter().map(|s| {
-                let p = Link::Probit.cdf(a + b * s.velocity);
-                if s.perforated { p.ln() } else { (1.0 - p).ln() }
-            }).sum()
+            shots
+                .iter()
+                .map(|s| {
+                    let p = Link::Probit.cdf(a + b * s.velocity);
+                    if s.perforated {
+                        p.ln()
+                    } else {
+                        (1.0 - p).ln()
+                    }
+                })
+                .sum()
         };
         let (a, b) = (fit.intercept, fit.slope);
         let best = ll(a, b);
@@ -370,8 +449,22 @@ mod tests {
 
     #[test]
     fn separated_outcomes_have_no_estimate() {
-        let shots = [(200.0, false), (250.0, false), (260.0, true), (300.0, true)].map(|(velocity, perforated)| Shot { velocity, perforated, residual_velocity: 0.0 });
+        let shots = [(200.0, false), (250.0, false), (260.0, true), (300.0, true)].map(|(velocity, perforated)| Shot {
+            velocity,
+            perforated,
+            residual_velocity: 0.0,
+        });
         assert!(matches!(fit(&shots, Link::Logistic), Err(EstimateError::NoMixedZone { .. })));
         assert!(matches!(fit(&shots[..2], Link::Logistic), Err(EstimateError::TooFewShots { .. })));
+        // both outcomes at one speed and nowhere else: the likelihood still grows without bound
+        // as the curve steepens there (quasi-complete separation), and the error says so
+        let tied = [(200.0, false), (250.0, false), (250.0, true), (300.0, true)].map(|(velocity, perforated)| Shot {
+            velocity,
+            perforated,
+            residual_velocity: 0.0,
+        });
+        let error = fit(&tied, Link::Logistic).unwrap_err();
+        assert_eq!(error, EstimateError::MixedAtOneSpeed { velocity: 250.0 });
+        assert!(error.to_string().contains("only at 250.0 m/s"), "{error}");
     }
 }

@@ -2,7 +2,9 @@
 //!
 //! - [`fit`]: the probability of perforation against striking velocity, `P(v) = F(a + b v)`,
 //!   with `F` logistic or normal (probit), fitted by maximum likelihood; V50, V10, V90 and
-//!   their 95 % confidence intervals by the delta method.
+//!   their 95 % confidence intervals by the delta method and the profile likelihood.
+//! - [`firth`]: the logistic curve by Firth's penalised likelihood, finite where the outcomes
+//!   separate by velocity and maximum likelihood has no estimate.
 //! - [`mil_std_662f`]: the V50 of MIL-STD-662F, the mean of equal numbers of the highest
 //!   partial and the lowest complete penetrations within a velocity spread.
 //! - [`lambert_jonas`]: the residual-velocity fit `v_r = a (v^p - v_bl^p)^(1/p)`.
@@ -11,6 +13,7 @@
 //! - [`scatter`]: what else each shot draws: its aim within a unit cell, its yaw, obliquity.
 
 pub mod design;
+pub mod firth;
 pub mod fit;
 pub mod lambert_jonas;
 pub mod mil_std_662f;
@@ -40,8 +43,16 @@ pub enum EstimateError {
         /// [m/s]
         highest_partial: f64,
     },
+    /// Both outcomes at one speed, and each alone everywhere else (quasi-complete separation).
+    #[error("outcomes mix only at {velocity:.1} m/s (the highest partial and the lowest complete penetration are both there), so the likelihood still grows without bound as the curve steepens there and has no maximum")]
+    MixedAtOneSpeed {
+        /// [m/s]
+        velocity: f64,
+    },
     /// Too few shots of one outcome.
-    #[error("{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations")]
+    #[error(
+        "{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations"
+    )]
     TooFewShots {
         /// of each outcome
         needed: usize,

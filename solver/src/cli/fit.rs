@@ -7,10 +7,11 @@ use super::{fail, Exit};
 
 pub const ABOUT: &str = "Estimate V50 from the shots on record of one or more campaigns, pooled";
 pub const LONG_ABOUT: &str = "Estimate the ballistic limit from the shots on record in campaign directories that
-`dea-mpi v50` wrote (logistic and probit V10/V50/V90 with 95 % intervals, MIL-STD-662F, Lambert-Jonas), pooling
-the shots of several campaigns fired at one target: the same shot case but for its name, strength seed, striking
-speed, end time and checkpoint interval; the same scatter; the same model choices on record. Anything else is
-refused, naming the field. Fires nothing and writes nothing.";
+`dea-mpi v50` wrote (logistic and probit V10/V50/V90 with 95 % intervals, the logistic also by Firth's penalised
+likelihood, which has an estimate where the outcomes separate by velocity, MIL-STD-662F, Lambert-Jonas), pooling the
+shots of several campaigns fired at one target: the same shot case but for its name, strength seed, striking speed,
+end time and checkpoint interval; the same scatter; the same model choices on record. Anything else is refused,
+naming the field. Fires nothing and writes nothing.";
 pub const EXAMPLES: &str = "Examples:
   dea-mpi fit validation/layers-4-3in validation/layers-4-3in-step-6.25   # two series of one panel, pooled
   dea-mpi fit out/v50 --json                                            # one campaign's estimates, as JSON";

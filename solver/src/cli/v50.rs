@@ -15,7 +15,7 @@ pub const ABOUT: &str = "Run a V50 campaign, its shots on groups of ranks at onc
 pub const LONG_ABOUT: &str = "Run a V50 campaign: the shots its design asks for, on groups of --ranks-per-shot ranks
 firing concurrently; every shot's record is kept the moment it ends (OUT/shots/), so a rerun skips finished shots and
 resumes an interrupted one from its checkpoint. Writes OUT/v50.json (logistic and probit V10/V50/V90 with 95 %
-intervals, MIL-STD-662F, Lambert-Jonas, bisection brackets) and OUT/provenance.json. SIGTERM or SIGUSR1: every group
+intervals, the logistic by Firth's penalised likelihood, MIL-STD-662F, Lambert-Jonas, bisection brackets) and OUT/provenance.json. SIGTERM or SIGUSR1: every group
 checkpoints its shot and the job stops with exit code 75.";
 pub const EXAMPLES: &str = "Examples:\n  mpirun -np 4 dea-mpi v50 campaign.json --out out/v50 --ranks-per-shot 2\n  dea-mpi v50 campaign.json --out out/v50          # again: only the missing shots run";
 
@@ -138,14 +138,22 @@ pub fn print_estimates(report: &CampaignReport) {
             held.join(", ")
         );
     }
-    for (name, fit) in [("logistic", &report.logistic), ("probit", &report.probit)] {
+    let fits = [
+        ("logistic", "", &report.logistic),
+        ("probit", "", &report.probit),
+        ("Firth", "penalised ", &report.firth_logistic),
+    ];
+    for (name, penalised, fit) in fits {
         match fit {
             Ok(f) => println!(
-                "{name:>9}: V50 {:.1} m/s (95 %: {:.1}..{:.1} delta method, {:.1}..{:.1} profile likelihood), V10 {:.1}, V90 {:.1}",
+                "{name:>9}: V50 {:.1} m/s (95 %: {:.1}..{:.1} delta method, {:.1}..{:.1} profile {penalised}likelihood), V10 {:.1}, V90 {:.1}",
                 f.v50.velocity, f.v50.low, f.v50.high, f.v50.profile_low, f.v50.profile_high, f.v10.velocity, f.v90.velocity
             ),
             Err(e) => println!("{name:>9}: {e}"),
         }
+    }
+    if report.logistic.is_err() && report.firth_logistic.is_ok() {
+        println!("           (Firth: the logistic curve by Firth's penalised likelihood, which has a maximum where the outcomes separate by velocity; docs/theory.md V11)");
     }
     match &report.mil_std_662f {
         Ok(m) => println!(
