@@ -75,11 +75,6 @@ fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
     Some(Terms { penalised: log_likelihood + 0.5 * det.ln(), score, information })
 }
 
-/// `l*` at (a, b); minus infinity where the information is singular.
-fn penalised(u: &[f64], perforated: &[bool], a: f64, b: f64) -> f64 {
-    terms(u, perforated, a, b).map_or(f64::NEG_INFINITY, |t| t.penalised)
-}
-
 /// Fits the logistic curve by Firth's penalised likelihood: V10, V50 and V90 with their
 /// delta-method intervals (from the inverse information at the estimate) and their profile
 /// penalised-likelihood intervals (Heinze and Schemper 2002), which are the ones to quote.
@@ -191,6 +186,11 @@ mod tests {
     use super::*;
     use crate::fit::{fit, CHI2_95};
     use rand::{Rng, SeedableRng};
+
+    /// `l*` at (a, b); minus infinity where the information is singular.
+    fn penalised(u: &[f64], perforated: &[bool], a: f64, b: f64) -> f64 {
+        terms(u, perforated, a, b).map_or(f64::NEG_INFINITY, |t| t.penalised)
+    }
 
     fn shots(list: &[(f64, bool)]) -> Vec<Shot> {
         list.iter().map(|&(velocity, perforated)| Shot { velocity, perforated, residual_velocity: 0.0 }).collect()
