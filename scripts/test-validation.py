@@ -435,6 +435,15 @@ class UpAndDown(unittest.TestCase):
         self.assertIs(e["v50_low_established"], False)
         self.assertIn("undecided at the end time", e["method"])
 
+    def test_firth_without_a_mixed_speed_keeps_the_bracket(self):
+        # every partial below every complete: any limit between them fits the shots, so an
+        # interval within that bracket is the penalty's; the bracket stands
+        shots = [shot(200.0, "S", -0.9, 0), shot(200.0, "S", -0.8, 1), shot(225.0, "P", 61.6, 2), shot(250.0, "P", 99.0, 3)]
+        e = self.entry_of(shots, {"Err": "3 shots of each outcome are needed"}, firth=(212.1, 201.8, 221.8))
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (200.0, 212.5, 225.0))
+        self.assertIn("Firth's penalised logistic gives V50 212.1 m/s, but its 95 % interval (201.8 to 221.8 m/s) "
+                      "is the penalty's rather than the shots': no speed holds both outcomes", e["method"])
+
     def test_firth_reaching_beyond_the_speeds_fired_keeps_the_bracket(self):
         # three shots: Firth's interval spans hundreds of m/s (or is unbounded, null in JSON);
         # the bracket stands and the method names Firth's numbers

@@ -309,17 +309,23 @@ def entry(c, campaigns=(), report=None):
     elif (report := report if report is not None else campaign_report(c)) is not None:
         fit = report.get("logistic", {})
         # Firth's penalised logistic (docs/theory.md V11), which has an estimate where the
-        # outcomes separate; its interval is quoted only where it lies within the speeds fired,
-        # since beyond them it rests on the logistic shape rather than on shots
+        # outcomes separate. Its interval is quoted only where the outcomes mix at some speed,
+        # which pins the limit (with none, the shots allow any limit between the highest partial
+        # and the lowest complete, and an interval narrower than that is the penalty's, not
+        # theirs), and where it lies within the speeds fired (beyond them it rests on the
+        # logistic shape rather than on shots)
         firth = report.get("firth_logistic", {}).get("Ok", {}).get("v50")
         speeds = [s["velocity_m_s"] for s in c.shots]
+        outcomes_mix = (any(not s["perforated"] for s in c.shots) and any(s["perforated"] for s in c.shots)
+                        and max(s["velocity_m_s"] for s in c.shots if not s["perforated"])
+                        >= min(s["velocity_m_s"] for s in c.shots if s["perforated"]))
         firth_bounded = (firth is not None and None not in (firth["profile_low"], firth["profile_high"])
                          and min(speeds) <= firth["profile_low"] and firth["profile_high"] <= max(speeds))
         if "Ok" in fit:
             f = fit["Ok"]["v50"]
             v50, low, high = f["velocity"], f["low"], f["high"]
             method = "logistic maximum likelihood, 95 % interval (delta method)"
-        elif firth_bounded:
+        elif firth_bounded and outcomes_mix:
             v50, low, high = firth["velocity"], firth["profile_low"], firth["profile_high"]
             method = ("Firth's penalised logistic, 95 % profile penalised-likelihood interval (docs/theory.md V11); "
                       "the maximum-likelihood logistic has none: " + str(fit.get("Err", "no fit")))
@@ -373,7 +379,9 @@ def entry(c, campaigns=(), report=None):
             if firth is not None:
                 ends = " to ".join("unbounded" if e is None else f"{e:.1f}" for e in (firth["profile_low"], firth["profile_high"]))
                 method += (f"; Firth's penalised logistic gives V50 {firth['velocity']:.1f} m/s, but its 95 % interval "
-                           f"({ends} m/s) reaches beyond the speeds fired ({min(speeds):.1f}–{max(speeds):.1f} m/s)")
+                           f"({ends} m/s) " + (f"reaches beyond the speeds fired ({min(speeds):.1f}–{max(speeds):.1f} m/s)"
+                                               if not firth_bounded else
+                                               "is the penalty's rather than the shots': no speed holds both outcomes"))
     series = series_of(c.name)
     fibres = weave.get("fibres_per_yarn") or target.get("fibres_per_yarn")
     if series in ("single_yarn", "single_yarn_low_end"):
