@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The V50 of a layer sweep (jobs/v50-layer-sweep.sh OUTDIR) against the number of layers:
-a Markdown table on stdout (logistic V50 with its 95 % interval, probit, MIL-STD-662F,
-Lambert-Jonas, shots) and OUTDIR/v50-layers.png with the interval as a band, beside the
+a Markdown table on stdout (logistic V50 with its 95 % interval, probit, Firth's penalised
+logistic with its profile interval (docs/theory.md V11), MIL-STD-662F, Lambert-Jonas, shots) and OUTDIR/v50-layers.png with the interval as a band, beside the
 seed's Table 6-1 (modified DEA, the I0 and I_inf bounds, and the experiment). Only data that
 exists is drawn: a layer count whose shots give no fit is drawn as the bracket its shots
 make (highest stop to lowest perforation, an arrow when one side is open), one not run is
@@ -39,7 +39,7 @@ fmt = lambda v: "–" if v is None else f"{v:.1f}"
 for count in layers:
     path = os.path.join(args.out, str(count), "v50.json")
     if not os.path.exists(path):
-        rows.append(f"| {count} | not run | | | | | |")
+        rows.append(f"| {count} | not run | | | | | | |")
         not_run.append(count)
         continue
     report = json.load(open(path))
@@ -52,9 +52,14 @@ for count in layers:
     v50 = logistic["v50"] if logistic else None
     probit = value(report["probit"], "v50")
     interval = f"{v50['low']:.1f}–{v50['high']:.1f}" if v50 else "–"
+    # Firth's fit exists where the shots separate; an unbounded end of its interval is null
+    firth = value(report.get("firth_logistic", {}), "v50")
+    firth_words = (f"{firth['velocity']:.1f} (" + " to ".join("∞" if e is None else f"{e:.1f}" for e in
+                                                        (firth["profile_low"], firth["profile_high"])) + ")"
+                   if firth else "–")
     rows.append(
         f"| {count} | {fmt(v50 and v50['velocity'])} | {interval} "
-        f"| {fmt(probit and probit['velocity'])} | {fmt(value(report['mil_std_662f'], 'v50'))} | {fmt(value(report['lambert_jonas'], 'v_bl'))} "
+        f"| {fmt(probit and probit['velocity'])} | {firth_words} | {fmt(value(report['mil_std_662f'], 'v50'))} | {fmt(value(report['lambert_jonas'], 'v_bl'))} "
         f"| {len(report['shots'])} ({report['partials']} / {report['completes']}) |"
     )
     if v50:
@@ -63,8 +68,9 @@ for count in layers:
         stopped = [shot["velocity_m_s"] for shot in report["shots"] if not shot["perforated"]]
         perforated = [shot["velocity_m_s"] for shot in report["shots"] if shot["perforated"]]
         brackets.append((count, max(stopped) if stopped else None, min(perforated) if perforated else None))
-print("| layers | logistic V50 [m/s] | 95 % interval | probit V50 | MIL-STD-662F | Lambert–Jonas v_bl | shots (partial / complete) |")
-print("|---|---|---|---|---|---|---|")
+print("| layers | logistic V50 [m/s] | 95 % interval | probit V50 | Firth V50 (95 % profile) | MIL-STD-662F "
+      "| Lambert–Jonas v_bl | shots (partial / complete) |")
+print("|---|---|---|---|---|---|---|---|")
 print("\n".join(rows))
 figure, axes = plt.subplots(figsize=(7, 4.5))
 side = ", ".join(f"{s * 1e3:g} mm" for s in sorted(sides)) or "side unknown"
