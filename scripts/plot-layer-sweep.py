@@ -54,8 +54,8 @@ for count in layers:
     interval = f"{v50['low']:.1f}–{v50['high']:.1f}" if v50 else "–"
     # Firth's fit exists where the shots separate; an unbounded end of its interval is null
     firth = value(report.get("firth_logistic", {}), "v50")
-    firth_words = (f"{firth['velocity']:.1f} (" + " to ".join("∞" if e is None else f"{e:.1f}" for e in
-                                                        (firth["profile_low"], firth["profile_high"])) + ")"
+    firth_words = (f"{firth['velocity']:.1f} (" + " to ".join(unbounded if e is None else f"{e:.1f}" for e, unbounded in
+                                                        ((firth["profile_low"], "−∞"), (firth["profile_high"], "∞"))) + ")"
                    if firth else "–")
     rows.append(
         f"| {count} | {fmt(v50 and v50['velocity'])} | {interval} "
