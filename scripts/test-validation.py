@@ -467,6 +467,15 @@ class UpAndDown(unittest.TestCase):
         e = self.entry_of([shot(300.0, "S", -0.4, 0)], {"Err": "3 shots of each outcome are needed"})
         self.assertIsNone(e["v50_m_s"])
         self.assertIsNone(e["v50_low_m_s"])
+        # but a side: above the fastest stop, each decided; below the slowest perforation
+        self.assertEqual((e["v50_above_m_s"], e["v50_below_m_s"]), (300.0, None))
+        self.assertIn("every shot stopped: V50 lies above 300.0 m/s", e["method"])
+        e = self.entry_of([shot(212.5, "P", 48.5, 0), shot(206.25, "P", 20.0, 1)], {"Err": "3 shots of each outcome are needed"})
+        self.assertEqual((e["v50_above_m_s"], e["v50_below_m_s"]), (None, 206.25))
+        self.assertIn("every shot perforated: V50 lies below 206.2 m/s", e["method"])
+        # a stop only undecided at its end time bounds nothing
+        e = self.entry_of([shot(300.0, "U", 12.0, 0)], {"Err": "3 shots of each outcome are needed"})
+        self.assertEqual((e["v50_above_m_s"], e["v50_below_m_s"]), (None, None))
 
 
 class Pools(unittest.TestCase):

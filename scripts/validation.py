@@ -376,6 +376,14 @@ def entry(c, campaigns=(), report=None):
                 if not established:
                     method += (f"; every partial at {low:.1f} m/s was undecided at the end time, so the "
                                f"bracket's low end is not established")
+            elif completes:
+                # every shot perforated: V50 lies below the slowest, as for a bisection
+                below = min(completes)
+                method += f"; every shot perforated: V50 lies below {below:.1f} m/s"
+            elif partials and all(s["stopped_by"] != "end_time_s" for s in c.shots):
+                # every shot stopped, each decided: V50 lies above the fastest
+                above = max(partials)
+                method += f"; every shot stopped: V50 lies above {above:.1f} m/s"
             if firth is not None:
                 ends = " to ".join("unbounded" if e is None else f"{e:.1f}" for e in (firth["profile_low"], firth["profile_high"]))
                 method += (f"; Firth's penalised logistic gives V50 {firth['velocity']:.1f} m/s, but its 95 % interval "
