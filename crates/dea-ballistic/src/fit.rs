@@ -5,7 +5,8 @@
 //! with step halving converges from (0, 1). The covariance of (a, b) is the inverse of the
 //! observed information at the optimum; `V_p = mean + scale (F^-1(p) - a) / b` and its
 //! standard error follow by the delta method. The estimate exists only when the outcomes
-//! overlap: a complete penetration below a partial one.
+//! overlap: a complete penetration below a partial one ([`crate::firth`] has one for
+//! separated shots too).
 
 use serde::Serialize;
 use statrs::distribution::{Continuous, ContinuousCDF, Normal};
@@ -160,7 +161,6 @@ pub(crate) fn standardisation(shots: &[Shot]) -> (f64, f64) {
 /// `V_p` with its delta-method and profile intervals, from the standardised fit (a, b), its
 /// covariance, and `deviance(q, m)`: twice the fall of the (penalised) log-likelihood from its
 /// maximum to the best curve through `F^-1(p) = q` at standardised velocity `m`.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn limit(
     link: Link,
     p: f64,
