@@ -316,9 +316,9 @@ def entry(c, campaigns=(), report=None):
         # logistic shape rather than on shots)
         firth = report.get("firth_logistic", {}).get("Ok", {}).get("v50")
         speeds = [s["velocity_m_s"] for s in c.shots]
-        outcomes_mix = (any(not s["perforated"] for s in c.shots) and any(s["perforated"] for s in c.shots)
-                        and max(s["velocity_m_s"] for s in c.shots if not s["perforated"])
-                        >= min(s["velocity_m_s"] for s in c.shots if s["perforated"]))
+        partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
+        completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
+        outcomes_mix = bool(partials and completes) and max(partials) >= min(completes)
         firth_bounded = (firth is not None and None not in (firth["profile_low"], firth["profile_high"])
                          and min(speeds) <= firth["profile_low"] and firth["profile_high"] <= max(speeds))
         if "Ok" in fit:
@@ -341,8 +341,6 @@ def entry(c, campaigns=(), report=None):
             # the logistic still has no maximum (both at one speed: quasi-complete separation),
             # the bracket is the nearest speeds below and above the mixed ones that went one way
             mil = report.get("mil_std_662f", {})
-            partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
-            completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
             if partials and completes:
                 # without mixing these are the highest partial and the lowest complete
                 zone = (min(completes), max(partials))
