@@ -39,6 +39,13 @@ fn log_sigmoid(z: f64) -> f64 {
     }
 }
 
+/// A shot's weight `p (1 - p)` at `z`, as `e^-|z| / (1 + e^-|z|)^2`, which underflows only
+/// past `|z| ~ 745`.
+fn weight(z: f64) -> f64 {
+    let e = (-z.abs()).exp();
+    e / ((1.0 + e) * (1.0 + e))
+}
+
 /// The terms at (a, b), or None where the information is singular in floating point (every
 /// shot's weight `p (1 - p)` underflowed): there `l*` is minus infinity.
 fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
@@ -46,9 +53,7 @@ fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
     let mut log_likelihood = 0.0;
     for (&ui, &y) in u.iter().zip(perforated) {
         let z = a + b * ui;
-        // p (1 - p) = e^-|z| / (1 + e^-|z|)^2, which underflows only past |z| ~ 745
-        let e = (-z.abs()).exp();
-        let w = e / ((1.0 + e) * (1.0 + e));
+        let w = weight(z);
         information[0][0] += w;
         information[0][1] += w * ui;
         information[1][1] += w * ui * ui;
@@ -65,9 +70,7 @@ fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
     for (&ui, &y) in u.iter().zip(perforated) {
         let z = a + b * ui;
         let p = Link::Logistic.cdf(z);
-        let e = (-z.abs()).exp();
-        let w = e / ((1.0 + e) * (1.0 + e));
-        let leverage = w * (inverse[0][0] + 2.0 * inverse[0][1] * ui + inverse[1][1] * ui * ui);
+        let leverage = weight(z) * (inverse[0][0] + 2.0 * inverse[0][1] * ui + inverse[1][1] * ui * ui);
         let residual = f64::from(u8::from(y)) - p + leverage * (0.5 - p);
         score[0] += residual;
         score[1] += residual * ui;

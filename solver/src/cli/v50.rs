@@ -15,8 +15,8 @@ pub const ABOUT: &str = "Run a V50 campaign, its shots on groups of ranks at onc
 pub const LONG_ABOUT: &str = "Run a V50 campaign: the shots its design asks for, on groups of --ranks-per-shot ranks
 firing concurrently; every shot's record is kept the moment it ends (OUT/shots/), so a rerun skips finished shots and
 resumes an interrupted one from its checkpoint. Writes OUT/v50.json (logistic and probit V10/V50/V90 with 95 %
-intervals, the logistic by Firth's penalised likelihood, MIL-STD-662F, Lambert-Jonas, bisection brackets) and OUT/provenance.json. SIGTERM or SIGUSR1: every group
-checkpoints its shot and the job stops with exit code 75.";
+intervals, the logistic by Firth's penalised likelihood, MIL-STD-662F, Lambert-Jonas, bisection brackets) and
+OUT/provenance.json. SIGTERM or SIGUSR1: every group checkpoints its shot and the job stops with exit code 75.";
 pub const EXAMPLES: &str = "Examples:\n  mpirun -np 4 dea-mpi v50 campaign.json --out out/v50 --ranks-per-shot 2\n  dea-mpi v50 campaign.json --out out/v50          # again: only the missing shots run";
 
 #[derive(clap::Args)]
