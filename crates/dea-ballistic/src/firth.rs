@@ -17,18 +17,10 @@
 //! it, with step halving on `l*`; velocities standardised as in [`crate::fit`], to which
 //! `l*` is indifferent up to a constant (Jeffreys' prior is invariant).
 
-use crate::fit::{check_both_outcomes, limit, standardisation, Estimator, Fit, Link};
+use crate::fit::{
+    check_both_outcomes, inverse, limit, maximise, standardisation, Estimator, Fit, Link, Maximum, Objective,
+};
 use crate::{EstimateError, Shot};
-
-/// `l*`, `U*` and `I` at one standardised (a, b).
-struct Terms {
-    /// penalised log-likelihood [-]
-    penalised: f64,
-    /// its gradient with respect to (a, b)
-    score: [f64; 2],
-    /// the Fisher information of (a, b)
-    information: [[f64; 2]; 2],
-}
 
 /// `ln F(z)` for the logistic `F`, without overflow or cancellation at large `|z|`.
 fn log_sigmoid(z: f64) -> f64 {
@@ -46,9 +38,10 @@ fn weight(z: f64) -> f64 {
     e / ((1.0 + e) * (1.0 + e))
 }
 
-/// The terms at (a, b), or None where the information is singular in floating point (every
-/// shot's weight `p (1 - p)` underflowed): there `l*` is minus infinity.
-fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
+/// `l*`, its gradient `U*` and the Fisher information `I` at one standardised (a, b), or None
+/// where the information is singular in floating point (every shot's weight `p (1 - p)`
+/// underflowed): there `l*` is minus infinity.
+fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Objective> {
     let mut information = [[0.0; 2]; 2];
     let mut log_likelihood = 0.0;
     for (&ui, &y) in u.iter().zip(perforated) {
@@ -75,7 +68,7 @@ fn terms(u: &[f64], perforated: &[bool], a: f64, b: f64) -> Option<Terms> {
         score[0] += residual;
         score[1] += residual * ui;
     }
-    Some(Terms { penalised: log_likelihood + 0.5 * det.ln(), score, information })
+    Some(Objective { value: log_likelihood + 0.5 * det.ln(), gradient: score, information })
 }
 
 /// Fits the logistic curve by Firth's penalised likelihood: V10, V50 and V90 with their
@@ -87,42 +80,9 @@ pub fn firth_logistic(shots: &[Shot]) -> Result<Fit, EstimateError> {
     let (mean, scale) = standardisation(shots);
     let u: Vec<f64> = shots.iter().map(|s| (s.velocity - mean) / scale).collect();
     let perforated: Vec<bool> = shots.iter().map(|s| s.perforated).collect();
-    let (mut a, mut b) = (0.0, 1.0);
-    let mut iterations = 0;
-    let mut current = terms(&u, &perforated, a, b).ok_or(EstimateError::NotConverged)?;
-    loop {
-        let i = current.information;
-        let det = i[0][0] * i[1][1] - i[0][1] * i[1][0];
-        let step = [
-            (i[1][1] * current.score[0] - i[0][1] * current.score[1]) / det,
-            (i[0][0] * current.score[1] - i[1][0] * current.score[0]) / det,
-        ];
-        let mut t = 1.0;
-        let mut accepted = None;
-        for _ in 0..60 {
-            let (na, nb) = (a + t * step[0], b + t * step[1]);
-            if nb > 0.0 {
-                if let Some(next) = terms(&u, &perforated, na, nb).filter(|n| n.penalised >= current.penalised) {
-                    accepted = Some((na, nb, next));
-                    break;
-                }
-            }
-            t *= 0.5;
-        }
-        iterations += 1;
-        let Some((na, nb, next)) = accepted else { break };
-        (a, b, current) = (na, nb, next);
-        if (step[0] * t).abs() + (step[1] * t).abs() < 1e-12 {
-            break;
-        }
-        if iterations > 200 {
-            return Err(EstimateError::NotConverged);
-        }
-    }
-    let i = current.information;
-    let det = i[0][0] * i[1][1] - i[0][1] * i[1][0];
-    let covariance = [[i[1][1] / det, -i[0][1] / det], [-i[1][0] / det, i[0][0] / det]];
-    let best = current.penalised;
+    let Maximum { a, b, objective, iterations } = maximise(|a, b| terms(&u, &perforated, a, b))?;
+    let covariance = inverse(objective.information).ok_or(EstimateError::NotConverged)?;
+    let best = objective.value;
     let limit = |p: f64| {
         limit(Link::Logistic, p, (a, b), covariance, (mean, scale), |q, m| {
             2.0 * (best - profile(&u, &perforated, q, m, b))
@@ -159,7 +119,7 @@ fn profile(u: &[f64], perforated: &[bool], q: f64, m: f64, b0: f64) -> f64 {
     let Some(mut current) = current else { return f64::NEG_INFINITY };
     for _ in 0..100 {
         // d l* / d b along the line, and the information in that direction, d = (-m, 1)
-        let gradient = current.score[1] - m * current.score[0];
+        let gradient = current.gradient[1] - m * current.gradient[0];
         let i = current.information;
         let curvature = i[1][1] - 2.0 * m * i[0][1] + m * m * i[0][0];
         let step = gradient / curvature;
@@ -169,7 +129,7 @@ fn profile(u: &[f64], perforated: &[bool], q: f64, m: f64, b0: f64) -> f64 {
             let candidate = b + t * step;
             if candidate > 0.0 {
                 if let Some(next) =
-                    terms(u, perforated, q - candidate * m, candidate).filter(|n| n.penalised >= current.penalised)
+                    terms(u, perforated, q - candidate * m, candidate).filter(|n| n.value >= current.value)
                 {
                     (b, current, moved) = (candidate, next, true);
                     break;
@@ -181,7 +141,7 @@ fn profile(u: &[f64], perforated: &[bool], q: f64, m: f64, b0: f64) -> f64 {
             break;
         }
     }
-    current.penalised
+    current.value
 }
 
 #[cfg(test)]
@@ -192,7 +152,7 @@ mod tests {
 
     /// `l*` at (a, b); minus infinity where the information is singular.
     fn penalised(u: &[f64], perforated: &[bool], a: f64, b: f64) -> f64 {
-        terms(u, perforated, a, b).map_or(f64::NEG_INFINITY, |t| t.penalised)
+        terms(u, perforated, a, b).map_or(f64::NEG_INFINITY, |t| t.value)
     }
 
     fn shots(list: &[(f64, bool)]) -> Vec<Shot> {
@@ -249,13 +209,17 @@ mod tests {
         let h = 1e-6;
         let da = (penalised(&u, &y, a + h, b) - penalised(&u, &y, a - h, b)) / (2.0 * h);
         let db = (penalised(&u, &y, a, b + h) - penalised(&u, &y, a, b - h)) / (2.0 * h);
-        assert!((t.score[0] - da).abs() < 1e-6 && (t.score[1] - db).abs() < 1e-6, "{:?} vs ({da}, {db})", t.score);
+        assert!(
+            (t.gradient[0] - da).abs() < 1e-6 && (t.gradient[1] - db).abs() < 1e-6,
+            "{:?} vs ({da}, {db})",
+            t.gradient
+        );
         // at the fit the score vanishes and l* is a maximum
         let (a, b) = (fit.intercept + fit.slope * mean, fit.slope * scale);
         let t = terms(&u, &y, a, b).unwrap();
-        assert!(t.score[0].abs() < 1e-9 && t.score[1].abs() < 1e-9, "{:?}", t.score);
+        assert!(t.gradient[0].abs() < 1e-9 && t.gradient[1].abs() < 1e-9, "{:?}", t.gradient);
         for (da, db) in [(1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)] {
-            assert!(penalised(&u, &y, a + da, b + db) < t.penalised);
+            assert!(penalised(&u, &y, a + da, b + db) < t.value);
         }
     }
 

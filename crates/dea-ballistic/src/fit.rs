@@ -208,53 +208,24 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
             })
             .sum()
     };
-    // gradient and observed information of (a, b)
-    let derivatives = |a: f64, b: f64| {
-        let (mut g, mut h) = ([0.0; 2], [[0.0; 2]; 2]);
+    // the log-likelihood, its gradient and the observed information of (a, b)
+    let evaluate = |a: f64, b: f64| {
+        let (mut gradient, mut information) = ([0.0; 2], [[0.0; 2]; 2]);
         for s in shots {
             let u = standard(s);
             let (d1, d2) = link.score(a + b * u, s.perforated);
-            g[0] += d1;
-            g[1] += d1 * u;
-            h[0][0] -= d2;
-            h[0][1] -= d2 * u;
-            h[1][1] -= d2 * u * u;
+            gradient[0] += d1;
+            gradient[1] += d1 * u;
+            information[0][0] -= d2;
+            information[0][1] -= d2 * u;
+            information[1][1] -= d2 * u * u;
         }
-        h[1][0] = h[0][1];
-        (g, h)
+        information[1][0] = information[0][1];
+        Some(Objective { value: log_likelihood(a, b), gradient, information })
     };
-    let (mut a, mut b) = (0.0, 1.0);
-    let mut current = log_likelihood(a, b);
-    let mut iterations = 0;
-    loop {
-        let (g, h) = derivatives(a, b);
-        let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-        if det.is_nan() || det <= 0.0 || iterations > 200 {
-            return Err(EstimateError::NotConverged);
-        }
-        let step = [(h[1][1] * g[0] - h[0][1] * g[1]) / det, (h[0][0] * g[1] - h[1][0] * g[0]) / det];
-        let mut t = 1.0;
-        let mut accepted = false;
-        for _ in 0..60 {
-            let (na, nb) = (a + t * step[0], b + t * step[1]);
-            let value = log_likelihood(na, nb);
-            if value >= current && nb > 0.0 {
-                (a, b, current, accepted) = (na, nb, value, true);
-                break;
-            }
-            t *= 0.5;
-        }
-        iterations += 1;
-        if !accepted || (step[0] * t).abs() + (step[1] * t).abs() < 1e-12 {
-            break;
-        }
-    }
-    let (_, h) = derivatives(a, b);
-    let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-    if det.is_nan() || det <= 0.0 {
-        return Err(EstimateError::NotConverged);
-    }
-    let covariance = [[h[1][1] / det, -h[0][1] / det], [-h[1][0] / det, h[0][0] / det]];
+    let Maximum { a, b, objective, iterations } = maximise(evaluate)?;
+    let covariance = inverse(objective.information).ok_or(EstimateError::NotConverged)?;
+    let current = objective.value;
     let limit = |p: f64| {
         limit(link, p, (a, b), covariance, (mean, scale), |q, m| {
             2.0 * (current - profile(shots, link, mean, scale, q, m, b))
@@ -272,6 +243,70 @@ pub fn fit(shots: &[Shot], link: Link) -> Result<Fit, EstimateError> {
         shots: shots.len(),
         iterations,
     })
+}
+
+/// A concave objective of the standardised (a, b) at one point: what Newton's method needs.
+pub(crate) struct Objective {
+    /// the (penalised) log-likelihood [-]
+    pub value: f64,
+    /// its gradient with respect to (a, b)
+    pub gradient: [f64; 2],
+    /// the information matrix of (a, b): observed (minus the Hessian) or expected
+    pub information: [[f64; 2]; 2],
+}
+
+/// Where [`maximise`] stopped.
+pub(crate) struct Maximum {
+    pub a: f64,
+    pub b: f64,
+    /// the objective there
+    pub objective: Objective,
+    /// Newton steps taken
+    pub iterations: u32,
+}
+
+/// The inverse of a 2 x 2 information matrix, or None unless it is positive definite.
+pub(crate) fn inverse(m: [[f64; 2]; 2]) -> Option<[[f64; 2]; 2]> {
+    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    (det > 0.0).then(|| [[m[1][1] / det, -m[0][1] / det], [-m[1][0] / det, m[0][0] / det]])
+}
+
+/// The maximum over (a, b), b > 0, of a concave objective, by Newton's (or Fisher's scoring)
+/// step `I^-1 g` from (0, 1), halved until the objective does not fall; `evaluate` gives None
+/// where the objective is minus infinity. Stops when no halving helps or the step is below
+/// 1e-12; an information that is not positive definite, or more than 200 steps, is
+/// [`EstimateError::NotConverged`]. Shared by the maximum-likelihood and Firth fits.
+pub(crate) fn maximise(evaluate: impl Fn(f64, f64) -> Option<Objective>) -> Result<Maximum, EstimateError> {
+    let (mut a, mut b) = (0.0, 1.0);
+    let mut current = evaluate(a, b).ok_or(EstimateError::NotConverged)?;
+    let mut iterations = 0;
+    loop {
+        let (g, i) = (current.gradient, current.information);
+        let det = i[0][0] * i[1][1] - i[0][1] * i[1][0];
+        if !(det > 0.0) || iterations > 200 {
+            return Err(EstimateError::NotConverged);
+        }
+        let step = [(i[1][1] * g[0] - i[0][1] * g[1]) / det, (i[0][0] * g[1] - i[1][0] * g[0]) / det];
+        let mut t = 1.0;
+        let mut accepted = None;
+        for _ in 0..60 {
+            let (na, nb) = (a + t * step[0], b + t * step[1]);
+            if nb > 0.0 {
+                if let Some(next) = evaluate(na, nb).filter(|n| n.value >= current.value) {
+                    accepted = Some((na, nb, next));
+                    break;
+                }
+            }
+            t *= 0.5;
+        }
+        iterations += 1;
+        let Some((na, nb, next)) = accepted else { break };
+        (a, b, current) = (na, nb, next);
+        if (step[0] * t).abs() + (step[1] * t).abs() < 1e-12 {
+            break;
+        }
+    }
+    Ok(Maximum { a, b, objective: current, iterations })
 }
 
 /// chi^2 with one degree of freedom at 0.95.
