@@ -9,9 +9,10 @@ with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers o
 hollow downward triangle at its slowest shot, an arrow beneath), one whose every shot was
 stopped as a lower bound (an upward triangle at its fastest, an arrow above). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
 the layer series where it has results; a finer series about a first one's limit is drawn
-pooled with it (validation.py's `pooled_from`), not alone. A campaign without a V50 yet is listed under the
-plot with its state, not drawn. Residual velocities of the mesh series are printed, not
-plotted.
+pooled with it (validation.py's `pooled_from`), not alone; a mesh series' V50 (another fibre
+count, element length or stepping on a layer series' panel) stands to the right of its layer
+count. A campaign without a V50 yet is listed under the plot with its state, not drawn.
+Residual velocities of the mesh series at one speed are printed, not plotted.
 """
 import argparse
 import json
@@ -150,6 +151,28 @@ if not draw(layer_axes, layers, layer_position, layer_label,
             lambda e: ("tab:blue", "tab:green", "tab:purple")[alongside[e["name"]].index(e["name"]) % 3]
             if e["name"] in alongside[e["name"]] else "tab:gray"):
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
+# the mesh series' limits beside the layer series' (to the right of their layer count): how far
+# the fibre count, the coarse element length or multi-rate stepping move the V50
+meshes = sorted((e for e in entries if e["series"] == "mesh" and e["v50_m_s"] is not None), key=lambda e: e["name"])
+
+
+def mesh_label(e):
+    # what differs from the layer series' mesh (4 fibres per yarn within 6 mm, l0/d 0.5)
+    words = [f"{e['fibres_per_yarn']} fibres per yarn"]
+    if e["fine_radius_m"] != 0.006:
+        words.append(f"within {1000 * e['fine_radius_m']:.0f} mm")
+    if e["element_length_ratio"] != 0.5:
+        words.append(f"l0/d {e['element_length_ratio']:g}")
+    if e.get("coarse_element_length_ratio") not in (None, e["element_length_ratio"]):
+        words.append(f"coarse l0/d {e['coarse_element_length_ratio']:g}")
+    if e.get("multi_rate"):
+        words.append("multi-rate")
+    return f"dea-mpi, {1000 * e['side_m']:.0f} mm panel, {', '.join(words)} ({estimate_words(e['method'])})"
+
+
+MESH_COLOURS = ("tab:orange", "tab:brown", "tab:pink", "tab:olive")
+draw(layer_axes, meshes, lambda e: e["layers"] + 1.0 + 0.6 * meshes.index(e), mesh_label,
+     lambda e: MESH_COLOURS[meshes.index(e) % len(MESH_COLOURS)])
 layer_axes.set_xlabel("layers")
 layer_axes.set_ylabel("V50 [m/s]")
 layer_axes.set_title("V50 against layers")
