@@ -282,6 +282,8 @@ pub(crate) fn maximise(evaluate: impl Fn(f64, f64) -> Option<Objective>) -> Resu
     let mut iterations = 0;
     loop {
         let (g, i) = (current.gradient, current.information);
+        // Cramer's rule rather than `inverse(i) * g`: the same step, rounded as the fits' records
+        // were written
         let det = i[0][0] * i[1][1] - i[0][1] * i[1][0];
         if !(det > 0.0) || iterations > 200 {
             return Err(EstimateError::NotConverged);
@@ -480,6 +482,44 @@ mod tests {
         for (da, db) in [(1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-6), (0.0, -1e-6)] {
             assert!(ll(a + da, b + db) <= best + 1e-9);
         }
+    }
+
+    #[test]
+    fn the_ascent_finds_a_quadratic_maximum_and_refuses_an_indefinite_information() {
+        // l = -(a - 1)^2 - 2 (b - 3)^2: one Newton step from (0, 1) lands on (1, 3), and the
+        // next, of length zero, ends the ascent
+        let quadratic = |a: f64, b: f64| {
+            Some(Objective {
+                value: -(a - 1.0).powi(2) - 2.0 * (b - 3.0).powi(2),
+                gradient: [-2.0 * (a - 1.0), -4.0 * (b - 3.0)],
+                information: [[2.0, 0.0], [0.0, 4.0]],
+            })
+        };
+        let Ok(Maximum { a, b, objective, iterations }) = maximise(quadratic) else { panic!("no maximum") };
+        assert_eq!((a, b, objective.value, iterations), (1.0, 3.0, 0.0, 2));
+        // a maximum at b < 0 is approached only while b stays positive
+        let beyond = |a: f64, b: f64| {
+            Some(Objective {
+                value: -(a * a) - (b + 1.0).powi(2),
+                gradient: [-2.0 * a, -2.0 * (b + 1.0)],
+                information: [[2.0, 0.0], [0.0, 2.0]],
+            })
+        };
+        let Ok(Maximum { b, .. }) = maximise(beyond) else { panic!("no stop") };
+        assert!(b > 0.0 && b < 1e-12, "{b}");
+        // a saddle's information is not positive definite
+        let saddle = |a: f64, b: f64| {
+            Some(Objective {
+                value: b * b - a * a,
+                gradient: [-2.0 * a, 2.0 * b],
+                information: [[2.0, 0.0], [0.0, -2.0]],
+            })
+        };
+        assert!(matches!(maximise(saddle), Err(EstimateError::NotConverged)));
+        // an objective that is minus infinity at the start
+        assert!(matches!(maximise(|_, _| None), Err(EstimateError::NotConverged)));
+        assert_eq!(inverse([[2.0, 1.0], [1.0, 1.0]]), Some([[1.0, -1.0], [-1.0, 2.0]]));
+        assert_eq!(inverse([[1.0, 2.0], [2.0, 1.0]]), None);
     }
 
     #[test]
