@@ -13,6 +13,7 @@ machine whose run directory is gone) is named under the plot, not drawn.
 import argparse
 import csv
 import os
+import textwrap
 
 import matplotlib
 
@@ -78,9 +79,11 @@ def main():
     broken_axes.set_ylabel("elements broken, by layer (0: struck face)")
     broken_axes.grid(alpha=0.3)
     broken_axes.legend(fontsize=7, title="line style", title_fontsize=7)
-    if missing:
-        figure.text(0.01, 0.005, "no trace (fired before traces were kept): " + "; ".join(missing), fontsize=6)
-    figure.tight_layout(rect=(0, 0.02, 1, 1))
+    # the shots without a trace, wrapped to the figure's width, the axes raised to make room
+    note = textwrap.wrap("no trace (fired before traces were kept): " + "; ".join(missing), 190) if missing else []
+    if note:
+        figure.text(0.01, 0.005, "\n".join(note), fontsize=6, va="bottom")
+    figure.tight_layout(rect=(0, 0.005 + 0.012 * len(note), 1, 1))
     figure.savefig(args.out, dpi=110)
     print(args.out)
     return 0
