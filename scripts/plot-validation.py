@@ -157,11 +157,12 @@ meshes = sorted((e for e in entries if e["series"] == "mesh" and e["v50_m_s"] is
 
 
 def mesh_label(e):
-    # what differs from the layer series' mesh (4 fibres per yarn within 6 mm, l0/d 0.5)
+    # the fibre count, and what else differs from the layer series' mesh on the same panel
+    reference = next((o for o in layers if (o["layers"], o["side_m"]) == (e["layers"], e["side_m"])), {})
     words = [f"{e['fibres_per_yarn']} fibres per yarn"]
-    if e["fine_radius_m"] != 0.006:
+    if e["fine_radius_m"] != reference.get("fine_radius_m"):
         words.append(f"within {1000 * e['fine_radius_m']:.0f} mm")
-    if e["element_length_ratio"] != 0.5:
+    if e["element_length_ratio"] != reference.get("element_length_ratio"):
         words.append(f"l0/d {e['element_length_ratio']:g}")
     if e.get("coarse_element_length_ratio") not in (None, e["element_length_ratio"]):
         words.append(f"coarse l0/d {e['coarse_element_length_ratio']:g}")
