@@ -71,8 +71,8 @@ def main():
         print(f"campaign: {shots} shots, about {figure(cost['campaign']['core_hours'])} core-hours")
     print(f"on {args.tasks} tasks in {groups} group(s) of {args.ranks_per_shot}: {rounds} round(s), "
           f"about {figure(rounds * cost['wall_s'] / 3600)} h of wall time (the steps to the end time at the reference "
-          f"shot's rates: a shot decided earlier stops there, and a perforation phase has cost half as much "
-          f"again per step or more, docs/performance.md)")
+          f"shot's rates: a shot decided earlier stops there; whole shots near a woven panel's limit have cost "
+          f"1.7-2.0 times this per step, a single yarn's half: docs/performance.md)")
     print(f"calibration: {cost['calibration']}")
     if cost.get("interconnect"):
         print(f"interconnect: {cost['interconnect']}")
