@@ -169,7 +169,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     });
     // "about", not "at most": the price runs every shot to its end time, which bounds the
     // steps, but at the reference window's per-step rates, and a whole shot's later phases
-    // keep more contacts and rebuild their lists more often (docs/performance.md, "Cost model")
+    // rebuild their lists more often and relist more nodes (docs/performance.md, "Cost model")
     eprintln!(
         "cost: about {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps to the end time, {:.3} ms each at the reference shot's rates, the slowest rank {:.2} x the mean; a shot decided earlier stops there; whole shots near a woven panel's limit have cost 1.7-2.0 times this per step, a single yarn's half: docs/performance.md){campaign_line}",
         price.core_hours,
