@@ -25,9 +25,9 @@ Campaigns run cheapest first. The estimate of what is left is, per shot, the mea
 campaign's finished shots (wall time x ranks) when it has any, otherwise the price
 `dea-mpi check --ranks R` gives a shot (the cost model calibrated on the reference shot,
 docs/theory.md C1: steps to the end time after the settle at the reference window's rates;
-shots stop when decided, so most take fewer steps, but whole shots near a woven panel's limit
-have cost 1.7-2.0 times the price per step, a single yarn's half). Walls of shots fired beside another loop before 2026-11-28
-overstate their cost (docs/validation.md).
+shots stop when decided, so most take fewer steps, but whole shots near a woven panel's
+limit have cost 1.7-2.0 times the price per step, a single yarn's half). Walls of shots
+fired beside another loop before 2026-11-28 overstate their cost (docs/validation.md).
 
 `validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
 laboratory scale", says what each field means); `validation/shots.md` every shot on record,
