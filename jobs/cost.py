@@ -71,8 +71,16 @@ def main():
         print(f"campaign: {shots} shots, about {figure(cost['campaign']['core_hours'])} core-hours")
     print(f"on {args.tasks} tasks in {groups} group(s) of {args.ranks_per_shot}: {rounds} round(s), "
           f"about {figure(rounds * cost['wall_s'] / 3600)} h of wall time (the steps to the end time at the reference "
-          f"shot's rates: a shot decided earlier stops there; whole shots near a woven panel's limit have cost "
-          f"1.7-2.0 times this per step, a single yarn's half: docs/performance.md)")
+          f"shot's rates: a shot decided earlier stops there)")
+    whole = cost.get("whole_shots")
+    if whole:
+        print(f"whole shots: {whole['target_kind']} shots have cost {whole['factor_low']:.2f}-{whole['factor_high']:.2f} "
+              f"times the price per step ({whole['shots']} shots measured, {whole['source']}): "
+              f"{figure(whole['core_hours_low'])}-{figure(whole['core_hours_high'])} core-hours per shot, "
+              f"{figure(rounds * cost['wall_s'] * whole['factor_low'] / 3600)}-"
+              f"{figure(rounds * cost['wall_s'] * whole['factor_high'] / 3600)} h of wall time")
+    else:
+        print(f"whole shots: no {printed['case']['target']['kind']} shot has been measured against the price")
     print(f"calibration: {cost['calibration']}")
     if cost.get("interconnect"):
         print(f"interconnect: {cost['interconnect']}")

@@ -8,6 +8,7 @@ import copy
 import io
 import importlib.util
 import os
+import tempfile
 import types
 import unittest
 from unittest import mock
@@ -16,6 +17,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 spec = importlib.util.spec_from_file_location("validation", os.path.join(HERE, "validation.py"))
 validation = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(validation)
+whole_spec = importlib.util.spec_from_file_location("whole_shots", os.path.join(HERE, "whole-shots.py"))
+whole_shots = importlib.util.module_from_spec(whole_spec)
+whole_spec.loader.exec_module(whole_shots)
 
 FIXTURE_CASE = {
     "name": "yarn-t-d-i-inf",
@@ -628,6 +632,41 @@ class Traces(unittest.TestCase):
         self.assertIn("r000-00000.trace.csv", first)
         self.assertNotIn("r000-00000.trace.csv", second)
         self.assertIn("r000-00000.json", second)
+
+
+class WholeShots(unittest.TestCase):
+    """docs/benchmarks/whole-shots.json follows from the shot records, and says so when not."""
+
+    def records(self, root, shots):
+        directory = os.path.join(root, "validation", "panel-t", "shots")
+        os.makedirs(directory)
+        for k, (steps, wall_s) in enumerate(shots):
+            with open(os.path.join(directory, f"r000-{k:05d}.json"), "w") as f:
+                f.write(whole_shots.json.dumps({"id": f"r000-{k:05d}", "velocity_m_s": 200.0 + k,
+                                                "steps": steps, "wall_s": wall_s, "ranks": 2}))
+
+    def test_a_factor_is_the_measured_step_over_the_priced_one_and_an_edit_is_refused(self):
+        with tempfile.TemporaryDirectory() as root, \
+                mock.patch.object(whole_shots, "RESULTS", os.path.join(root, "validation")), \
+                mock.patch.object(whole_shots, "OUT", os.path.join(root, "whole-shots.json")), \
+                mock.patch.object(whole_shots, "CAMPAIGNS", [("panel-t", "alone", True)]):
+            self.records(root, [(1000, 90.0), (2000, 200.0)])
+            shots = whole_shots.measured("panel-t", {"2": 0.05})
+            self.assertEqual([s["factor"] for s in shots], [1.8, 2.0])
+            entries = [{"campaign": "panel-t", "target_kind": "woven_panel", "conditions": "alone", "in_band": True,
+                        "predicted_step_s": {"2": 0.05}, "shots": shots}]
+            document = {"campaigns": entries, "bands": whole_shots.bands(entries)}
+            self.assertEqual(document["bands"]["woven_panel"]["low"], 1.8)
+            self.assertEqual(document["bands"]["woven_panel"]["high"], 2.0)
+            with open(whole_shots.OUT, "w") as f:
+                f.write(whole_shots.json.dumps(document))
+            self.assertEqual(whole_shots.check(), [])
+            document["campaigns"][0]["shots"][1]["factor"] = 1.5
+            with open(whole_shots.OUT, "w") as f:
+                f.write(whole_shots.json.dumps(document))
+            problems = whole_shots.check()
+            self.assertTrue(any("campaigns[0] (panel-t).shots" in p for p in problems), problems)
+            self.assertTrue(any(p.startswith("bands") for p in problems), problems)
 
 
 if __name__ == "__main__":

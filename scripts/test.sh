@@ -14,6 +14,8 @@ cargo test --release --locked --workspace
 source scripts/packages.sh
 ensure_packages test-validation --no-install-recommends python3
 /usr/bin/python3 scripts/test-validation.py
+# the whole-shot factors the cost model's words quote follow from the shot records
+/usr/bin/python3 scripts/whole-shots.py --check
 scripts/mpi-tests.sh
 scripts/viz-tests.sh
 # the README's tour: its block is the script's list, and its quick commands run in order

@@ -22,12 +22,14 @@ end time, when the campaign's end time has since been raised and the shot's chec
 still on the machine, has its record withdrawn and goes on from there (`held_to_take_on`).
 
 Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
-campaign's finished shots (wall time x ranks) when it has any, otherwise the price
+campaign's finished shots (wall time x ranks) when it has any ("m"), otherwise the price
 `dea-mpi check --ranks R` gives a shot (the cost model calibrated on the reference shot,
-docs/theory.md C1: steps to the end time after the settle at the reference window's rates;
-shots stop when decided, so most take fewer steps, but whole shots near a woven panel's
-limit have cost 1.7-2.0 times the price per step, a single yarn's half). Walls of shots
-fired beside another loop before 2026-11-28 overstate their cost (docs/validation.md).
+docs/theory.md C1: steps to the end time after the settle at the reference window's rates)
+times the highest factor whole shots of its target's kind have cost over that price ("w",
+docs/benchmarks/whole-shots.json: woven panels near their limit cost more per step than the
+window, a single yarn less), or the bare price where no such shot was measured ("b"). Shots
+stop when decided, so most take fewer steps than the end time's. Walls of shots fired
+beside another loop before 2026-11-28 overstate their cost (docs/validation.md).
 
 `validation/summary.json` lists one entry per campaign (docs/validation.md, "Table 6-1 at
 laboratory scale", says what each field means); `validation/shots.md` every shot on record,
@@ -127,6 +129,9 @@ class Campaign:
         resolved = checked["resolved"]
         self.nodes = resolved["nodes"]
         self.bound_core_hours = resolved["cost"]["core_hours"]
+        # the price times the highest factor measured on whole shots of this target's kind
+        whole = resolved["cost"].get("whole_shots")
+        self.whole_core_hours = whole["core_hours_high"] if whole else None
         # the shots check prices the design at (dea_ballistic::Design::expected_shots)
         self.planned = resolved["cost"]["campaign"]["shots"]
         self.refresh()
@@ -147,6 +152,8 @@ class Campaign:
     def per_shot_core_hours(self):
         if self.shots:
             return sum(s["wall_s"] * s["ranks"] for s in self.shots) / len(self.shots) / 3600.0, "measured"
+        if self.whole_core_hours is not None:
+            return self.whole_core_hours, "whole shots"
         return self.bound_core_hours, "bound"
 
     def left(self):
@@ -206,7 +213,8 @@ def status(campaigns):
             state += f" ({begun_words(started)})"
         print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
     print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours "
-          "(b: the cost model's price to the end time, m: mean of this campaign's finished shots)")
+          "(m: mean of this campaign's finished shots; w: the cost model's price to the end time times the "
+          "highest factor whole shots of its kind have cost, docs/benchmarks/whole-shots.json; b: the bare price)")
 
 
 def same_shot_but_speed(case, other):

@@ -22,6 +22,10 @@ use crate::step::Stage;
 /// `scripts/bench-shot.py --calibrate`.
 pub const SHIPPED: &str = include_str!("../../docs/benchmarks/cost-calibration.json");
 
+/// Whole validation shots against the price, per target kind: `docs/benchmarks/whole-shots.json`,
+/// written from the shot records by `scripts/whole-shots.py --write`.
+pub const WHOLE_SHOTS: &str = include_str!("../../docs/benchmarks/whole-shots.json");
+
 /// Collectives of one step over every rank: the projectile broadcast, the motion agreement,
 /// the error agreement, the load gather (two), and the rebuild vote.
 pub const COLLECTIVES_PER_STEP: f64 = 6.0;
@@ -136,6 +140,57 @@ pub struct Price {
     pub wall_s: f64,
     /// wall time times ranks [core-hours]
     pub core_hours: f64,
+}
+
+/// What whole shots have cost against the price, per target kind (`target.kind` of the case):
+/// the reference window is the first 10 us of an impact, and a whole shot near its limit
+/// rebuilds more often and holds a wider cone (docs/performance.md). Measured, not modelled:
+/// a kind no campaign measured has no band.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct WholeShots {
+    /// per target kind, the range of the measured factors
+    pub bands: BTreeMap<String, Band>,
+}
+
+/// The range of whole shots' wall time per step over the priced step, for one target kind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Band {
+    /// the lowest factor measured [-]
+    pub low: f64,
+    /// the highest factor measured [-]
+    pub high: f64,
+    /// shots measured
+    pub shots: u32,
+    /// the campaigns they belong to (`jobs/campaigns/validation/`)
+    pub campaigns: Vec<String>,
+}
+
+impl WholeShots {
+    /// Reads the measured bands; every error names its field.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let whole: WholeShots = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        for (kind, band) in &whole.bands {
+            if !(band.low.is_finite() && band.low > 0.0 && band.high.is_finite() && band.high >= band.low) {
+                return Err(format!("bands.{kind}: low and high must be finite with 0 < low <= high"));
+            }
+            if band.shots == 0 || band.campaigns.is_empty() {
+                return Err(format!("bands.{kind}: measured on no shot"));
+            }
+        }
+        Ok(whole)
+    }
+
+    /// The bands in the binary (tested to parse).
+    pub fn shipped() -> &'static WholeShots {
+        static SHIPPED_WHOLE_SHOTS: OnceLock<WholeShots> = OnceLock::new();
+        SHIPPED_WHOLE_SHOTS.get_or_init(|| WholeShots::parse(WHOLE_SHOTS).expect("the shipped bands parse (tested)"))
+    }
+
+    /// The band of a target kind, if any campaign of that kind was measured.
+    pub fn band(&self, target_kind: &str) -> Option<&Band> {
+        self.bands.get(target_kind)
+    }
 }
 
 impl Calibration {
@@ -423,6 +478,27 @@ mod tests {
             },
             "no run on one rank",
         );
+    }
+
+    #[test]
+    fn the_shipped_whole_shot_bands_parse_and_bad_ones_are_refused_by_field() {
+        let shipped = WholeShots::shipped();
+        // a woven panel near its limit has cost more per step than the window, a yarn less
+        let woven = shipped.band("woven_panel").expect("woven panels measured");
+        assert!(woven.low > 1.0 && woven.shots > 0, "{woven:?}");
+        assert!(shipped.band("straight_yarn").is_some_and(|yarn| yarn.high < 1.0));
+        assert!(shipped.band("three_d_woven_panel").is_none());
+        let value: serde_json::Value = serde_json::from_str(WHOLE_SHOTS).unwrap();
+        let refused = |edit: &dyn Fn(&mut serde_json::Value), words: &str| {
+            let mut bad = value.clone();
+            edit(&mut bad);
+            let error = WholeShots::parse(&bad.to_string()).unwrap_err();
+            assert!(error.contains(words), "{words}: {error}");
+        };
+        refused(&|v| v["bands"]["woven_panel"]["low"] = 0.0.into(), "bands.woven_panel");
+        refused(&|v| v["bands"]["woven_panel"]["high"] = 0.5.into(), "bands.woven_panel");
+        refused(&|v| v["bands"]["woven_panel"]["shots"] = 0.into(), "bands.woven_panel: measured on no shot");
+        refused(&|v| v["bands"]["woven_panel"]["surprise"] = 1.into(), "surprise");
     }
 
     #[test]

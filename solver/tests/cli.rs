@@ -1035,6 +1035,20 @@ fn the_cost_scripts_print_what_check_prices() {
         .unwrap_or_else(|| panic!("{text}"));
     assert!((quoted / hours - 1.0).abs() < 5e-3, "{text} / {hours}");
     assert!(text.contains("2 group(s) of 2") && !text.contains("campaign:"), "{text}");
+    // beside it, what whole shots of a woven panel have cost against the price: measured,
+    // from docs/benchmarks/whole-shots.json, in check's JSON and quoted by the script
+    let whole = &cost["whole_shots"];
+    assert_eq!(whole["target_kind"], "woven_panel", "{cost}");
+    let (low, high) = (whole["factor_low"].as_f64().unwrap(), whole["factor_high"].as_f64().unwrap());
+    assert!(1.0 < low && low <= high, "{whole}");
+    assert!((whole["core_hours_high"].as_f64().unwrap() / (high * hours) - 1.0).abs() < 1e-12, "{whole}");
+    assert!(text.contains(&format!("whole shots: woven_panel shots have cost {low:.2}-{high:.2} times")), "{text}");
+    // a kind no whole shot was measured on: no band, and the script says so
+    let out = script(&["jobs/cost.py", "cases/single_fibre_short.json", "--ranks-per-shot", "1", "--binary", binary]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(check(&["check", "cases/single_fibre_short.json"])["resolved"]["cost"]["whole_shots"].is_null());
+    assert!(text.contains("whole shots: no single_fibre shot has been measured against the price"), "{text}");
     // a campaign: its shots and their core-hours
     let out = script(&[
         "jobs/cost.py",

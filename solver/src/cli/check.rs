@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use dea_mpi::cost::Calibration;
+use dea_mpi::cost::{Calibration, WholeShots};
 use dea_mpi::{settle, setup};
 
 use super::{fail, in_file, load_case_or_campaign, setup_exit, Exit};
@@ -108,6 +108,22 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     if let Some(shots) = shots {
         cost["campaign"] = serde_json::json!({ "shots": shots, "core_hours": shots as f64 * price.core_hours });
     }
+    // what whole shots of this kind of target have cost against their price, as measured
+    let target_kind = serde_json::to_value(&case.target).expect("a target serialises")["kind"]
+        .as_str()
+        .expect("a target has a kind")
+        .to_string();
+    let band = WholeShots::shipped().band(&target_kind);
+    cost["whole_shots"] = serde_json::json!(band.map(|band| serde_json::json!({
+        "target_kind": target_kind,
+        "factor_low": band.low,
+        "factor_high": band.high,
+        "core_hours_low": band.low * price.core_hours,
+        "core_hours_high": band.high * price.core_hours,
+        "shots": band.shots,
+        "campaigns": band.campaigns,
+        "source": "docs/benchmarks/whole-shots.json",
+    })));
     let projectile = &problem.projectile;
     let fibres = *problem.fabric.first_fibres().last().expect("a total") as u64;
     let mut printed = serde_json::json!({
@@ -167,11 +183,23 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
     let campaign_line = shots.map_or(String::new(), |shots| {
         format!("; the campaign's {shots} shots about {:.3} core-hours", shots as f64 * price.core_hours)
     });
+    let whole_line = match band {
+        Some(band) => format!(
+            "; whole {target_kind} shots have cost {:.2}-{:.2} times this per step ({} shots of {}: docs/benchmarks/whole-shots.json), so {:.3}-{:.3} core-hours to the end time",
+            band.low,
+            band.high,
+            band.shots,
+            band.campaigns.join(", "),
+            band.low * price.core_hours,
+            band.high * price.core_hours
+        ),
+        None => format!("; no whole {target_kind} shot has been measured against this price"),
+    };
     // "about", not "at most": the price runs every shot to its end time, which bounds the
     // steps, but at the reference window's per-step rates, and a whole shot's later phases
     // rebuild their lists more often and relist more nodes (docs/performance.md, "Cost model")
     eprintln!(
-        "cost: about {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps to the end time, {:.3} ms each at the reference shot's rates, the slowest rank {:.2} x the mean; a shot decided earlier stops there; whole shots near a woven panel's limit have cost 1.7-2.0 times this per step, a single yarn's half: docs/performance.md){campaign_line}",
+        "cost: about {:.3} core-hours per shot on {} rank(s) ({:.0} s of wall: {} steps to the end time, {:.3} ms each at the reference shot's rates, the slowest rank {:.2} x the mean; a shot decided earlier stops there{whole_line}){campaign_line}",
         price.core_hours,
         price.ranks,
         price.wall_s,

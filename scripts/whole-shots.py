@@ -1,0 +1,178 @@
+#!/usr/bin/env python3
+"""Whole validation shots against the cost model: what a shot's step cost over its whole run,
+set against the step `dea-mpi check` prices from the reference window (docs/theory.md C1).
+
+    scripts/whole-shots.py --write [--binary target/release/dea-mpi]
+    scripts/whole-shots.py --check
+
+The cost model is calibrated on the reference shot's first 10 us after its settle, and a whole
+shot is not that window: later in it the cone widens, broken ends recoil and the lists are
+rebuilt two to three times as often (docs/performance.md, "A whole shot is not the reference
+window"). This script measures by how much, from the shot records on file: for each campaign
+below, each shot's wall time over its steps (`wall_s / steps` of its record under
+`validation/`: set-up, relaxation, settle and every restart's set-up included) over the step
+`dea-mpi check CAMPAIGN --ranks R` prices for the shot's R ranks. The campaigns and the
+conditions they ran under (the records do not say what else the host was doing) are declared
+in `CAMPAIGNS`; only those that had the host to themselves set a target kind's band.
+
+`--write` writes `docs/benchmarks/whole-shots.json`: per campaign its predicted step and each
+shot's measured step and factor (measured / predicted), and per target kind (the case's
+`target.kind`) the lowest and highest factor of the campaigns in the band. The binary embeds
+that file (solver/src/cost.rs, `WholeShots`): `dea-mpi check` prints, beside its price, the
+range a whole shot of that kind has cost, and `jobs/cost.py` and `scripts/validation.py status`
+read it from check's JSON. Write the file, then rebuild.
+
+`--check` (the test command runs it) re-reads the records and refuses the file when a shot's
+steps or wall time, a factor or a band no longer follow from them, naming the entry: a number
+in the file is never typed by hand.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CAMPAIGNS_DIR = os.path.join(ROOT, "jobs", "campaigns", "validation")
+RESULTS = os.path.join(ROOT, "validation")
+OUT = os.path.join(ROOT, "docs", "benchmarks", "whole-shots.json")
+
+# (campaign, conditions, whether it sets its kind's band). Conditions are what the session
+# notes record; a shot beside another job measures the host's sharing, not the shot.
+CAMPAIGNS = [
+    ("layers-4-3in-step-3.125", "2 ranks, the host to itself (2026-11-29)", True),
+    ("panel-6in-4-layers", "2 ranks, the host to itself (2026-11-29)", True),
+    ("mesh-layers-4-3in-7-fibres", "2 ranks, beside a CI run or a build for about half of each shot", False),
+    ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
+]
+
+# factors are rounded to this many decimals in the file, so --check compares like with like
+DIGITS = 4
+
+
+def shots_of(name):
+    """The shot records of a campaign on file, in id order."""
+    directory = os.path.join(RESULTS, name, "shots")
+    if not os.path.isdir(directory):
+        sys.exit(f"whole-shots: {os.path.relpath(directory, ROOT)}: no shots on record")
+    records = []
+    for entry in sorted(os.listdir(directory)):
+        if entry.endswith(".json"):
+            path = os.path.join(directory, entry)
+            try:
+                with open(path) as f:
+                    record = json.load(f)
+                records.append({k: record[k] for k in ("id", "velocity_m_s", "steps", "wall_s", "ranks")})
+            except (OSError, ValueError, KeyError) as e:
+                sys.exit(f"whole-shots: {os.path.relpath(path, ROOT)}: {e}")
+    if not records:
+        sys.exit(f"whole-shots: {os.path.relpath(directory, ROOT)}: no shots on record")
+    return records
+
+
+def measured(name, predicted_step_s):
+    """Each shot's measured step and its factor over the step predicted for its ranks
+    (`predicted_step_s`: {ranks as text: [s]})."""
+    rows = []
+    for record in shots_of(name):
+        step = record["wall_s"] / record["steps"]
+        predicted = predicted_step_s.get(str(record["ranks"]))
+        if predicted is None:
+            sys.exit(f"whole-shots: {name}/{record['id']}: on {record['ranks']} rank(s), "
+                     f"no step predicted for that count (run --write)")
+        rows.append({**record, "measured_step_s": round(step, 6), "factor": round(step / predicted, DIGITS)})
+    return rows
+
+
+def bands(entries):
+    """Per target kind, the lowest and highest factor of the campaigns in the band."""
+    out = {}
+    for entry in entries:
+        if not entry["in_band"]:
+            continue
+        factors = [shot["factor"] for shot in entry["shots"]]
+        band = out.setdefault(entry["target_kind"], {"low": min(factors), "high": max(factors),
+                                                     "shots": 0, "campaigns": []})
+        band["low"], band["high"] = min(band["low"], *factors), max(band["high"], *factors)
+        band["shots"] += len(factors)
+        band["campaigns"].append(entry["campaign"])
+    return out
+
+
+def predicted_step(binary, name, ranks):
+    """The step `dea-mpi check --ranks R` prices for a campaign's shot [s]."""
+    path = os.path.join(CAMPAIGNS_DIR, name + ".json")
+    done = subprocess.run([binary, "check", path, "--ranks", str(ranks)], capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"whole-shots: {os.path.relpath(path, ROOT)}: dea-mpi check failed:\n{done.stderr.strip()}")
+    printed = json.loads(done.stdout)
+    return printed["resolved"]["cost"]["step_s"], printed["case"]["target"]["kind"]
+
+
+def write(binary):
+    entries = []
+    for name, conditions, in_band in CAMPAIGNS:
+        steps, kinds = {}, set()
+        for ranks in sorted({record["ranks"] for record in shots_of(name)}):
+            step_s, kind = predicted_step(binary, name, ranks)
+            steps[str(ranks)] = step_s
+            kinds.add(kind)
+            print(f"{name}: {kind}, predicted {1e3 * step_s:.2f} ms a step on {ranks} rank(s)", file=sys.stderr)
+        entries.append({"campaign": name, "target_kind": kinds.pop(), "conditions": conditions,
+                        "in_band": in_band, "predicted_step_s": steps, "shots": measured(name, steps)})
+    document = {
+        "about": ("whole validation shots' wall time per step over the step dea-mpi check prices from "
+                  "the reference window (docs/theory.md C1); written by scripts/whole-shots.py --write "
+                  "from the shot records under validation/, checked against them by --check"),
+        "campaigns": entries,
+        "bands": bands(entries),
+    }
+    with open(OUT, "w") as f:
+        json.dump(document, f, indent=1)
+        f.write("\n")
+    for kind, band in document["bands"].items():
+        print(f"{kind}: {band['low']:.2f}-{band['high']:.2f} times the price per step "
+              f"({band['shots']} shots of {', '.join(band['campaigns'])})")
+
+
+def check():
+    """Refuses the file when it no longer follows from the records; returns its problems."""
+    try:
+        with open(OUT) as f:
+            document = json.load(f)
+    except (OSError, ValueError) as e:
+        return [f"{os.path.relpath(OUT, ROOT)}: {e}"]
+    problems = []
+    listed = [(e["campaign"], e["conditions"], e["in_band"]) for e in document["campaigns"]]
+    if listed != [tuple(c) for c in CAMPAIGNS]:
+        problems.append("campaigns: not the script's CAMPAIGNS (run --write)")
+    for k, entry in enumerate(document["campaigns"]):
+        expected = measured(entry["campaign"], entry["predicted_step_s"])
+        if entry["shots"] != expected:
+            problems.append(f"campaigns[{k}] ({entry['campaign']}).shots: the records say otherwise "
+                            f"({len(expected)} on record, {len(entry['shots'])} in the file; run --write)")
+    if document["bands"] != bands(document["campaigns"]):
+        problems.append("bands: do not follow from the campaigns' factors (run --write)")
+    return problems
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mode = parser.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--write", action="store_true", help=f"write {os.path.relpath(OUT, ROOT)}")
+    mode.add_argument("--check", action="store_true", help="refuse the file when the records say otherwise")
+    parser.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "dea-mpi"))
+    args = parser.parse_args()
+    if args.write:
+        write(args.binary)
+        return
+    problems = check()
+    for problem in problems:
+        print(f"whole-shots: {os.path.relpath(OUT, ROOT)}: {problem}", file=sys.stderr)
+    if problems:
+        sys.exit(1)
+    print(f"whole-shots: {os.path.relpath(OUT, ROOT)} follows from the records")
+
+
+if __name__ == "__main__":
+    main()
