@@ -634,6 +634,31 @@ class Traces(unittest.TestCase):
         self.assertIn("r000-00000.json", second)
 
 
+class Status(unittest.TestCase):
+    def priced(self, name, shots, whole):
+        c = validation.Campaign.__new__(validation.Campaign)
+        c.name, c.nodes, c.shots, c.planned, c.complete = name, 1000, shots, 4, False
+        c.bound_core_hours, c.whole_core_hours = 1.0, whole
+        return c
+
+    def test_an_unstarted_campaign_is_priced_by_whole_shots_of_its_kind_where_measured(self):
+        measured = self.priced("panel-t", [], 1.98)
+        never = self.priced("fibre-t", [], None)
+        finished = self.priced("yarn-t", [dict(shot(50.0, "S"), wall_s=3600.0, ranks=2)], 0.5)
+        self.assertEqual(measured.per_shot_core_hours(), (1.98, "whole shots"))
+        self.assertEqual(never.per_shot_core_hours(), (1.0, "bound"))
+        self.assertEqual(finished.per_shot_core_hours(), (2.0, "measured"))
+        printed = io.StringIO()
+        with mock.patch.object(validation, "begun", lambda name: []), contextlib.redirect_stdout(printed):
+            validation.status([measured, never, finished])
+        lines = printed.getvalue().splitlines()
+        self.assertIn("1.98 (w)", lines[1])
+        self.assertIn("1.00 (b)", lines[2])
+        self.assertIn("2.00 (m)", lines[3])
+        # 4 + 4 + 3 shots left at 1.98, 1.0 and 2.0 core-hours: 7.92 + 4 + 6
+        self.assertIn("left: 11 shot(s), about 17.9 core-hours", lines[4])
+
+
 class WholeShots(unittest.TestCase):
     """docs/benchmarks/whole-shots.json follows from the shot records, and says so when not."""
 

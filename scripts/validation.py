@@ -212,9 +212,10 @@ def status(campaigns):
         if started and not c.complete:
             state += f" ({begun_words(started)})"
         print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
-    print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours "
-          "(m: mean of this campaign's finished shots; w: the cost model's price to the end time times the "
-          "highest factor whole shots of its kind have cost, docs/benchmarks/whole-shots.json; b: the bare price)")
+    print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours")
+    print("  m: the mean of the campaign's finished shots; w: the cost model's price to the end time times\n"
+          "  the highest factor whole shots of its kind have cost (docs/benchmarks/whole-shots.json);\n"
+          "  b: the bare price, for a kind never measured")
 
 
 def same_shot_but_speed(case, other):
