@@ -672,7 +672,7 @@ class WholeShots(unittest.TestCase):
 
     def test_a_factor_is_the_measured_step_over_the_priced_one_and_an_edit_is_refused(self):
         with tempfile.TemporaryDirectory() as root, \
-                mock.patch.object(whole_shots, "RESULTS", os.path.join(root, "validation")), \
+                mock.patch.object(whole_shots.validation, "RESULTS", os.path.join(root, "validation")), \
                 mock.patch.object(whole_shots, "OUT", os.path.join(root, "whole-shots.json")), \
                 mock.patch.object(whole_shots, "CAMPAIGNS", [("panel-t", "alone", True)]):
             self.records(root, [(1000, 90.0), (2000, 200.0)])

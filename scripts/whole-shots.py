@@ -27,15 +27,19 @@ steps or wall time, a factor or a band no longer follow from them, naming the en
 in the file is never typed by hand.
 """
 import argparse
+import importlib.util
 import json
 import os
-import subprocess
 import sys
+import types
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CAMPAIGNS_DIR = os.path.join(ROOT, "jobs", "campaigns", "validation")
-RESULTS = os.path.join(ROOT, "validation")
 OUT = os.path.join(ROOT, "docs", "benchmarks", "whole-shots.json")
+
+# the validation script's reading of shot records and its call of `dea-mpi check`
+_spec = importlib.util.spec_from_file_location("validation", os.path.join(ROOT, "scripts", "validation.py"))
+validation = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(validation)
 
 # (campaign, conditions, whether it sets its kind's band). Conditions are what the session
 # notes record; a shot beside another job measures the host's sharing, not the shot.
@@ -52,22 +56,10 @@ DIGITS = 4
 
 def shots_of(name):
     """The shot records of a campaign on file, in id order."""
-    directory = os.path.join(RESULTS, name, "shots")
-    if not os.path.isdir(directory):
-        sys.exit(f"whole-shots: {os.path.relpath(directory, ROOT)}: no shots on record")
-    records = []
-    for entry in sorted(os.listdir(directory)):
-        if entry.endswith(".json"):
-            path = os.path.join(directory, entry)
-            try:
-                with open(path) as f:
-                    record = json.load(f)
-                records.append({k: record[k] for k in ("id", "velocity_m_s", "steps", "wall_s", "ranks")})
-            except (OSError, ValueError, KeyError) as e:
-                sys.exit(f"whole-shots: {os.path.relpath(path, ROOT)}: {e}")
+    records = validation.records(name)
     if not records:
-        sys.exit(f"whole-shots: {os.path.relpath(directory, ROOT)}: no shots on record")
-    return records
+        sys.exit(f"whole-shots: {name}: no shots on record under {os.path.relpath(validation.RESULTS, ROOT)}")
+    return [{k: record[k] for k in ("id", "velocity_m_s", "steps", "wall_s", "ranks")} for record in records]
 
 
 def measured(name, predicted_step_s):
@@ -86,26 +78,19 @@ def measured(name, predicted_step_s):
 
 def bands(entries):
     """Per target kind, the lowest and highest factor of the campaigns in the band."""
-    out = {}
+    factors, campaigns = {}, {}
     for entry in entries:
-        if not entry["in_band"]:
-            continue
-        factors = [shot["factor"] for shot in entry["shots"]]
-        band = out.setdefault(entry["target_kind"], {"low": min(factors), "high": max(factors),
-                                                     "shots": 0, "campaigns": []})
-        band["low"], band["high"] = min(band["low"], *factors), max(band["high"], *factors)
-        band["shots"] += len(factors)
-        band["campaigns"].append(entry["campaign"])
-    return out
+        if entry["in_band"]:
+            factors.setdefault(entry["target_kind"], []).extend(shot["factor"] for shot in entry["shots"])
+            campaigns.setdefault(entry["target_kind"], []).append(entry["campaign"])
+    return {kind: {"low": min(f), "high": max(f), "shots": len(f), "campaigns": campaigns[kind]}
+            for kind, f in factors.items()}
 
 
 def predicted_step(binary, name, ranks):
-    """The step `dea-mpi check --ranks R` prices for a campaign's shot [s]."""
-    path = os.path.join(CAMPAIGNS_DIR, name + ".json")
-    done = subprocess.run([binary, "check", path, "--ranks", str(ranks)], capture_output=True, text=True)
-    if done.returncode != 0:
-        sys.exit(f"whole-shots: {os.path.relpath(path, ROOT)}: dea-mpi check failed:\n{done.stderr.strip()}")
-    printed = json.loads(done.stdout)
+    """The step `dea-mpi check --ranks R` prices for a campaign's shot [s], and its target's kind."""
+    path = os.path.join(validation.CAMPAIGNS, name + ".json")
+    printed = validation.check(types.SimpleNamespace(binary=binary, ranks=ranks), path)
     return printed["resolved"]["cost"]["step_s"], printed["case"]["target"]["kind"]
 
 
