@@ -256,11 +256,14 @@ impl<C: Comm> Distributed<C> {
         if rebuild {
             let pairs = &self.domain.pairs;
             tracing::debug!(
-                "step {}: neighbour lists rebuilt (rebuild {}; largest motion since the last {:.3e} m; {:.1} % of the nodes relisted so far)",
+                "step {}: neighbour lists rebuilt (rebuild {}; largest motion since the last {:.3e} m; {:.1} % of the nodes relisted so far; {} pairs listed, {:.2} per owned node, {} of them touching)",
                 self.domain.step,
                 self.rebuilds,
                 largest.since_build,
-                100.0 * pairs.searched_nodes as f64 / pairs.held_nodes.max(1) as f64
+                100.0 * pairs.searched_nodes as f64 / pairs.held_nodes.max(1) as f64,
+                pairs.len(),
+                pairs.len() as f64 / self.domain.nodes.n_owned.max(1) as f64,
+                pairs.touching_entries()
             );
         }
         self.timer.stamp(Stage::ErrorAgreement);
