@@ -164,7 +164,16 @@ pub fn print_estimates(report: &CampaignReport) {
     }
     match &report.lambert_jonas {
         Ok(l) => {
-            println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s)
+            println!("Lambert-Jonas: v_bl {:.1} m/s (a {:.3}, p {:.2}, rms {:.1} m/s)", l.v_bl, l.a, l.p, l.rms_m_s);
+            if !l.bounds_reached.is_empty() {
+                println!(
+                    "               {} at a bound of the range searched (a at most {}, p {} to {}): the shots do not fix the curve (docs/theory.md V4)",
+                    l.bounds_reached.join(" and "),
+                    dea_ballistic::lambert_jonas::A_MAX,
+                    dea_ballistic::lambert_jonas::P_RANGE.0,
+                    dea_ballistic::lambert_jonas::P_RANGE.1
+                );
+            }
         }
         Err(e) => println!("Lambert-Jonas: {e}"),
     }
