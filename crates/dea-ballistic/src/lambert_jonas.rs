@@ -131,7 +131,18 @@ mod tests {
         assert!(fit.rms_m_s < 1e-3);
         assert!(fit.bounds_reached.is_empty(), "{fit:?}");
         // with a little noise the limit moves little
-        let noisy: Vec<Shot> = shots.iter().enumerate().map(|(k, s)| Shot { residual_velocity: if s.perforated { s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 } } else { 0.0 }, ..*s }).collect();
+        let noisy: Vec<Shot> = shots
+            .iter()
+            .enumerate()
+            .map(|(k, s)| Shot {
+                residual_velocity: if s.perforated {
+                    s.residual_velocity + if k % 2 == 0 { 3.0 } else { -3.0 }
+                } else {
+                    0.0
+                },
+                ..*s
+            })
+            .collect();
         let fit = lambert_jonas(&noisy).unwrap();
         assert!((fit.v_bl - v_bl).abs() < 10.0, "{fit:?}");
         assert!(matches!(lambert_jonas(&shots[..5]), Err(EstimateError::TooFewPerforations { .. })));
@@ -143,7 +154,11 @@ mod tests {
     /// it struck above about 420 m/s.
     #[test]
     fn residuals_never_exceed_the_striking_velocity_and_a_bound_is_named() {
-        let shot = |velocity: f64, residual_velocity: f64| Shot { velocity, perforated: residual_velocity > 0.0, residual_velocity };
+        let shot = |velocity: f64, residual_velocity: f64| Shot {
+            velocity,
+            perforated: residual_velocity > 0.0,
+            residual_velocity,
+        };
         let shots = [
             shot(312.5, 62.59),
             shot(306.25, 0.0),
@@ -164,7 +179,8 @@ mod tests {
             assert!(fit.a * shape(v, fit.v_bl, fit.p) <= v, "{v} m/s: {fit:?}");
         }
         // a curve steeper than any real one is fitted with `a` on its bound, and says so
-        let steep: Vec<Shot> = (0..12).map(|k| 300.0 + 20.0 * k as f64).map(|v| shot(v, 1.5 * shape(v, 290.0, 2.0))).collect();
+        let steep: Vec<Shot> =
+            (0..12).map(|k| 300.0 + 20.0 * k as f64).map(|v| shot(v, 1.5 * shape(v, 290.0, 2.0))).collect();
         let fit = lambert_jonas(&steep).unwrap();
         assert_eq!(fit.a, A_MAX, "{fit:?}");
         assert!(fit.bounds_reached.contains(&"a"), "{fit:?}");

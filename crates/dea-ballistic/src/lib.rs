@@ -51,7 +51,8 @@ pub enum EstimateError {
     },
     /// Too few shots of one outcome.
     #[error(
-        "{needed} shots of each outcome are needed, there are {partials} partial and {completes} complete penetrations"
+        "{} of each outcome {} needed, there are {partials} partial and {completes} complete penetrations",
+        count_of(*.needed, "shot", "shots"), if *.needed == 1 { "is" } else { "are" }
     )]
     TooFewShots {
         /// of each outcome
@@ -72,7 +73,12 @@ pub enum EstimateError {
         allowed: f64,
     },
     /// Too few perforations for the estimate.
-    #[error("{needed} complete penetrations are needed, there are {completes}")]
+    #[error(
+        "{} {} needed, there {} {completes}",
+        count_of(*.needed, "complete penetration", "complete penetrations"),
+        if *.needed == 1 { "is" } else { "are" },
+        if *.completes == 1 { "is" } else { "are" }
+    )]
     TooFewPerforations {
         /// complete penetrations needed
         needed: usize,
@@ -82,4 +88,31 @@ pub enum EstimateError {
     /// The fit's iterations did not converge.
     #[error("the fit did not converge")]
     NotConverged,
+}
+
+/// `count` with the noun in the number it takes ("1 shot", "3 shots"), so that a message about
+/// a one-shot requirement reads as English.
+fn count_of(count: usize, singular: &str, plural: &str) -> String {
+    format!("{count} {}", if count == 1 { singular } else { plural })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::EstimateError;
+
+    #[test]
+    fn too_few_shots_reads_in_the_right_number() {
+        let one = EstimateError::TooFewShots { needed: 1, partials: 0, completes: 1 };
+        assert_eq!(
+            one.to_string(),
+            "1 shot of each outcome is needed, there are 0 partial and 1 complete penetrations"
+        );
+        let three = EstimateError::TooFewShots { needed: 3, partials: 1, completes: 2 };
+        assert_eq!(
+            three.to_string(),
+            "3 shots of each outcome are needed, there are 1 partial and 2 complete penetrations"
+        );
+        let perforations = EstimateError::TooFewPerforations { needed: 3, completes: 1 };
+        assert_eq!(perforations.to_string(), "3 complete penetrations are needed, there is 1");
+    }
 }
