@@ -52,7 +52,7 @@ pub enum EstimateError {
     /// Too few shots of one outcome.
     #[error(
         "{} of each outcome {} needed, there are {partials} partial and {completes} complete penetrations",
-        count_of(*.needed, "shot", "shots"), if *.needed == 1 { "is" } else { "are" }
+        count_of(*.needed, "shot", "shots"), is_or_are(*.needed)
     )]
     TooFewShots {
         /// of each outcome
@@ -76,8 +76,8 @@ pub enum EstimateError {
     #[error(
         "{} {} needed, there {} {completes}",
         count_of(*.needed, "complete penetration", "complete penetrations"),
-        if *.needed == 1 { "is" } else { "are" },
-        if *.completes == 1 { "is" } else { "are" }
+        is_or_are(*.needed),
+        is_or_are(*.completes)
     )]
     TooFewPerforations {
         /// complete penetrations needed
@@ -94,6 +94,15 @@ pub enum EstimateError {
 /// a one-shot requirement reads as English.
 fn count_of(count: usize, singular: &str, plural: &str) -> String {
     format!("{count} {}", if count == 1 { singular } else { plural })
+}
+
+/// The verb that agrees with `count`.
+fn is_or_are(count: usize) -> &'static str {
+    if count == 1 {
+        "is"
+    } else {
+        "are"
+    }
 }
 
 #[cfg(test)]
