@@ -143,8 +143,9 @@ def estimate_words(method):
 
 
 def layer_label(e):
-    return (f"dea-mpi, {1000 * e['side_m']:.0f} mm panel" + (f", {e['name']}" if len(alongside[e["name"]]) > 1 else "")
-            + f" ({estimate_words(e['method'])})")
+    # named always: one label per campaign, so that a lone campaign of its layer count is not
+    # read as the legend of every point
+    return f"dea-mpi, {1000 * e['side_m']:.0f} mm panel, {e['name']} ({estimate_words(e['method'])})"
 
 
 if not draw(layer_axes, layers, layer_position, layer_label,

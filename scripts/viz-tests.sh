@@ -29,5 +29,8 @@ check campaign-plot bash -c "target/release/dea-mpi v50 cases/v50_tiny_monte_car
 # the committed traces of the 6 in panel's shots (validation.py writes one beside each record)
 check traces-plot bash -c "/usr/bin/python3 scripts/plot-traces.py panel-6in-4-layers --out $work/traces.png && test -s $work/traces.png"
 check traces-plot-names-an-unknown-campaign bash -c "! /usr/bin/python3 scripts/plot-traces.py no-such-campaign --out $work/none.png 2>$work/none.err && grep -q \"no campaign 'no-such-campaign'\" $work/none.err"
+# the validation figures of docs/img, drawn from the committed validation/summary.json and traces
+check validation-plot bash -c "/usr/bin/python3 scripts/plot-validation.py --out $work/validation-v50.png && test -s $work/validation-v50.png"
+check residuals-plot bash -c "/usr/bin/python3 scripts/plot-residuals.py --out $work/validation-residuals.png && test -s $work/validation-residuals.png"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
