@@ -28,6 +28,18 @@ check plots-are-not-empty bash -c "for f in projectile energies energy_by_layer 
 check campaign-plot bash -c "target/release/dea-mpi v50 cases/v50_tiny_monte_carlo.json --out $work/v50 >/dev/null 2>&1 && /usr/bin/python3 scripts/plot-campaign.py $work/v50 && test -s $work/v50/v50.png"
 # the committed traces of the 6 in panel's shots (validation.py writes one beside each record)
 check traces-plot bash -c "/usr/bin/python3 scripts/plot-traces.py panel-6in-4-layers --out $work/traces.png && test -s $work/traces.png"
+# 12 layers: one small axes a shot, the layers in number order (broken_layer_10 after _9, not after _1)
+check traces-plot-of-12-layers bash -c "/usr/bin/python3 scripts/plot-traces.py layers-12-3in --out $work/traces-12.png && test -s $work/traces-12.png"
+check traces-layers-in-number-order /usr/bin/python3 -c "
+import importlib.util, sys
+sys.path.insert(0, 'scripts')
+spec = importlib.util.spec_from_file_location('plot_traces', 'scripts/plot-traces.py')
+plot_traces = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(plot_traces)
+trace = {'time_s': [], 'broken_layer_10': [], 'broken_layer_2': [], 'broken_layer_0': [], 'broken_layer_11': [], 'broken_layer_1': []}
+order = plot_traces.layer_columns(trace)
+assert order == ['broken_layer_0', 'broken_layer_1', 'broken_layer_2', 'broken_layer_10', 'broken_layer_11'], order
+print('layers in number order')"
 check traces-plot-names-an-unknown-campaign bash -c "! /usr/bin/python3 scripts/plot-traces.py no-such-campaign --out $work/none.png 2>$work/none.err && grep -q \"no campaign 'no-such-campaign'\" $work/none.err"
 # the validation figures of docs/img, drawn from the committed validation/summary.json and traces
 check validation-plot bash -c "/usr/bin/python3 scripts/plot-validation.py --out $work/validation-v50.png && test -s $work/validation-v50.png"
