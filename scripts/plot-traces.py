@@ -87,7 +87,7 @@ def main():
             axes = figure.add_subplot(grid[1 + n // columns, n % columns], sharex=speed_axes)
             for k, column in enumerate(layers):
                 axes.plot(time_us, trace[column], linewidth=1.0,
-                          color=shaded(k / max(len(layers) - 1, 1)))
+                          color=shaded(k / max(most_layers - 1, 1)))
             axes.set_title(f"{record['id']}: {record['velocity_m_s']:g} m/s", fontsize=8, color=line.get_color())
             axes.tick_params(labelsize=7)
             axes.grid(alpha=0.3)
