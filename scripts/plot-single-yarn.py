@@ -1,13 +1,17 @@
 #!/usr/bin/python3
 """The single-yarn fixture's V50 against digital fibres per yarn (seed §5.3, Table 5-2 and
-Fig. 5-6), from validation/summary.json only.
+Fig. 5-6), and the 64-fibre yarn's V50 against the fibre-fibre friction coefficient (Table
+5-3), from validation/summary.json only.
 
     /usr/bin/python3 scripts/plot-single-yarn.py [--out docs/img/single-yarn-v50.png]
+        [--friction-out docs/img/single-yarn-friction.png]
 
 The seed's Table 5-2 rows (I0: filaments bend freely, the upper bound; I_inf: the bundle
 bends as one rod, the lower bound) beside this code's bisection brackets for the same two
 bending models and for the effective inertia (5-10) with k1 = 0.8, k2 = 1, which the seed
-found flat in the fibre count. A campaign without a bracket yet is listed under the plot,
+found flat in the fibre count. The second figure sets Table 5-3 (64 fibres, I0, the
+cylinder's own friction 0.3) beside the brackets of the `yarn-64-d-i0` campaigns by their
+fibre-fibre friction coefficient. A campaign without a bracket yet is listed under the plot,
 and one whose every shot so far perforated is drawn as a bound (a filled downward triangle
 at its slowest shot, an arrow beneath).
 """
@@ -31,6 +35,7 @@ MODELS = (
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--out", default=os.path.join(ROOT, "docs", "img", "single-yarn-v50.png"))
+parser.add_argument("--friction-out", default=os.path.join(ROOT, "docs", "img", "single-yarn-friction.png"))
 args = parser.parse_args()
 with open(os.path.join(ROOT, "validation", "summary.json")) as f:
     entries = [e for e in json.load(f) if e["series"] == "single_yarn"]
@@ -87,6 +92,56 @@ if pending:
 figure.tight_layout(rect=(0, 0.08 if pending else 0, 1, 1))
 figure.savefig(args.out, dpi=130)
 print(args.out)
+
+
+def draw_friction(entries, out):
+    """Table 5-3: V50 of the 64-fibre I0 yarn against the fibre-fibre friction coefficient."""
+    chosen = sorted(
+        # the series fired with the seed's anchored spring and unloading, as Table 5-2's
+        (e for e in entries if e["fibres_per_yarn"] == 64
+         and (e.get("seed_reference") or {}).get("bending", {}).get("model") == "free"
+         and e.get("fibre_friction_spring", "anchored") == "anchored"
+         and e.get("unload", "next_step") == "next_step"),
+        key=lambda e: e["seed_reference"]["friction_coefficient"],
+    )
+    figure, axes = plt.subplots(figsize=(7.5, 4.6))
+    mus = sorted(validation.TABLE_5_3_I0_64)
+    axes.plot(mus, [validation.TABLE_5_3_I0_64[m] for m in mus], "g^--", mfc="white", label="seed Table 5-3, I0, 64 fibres")
+    pending = []
+    for e in chosen:
+        mu = e["seed_reference"]["friction_coefficient"]
+        below = e.get("v50_below_m_s") if e["v50_m_s"] is None else None
+        if e["v50_m_s"] is None and below is None:
+            pending.append(f"mu {mu:g} ({e['name']}): {e['shots']} shot(s), {e['method'] or 'not started'}")
+        elif below is not None:
+            text = "dea-mpi: every shot so far perforated, V50 below the slowest"
+            axes.plot([mu], [below], "v", color="tab:green", linestyle="none",
+                      label=text if text not in axes.get_legend_handles_labels()[1] else None)
+            axes.annotate("", xy=(mu, below - 30.0), xytext=(mu, below), arrowprops=dict(arrowstyle="->", color="tab:green"))
+    drawn = [e for e in chosen if e["v50_m_s"] is not None]
+    if drawn:
+        xs = [e["seed_reference"]["friction_coefficient"] for e in drawn]
+        vs = [e["v50_m_s"] for e in drawn]
+        errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
+        axes.errorbar(xs, vs, yerr=errors, fmt="-", color="tab:green", capsize=4, label="dea-mpi, I0 (bisection bracket)")
+        for x, v, e in zip(xs, vs, drawn):
+            hollow = e.get("v50_low_established") is False
+            axes.plot([x], [v], "o", color="tab:green", mfc="white" if hollow else "tab:green")
+    axes.set_xlabel("fibre-fibre friction coefficient (the cylinder's stays 0.3)")
+    axes.set_ylabel("V50 [m/s]")
+    axes.set_title("The 64-fibre KM2 yarn against friction (seed §5.3, Table 5-3)")
+    axes.set_xlim(0, 2.2)
+    axes.set_ylim(0, 200)
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=7, loc="upper right")
+    if pending:
+        figure.text(0.01, 0.01, "not yet bracketed: " + "; ".join(pending), fontsize=6, wrap=True)
+    figure.tight_layout(rect=(0, 0.1 if pending else 0, 1, 1))
+    figure.savefig(out, dpi=130)
+    print(out)
+
+
+draw_friction(entries, args.friction_out)
 for e in sorted(entries, key=lambda e: (e["fibres_per_yarn"], e["name"])):
     shots = ", ".join(
         f"{r['velocity_m_s']:.1f} {'P' if r['perforated'] else 'S'}" for r in sorted(e["shot_records"], key=lambda r: r["velocity_m_s"])

@@ -43,6 +43,7 @@ print('layers in number order')"
 check traces-plot-names-an-unknown-campaign bash -c "! /usr/bin/python3 scripts/plot-traces.py no-such-campaign --out $work/none.png 2>$work/none.err && grep -q \"no campaign 'no-such-campaign'\" $work/none.err"
 # the validation figures of docs/img, drawn from the committed validation/summary.json and traces
 check validation-plot bash -c "/usr/bin/python3 scripts/plot-validation.py --out $work/validation-v50.png && test -s $work/validation-v50.png"
+check single-yarn-plots bash -c "/usr/bin/python3 scripts/plot-single-yarn.py --out $work/single-yarn.png --friction-out $work/single-yarn-friction.png && test -s $work/single-yarn.png && test -s $work/single-yarn-friction.png"
 check residuals-plot bash -c "/usr/bin/python3 scripts/plot-residuals.py --out $work/validation-residuals.png && test -s $work/validation-residuals.png"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
