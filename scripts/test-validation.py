@@ -416,12 +416,14 @@ class UpAndDown(unittest.TestCase):
                  shot(225.0, "P", 61.6, 3)]
         e = self.entry_of(shots, {"Ok": {"v50": 217.7, "count": 3}})
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (215.625, 217.7, 225.0))
-        self.assertIn("around those that mix (218.8 m/s): 215.6–225.0 m/s", e["method"])
+        self.assertIn("around those that mix (218.8 m/s): 215.6–225.0 m/s;", e["method"])
         self.assertIs(e["v50_low_established"], True)
         # nothing above the mixed speed went through every time: the range ends there
         e = self.entry_of(shots[:3], {"Err": "3 shots of each outcome are needed"})
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (215.625, 217.1875, 218.75))
         self.assertTrue(e["method"].startswith("The nearest speeds with one outcome"))
+        self.assertIn("215.6–218.8 m/s (none above: the range ends at the mixed speed)", e["method"])
+        self.assertNotIn("none below", e["method"])
 
     def test_firth_within_the_speeds_fired_gives_its_v50_and_interval(self):
         # the 4-layer series' shape: mixed at 218.75 only; Firth's interval lies within the

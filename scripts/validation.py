@@ -360,8 +360,13 @@ def entry(c, campaigns=(), report=None):
                 midpoint_words = "bracket (highest partial, lowest complete) and its midpoint"
                 if mixed:
                     at = f"{zone[0]:.1f} m/s" if zone[0] == zone[1] else f"{zone[0]:.1f}–{zone[1]:.1f} m/s"
+                    # where nothing one-way was fired beyond the mixed speeds, the range
+                    # ends at them, and the words say so rather than call them one-way
+                    beyond = [side for side, end, edge in (("below", low, zone[0]), ("above", high, zone[1]))
+                              if end == edge]
                     bracket_words = (f"the nearest speeds with one outcome around those that mix ({at}): "
-                                     f"{low:.1f}–{high:.1f} m/s")
+                                     f"{low:.1f}–{high:.1f} m/s"
+                                     + ("".join(f" (none {side}: the range ends at the mixed speed)" for side in beyond)))
                     midpoint_words = f"{bracket_words[0].upper()}{bracket_words[1:]}, and its midpoint"
                 # a low end resting only on shots still moving at the end time is not established
                 at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] >= low]
