@@ -123,7 +123,10 @@ def draw_friction(entries, out):
         xs = [e["seed_reference"]["friction_coefficient"] for e in drawn]
         vs = [e["v50_m_s"] for e in drawn]
         errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
-        axes.errorbar(xs, vs, yerr=errors, fmt="-", color="tab:green", capsize=4, label="dea-mpi, I0 (bisection bracket)")
+        # brackets unjoined: a line through their midpoints would draw a trend the brackets
+        # do not resolve
+        axes.errorbar(xs, vs, yerr=errors, fmt="none", color="tab:green", capsize=4,
+                      label="dea-mpi, I0 (bisection bracket, its midpoint)")
         for x, v, e in zip(xs, vs, drawn):
             hollow = e.get("v50_low_established") is False
             axes.plot([x], [v], "o", color="tab:green", mfc="white" if hollow else "tab:green")
