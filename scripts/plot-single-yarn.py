@@ -40,6 +40,38 @@ args = parser.parse_args()
 with open(os.path.join(ROOT, "validation", "summary.json")) as f:
     entries = [e for e in json.load(f) if e["series"] == "single_yarn"]
 
+def draw_bound(axes, x, below, colour):
+    """A bisection whose every shot so far went through (validation.py's v50_below_m_s, which
+    counts re-fired shots): the V50 lies below its slowest, a downward triangle (filled: the
+    seed's are hollow) with an arrow beneath."""
+    text = "dea-mpi: every shot so far perforated, V50 below the slowest"
+    axes.plot([x], [below], "v", color=colour, linestyle="none",
+              label=text if text not in axes.get_legend_handles_labels()[1] else None)
+    axes.annotate("", xy=(x, below - 30.0), xytext=(x, below), arrowprops=dict(arrowstyle="->", color=colour))
+
+
+def draw_brackets(axes, xs, drawn, colour, fmt, label):
+    """Bisection brackets at xs with their midpoints, hollow where the bracket's low end was
+    still moving at the end time (validation.py's method)."""
+    vs = [e["v50_m_s"] for e in drawn]
+    errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
+    axes.errorbar(xs, vs, yerr=errors, fmt=fmt, color=colour, capsize=4, label=label)
+    for x, v, e in zip(xs, vs, drawn):
+        hollow = e.get("v50_low_established") is False
+        axes.plot([x], [v], "o", color=colour, mfc="white" if hollow else colour)
+
+
+def dress(axes, xlabel, title, xlim, ylim):
+    """Both figures' labels, limits, grid and legend."""
+    axes.set_xlabel(xlabel)
+    axes.set_ylabel("V50 [m/s]")
+    axes.set_title(title)
+    axes.set_xlim(*xlim)
+    axes.set_ylim(*ylim)
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=7, loc="upper right")
+
+
 figure, axes = plt.subplots(figsize=(7.5, 4.6))
 counts = sorted(validation.TABLE_5_2_I0)
 axes.plot(counts, [validation.TABLE_5_2_I0[n] for n in counts], "g^--", mfc="white", label="seed Table 5-2, I0")
@@ -58,34 +90,14 @@ for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
     )
     drawn = [e for e in chosen if e["v50_m_s"] is not None]
     pending += [f"{e['name']}: {e['shots']} shot(s), {e['method'] or 'not started'}" for e in chosen if e["v50_m_s"] is None]
-    # a bisection whose every shot so far went through (validation.py's v50_below_m_s, which
-    # counts re-fired shots): the V50 lies below its slowest, a downward triangle (filled:
-    # the seed's are hollow) with an arrow beneath
     for e in chosen:
         below = e.get("v50_below_m_s") if e["v50_m_s"] is None else None
         if below is not None:
-            x = e["fibres_per_yarn"] + shift
-            text = "dea-mpi: every shot so far perforated, V50 below the slowest"
-            axes.plot([x], [below], "v", color=colour, linestyle="none",
-                      label=text if text not in axes.get_legend_handles_labels()[1] else None)
-            axes.annotate("", xy=(x, below - 30.0), xytext=(x, below), arrowprops=dict(arrowstyle="->", color=colour))
-    if not drawn:
-        continue
-    xs = [e["fibres_per_yarn"] + shift for e in drawn]
-    vs = [e["v50_m_s"] for e in drawn]
-    errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
-    axes.errorbar(xs, vs, yerr=errors, fmt="-", color=colour, capsize=4, label=f"dea-mpi, {label} (bisection bracket)")
-    # hollow where the bracket's low end was still moving at the end time (validation.py's method)
-    for x, v, e in zip(xs, vs, drawn):
-        hollow = e.get("v50_low_established") is False
-        axes.plot([x], [v], "o", color=colour, mfc="white" if hollow else colour)
-axes.set_xlabel("digital fibres per yarn")
-axes.set_ylabel("V50 [m/s]")
-axes.set_title("One KM2 yarn struck by a 5.56 mm cylinder (seed §5.3)")
-axes.set_xlim(0, 205)
-axes.set_ylim(0, 320)
-axes.grid(alpha=0.3)
-axes.legend(fontsize=7, loc="upper right")
+            draw_bound(axes, e["fibres_per_yarn"] + shift, below, colour)
+    if drawn:
+        draw_brackets(axes, [e["fibres_per_yarn"] + shift for e in drawn], drawn, colour, "-",
+                      f"dea-mpi, {label} (bisection bracket)")
+dress(axes, "digital fibres per yarn", "One KM2 yarn struck by a 5.56 mm cylinder (seed §5.3)", (0, 205), (0, 320))
 if pending:
     figure.text(0.01, 0.01, "hollow: the bracket's low end was undecided at the end time. not yet bracketed: "
                 + "; ".join(pending), fontsize=6, wrap=True)
@@ -114,29 +126,15 @@ def draw_friction(entries, out):
         if e["v50_m_s"] is None and below is None:
             pending.append(f"mu {mu:g} ({e['name']}): {e['shots']} shot(s), {e['method'] or 'not started'}")
         elif below is not None:
-            text = "dea-mpi: every shot so far perforated, V50 below the slowest"
-            axes.plot([mu], [below], "v", color="tab:green", linestyle="none",
-                      label=text if text not in axes.get_legend_handles_labels()[1] else None)
-            axes.annotate("", xy=(mu, below - 30.0), xytext=(mu, below), arrowprops=dict(arrowstyle="->", color="tab:green"))
+            draw_bound(axes, mu, below, "tab:green")
     drawn = [e for e in chosen if e["v50_m_s"] is not None]
     if drawn:
-        xs = [e["seed_reference"]["friction_coefficient"] for e in drawn]
-        vs = [e["v50_m_s"] for e in drawn]
-        errors = [[v - e["v50_low_m_s"] for v, e in zip(vs, drawn)], [e["v50_high_m_s"] - v for v, e in zip(vs, drawn)]]
         # brackets unjoined: a line through their midpoints would draw a trend the brackets
         # do not resolve
-        axes.errorbar(xs, vs, yerr=errors, fmt="none", color="tab:green", capsize=4,
-                      label="dea-mpi, I0 (bisection bracket, its midpoint)")
-        for x, v, e in zip(xs, vs, drawn):
-            hollow = e.get("v50_low_established") is False
-            axes.plot([x], [v], "o", color="tab:green", mfc="white" if hollow else "tab:green")
-    axes.set_xlabel("fibre-fibre friction coefficient (the cylinder's stays 0.3)")
-    axes.set_ylabel("V50 [m/s]")
-    axes.set_title("The 64-fibre KM2 yarn against friction (seed §5.3, Table 5-3)")
-    axes.set_xlim(0, 2.2)
-    axes.set_ylim(0, 200)
-    axes.grid(alpha=0.3)
-    axes.legend(fontsize=7, loc="upper right")
+        draw_brackets(axes, [e["seed_reference"]["friction_coefficient"] for e in drawn], drawn, "tab:green",
+                      "none", "dea-mpi, I0 (bisection bracket, its midpoint)")
+    dress(axes, "fibre-fibre friction coefficient (the cylinder's stays 0.3)",
+          "The 64-fibre KM2 yarn against friction (seed §5.3, Table 5-3)", (0, 2.2), (0, 200))
     if pending:
         figure.text(0.01, 0.01, "not yet bracketed: " + "; ".join(pending), fontsize=6, wrap=True)
     figure.tight_layout(rect=(0, 0.1 if pending else 0, 1, 1))
