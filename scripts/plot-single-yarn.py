@@ -40,6 +40,7 @@ args = parser.parse_args()
 with open(os.path.join(ROOT, "validation", "summary.json")) as f:
     entries = [e for e in json.load(f) if e["series"] == "single_yarn"]
 
+
 def draw_bound(axes, x, below, colour):
     """A bisection whose every shot so far went through (validation.py's v50_below_m_s, which
     counts re-fired shots): the V50 lies below its slowest, a downward triangle (filled: the
