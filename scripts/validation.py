@@ -366,7 +366,7 @@ def entry(c, campaigns=(), report=None):
                               if end == edge]
                     bracket_words = (f"the nearest speeds with one outcome around those that mix ({at}): "
                                      f"{low:.1f}–{high:.1f} m/s"
-                                     + ("".join(f" (none {side}: the range ends at the mixed speed)" for side in beyond)))
+                                     + "".join(f" (none {side}: the range ends at the mixed speed)" for side in beyond))
                     midpoint_words = f"{bracket_words[0].upper()}{bracket_words[1:]}, and its midpoint"
                 # a low end resting only on shots still moving at the end time is not established
                 at_low = [s for s in c.shots if not s["perforated"] and s["velocity_m_s"] >= low]
