@@ -543,13 +543,29 @@ class ShotTables(unittest.TestCase):
         text = validation.shots_markdown(campaigns, [validation.entry(c, campaigns) for c in campaigns])
         self.assertIn("## yarn-t-d-i-inf", text)
         self.assertIn("bisection from [25, 300] m/s to 10 m/s; 3 on record, in progress.", text)
-        self.assertIn("| r000-00000 | 162.50 | 0.50 | -1.25 | +0.00 | perforated | 160.0 | 1000 | 0.00 |", text)
+        self.assertIn("| r000-00000 | 162.50 | 0.50 | -1.25 | +0.00 | perforated | 160.0 | 1000 | – | – | – | 0.00 |", text)
         self.assertIn("| r000-00001 | 59.38 | – | – | – | stopped (turned back) | -0.4 |", text)
         self.assertIn("| r000-00002 | 42.19 | – | – | – | undecided at the end time | 22.3 |", text)
         # the bracket the entry gives is the table's too
         self.assertIn("V50 110.9 m/s (59.4–162.5)", text)
         self.assertNotIn("## layers-t", text)
         self.assertIn("## Not fired yet\n\n`layers-t`.", text)
+
+    def test_a_shot_with_a_trace_shows_when_it_ended_and_its_breaks_by_mode_and_layer(self):
+        import tempfile
+        fired = campaign("layers-t", FIXTURE_CASE, BISECTION, [shot(212.5, "S", -0.1, 0), shot(225.0, "P", 40.0, 1)])
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            os.makedirs(os.path.join(results, "layers-t", "shots"))
+            with open(validation.trace_path("layers-t", "r000-00000"), "w") as f:
+                # layers out of order in the header, and past 9: read by number, not by name
+                f.write("time_s,broken_tension,broken_shear,broken_combined,broken_layer_10,broken_layer_2,broken_layer_0\n"
+                        "0,0,0,0,0,0,0\n1.344e-4,1307,108,357,0,629,511\n")
+            # a single yarn's trace: modes but no layers
+            with open(validation.trace_path("layers-t", "r000-00001"), "w") as f:
+                f.write("time_s,broken_tension,broken_shear,broken_combined\n2.5e-4,3,0,1\n")
+            text = validation.shots_markdown([fired], [validation.entry(fired, [fired])])
+        self.assertIn("| 1000 | 134.4 | 1307 / 108 / 357 | 511 / 629 / 0 | 0.00 |", text)
+        self.assertIn("| 1000 | 250.0 | 3 / 0 / 1 | – | 0.00 |", text)
 
 
 class Traces(unittest.TestCase):

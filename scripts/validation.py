@@ -563,7 +563,10 @@ def shots_markdown(campaigns, entries):
              "drawn (the scatter of the campaign file), *left* the projectile's speed when the shot ended "
              "(for a stopped shot, about zero or slightly negative: it turned back), *core-h* the wall time "
              "times ranks (walls of shots fired beside another loop before 2026-11-28 overstate it, "
-             "docs/validation.md). Campaigns with no shot yet are listed at the end.", ""]
+             "docs/validation.md), *ended* the simulated time of the shot's last trace row, *breaks* the "
+             "elements broken by then in tension, shear and combined failure (docs/theory.md I10) and by layer, struck "
+             "face first (\"–\" for shots fired before traces were kept). Campaigns with no shot yet are listed at "
+             "the end.", ""]
     waiting = []
     for c, e in zip(campaigns, entries):
         if not c.shots:
@@ -580,15 +583,18 @@ def shots_markdown(campaigns, entries):
             described += f" {e['method'][0].upper()}{e['method'][1:]}."
         lines.append(described)
         lines.append("")
-        lines.append("| shot | striking (m/s) | aim (mm) | yaw (°) | obliquity (°) | outcome | left (m/s) | steps | core-h |")
-        lines.append("|---|---|---|---|---|---|---|---|---|")
+        lines.append("| shot | striking (m/s) | aim (mm) | yaw (°) | obliquity (°) | outcome | left (m/s) | steps "
+                     "| ended (µs) | breaks: tension / shear / combined | breaks by layer | core-h |")
+        lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for s in sorted(c.shots, key=lambda s: s["id"]):
             aim = s.get("aim_offset_m")
             aim = f"{1e3 * (aim[0] ** 2 + aim[1] ** 2) ** 0.5:.2f}" if aim is not None else "–"
             yaw = f"{s['yaw_deg']:+.2f}" if "yaw_deg" in s else "–"
             obliquity = f"{s['obliquity_deg']:+.2f}" if "obliquity_deg" in s else "–"
+            ended, modes, layers = trace_end_words(c.name, s["id"])
             lines.append(f"| {s['id']} | {s['velocity_m_s']:.2f} | {aim} | {yaw} | {obliquity} | {outcome_words(s)} "
-                         f"| {s['residual_velocity_m_s']:.1f} | {s['steps']} | {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
+                         f"| {s['residual_velocity_m_s']:.1f} | {s['steps']} | {ended} | {modes} | {layers} "
+                         f"| {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
         lines.append("")
     pools = [e for e in entries if e.get("pooled_from")]
     if pools:
@@ -655,6 +661,28 @@ def write_trace(name, shot_id):
             writer.writerow([row[k] for k in kept])
     os.replace(path + ".partial", path)
     return path
+
+
+def trace_end_words(name, shot_id):
+    """What a shot's trace says of its end, as shots.md prints it: the simulated time of its
+    last row in µs, the broken elements by failure mode (tension / shear / combined, theory
+    I10) and by layer, struck face first. Each "–" where the shot has no trace (those fired
+    before traces were kept) or the trace lacks the columns (a single yarn has no layers)."""
+    try:
+        with open(trace_path(name, shot_id), newline="") as f:
+            rows = list(csv.reader(f))
+    except OSError:
+        return "–", "–", "–"
+    if len(rows) < 2:
+        return "–", "–", "–"
+    last = dict(zip(rows[0], rows[-1]))
+    ended = f"{float(last['time_s']) * 1e6:.1f}" if "time_s" in last else "–"
+    modes = ("–" if any(f"broken_{m}" not in last for m in ("tension", "shear", "combined"))
+             else " / ".join(last[f"broken_{m}"] for m in ("tension", "shear", "combined")))
+    layers = [(int(column[len("broken_layer_"):]), value) for column, value in last.items()
+              if re.fullmatch(r"broken_layer_\d+", column)]
+    layers = " / ".join(value for _, value in sorted(layers)) if layers else "–"
+    return ended, modes, layers
 
 
 def write_missing_traces(campaigns):
