@@ -560,7 +560,7 @@ class ShotTables(unittest.TestCase):
                 # layers out of order in the header, and past 9: read by number, not by name
                 f.write("time_s,broken_tension,broken_shear,broken_combined,broken_layer_10,broken_layer_2,broken_layer_0\n"
                         "0,0,0,0,0,0,0\n1.344e-4,1307,108,357,0,629,511\n")
-            # a single yarn's trace: modes but no layers
+            # a trace without layer columns
             with open(validation.trace_path("layers-t", "r000-00001"), "w") as f:
                 f.write("time_s,broken_tension,broken_shear,broken_combined\n2.5e-4,3,0,1\n")
             text = validation.shots_markdown([fired], [validation.entry(fired, [fired])])

@@ -667,7 +667,7 @@ def trace_end_words(name, shot_id):
     """What a shot's trace says of its end, as shots.md prints it: the simulated time of its
     last row in µs, the broken elements by failure mode (tension / shear / combined, theory
     I10) and by layer, struck face first. Each "–" where the shot has no trace (those fired
-    before traces were kept) or the trace lacks the columns (a single yarn has no layers)."""
+    before traces were kept) or the trace lacks those columns."""
     try:
         with open(trace_path(name, shot_id), newline="") as f:
             rows = list(csv.reader(f))
