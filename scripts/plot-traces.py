@@ -35,10 +35,7 @@ def read_trace(path):
     return {name: [float(row[k]) for row in body] for k, name in enumerate(header)}
 
 
-def layer_columns(trace):
-    """The trace's `broken_layer_<k>` columns in layer order (k as a number: 2 before 10)."""
-    columns = [c for c in trace if c.startswith("broken_layer_")]
-    return sorted(columns, key=lambda c: int(c.rsplit("_", 1)[1]))
+layer_columns = validation.layer_columns
 
 
 def outcome(record):

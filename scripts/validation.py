@@ -679,10 +679,14 @@ def trace_end_words(name, shot_id):
     ended = f"{float(last['time_s']) * 1e6:.1f}" if "time_s" in last else "–"
     modes = ("–" if any(f"broken_{m}" not in last for m in ("tension", "shear", "combined"))
              else " / ".join(last[f"broken_{m}"] for m in ("tension", "shear", "combined")))
-    layers = [(int(column[len("broken_layer_"):]), value) for column, value in last.items()
-              if re.fullmatch(r"broken_layer_\d+", column)]
-    layers = " / ".join(value for _, value in sorted(layers)) if layers else "–"
+    layers = " / ".join(last[column] for column in layer_columns(last)) or "–"
     return ended, modes, layers
+
+
+def layer_columns(trace):
+    """The trace's `broken_layer_<k>` columns in layer order (k as a number: 2 before 10)."""
+    columns = [c for c in trace if c.startswith("broken_layer_")]
+    return sorted(columns, key=lambda c: int(c.rsplit("_", 1)[1]))
 
 
 def write_missing_traces(campaigns):
