@@ -47,7 +47,8 @@ CAMPAIGNS = [
     ("layers-4-3in-step-3.125", "2 ranks, the host to itself (2026-11-29)", True),
     ("panel-6in-4-layers", "2 ranks, the host to itself (2026-11-29)", True),
     ("mesh-layers-4-3in-7-fibres", "2 ranks; the first four beside a CI run or a build for a third to two "
-     "thirds of each shot, the fifth (r000-00004) nearly alone", False),
+     "thirds of each shot, the fifth (r000-00004) nearly alone, the sixth (r000-00005) beside a CI run "
+     "for most of it", False),
     ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
     ("layers-12-3in", "2 ranks; r000-00002 the host to itself, the other three beside a CI run for part "
      "of the shot (2026-11-30)", False),
