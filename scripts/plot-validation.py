@@ -154,7 +154,8 @@ if not draw(layer_axes, layers, layer_position, layer_label,
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 # the mesh series' limits beside the layer series' (to the right of their layer count): how far
 # the fibre count, the coarse element length or multi-rate stepping move the V50
-meshes = sorted((e for e in entries if e["series"] == "mesh" and e["v50_m_s"] is not None), key=lambda e: e["name"])
+meshes = sorted((e for e in entries if e["series"] == "mesh" and e["v50_m_s"] is not None
+                 and e["name"] not in refining), key=lambda e: e["name"])
 
 
 def mesh_label(e):
@@ -169,6 +170,10 @@ def mesh_label(e):
         words.append(f"coarse l0/d {e['coarse_element_length_ratio']:g}")
     if e.get("multi_rate"):
         words.append("multi-rate")
+    if e.get("pooled_from"):
+        # a pooled entry shares its first campaign's mesh: without this its label repeats that
+        # campaign's and the legend would show only one of the two points
+        words.append(f"{len(e['pooled_from'])} series pooled")
     return f"dea-mpi, {1000 * e['side_m']:.0f} mm panel, {', '.join(words)} ({estimate_words(e['method'])})"
 
 

@@ -409,6 +409,31 @@ class UpAndDown(unittest.TestCase):
         self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (218.75, 221.875, 225.0))
         self.assertIn("217.7 m/s, falls outside it", e["method"])
 
+    def ml_entry(self, shots, profile):
+        c = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, shots)
+        report = {"logistic": {"Ok": {"v50": {"velocity": 210.0, "low": 206.0, "high": 214.0,
+                                              "profile_low": profile[0], "profile_high": profile[1]}}},
+                  "mil_std_662f": {"Ok": {"v50": 209.9, "count": 3}},
+                  "firth_logistic": {"Ok": {"v50": {"velocity": 210.0, "profile_low": 44.1, "profile_high": 377.9}}}}
+        with mock.patch.object(validation, "campaign_report", lambda c: report):
+            return validation.entry(c, [c])
+
+    def test_a_logistic_fit_whose_profile_interval_leaves_the_speeds_fired_is_not_quoted(self):
+        # the 7-fibre series' seven shots (2026-12-01): a maximum-likelihood fit exists, its
+        # delta interval is 206-214 m/s, but its profile interval has no low end
+        shots = [shot(206.25, "S", -0.5, 0), shot(206.25, "S", -0.4, 1), shot(209.375, "P", 27.0, 2),
+                 shot(212.5, "P", 48.5, 3), shot(212.5, "P", 30.0, 4), shot(212.5, "S", -0.2, 5),
+                 shot(218.75, "P", 57.3, 6)]
+        e = self.ml_entry(shots, (None, 307.5))
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (206.25, 209.9, 218.75))
+        self.assertIn("profile-likelihood interval (no end to 307.5 m/s) reaches beyond the speeds fired "
+                      "(206.2–218.8 m/s)", e["method"])
+        self.assertTrue(e["method"].startswith("MIL-STD-662F mean of the 3"))
+        # the same shots with a profile interval inside the speeds fired quote the delta interval
+        e = self.ml_entry(shots, (207.0, 214.0))
+        self.assertEqual((e["v50_low_m_s"], e["v50_m_s"], e["v50_high_m_s"]), (206.0, 210.0, 214.0))
+        self.assertEqual(e["method"], "logistic maximum likelihood, 95 % interval (delta method)")
+
     def test_outcomes_mixed_at_one_speed_give_the_speeds_around_it(self):
         # both outcomes at 218.75 m/s: the logistic has no maximum (quasi-complete separation),
         # so the range is the nearest speeds at which every shot went one way
@@ -505,7 +530,8 @@ class Pools(unittest.TestCase):
         finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN,
                          [shot(212.5, "S", -0.3, 0), shot(218.75, "P", 20.0, 1), shot(212.5, "P", 10.0, 2)])
         pooled_shots = [dict(s, id=f"{c.name}/{s['id']}") for c in (coarse, finer) for s in c.shots]
-        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 213.0, "low": 205.0, "high": 221.0}}}}
+        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 213.0, "low": 205.0, "high": 221.0,
+                                                                              "profile_low": 207.0, "profile_high": 222.0}}}}
         e = validation.pooled_entry(coarse, [finer], [coarse, finer], report)
         self.assertEqual(e["name"], "layers-t + step-6.25")
         self.assertEqual(e["pooled_from"], ["layers-t", "layers-t-step-6.25"])
@@ -522,7 +548,8 @@ class Pools(unittest.TestCase):
         finer = campaign("layers-t-step-6.25", FIXTURE_CASE, self.UP_AND_DOWN, [shot(212.5, "S", -0.3, 0)])
         finest = campaign("layers-t-step-3.125", FIXTURE_CASE, self.UP_AND_DOWN, [shot(215.625, "P", 5.0, 0)])
         pooled_shots = [dict(s, id=f"{c.name}/{s['id']}") for c in (coarse, finer, finest) for s in c.shots]
-        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 214.0, "low": 207.0, "high": 221.0}}}}
+        report = {"shots": pooled_shots, "logistic": {"Ok": {"v50": {"velocity": 214.0, "low": 207.0, "high": 221.0,
+                                                                              "profile_low": 208.0, "profile_high": 222.0}}}}
         every = [coarse, finer, finest]
         e = validation.pooled_entry(coarse, [finer, finest], every, report)
         self.assertEqual(e["name"], "layers-t + step-6.25 + step-3.125")

@@ -330,9 +330,15 @@ def entry(c, campaigns=(), report=None):
         outcomes_mix = bool(partials and completes) and max(partials) >= min(completes)
         firth_bounded = (firth is not None and None not in (firth["profile_low"], firth["profile_high"])
                          and min(speeds) <= firth["profile_low"] and firth["profile_high"] <= max(speeds))
-        if "Ok" in fit:
-            f = fit["Ok"]["v50"]
-            v50, low, high = f["velocity"], f["low"], f["high"]
+        # the maximum-likelihood logistic's delta-method interval is a normal approximation;
+        # with few shots the likelihood is far from normal, which its profile interval shows by
+        # reaching beyond the speeds fired (or having no end): then the shots do not fix the
+        # curve's slope and the narrow delta interval is not theirs, so it is not quoted
+        ml = fit.get("Ok", {}).get("v50")
+        ml_bounded = (ml is not None and None not in (ml.get("profile_low"), ml.get("profile_high"))
+                      and min(speeds) <= ml["profile_low"] and ml["profile_high"] <= max(speeds))
+        if ml_bounded:
+            v50, low, high = ml["velocity"], ml["low"], ml["high"]
             method = "logistic maximum likelihood, 95 % interval (delta method)"
         elif firth_bounded and outcomes_mix:
             v50, low, high = firth["velocity"], firth["profile_low"], firth["profile_high"]
@@ -344,7 +350,16 @@ def entry(c, campaigns=(), report=None):
                 method += (f"; {len(undecided)} partial(s) were undecided at the end time and count as partials, "
                            f"so the interval's low end is not established")
         else:
-            method = "logistic: " + str(fit.get("Err", "no fit"))
+            if ml is not None:
+                def end(v):
+                    return "no end" if v is None else f"{v:.1f}"
+                reason = (f"its V50 {ml['velocity']:.1f} m/s has a 95 % delta-method interval of {ml['low']:.1f}–"
+                          f"{ml['high']:.1f} m/s, but its profile-likelihood interval ({end(ml.get('profile_low'))} to "
+                          f"{end(ml.get('profile_high'))} m/s) reaches beyond the speeds fired ({min(speeds):.1f}–"
+                          f"{max(speeds):.1f} m/s): too few shots to fix the curve's slope")
+            else:
+                reason = str(fit.get("Err", "no fit"))
+            method = "logistic: " + reason
             # without a fit, MIL-STD-662F's mean within the bracket of the highest partial and
             # the lowest complete penetration, which is its range; when outcomes mix only where
             # the logistic still has no maximum (both at one speed: quasi-complete separation),
