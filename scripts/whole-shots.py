@@ -49,6 +49,8 @@ CAMPAIGNS = [
     ("mesh-layers-4-3in-7-fibres", "2 ranks; the first four beside a CI run or a build for a third to two "
      "thirds of each shot, the fifth (r000-00004) nearly alone, the sixth (r000-00005) beside a CI run "
      "for most of it", False),
+    ("mesh-layers-4-3in-7-fibres-step-3.125", "2 ranks; r000-00000 beside the end of a CI run for its "
+     "first ten minutes, then alone (2026-12-01)", False),
     ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
     ("layers-12-3in", "2 ranks; r000-00002 the host to itself, the other three beside a CI run for part "
      "of the shot (2026-11-30)", False),
