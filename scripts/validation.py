@@ -328,16 +328,18 @@ def entry(c, campaigns=(), report=None):
         partials = [s["velocity_m_s"] for s in c.shots if not s["perforated"]]
         completes = [s["velocity_m_s"] for s in c.shots if s["perforated"]]
         outcomes_mix = bool(partials and completes) and max(partials) >= min(completes)
-        firth_bounded = (firth is not None and None not in (firth["profile_low"], firth["profile_high"])
-                         and min(speeds) <= firth["profile_low"] and firth["profile_high"] <= max(speeds))
+
+        def profile_within_speeds(estimate):
+            # a profile interval with both ends, inside the slowest and fastest speeds fired
+            ends = None if estimate is None else (estimate.get("profile_low"), estimate.get("profile_high"))
+            return ends is not None and None not in ends and min(speeds) <= ends[0] and ends[1] <= max(speeds)
+        firth_bounded = profile_within_speeds(firth)
         # the maximum-likelihood logistic's delta-method interval is a normal approximation;
         # with few shots the likelihood is far from normal, which its profile interval shows by
         # reaching beyond the speeds fired (or having no end): then the shots do not fix the
         # curve's slope and the narrow delta interval is not theirs, so it is not quoted
         ml = fit.get("Ok", {}).get("v50")
-        ml_bounded = (ml is not None and None not in (ml.get("profile_low"), ml.get("profile_high"))
-                      and min(speeds) <= ml["profile_low"] and ml["profile_high"] <= max(speeds))
-        if ml_bounded:
+        if profile_within_speeds(ml):
             v50, low, high = ml["velocity"], ml["low"], ml["high"]
             method = "logistic maximum likelihood, 95 % interval (delta method)"
         elif firth_bounded and outcomes_mix:
