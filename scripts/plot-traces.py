@@ -99,7 +99,9 @@ def main():
                                  label=f"layer {column.rsplit('_', 1)[1]}" if n == 0 else None)
     speed_axes.axhline(0.0, color="grey", linewidth=0.8)
     speed_axes.set_ylabel("velocity along the shot line [m/s]")
-    speed_axes.set_title("The projectile's course, shot by shot (" + ", ".join(args.campaigns) + ")")
+    # one campaign name per line: two long names on one line ran past the figure's edge
+    speed_axes.set_title("The projectile's course, shot by shot\n" + "\n".join(args.campaigns),
+                         fontsize=10)
     speed_axes.grid(alpha=0.3)
     speed_axes.legend(fontsize=7)
     if per_shot:
