@@ -738,6 +738,56 @@ class WholeShots(unittest.TestCase):
             self.assertTrue(any("campaigns[0] (panel-t).shots" in p for p in problems), problems)
             self.assertTrue(any(p.startswith("bands") for p in problems), problems)
 
+    def test_a_new_record_refreshes_its_campaign_in_the_file_with_the_price_it_holds(self):
+        with tempfile.TemporaryDirectory() as root, \
+                mock.patch.object(whole_shots.validation, "RESULTS", os.path.join(root, "validation")), \
+                mock.patch.object(whole_shots, "OUT", os.path.join(root, "whole-shots.json")), \
+                mock.patch.object(whole_shots, "CAMPAIGNS", [("panel-t", "alone", True)]):
+            self.records(root, [(1000, 90.0)])
+            entries = [{"campaign": "panel-t", "target_kind": "woven_panel", "conditions": "alone", "in_band": True,
+                        "predicted_step_s": {"2": 0.05}, "shots": whole_shots.measured("panel-t", {"2": 0.05})}]
+            with open(whole_shots.OUT, "w") as f:
+                f.write(whole_shots.json.dumps({"campaigns": entries, "bands": whole_shots.bands(entries)}))
+            # a campaign the script does not list, or records the file already follows: untouched
+            self.assertIsNone(whole_shots.refresh("yarn-t"))
+            self.assertIsNone(whole_shots.refresh("panel-t"))
+            with open(os.path.join(root, "validation", "panel-t", "shots", "r000-00001.json"), "w") as f:
+                f.write(whole_shots.json.dumps({"id": "r000-00001", "velocity_m_s": 201.0, "steps": 2000,
+                                                "wall_s": 240.0, "ranks": 2}))
+            self.assertEqual(whole_shots.check()[0][:30], "campaigns[0] (panel-t).shots: ")
+            with contextlib.redirect_stderr(io.StringIO()) as said:
+                self.assertEqual(whole_shots.refresh("panel-t"), whole_shots.OUT)
+            self.assertIn("panel-t has 2 shot(s) now", said.getvalue())
+            self.assertEqual(whole_shots.check(), [])
+            with open(whole_shots.OUT) as f:
+                document = whole_shots.json.load(f)
+            self.assertEqual([s["factor"] for s in document["campaigns"][0]["shots"]], [1.8, 2.4])
+            self.assertEqual(document["bands"]["woven_panel"]["high"], 2.4)
+            # a shot on a rank count the file has no price for: left for --write, and said so
+            with open(os.path.join(root, "validation", "panel-t", "shots", "r000-00002.json"), "w") as f:
+                f.write(whole_shots.json.dumps({"id": "r000-00002", "velocity_m_s": 202.0, "steps": 2000,
+                                                "wall_s": 240.0, "ranks": 1}))
+            with contextlib.redirect_stderr(io.StringIO()) as said:
+                self.assertIsNone(whole_shots.refresh("panel-t"))
+            self.assertIn("no step priced on 1 rank(s)", said.getvalue())
+
+    def test_the_commit_of_a_record_carries_the_refreshed_file(self):
+        c = campaign("layers-t", FIXTURE_CASE, {"kind": "up_and_down"}, [at(212.5, "S", 0, 0)])
+        committed = []
+        with tempfile.TemporaryDirectory() as results, mock.patch.object(validation, "RESULTS", results):
+            refreshed = os.path.join(results, "whole-shots.json")
+            with open(refreshed, "w") as f:
+                f.write("{}")
+            with mock.patch.object(validation, "git_commit_paths", lambda paths, *_: committed.extend(paths)), \
+                    mock.patch.object(validation, "refresh_whole_shots", lambda name: refreshed):
+                validation.commit(c, ["r000-00000"])
+            self.assertIn(refreshed, committed)
+            committed.clear()
+            with mock.patch.object(validation, "git_commit_paths", lambda paths, *_: committed.extend(paths)):
+                # the real refresh: a campaign the whole-shots script does not list leaves the file alone
+                validation.commit(c, ["r000-00000"])
+            self.assertFalse(any(p.endswith("whole-shots.json") for p in committed), committed)
+
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -38,6 +38,7 @@ campaign by campaign, as tables.
 import argparse
 import csv
 import glob
+import importlib.util
 import json
 import os
 import re
@@ -724,6 +725,11 @@ def commit(c, new_ids):
     paths += [trace_path(c.name, i) for i in new_ids]
     paths += [os.path.join(RESULTS, c.name, f) for f in ("v50.json", "provenance.json")]
     paths += [os.path.join(RESULTS, "summary.json"), os.path.join(RESULTS, "shots.md")]
+    # a campaign whose whole shots price the cost model: its file follows the record in the
+    # same commit, or the test command's `whole-shots.py --check` refuses the tree
+    refreshed = refresh_whole_shots(c.name)
+    if refreshed is not None:
+        paths.append(refreshed)
     paths = [p for p in paths if os.path.exists(p)]
     shots = {s["id"]: s for s in c.shots}
     words = []
@@ -733,6 +739,16 @@ def commit(c, new_ids):
         words.append(f"{s['velocity_m_s']:.1f} m/s {outcome}")
     body = "\n".join([f"campaign {c.name}"] + [f"{i}: {json.dumps(shots[i])}" for i in new_ids])
     git_commit_paths(paths, commit_subject(c.name, words), body)
+
+
+def refresh_whole_shots(name):
+    """scripts/whole-shots.py's `refresh` of `name` against the records under RESULTS: the
+    path of docs/benchmarks/whole-shots.json when it was rewritten, else None."""
+    spec = importlib.util.spec_from_file_location("whole_shots", os.path.join(ROOT, "scripts", "whole-shots.py"))
+    whole_shots = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(whole_shots)
+    whole_shots.validation.RESULTS = RESULTS
+    return whole_shots.refresh(name)
 
 
 def commit_subject(name, words):

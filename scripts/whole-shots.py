@@ -20,7 +20,10 @@ shot's measured step and factor (measured / predicted), and per target kind (the
 `target.kind`) the lowest and highest factor of the campaigns in the band. The binary embeds
 that file (solver/src/cost.rs, `WholeShots`): `dea-mpi check` prints, beside its price, the
 range a whole shot of that kind has cost, and `jobs/cost.py` and `scripts/validation.py status`
-read it from check's JSON. Write the file, then rebuild.
+read it from check's JSON. Write the file, then rebuild. A shot's commit by `validation.py run
+--commit` refreshes its campaign's entry itself (`refresh`: the price the file holds, the new
+record's step), so the record and the file land together; a new campaign, a new rank count
+or a change of the conditions still takes --write.
 
 `--check` (the test command runs it) re-reads the records and refuses the file when a shot's
 steps or wall time, a factor or a band no longer follow from them, naming the entry: a number
@@ -50,7 +53,9 @@ CAMPAIGNS = [
      "thirds of each shot, the fifth (r000-00004) nearly alone, the sixth (r000-00005) beside a CI run "
      "for most of it", False),
     ("mesh-layers-4-3in-7-fibres-step-3.125", "2 ranks; r000-00000 beside the end of a CI run for its "
-     "first ten minutes, then alone (2026-12-01)", False),
+     "first ten minutes, then alone; r000-00001 beside a CI run for part of it; r000-00002 nearly alone; "
+     "r000-00003 resumed from its checkpoint after a reboot, r000-00003 and r000-00004 beside a session's "
+     "editing and short checks (2026-12-01)", False),
     ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
     ("layers-12-3in", "2 ranks; r000-00002 the host to itself, the other three beside a CI run for part "
      "of the shot (2026-11-30)", False),
@@ -118,12 +123,54 @@ def write(binary):
         "campaigns": entries,
         "bands": bands(entries),
     }
-    with open(OUT, "w") as f:
-        json.dump(document, f, indent=1)
-        f.write("\n")
+    dump(document)
     for kind, band in document["bands"].items():
         print(f"{kind}: {band['low']:.2f}-{band['high']:.2f} times the price per step "
               f"({band['shots']} shots of {', '.join(band['campaigns'])})")
+
+
+def dump(document):
+    with open(OUT, "w") as f:
+        json.dump(document, f, indent=1)
+        f.write("\n")
+
+
+def refresh(name):
+    """Brings `name`'s entry up to the shot records on file, so that the commit which adds a
+    record (`validation.py run --commit`) carries a file that --check accepts: its shots are
+    measured again against the step the file already prices (a shot's commit does not ask
+    `dea-mpi check` again; --write does), and the bands follow. A campaign not in CAMPAIGNS
+    leaves the file alone; one the file lacks, or a shot on a rank count it has no price for,
+    leaves it alone too and says to run --write. The conditions stay as CAMPAIGNS declares
+    them: what else the host was doing is the session's to add. Returns the file's path when
+    it was rewritten, else None."""
+    if name not in [campaign for campaign, _, _ in CAMPAIGNS]:
+        return None
+    try:
+        with open(OUT) as f:
+            document = json.load(f)
+    except (OSError, ValueError) as e:
+        print(f"whole-shots: {os.path.relpath(OUT, ROOT)}: {e}; not refreshed (run --write)", file=sys.stderr)
+        return None
+    entries = [e for e in document["campaigns"] if e["campaign"] == name]
+    if not entries:
+        print(f"whole-shots: {name}: not in {os.path.relpath(OUT, ROOT)} (run --write)", file=sys.stderr)
+        return None
+    entry = entries[0]
+    unpriced = sorted({r["ranks"] for r in shots_of(name)} - {int(k) for k in entry["predicted_step_s"]})
+    if unpriced:
+        print(f"whole-shots: {name}: no step priced on {', '.join(map(str, unpriced))} rank(s) in "
+              f"{os.path.relpath(OUT, ROOT)}; not refreshed (run --write)", file=sys.stderr)
+        return None
+    shots = measured(name, entry["predicted_step_s"])
+    if shots == entry["shots"]:
+        return None
+    entry["shots"] = shots
+    document["bands"] = bands(document["campaigns"])
+    dump(document)
+    print(f"whole-shots: {os.path.relpath(OUT, ROOT)}: {name} has {len(shots)} shot(s) now; state their "
+          f"conditions in scripts/whole-shots.py and rebuild (the binary embeds the file)", file=sys.stderr)
+    return OUT
 
 
 def check():
