@@ -75,10 +75,14 @@ def main():
     speed_axes = figure.add_subplot(grid[0, :])
     shaded = plt.get_cmap("viridis")
     broken_axes = None if per_shot else figure.add_subplot(grid[1, 0], sharex=speed_axes)
+    # ten colours repeat from the eleventh shot on; past ten, tab20's dark ten then its light ten
+    palette = plt.get_cmap("tab10" if len(shots) <= 10 else "tab20")
+    order = list(range(10)) if len(shots) <= 10 else list(range(0, 20, 2)) + list(range(1, 20, 2))
     for n, (name, record, trace) in enumerate(shots):
         time_us = [1e6 * t for t in trace["time_s"]]
         label = f"{name} {record['id']}: {record['velocity_m_s']:g} m/s, {outcome(record)}"
-        line, = speed_axes.plot(time_us, [-v for v in trace["projectile_velocity_z_m_s"]], label=label)
+        line, = speed_axes.plot(time_us, [-v for v in trace["projectile_velocity_z_m_s"]], label=label,
+                                color=palette(order[n % len(order)]))
         layers = layer_columns(trace)
         if per_shot:
             axes = figure.add_subplot(grid[1 + n // columns, n % columns], sharex=speed_axes)
