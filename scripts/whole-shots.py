@@ -55,7 +55,8 @@ CAMPAIGNS = [
     ("mesh-layers-4-3in-7-fibres-step-3.125", "2 ranks; r000-00000 beside the end of a CI run for its "
      "first ten minutes, then alone; r000-00001 beside a CI run for part of it; r000-00002 nearly alone; "
      "r000-00003 resumed from its checkpoint after a reboot, r000-00003 and r000-00004 beside a session's "
-     "editing and short checks (2026-12-01)", False),
+     "editing and short checks (2026-12-01); r000-00005 beside a release build for its first 25 of 82 "
+     "minutes (2026-12-02)", False),
     ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
     ("layers-12-3in", "2 ranks; r000-00002 the host to itself, the other three beside a CI run for part "
      "of the shot (2026-11-30)", False),
