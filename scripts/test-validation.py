@@ -189,6 +189,16 @@ class Run(unittest.TestCase):
             self.assertLessEqual(len(validation.commit_subject(name, words)), 72)
         self.assertEqual(validation.commit_subject("layers-8-3in", ["a"] * 40), "validation: layers-8-3in, 40 shot(s)")
 
+    def test_a_missing_binary_is_named_with_how_to_build_it_not_a_traceback(self):
+        with tempfile.TemporaryDirectory() as directory:
+            missing = os.path.join(directory, "dea-mpi")
+            for given, says in ((missing, "(No such file or directory)"), (None, "build it")):
+                args = types.SimpleNamespace(binary=given, ranks=2)
+                with mock.patch.object(validation, "ROOT", directory), self.assertRaises(SystemExit) as stop:
+                    validation.check(args, "jobs/campaigns/validation/layers-4-3in.json")
+                self.assertIn(os.path.join(directory, "") + ("dea-mpi" if given else "target"), str(stop.exception.code))
+                self.assertIn(says, str(stop.exception.code))
+
     def test_a_shot_is_not_bound_to_the_cores_another_loop_holds(self):
         c = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
         c.path = "jobs/campaigns/validation/layers-t.json"

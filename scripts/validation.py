@@ -111,7 +111,13 @@ def records(name):
 
 def check(args, campaign_path):
     command = [binary(args), "check", campaign_path, "--ranks", str(args.ranks)]
-    done = subprocess.run(command, capture_output=True, text=True)
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as error:
+        # every campaign is checked before anything else runs, so this is where a missing
+        # or unbuilt binary first shows
+        how = "" if args.binary else ": build it (`cargo build --release`, or scripts/setup.sh), or name one with --binary"
+        sys.exit(f"validation.py: cannot run dea-mpi {command[0]} ({error.strerror}){how}")
     if done.returncode != 0:
         sys.exit(f"{campaign_path}: dea-mpi check failed:\n{done.stderr.strip()}")
     return json.loads(done.stdout)
