@@ -89,7 +89,18 @@ def draw(axes, chosen, x, label, colour=lambda e: "tab:blue"):
 
 
 panels = sorted((e for e in entries if e["series"] == "panel_size"), key=lambda e: e["side_m"])
-draw(size_axes, panels, lambda e: 1000 * e["side_m"], lambda e: "dea-mpi, 4 layers (bisection bracket)")
+
+
+def uniform(e):
+    # a panel of the fine fibre count throughout (no coarse yarns, so no layer gap where the
+    # shot strikes) beside the hybrid of the same size: drawn a little to its right
+    return e.get("coarse_fibres_per_yarn") is None
+
+
+draw(size_axes, panels, lambda e: 1000 * e["side_m"] * (1.08 if uniform(e) else 1.0),
+     lambda e: (f"dea-mpi, 4 layers, {e['fibres_per_yarn']} fibres per yarn throughout (bisection bracket)"
+                if uniform(e) else "dea-mpi, 4 layers (bisection bracket)"),
+     lambda e: "tab:cyan" if uniform(e) else "tab:blue")
 # the seed's panels are 15 in, clamped on a 12 in opening: the markers stand at that free span,
 # the lines carry the values across for comparison with the smaller panels run here
 SEED_FREE_SPAN_MM = 12 * 25.4

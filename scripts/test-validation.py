@@ -165,7 +165,7 @@ class PanelLowEnds(unittest.TestCase):
                   "contact": {}, "projectile": {"preset": "fsp_17_grain", "velocity_m_s": 300.0},
                   "run": {"end_time_s": 1.5e-4}}
 
-    def test_a_panel_low_end_merges_by_size_and_layers(self):
+    def test_a_panel_low_end_merges_with_the_same_panel_only(self):
         design = {"kind": "bisection", "low_m_s": 100.0, "high_m_s": 500.0, "resolution_m_s": 25.0}
         bisection = campaign("panel-t", self.PANEL_CASE, design,
                              [shot(300.0, "P", 283.8, 0), shot(100.0, "P", 66.2, 1), shot(75.0, "U", 20.0, 2)])
@@ -177,6 +177,13 @@ class PanelLowEnds(unittest.TestCase):
         thicker["target"]["layers"] = 8
         elsewhere = low_end("low-end-t-8", thicker, [(75.0, "P", 13.1)], end_time=6e-4)
         entry = validation.entry(bisection, [bisection, elsewhere])
+        self.assertIn("not established", entry["method"])
+        # the same size and layers on another mesh (a uniform panel beside a hybrid one) is
+        # another target
+        uniform = copy.deepcopy(self.PANEL_CASE)
+        uniform["target"]["weave"] = {"preset": "km2_style_706", "fibres_per_yarn": 4}
+        other_mesh = low_end("low-end-t-uniform", uniform, [(75.0, "P", 13.1)], end_time=6e-4)
+        entry = validation.entry(bisection, [bisection, other_mesh])
         self.assertIn("not established", entry["method"])
 
 

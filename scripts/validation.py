@@ -237,14 +237,12 @@ def same_shot_but_speed(case, other):
 
 
 def re_fires(c, other):
-    """Whether `other` is a low-end campaign of `c`: for a panel-size bisection one of the
-    same panel size and layers, for a single-yarn one the same case but for the speed and
-    the end time."""
-    if series_of(c.name) == "single_yarn":
-        return series_of(other.name) == "single_yarn_low_end" and same_shot_but_speed(c.case, other.case)
-    mine, theirs = c.case["target"], other.case["target"]
-    return series_of(other.name) == "panel_size_low_end" and all(
-        mine.get(key) == theirs.get(key) for key in ("side_m", "layers"))
+    """Whether `other` is a low-end campaign of `c`: the same case but for the speed and the
+    end time (`same_shot_but_speed`), of the low-end series of `c`'s (a panel-size bisection's
+    or a single-yarn one's). Two meshes of one panel size are two targets: a low-end shot of
+    the one never joins the other's bisection."""
+    low_end = {"single_yarn": "single_yarn_low_end", "panel_size": "panel_size_low_end"}.get(series_of(c.name))
+    return low_end is not None and series_of(other.name) == low_end and same_shot_but_speed(c.case, other.case)
 
 
 def refired(c, campaigns):
