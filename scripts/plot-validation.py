@@ -70,9 +70,10 @@ def draw(axes, chosen, x, label, colour=lambda e: "tab:blue"):
             fastest = e.get("v50_above_m_s")
             if fastest is None and shots and all(not r["perforated"] and r["stopped_by"] != "end_time_s" for r in shots):
                 fastest = max(r["velocity_m_s"] for r in shots)
+            # named by campaign: on the layer axes several series may stand as bounds at once
             for bound, marker, direction, text in (
-                    (slowest, "v", -1.0, "dea-mpi: every shot perforated, V50 below the slowest"),
-                    (fastest, "^", 1.0, "dea-mpi: every shot stopped, V50 above the fastest")):
+                    (slowest, "v", -1.0, f"dea-mpi, {e['name']}: every shot perforated, V50 below the slowest"),
+                    (fastest, "^", 1.0, f"dea-mpi, {e['name']}: every shot stopped, V50 above the fastest")):
                 if bound is None:
                     continue
                 axes.plot([x(e)], [bound], marker, color=colour(e), mfc="white", linestyle="none",
@@ -165,8 +166,11 @@ if not draw(layer_axes, layers, layer_position, layer_label,
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 # the mesh series' limits beside the layer series' (to the right of their layer count): how far
 # the fibre count, the coarse element length or multi-rate stepping move the V50
-meshes = sorted((e for e in entries if e["series"] == "mesh" and e["v50_m_s"] is not None
-                 and e["name"] not in refining), key=lambda e: e["name"])
+# (a mesh-layers series whose every shot so far went one way stands as its bound; the mesh
+# series at one striking speed are residual velocities, printed below, not limits)
+meshes = sorted((e for e in entries if e["series"] == "mesh" and e["name"] not in refining
+                 and (e["v50_m_s"] is not None or (e["name"].startswith("mesh-layers-") and e["shots"]))),
+                key=lambda e: e["name"])
 
 
 def mesh_label(e):

@@ -60,6 +60,9 @@ CAMPAIGNS = [
     ("yarn-64-d-i0", "2 ranks, other load not recorded (any would only raise the factor)", True),
     ("layers-12-3in", "2 ranks; r000-00002 the host to itself, the other three beside a CI run for part "
      "of the shot (2026-11-30)", False),
+    ("mesh-layers-4-3in-l0-0.25-multi-rate", "2 ranks, multi-rate stepping (rates 1 and 4); r000-00000 the "
+     "host nearly to itself for its first 55 of 65 minutes, then beside two one-rank probe runs "
+     "(2026-12-02)", False),
 ]
 
 # factors are rounded to this many decimals in the file, so --check compares like with like
