@@ -541,6 +541,16 @@ class Pools(unittest.TestCase):
         groups = validation.step_pools([finest, finer, coarse])
         self.assertEqual([(a.name, [b.name for b in f]) for a, f in groups],
                          [("layers-t", ["layers-t-step-6.25", "layers-t-step-3.125"])])
+        # a series started again from another speed joins it too, ahead of the finer steps
+        restart = campaign("layers-t-from-175", FIXTURE_CASE, self.UP_AND_DOWN, [shot(175.0, "S", -0.2, 0)])
+        groups = validation.step_pools([finest, restart, finer, coarse])
+        self.assertEqual([(a.name, [b.name for b in f]) for a, f in groups],
+                         [("layers-t", ["layers-t-from-175", "layers-t-step-6.25", "layers-t-step-3.125"])])
+        # but not before it has shots, nor without the series it restarts
+        unfired_restart = campaign("layers-t-from-175", FIXTURE_CASE, self.UP_AND_DOWN, [])
+        self.assertEqual(validation.step_pools([unfired_restart, coarse]), [])
+        self.assertEqual(validation.step_pools([campaign("layers-w-from-175", FIXTURE_CASE, self.UP_AND_DOWN,
+                                                         [shot(175.0, "S", -0.2, 0)])]), [])
 
     def test_a_pooled_entry_gives_the_fit_of_the_shots_together(self):
         coarse = campaign("layers-t", FIXTURE_CASE, self.UP_AND_DOWN, [shot(200.0, "S", -0.9, 0), shot(225.0, "P", 60.0, 1)])
