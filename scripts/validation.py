@@ -610,17 +610,20 @@ def shots_markdown(campaigns, entries):
         lines.append(described)
         lines.append("")
         lines.append("| shot | striking (m/s) | aim (mm) | yaw (°) | obliquity (°) | outcome | left (m/s) | steps "
-                     "| ended (µs) | breaks: tension / shear / combined | breaks by layer | core-h |")
-        lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
+                     "| ended (µs) | breaks: tension / shear / combined | breaks by layer | energy balance (%) | core-h |")
+        lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for s in sorted(c.shots, key=lambda s: s["id"]):
             aim = s.get("aim_offset_m")
             aim = f"{1e3 * (aim[0] ** 2 + aim[1] ** 2) ** 0.5:.2f}" if aim is not None else "–"
             yaw = f"{s['yaw_deg']:+.2f}" if "yaw_deg" in s else "–"
             obliquity = f"{s['obliquity_deg']:+.2f}" if "obliquity_deg" in s else "–"
             ended, modes, layers = trace_end_words(c.name, s["id"])
+            # |E − E0| / E0 at the shot's end, kept in records since 2026-12-02 (theory I11b)
+            balance = s.get("energy_balance_error")
+            balance = f"{100.0 * balance:.2f}" if balance is not None else "–"
             lines.append(f"| {s['id']} | {s['velocity_m_s']:.2f} | {aim} | {yaw} | {obliquity} | {outcome_words(s)} "
                          f"| {s['residual_velocity_m_s']:.1f} | {s['steps']} | {ended} | {modes} | {layers} "
-                         f"| {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
+                         f"| {balance} | {s['wall_s'] * s['ranks'] / 3600.0:.2f} |")
         lines.append("")
     pools = [e for e in entries if e.get("pooled_from")]
     if pools:
@@ -645,7 +648,7 @@ def shots_markdown(campaigns, entries):
 # What a shot's trace keeps of its run directory's history.csv (docs/output.md): the
 # projectile's course and the breaks, every column whose name starts with one of these.
 TRACE_COLUMN_STARTS = ("time_s", "projectile_position_z_m", "projectile_velocity_", "projectile_angular_velocity_",
-                       "projectile_force_z_N", "broken_", "back_face_at_axis_m")
+                       "projectile_force_z_N", "energy_total_J", "broken_", "back_face_at_axis_m")
 # at most this many rows, evenly spread over the history, its first and last kept: a yarn shot
 # of 800 us writes thousands, and a trace is for reading a shot's course back, not for restarts
 TRACE_ROWS = 400

@@ -110,6 +110,11 @@ pub struct ShotRecord {
     /// order there was
     #[serde(default = "unload_before_it_was_named")]
     pub unload: String,
+    /// the run's energy balance at its end, `|E − E0| / E0` of its initial energy [-]
+    /// (docs/theory.md I11b: above [`crate::run::ENERGY_BUDGET`] the step is suspect); a
+    /// record written before it was kept has none
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub energy_balance_error: Option<f64>,
 }
 
 fn unload_before_it_was_named() -> String {
@@ -307,11 +312,9 @@ fn fire<C: Comm>(
     options.checkpoints.at_end = true;
     let summary = run(&mut state, &options).map_err(|error| CampaignError::Run { id: id.to_string(), error })?;
     // the group's rank 0 has the summary; every rank needs the outcome for the next velocity
-    let outcome = state.from_rank0(
-        summary
-            .as_ref()
-            .map_or([0.0; 4], |s| [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s]),
-    );
+    let outcome = state.from_rank0(summary.as_ref().map_or([0.0; 5], |s| {
+        [s.perforated as u8 as f64, s.residual_velocity_m_s, s.steps as f64, s.wall_s, s.energy_balance_error]
+    }));
     let record = ShotRecord {
         id: id.to_string(),
         replicate,
@@ -331,7 +334,11 @@ fn fire<C: Comm>(
         projectile_friction_spring: friction_spring_of(&case)?.to_string(),
         fibre_friction_spring: fibre_friction_spring_of(&case)?.to_string(),
         unload: unload_of(&case)?.to_string(),
+        energy_balance_error: Some(outcome[4]),
     };
+    if let Some(warning) = crate::run::energy_budget_warning(outcome[4]).filter(|_| state.comm.rank() == Rank(0)) {
+        tracing::warn!("shot {id}: {warning}");
+    }
     if state.comm.rank() == Rank(0) {
         // written whole, then renamed: a record on disk is a finished shot
         let path = record_path(out, id);

@@ -687,6 +687,23 @@ pub fn energy_balance_error(histories: &Histories, initial_energy: f64, floor: f
     }
 }
 
+/// The energy balance a run should keep: 1 % of its initial energy (docs/theory.md I7,
+/// I11b). Beyond it the integration made or lost energy the forces do not account for, and a
+/// run's closing lines and a campaign's shot say so.
+pub const ENERGY_BUDGET: f64 = 0.01;
+
+/// The warning for a run whose energy balance ended at `error` (|E − E0| / E0), or `None`
+/// within [`ENERGY_BUDGET`].
+pub fn energy_budget_warning(error: f64) -> Option<String> {
+    (error > ENERGY_BUDGET).then(|| {
+        format!(
+            "the energy balance ended at {:.2} % of the initial energy, beyond the {:.0} % budget: the integration made or lost energy that no force accounts for, so the outcome is suspect; run it again with a shorter step (run.time_step_safety below its default 0.5) to see whether it depends on the step (docs/theory.md I11b)",
+            100.0 * error,
+            100.0 * ENERGY_BUDGET
+        )
+    })
+}
+
 /// The speed whose kinetic energy is the floor of the energy balance [m/s]: about a hundredth
 /// of the slowest ballistic shot's, so a ten-thousandth of its energy.
 const FLOOR_SPEED: f64 = 1.0;
@@ -721,5 +738,19 @@ fn naming_unload(case_json: &str, unload: dea_core::failure::Unload) -> String {
             case.to_string()
         }
         None => case_json.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_balance_beyond_the_budget_is_named_with_its_size_and_one_within_is_not() {
+        assert_eq!(energy_budget_warning(0.0), None);
+        assert_eq!(energy_budget_warning(ENERGY_BUDGET), None);
+        let warning = energy_budget_warning(0.0252).expect("beyond the budget");
+        assert!(warning.contains("2.52 %") && warning.contains("1 % budget"), "{warning}");
+        assert!(warning.contains("run.time_step_safety"), "says what to try: {warning}");
     }
 }

@@ -61,6 +61,14 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
         "{aims:?}"
     );
     assert!(whole.shots.iter().all(|s| s.yaw_deg.abs() <= 3.0 && s.obliquity_deg == 0.0));
+    // and the energy balance its run ended with (docs/theory.md I11b)
+    for s in &whole.shots {
+        let run: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(format!("whole/shots/{}/summary.json", s.id))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(s.energy_balance_error, run["energy_balance_error"].as_f64(), "{}", s.id);
+    }
     // two groups share the shots out and fire the same bits
     let halves = dir.join("groups");
     for index in [1, 0] {
@@ -265,4 +273,17 @@ fn copy_tree(from: &Path, to: &Path) {
             std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
         }
     }
+}
+
+#[test]
+fn a_record_written_before_the_energy_balance_was_kept_has_none_and_keeps_its_text() {
+    let old = r#"{"id": "r000-00000", "replicate": 0, "index": 0, "velocity_m_s": 212.5, "seed": 2,
+        "perforated": true, "residual_velocity_m_s": 120.2, "stopped_by": "perforated", "steps": 64600,
+        "wall_s": 3876.0, "ranks": 2, "max_projectile_force_n": 2809.4}"#;
+    let record: ShotRecord = serde_json::from_str(old).unwrap();
+    assert_eq!(record.energy_balance_error, None);
+    assert!(!serde_json::to_string(&record).unwrap().contains("energy_balance"), "none is not written");
+    let kept = ShotRecord { energy_balance_error: Some(0.0252), ..record };
+    let again: ShotRecord = serde_json::from_str(&serde_json::to_string(&kept).unwrap()).unwrap();
+    assert_eq!(again.energy_balance_error, Some(0.0252));
 }

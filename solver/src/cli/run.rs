@@ -182,6 +182,9 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, progress, pan
                 summary.ghost_fraction,
                 summary.load_imbalance
             );
+            if let Some(warning) = dea_mpi::run::energy_budget_warning(summary.energy_balance_error) {
+                tracing::warn!("case {:?}: {warning}", summary.case);
+            }
             if case_path.is_none() && case == dea_io::case::default_case() {
                 println!("{}", default_case_context());
             }
