@@ -496,18 +496,15 @@ def step_of(name):
 
 def step_pools(campaigns):
     """(coarse, [finer, ...]) groups: a campaign named `<name>-step-<m/s>` with shots on
-    record is a finer series about the bracket of the campaign `<name>`, one named
-    `<name>-from-<m/s>` the same series started again from another speed (the first shots
-    having put the limit far from the first start), and all of them are pooled with it
-    (docs/theory.md V10): restarts first, then the finer series, coarsest step first."""
+    record is a finer series about the bracket of the campaign `<name>`, and all of them are
+    pooled with it (docs/theory.md V10), coarsest step first."""
     by_name = {c.name: c for c in campaigns}
     groups = {}
     for c in campaigns:
-        found = re.fullmatch(r"(.+)-(?:step|from)-[0-9.]+", c.name)
+        found = re.fullmatch(r"(.+)-step-[0-9.]+", c.name)
         if found and found.group(1) in by_name and c.shots:
             groups.setdefault(found.group(1), []).append(c)
-    order = lambda c: (step_of(c.name) is not None, -(step_of(c.name) or 0.0), c.name)
-    return [(by_name[name], sorted(finer, key=order)) for name, finer in sorted(groups.items())]
+    return [(by_name[name], sorted(finer, key=lambda c: -step_of(c.name))) for name, finer in sorted(groups.items())]
 
 
 def fit_pooled(coarse, finer):
@@ -524,7 +521,7 @@ def fit_pooled(coarse, finer):
 
 def pooled_entry(coarse, finer, campaigns, report):
     """The summary entry of several series of one target pooled: the estimates `report` of
-    `dea-mpi fit`, the pooled shots, named `<coarse> + from-<m/s> + step-<m/s> [...]`; its
+    `dea-mpi fit`, the pooled shots, named `<coarse> + step-<m/s> [+ step-<m/s> ...]`; its
     core-hours are the pooled campaigns' own entries'."""
     name = " + ".join([coarse.name] + [c.name[len(coarse.name) + 1:] for c in finer])
     pooled = types.SimpleNamespace(name=name, case=coarse.case, shots=report["shots"],
@@ -571,8 +568,6 @@ def design_words(design):
     if kind == "up_and_down":
         return (f"up-and-down from {design['start_m_s']:g} m/s by {design['step_m_s']:g} m/s, "
                 f"{design['shots']} shot{'' if design['shots'] == 1 else 's'} planned")
-    if kind == "pooled":
-        return "series pooled"
     if kind == "velocities":
         return "fixed striking speeds " + ", ".join(f"{v:g}" for v in design["velocities_m_s"]) + " m/s"
     return kind.replace("_", " ")
@@ -618,7 +613,7 @@ def shots_markdown(campaigns, entries):
             yaw = f"{s['yaw_deg']:+.2f}" if "yaw_deg" in s else "–"
             obliquity = f"{s['obliquity_deg']:+.2f}" if "obliquity_deg" in s else "–"
             ended, modes, layers = trace_end_words(c.name, s["id"])
-            # |E − E0| / E0 at the shot's end, kept in records since 2026-12-02 (theory I11b)
+            # |E − E0| / E0 at the shot's end (theory I11b); records written before it was kept have none
             balance = s.get("energy_balance_error")
             balance = f"{100.0 * balance:.2f}" if balance is not None else "–"
             lines.append(f"| {s['id']} | {s['velocity_m_s']:.2f} | {aim} | {yaw} | {obliquity} | {outcome_words(s)} "

@@ -336,10 +336,10 @@ fn fire<C: Comm>(
         unload: unload_of(&case)?.to_string(),
         energy_balance_error: Some(outcome[4]),
     };
-    if let Some(warning) = crate::run::energy_budget_warning(outcome[4]).filter(|_| state.comm.rank() == Rank(0)) {
-        tracing::warn!("shot {id}: {warning}");
-    }
     if state.comm.rank() == Rank(0) {
+        if let Some(warning) = crate::run::energy_budget_warning(outcome[4]) {
+            tracing::warn!("shot {id}: {warning}");
+        }
         // written whole, then renamed: a record on disk is a finished shot
         let path = record_path(out, id);
         let partial = path.with_extension("json.partial");
