@@ -72,6 +72,8 @@ pub struct Problem {
     pub reach: f64,
     /// the single-yarn fixture's guides (docs/theory.md F13; none for other targets)
     pub guides: Guides,
+    /// what a spring bent at rest stores below its rest angle (docs/theory.md F4b)
+    pub rest_angle_law: dea_core::bending::RestAngleLaw,
 }
 
 impl Problem {
@@ -251,6 +253,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
     let (material, law, strength, shear_strength) =
         (resolved.material.clone(), resolved.law, resolved.strength.clone(), resolved.shear_strength);
     let resolved_shear_measure = resolved.shear_measure;
+    let rest_angle_law = resolved.rest_angle_law;
     let guides = match &resolved.target {
         ResolvedTarget::Straight(target) => Guides {
             hold_lateral: target.hold_lateral,
@@ -497,6 +500,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         rates,
         reach,
         guides,
+        rest_angle_law,
     })
 }
 
@@ -1003,6 +1007,7 @@ pub(crate) fn own_domain(
     domain.set_ties(built.ties);
     domain.set_rates(problem.rates.clone());
     domain.set_guides(problem.guides);
+    domain.bending.rest_law = problem.rest_angle_law;
     // a deformable body is integrated beside the domain (rank 0), not as a rigid body
     domain.owns_projectile = me == Rank(0) && problem.deformable.is_none();
     domain

@@ -138,6 +138,7 @@ fn a_3d_weave_cell_is_relaxed_and_written_and_cannot_be_struck() {
             layer_gap_m: 0.0,
             layer_shift_m: [0.0, 0.0],
             boundary: dea_io::case::BoundarySpec::FixedEdges {},
+            rest_angle_law: None,
         };
         panel.validate().unwrap();
         panel

@@ -16,6 +16,51 @@ pub struct BendingScratch {
     pub moment: Vec<Vec3>,
     /// turning angle theta_i between the two elements at node i [rad]
     pub angle: Vec<f64>,
+    /// not scratch: how the springs bent at rest store energy below their rest angle, set
+    /// once from the case
+    pub rest_law: RestAngleLaw,
+}
+
+/// The energy of a spring bent at rest (`theta_0 > 0`, a woven fabric's relaxed crimp) below
+/// its rest angle (docs/theory.md F4b). Above it both are the seed's (5-1) with a rest angle,
+/// `U = K_t (theta - theta_0)^2 / 2`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RestAngleLaw {
+    /// `K_t (theta - theta_0)^2 / 2` down to the straight fibre: over the plane of a node's
+    /// turns a cone whose tip, the straight fibre, is a maximum without a gradient. A node
+    /// pulled near straight meets a force of nearly constant size `K_t theta_0` per element
+    /// length whose direction turns about as the node passes, a stiffness that grows without
+    /// bound there, and the central difference makes energy crossing it
+    #[default]
+    Cone,
+    /// `K_t (theta^2 - theta_0^2)^2 / (8 theta_0^2)` below `theta_0`: a quartic in the turn
+    /// vector, smooth through straight, that meets the cone's branch above `theta_0` with the
+    /// same energy (zero), moment (zero) and stiffness (`K_t`); straightening a spring stores
+    /// `K_t theta_0^2 / 8` instead of the cone's `K_t theta_0^2 / 2`
+    Smooth,
+}
+
+impl RestAngleLaw {
+    /// The name a case gives it (`target.weave.rest_angle_law`).
+    pub fn name(self) -> &'static str {
+        match self {
+            RestAngleLaw::Cone => "cone",
+            RestAngleLaw::Smooth => "smooth",
+        }
+    }
+
+    /// The energy of a spring of rigidity `k_t` [N m / rad] turned by `theta` [rad] that
+    /// rests at `rest` [rad] [J].
+    #[inline]
+    pub fn energy(self, k_t: f64, theta: f64, rest: f64) -> f64 {
+        if self == RestAngleLaw::Smooth && theta < rest {
+            let squares = theta * theta - rest * rest;
+            return k_t * squares * squares / (8.0 * rest * rest);
+        }
+        let bent = theta - rest;
+        0.5 * k_t * bent * bent
+    }
 }
 
 impl BendingScratch {
@@ -87,10 +132,10 @@ pub fn turning_angle(sine: f64, cosine: f64) -> (f64, f64) {
 /// Forces of one torsional spring with rigidity `k_t` at a node joining the elements
 /// `a = x_i - x_prev` and `b = x_next - x_i`, given as unit vectors and inverse lengths, from
 /// the exact gradient of `U = K_t (theta - theta_0)^2 / 2` (seed 5-1; `rest` = theta_0, 0 for
-/// a straight fibre). Returns (force on prev, force on next, theta, moment vector
-/// `K_t (theta - theta_0) n`). The moment is `(a^ x b^) K_t (theta - theta_0) / sin(theta)`,
-/// so the plane's normal needs no normalisation. A spring bent at rest has no defined
-/// direction when pulled exactly straight: it pushes nowhere there.
+/// a straight fibre), below `theta_0` as `law` says. Returns (force on prev, force on next,
+/// theta, moment vector `dU/dtheta n`). The moment is `(a^ x b^) (dU/dtheta) / sin(theta)`,
+/// so the plane's normal needs no normalisation. Under [`RestAngleLaw::Cone`] a spring bent
+/// at rest has no defined direction when pulled exactly straight: it pushes nowhere there.
 #[inline]
 pub fn torsional_spring(
     ua: Vec3,
@@ -99,6 +144,7 @@ pub fn torsional_spring(
     inverse_lb: f64,
     k_t: f64,
     rest: f64,
+    law: RestAngleLaw,
 ) -> (Vec3, Vec3, f64, Vec3) {
     let cross = ua.cross(&ub);
     let sine = cross.norm();
@@ -106,6 +152,10 @@ pub fn torsional_spring(
     let (theta, theta_over_sine) = turning_angle(sine, cosine);
     let factor = if rest == 0.0 {
         k_t * theta_over_sine
+    } else if law == RestAngleLaw::Smooth && theta < rest {
+        // dU/dtheta = K_t theta (theta^2 - theta_0^2) / (2 theta_0^2): over the sine it is
+        // finite at straight, where the force vanishes
+        k_t * theta_over_sine * (theta * theta - rest * rest) / (2.0 * rest * rest)
     } else if sine > 1e-12 {
         k_t * (theta - rest) / sine
     } else {
@@ -160,6 +210,7 @@ fn node_bending(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], s
         elements.inverse_length[i],
         k_t,
         nodes.rest_angle[i],
+        scratch.rest_law,
     );
     scratch.on_prev[i] = on_prev;
     scratch.on_next[i] = on_next;
@@ -250,7 +301,14 @@ fn springs_in_lanes(
     let factor = if straight_at_rest.all() {
         k_t.mul(over_sine)
     } else {
-        let bent_at_rest = F4::select(F4::splat(1e-12).lt(sine), k_t.mul(theta.sub(rest)).div(sine), zero);
+        let mut bent_at_rest = F4::select(F4::splat(1e-12).lt(sine), k_t.mul(theta.sub(rest)).div(sine), zero);
+        if scratch.rest_law == RestAngleLaw::Smooth {
+            // torsional_spring's smooth branch, operation for operation (a lane resting
+            // straight divides by zero here, and is not selected)
+            let below =
+                k_t.mul(over_sine).mul(theta.mul(theta).sub(rest.mul(rest))).div(F4::splat(2.0).mul(rest.mul(rest)));
+            bent_at_rest = F4::select(theta.lt(rest), below, bent_at_rest);
+        }
         F4::select(straight_at_rest, k_t.mul(over_sine), bent_at_rest)
     };
     let (inverse_la, inverse_lb) = (F4::load(&elements.inverse_length, i - 1), F4::load(&elements.inverse_length, i));
@@ -289,12 +347,11 @@ pub fn max_shear_stress(shear_force: f64, area: f64) -> f64 {
 }
 
 /// Energy `K_t (theta - theta_0)^2 / 2` of the spring at node `i` as computed this step
-/// (seed 5-1) [J].
+/// (seed 5-1), below `theta_0` as [`BendingScratch::rest_law`] says [J].
 #[inline]
 pub fn spring_energy(nodes: &Nodes, scratch: &BendingScratch, sections: &[FibreSection], i: usize) -> f64 {
     let k_t = sections[nodes.section[i] as usize].torsional_stiffness;
-    let bent = scratch.angle[i] - nodes.rest_angle[i];
-    0.5 * k_t * bent * bent
+    scratch.rest_law.energy(k_t, scratch.angle[i], nodes.rest_angle[i])
 }
 
 #[cfg(test)]
@@ -302,13 +359,17 @@ pub(crate) mod tests {
     use super::*;
 
     fn spring(a: Vec3, b: Vec3, k_t: f64) -> (Vec3, Vec3, f64, Vec3) {
-        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, 0.0)
+        torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, 0.0, RestAngleLaw::Cone)
     }
 
-    fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64, rest: f64) -> f64 {
+    /// The closed forms of docs/theory.md F4b, written out apart from [`RestAngleLaw::energy`].
+    fn energy(xp: Vec3, xi: Vec3, xn: Vec3, k_t: f64, rest: f64, law: RestAngleLaw) -> f64 {
         let (a, b) = (xi - xp, xn - xi);
         let theta = a.cross(&b).norm().atan2(a.dot(&b));
-        0.5 * k_t * (theta - rest) * (theta - rest)
+        match law {
+            RestAngleLaw::Smooth if theta < rest => k_t * (theta.powi(2) - rest.powi(2)).powi(2) / (8.0 * rest.powi(2)),
+            _ => 0.5 * k_t * (theta - rest) * (theta - rest),
+        }
     }
 
     #[test]
@@ -347,10 +408,13 @@ pub(crate) mod tests {
 
     fn spring_forces_are_the_gradient_at(xp: Vec3, xi: Vec3, xn: Vec3) {
         let k_t = 2.5;
-        for rest in [0.0, 0.2, 0.9] {
+        // the test's angles lie below 0.9 and one of them below 0.2: both branches of each law
+        for (rest, law) in
+            [0.0, 0.2, 0.9].into_iter().flat_map(|r| [(r, RestAngleLaw::Cone), (r, RestAngleLaw::Smooth)])
+        {
             let (a, b) = (xi - xp, xn - xi);
             let (on_prev, on_next, _, _) =
-                torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest);
+                torsional_spring(a.normalize(), 1.0 / a.norm(), b.normalize(), 1.0 / b.norm(), k_t, rest, law);
             let on_self = -(on_prev + on_next);
             let h = 1e-6;
             for (node, analytic) in [(0, on_prev), (1, on_self), (2, on_next)] {
@@ -359,12 +423,12 @@ pub(crate) mod tests {
                     let mut minus = [xp, xi, xn];
                     plus[node][axis] += h;
                     minus[node][axis] -= h;
-                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest)
-                        - energy(minus[0], minus[1], minus[2], k_t, rest))
+                    let numeric = -(energy(plus[0], plus[1], plus[2], k_t, rest, law)
+                        - energy(minus[0], minus[1], minus[2], k_t, rest, law))
                         / (2.0 * h);
                     assert!(
                         (numeric - analytic[axis]).abs() < 1e-6,
-                        "rest {rest}, node {node} axis {axis}: {numeric} vs {}",
+                        "rest {rest}, {law:?}, node {node} axis {axis}: {numeric} vs {}",
                         analytic[axis]
                     );
                 }
@@ -376,16 +440,56 @@ pub(crate) mod tests {
     fn a_spring_at_its_rest_angle_pushes_nowhere_and_resists_both_ways() {
         let bend = |angle: f64| Vec3::new(angle.cos(), angle.sin(), 0.0);
         let rest = 0.3;
-        let (on_prev, on_next, theta, moment) = torsional_spring(Vec3::x(), 1.0, bend(rest), 1.0, 2.0, rest);
-        assert!((theta - rest).abs() < 1e-15);
-        assert!(on_prev.norm() + on_next.norm() + moment.norm() < 1e-15);
-        // straightened a little or bent further: the moment turns it back towards its rest
-        let (_, _, _, less) = torsional_spring(Vec3::x(), 1.0, bend(0.8 * rest), 1.0, 2.0, rest);
-        let (_, _, _, more) = torsional_spring(Vec3::x(), 1.0, bend(1.2 * rest), 1.0, 2.0, rest);
-        assert!(less.z < 0.0 && more.z > 0.0 && (less.z + more.z).abs() < 1e-12);
-        // pulled exactly straight, its direction is undefined: no force
-        let (on_prev, on_next, _, _) = torsional_spring(Vec3::x(), 1.0, Vec3::x(), 1.0, 2.0, rest);
-        assert_eq!(on_prev.norm() + on_next.norm(), 0.0);
+        for law in [RestAngleLaw::Cone, RestAngleLaw::Smooth] {
+            let (on_prev, on_next, theta, moment) = torsional_spring(Vec3::x(), 1.0, bend(rest), 1.0, 2.0, rest, law);
+            assert!((theta - rest).abs() < 1e-15);
+            assert!(on_prev.norm() + on_next.norm() + moment.norm() < 1e-15);
+            // straightened a little or bent further: the moment turns it back towards its rest
+            let (_, _, _, less) = torsional_spring(Vec3::x(), 1.0, bend(0.8 * rest), 1.0, 2.0, rest, law);
+            let (_, _, _, more) = torsional_spring(Vec3::x(), 1.0, bend(1.2 * rest), 1.0, 2.0, rest, law);
+            assert!(less.z < 0.0 && more.z > 0.0, "{law:?}");
+            // pulled exactly straight, its direction is undefined: no force
+            let (on_prev, on_next, _, _) = torsional_spring(Vec3::x(), 1.0, Vec3::x(), 1.0, 2.0, rest, law);
+            assert_eq!(on_prev.norm() + on_next.norm(), 0.0);
+        }
+        // the cone's moment is odd about the rest angle
+        let (_, _, _, less) = torsional_spring(Vec3::x(), 1.0, bend(0.8 * rest), 1.0, 2.0, rest, RestAngleLaw::Cone);
+        let (_, _, _, more) = torsional_spring(Vec3::x(), 1.0, bend(1.2 * rest), 1.0, 2.0, rest, RestAngleLaw::Cone);
+        assert!((less.z + more.z).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_smooth_law_meets_the_cone_at_the_rest_angle_and_lets_go_at_straight() {
+        // closed forms (F4b): below theta_0, U = K (theta^2 - theta_0^2)^2 / (8 theta_0^2),
+        // dU/dtheta = K theta (theta^2 - theta_0^2) / (2 theta_0^2), d2U/dtheta2 =
+        // K (3 theta^2 - theta_0^2) / (2 theta_0^2)
+        let bend = |angle: f64| Vec3::new(angle.cos(), angle.sin(), 0.0);
+        let (k_t, rest) = (2.0, 0.3);
+        let moment = |theta: f64, law| torsional_spring(Vec3::x(), 1.0, bend(theta), 1.0, k_t, rest, law).3.z;
+        for theta in [0.05, 0.1, 0.2, 0.29] {
+            let expected = k_t * theta * (theta * theta - rest * rest) / (2.0 * rest * rest);
+            assert!((moment(theta, RestAngleLaw::Smooth) - expected).abs() < 1e-12 * k_t, "{theta}");
+            // above straight the smooth law's moment is the smaller: it stores less
+            assert!(moment(theta, RestAngleLaw::Smooth).abs() < moment(theta, RestAngleLaw::Cone).abs());
+        }
+        // at the rest angle: the same energy (zero), moment (zero) and stiffness K on both sides
+        let h = 1e-6;
+        for law in [RestAngleLaw::Cone, RestAngleLaw::Smooth] {
+            assert_eq!(law.energy(k_t, rest, rest), 0.0);
+            let below = (moment(rest, law) - moment(rest - h, law)) / h;
+            let above = (moment(rest + h, law) - moment(rest, law)) / h;
+            assert!((below - k_t).abs() < 1e-5 && (above - k_t).abs() < 1e-5, "{law:?}: {below}, {above}");
+        }
+        // straight: the cone stores K theta_0^2 / 2 behind a moment of K theta_0 that does not
+        // fall as the turn vanishes; the smooth law K theta_0^2 / 8, its moment falling with theta
+        assert!((RestAngleLaw::Cone.energy(k_t, 0.0, rest) - 0.5 * k_t * rest * rest).abs() < 1e-15);
+        assert!((RestAngleLaw::Smooth.energy(k_t, 0.0, rest) - 0.125 * k_t * rest * rest).abs() < 1e-15);
+        let tiny = 1e-7;
+        assert!((moment(tiny, RestAngleLaw::Cone) + k_t * rest).abs() < 1e-6);
+        assert!(moment(tiny, RestAngleLaw::Smooth).abs() < k_t * tiny);
+        // a rest angle of zero is the straight spring under either law
+        let straight = |law| torsional_spring(Vec3::x(), 1.0, bend(0.2), 1.0, k_t, 0.0, law);
+        assert_eq!(straight(RestAngleLaw::Cone), straight(RestAngleLaw::Smooth));
     }
 
     #[test]
@@ -512,14 +616,26 @@ pub(crate) mod tests {
         let (mut lanes, mut reference) = (BendingScratch::default(), BendingScratch::default());
         lanes.resize(nodes.len());
         reference.resize(nodes.len());
-        compute_bending(&nodes, &elements, &sections, &mut lanes);
-        for i in 0..nodes.len() {
-            node_bending(&nodes, &elements, &sections, &mut reference, i);
+        for law in [RestAngleLaw::Smooth, RestAngleLaw::Cone] {
+            (lanes.rest_law, reference.rest_law) = (law, law);
+            compute_bending(&nodes, &elements, &sections, &mut lanes);
+            for i in 0..nodes.len() {
+                node_bending(&nodes, &elements, &sections, &mut reference, i);
+            }
+            assert_same_bits("force on the previous node", &lanes.on_prev, &reference.on_prev);
+            assert_same_bits("force on the next node", &lanes.on_next, &reference.on_next);
+            assert_same_bits("moment", &lanes.moment, &reference.moment);
+            assert_same_bits("angle", &lanes.angle, &reference.angle);
         }
-        assert_same_bits("force on the previous node", &lanes.on_prev, &reference.on_prev);
-        assert_same_bits("force on the next node", &lanes.on_next, &reference.on_next);
-        assert_same_bits("moment", &lanes.moment, &reference.moment);
-        assert_same_bits("angle", &lanes.angle, &reference.angle);
+        // springs bent at rest both below and above their rest angles, on both laws' branches
+        let bent_at_rest = |below: bool| {
+            (0..nodes.len()).any(|k| {
+                nodes.rest_angle[k] > 0.0
+                    && reference.moment[k].norm() > 0.0
+                    && (reference.angle[k] < nodes.rest_angle[k]) == below
+            })
+        };
+        assert!(bent_at_rest(true) && bent_at_rest(false));
         // the paths were taken: exactly straight, the polynomial, atan2, bent at rest
         assert!(reference.angle.iter().any(|&t| t == 0.0));
         assert!(reference.angle.iter().any(|&t| t > 1e-3 && t < 0.4));

@@ -10,7 +10,7 @@
 //! The cell is small (a few yarns), so it is relaxed whole by every rank that needs it; the
 //! arithmetic is sequential and in a fixed order, so every rank gets the same bits.
 
-use dea_core::bending::torsional_spring;
+use dea_core::bending::{torsional_spring, RestAngleLaw};
 use dea_core::contact::{ContactGeometry, NormalLaw};
 use dea_core::rod::axial_force;
 use dea_core::stability::stable_time_step;
@@ -296,6 +296,9 @@ fn cell_forces(
                     1.0 / length[k],
                     section.torsional_stiffness,
                     cell.rest_angles[base + k],
+                    // the springs act here only resting straight (as woven, they take the
+                    // relaxed angles after): no spring is below a rest angle
+                    RestAngleLaw::Cone,
                 );
                 force[base + previous] += on_prev;
                 force[base + (k + 1) % n] += on_next;

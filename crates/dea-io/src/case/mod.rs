@@ -208,6 +208,11 @@ pub enum TargetSpec {
         /// coarse yarns away from the impact point: a yarn-based hybrid mesh (seed §2.3.4.1)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         hybrid: Option<Box<HybridSpec>>,
+        /// what a spring bent at rest (`weave.bending_at_rest` "as_woven", or a cell file's)
+        /// stores below its rest angle: "cone" (the default, `K_t (theta - theta_0)^2 / 2` down
+        /// to straight) or "smooth" (a quartic through straight; docs/theory.md F4b)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        rest_angle_law: Option<String>,
     },
     /// a 3-D woven unit cell (seed chapter 3: orthogonal, layer-to-layer, angle interlock),
     /// generated and relaxed with periodic boundaries by `dea-mpi fabric`. Panels of 3-D
@@ -244,6 +249,11 @@ pub enum TargetSpec {
         /// how the panel is held: {"kind": "fixed_edges"} or {"kind": "clamp", "opening_m": ...}
         #[serde(default = "default_boundary")]
         boundary: BoundarySpec,
+        /// what a spring bent at rest (`weave.bending_at_rest` "as_woven", or a cell file's)
+        /// stores below its rest angle: "cone" (the default, `K_t (theta - theta_0)^2 / 2` down
+        /// to straight) or "smooth" (a quartic through straight; docs/theory.md F4b)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        rest_angle_law: Option<String>,
     },
 }
 
@@ -1182,6 +1192,7 @@ pub fn default_case() -> Case {
                 element_length_ratio: None,
                 cell_file: None,
             })),
+            rest_angle_law: None,
         },
         bending: default_bending(),
         contact: ContactSpec {
@@ -1696,6 +1707,36 @@ mod tests {
         assert_eq!(e.path, "run.settle.damping_per_s");
         let settle = SettleSpec { time_s: 2e-6, damping_per_s: None };
         assert_eq!(settle.damping(), 5e6);
+    }
+
+    #[test]
+    fn the_rest_angle_law_is_named_and_needs_springs_bent_at_rest() {
+        use dea_core::bending::RestAngleLaw;
+        let with = |law: &'static str| move |v: &mut serde_json::Value| v["target"]["rest_angle_law"] = law.into();
+        let law_of = |f: &dyn Fn(&mut serde_json::Value)| {
+            let mut v = default_json();
+            f(&mut v);
+            parse_case(&v.to_string(), "case.json").unwrap().resolve().unwrap().rest_angle_law
+        };
+        assert_eq!(law_of(&|_| {}), RestAngleLaw::Cone);
+        assert_eq!(law_of(&with("cone")), RestAngleLaw::Cone);
+        assert_eq!(law_of(&with("smooth")), RestAngleLaw::Smooth);
+        let e = error_for(with("quartic"));
+        assert_eq!(e.path, "target.rest_angle_law");
+        assert!(e.message.contains("\"cone\" or \"smooth\", got \"quartic\""), "{e}");
+        let e = error_for(|v| {
+            with("smooth")(v);
+            v["target"]["weave"]["bending_at_rest"] = "straight".into();
+        });
+        assert_eq!(e.path, "target.rest_angle_law");
+        assert!(e.message.contains("every spring rests straight"), "{e}");
+        // a cell file carries its rest angles; the law is the solver's and goes with it
+        let from_file = |v: &mut serde_json::Value| {
+            v["target"].as_object_mut().unwrap().remove("weave");
+            v["target"]["cell_file"] = "relaxed/cell.h5".into();
+            v["target"]["rest_angle_law"] = "smooth".into();
+        };
+        assert_eq!(law_of(&from_file), RestAngleLaw::Smooth);
     }
 
     #[test]

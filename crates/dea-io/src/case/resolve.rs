@@ -3,6 +3,7 @@
 //! set-up builds from without checking again.
 
 use super::*;
+use dea_core::bending::RestAngleLaw;
 use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::shear_gauge::ShearMeasure;
@@ -65,6 +66,8 @@ pub struct ResolvedCase {
     pub shear_measure: ShearMeasure,
     /// when a broken element stops acting
     pub unload: Unload,
+    /// what a spring bent at rest stores below its rest angle (docs/theory.md F4b)
+    pub rest_angle_law: RestAngleLaw,
     /// the projectile's body, mass, launch and material
     pub projectile: ResolvedProjectile,
     /// the target, with what set-up builds it from
@@ -300,6 +303,37 @@ impl Case {
             )),
             Some(other) => Err(invalid(path, format!("must be \"anchored\" or \"projected\", got \"{other}\""))),
         }
+    }
+
+    /// What a spring bent at rest stores below its rest angle: a woven panel's
+    /// `target.rest_angle_law`, "cone" unless "smooth" is asked for (docs/theory.md F4b). A
+    /// choice where every spring rests straight is an error rather than a setting without
+    /// effect.
+    pub fn rest_angle_law(&self) -> Result<RestAngleLaw, CaseError> {
+        let path = "target.rest_angle_law";
+        let (chosen, bending_at_rest) = match &self.target {
+            // a cell file carries its rest angles, whichever way it was relaxed
+            TargetSpec::WovenPanel { weave, cell_file, rest_angle_law, .. } => {
+                (rest_angle_law, if cell_file.is_some() { None } else { Some(weave.bending_at_rest) })
+            }
+            TargetSpec::ThreeDWovenPanel { weave, rest_angle_law, .. } => {
+                (rest_angle_law, weave.as_ref().map(|w| w.bending_at_rest))
+            }
+            _ => return Ok(RestAngleLaw::Cone),
+        };
+        let law = match chosen.as_deref() {
+            None => return Ok(RestAngleLaw::Cone),
+            Some("cone") => RestAngleLaw::Cone,
+            Some("smooth") => RestAngleLaw::Smooth,
+            Some(other) => return Err(invalid(path, format!("must be \"cone\" or \"smooth\", got \"{other}\""))),
+        };
+        if bending_at_rest == Some(BendingAtRest::Straight) {
+            return Err(invalid(
+                path,
+                format!("\"{}\" says how a spring bent at rest behaves below its rest angle, but target.weave.bending_at_rest is \"straight\": every spring rests straight; leave rest_angle_law out, or set bending_at_rest to \"as_woven\"", law.name()),
+            ));
+        }
+        Ok(law)
     }
 
     /// The case with `failure.unload` named where it was left to the default, so a case
@@ -579,6 +613,7 @@ impl Case {
         let unload = self.unload()?;
         let projectile_friction_spring = self.projectile_friction_spring()?;
         let fibre_friction_spring = self.fibre_friction_spring()?;
+        let rest_angle_law = self.rest_angle_law()?;
         let projectile = self.projectile()?;
         let friction_coefficient =
             ranged("contact.friction_coefficient", self.contact.friction_coefficient, 0.0, MOST_FRICTION_COEFFICIENT)?;
@@ -691,6 +726,7 @@ impl Case {
                 boundary,
                 relaxation,
                 hybrid,
+                rest_angle_law: _,
             } => {
                 if cell_file.is_some() && *weave != WeaveSpec::default() {
                     return Err(invalid("target.weave", "a cell_file carries its weave: leave target.weave out"));
@@ -760,6 +796,7 @@ impl Case {
                 layer_gap_m,
                 layer_shift_m,
                 boundary,
+                rest_angle_law: _,
             } => {
                 let cell = match (weave, cell_file) {
                     (Some(spec), None) => CellSource::Generate {
@@ -848,6 +885,7 @@ impl Case {
             shear_strength,
             shear_measure,
             unload,
+            rest_angle_law,
             projectile,
             target,
         })
