@@ -697,7 +697,7 @@ pub const ENERGY_BUDGET: f64 = 0.01;
 pub fn energy_budget_warning(error: f64) -> Option<String> {
     (error > ENERGY_BUDGET).then(|| {
         format!(
-            "the energy balance ended at {:.2} % of the initial energy, beyond the {:.0} % budget: the integration made or lost energy that no force accounts for, so the outcome is suspect; run it again with a shorter step (run.time_step_safety below its default 0.5) to see whether it depends on the step (docs/theory.md I11b)",
+            "the energy balance ended at {:.2} % of the initial energy, beyond the {:.0} % budget: the integration made or lost energy that no force accounts for, so the outcome is suspect; run it again with a shorter step (run.time_step_safety below its default 0.5) to see whether it depends on the step, and a woven target whose springs rest in its crimp with target.rest_angle_law \"smooth\" (docs/theory.md I11b, F4b)",
             100.0 * error,
             100.0 * ENERGY_BUDGET
         )
@@ -752,5 +752,6 @@ mod tests {
         let warning = energy_budget_warning(0.0252).expect("beyond the budget");
         assert!(warning.contains("2.52 %") && warning.contains("1 % budget"), "{warning}");
         assert!(warning.contains("run.time_step_safety"), "says what to try: {warning}");
+        assert!(warning.contains("target.rest_angle_law"), "and for a crimped weave: {warning}");
     }
 }
