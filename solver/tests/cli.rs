@@ -290,6 +290,7 @@ fn check_prints_the_resolved_case() {
     assert!(printed["case"]["contact"]["fibre_friction_spring"].is_null());
     assert_eq!(printed["resolved"]["fibre_friction_spring"], "anchored");
     assert_eq!(printed["resolved"]["unload"], "at_break");
+    assert_eq!(printed["resolved"]["rest_angle_law"], "cone");
 }
 
 #[test]
