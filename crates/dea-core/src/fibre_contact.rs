@@ -553,11 +553,10 @@ mod tests {
 
     /// Normal force per unit length [N/m] that the contact sweep puts on fibre 0 (the
     /// middle 20 diameters of it, clear of the ends) of two straight fibres, parallel along
-    /// x at centre distance `centre_distance` [m], or fibre 1 crossing along y, with elements
+    /// x at a centre distance of `centre_distance_over_d` diameters, or fibre 1 crossing along y, with elements
     /// `l0_over_d` diameters long, averaged over four offsets of one chain's nodes against the
     /// other's (a quarter of an element apart). Friction off: the normal law alone.
     fn pressed_fibres_force_per_length(l0_over_d: f64, crossed: bool, centre_distance_over_d: f64) -> f64 {
-        use crate::failure::FailureParameters;
         use crate::material::InertiaModel;
         use crate::nodes::{Elements, FailureMode, Nodes};
         use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId};
@@ -605,19 +604,13 @@ mod tests {
                 fibre_friction_spring: FibreFrictionSpring::Anchored,
                 skin: 0.1 * d,
             };
-            let failure = FailureParameters {
-                shear_strength: 0.7672e9,
-                enabled: false,
-                shear_measure: crate::shear_gauge::ShearMeasure::Element,
-                unload: crate::failure::Unload::AtBreak,
-            };
             let mut domain = Domain::assemble(
                 material.clone(),
                 vec![section.clone()],
                 nodes,
                 elements,
                 contact,
-                failure,
+                crate::fixtures::no_failure(),
                 None,
                 1e-9,
             );

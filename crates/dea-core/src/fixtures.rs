@@ -66,15 +66,19 @@ pub fn squeezed_yarn(sections: usize, ghosts: bool) -> Domain {
         fibre_friction_spring: crate::friction::FibreFrictionSpring::Anchored,
         skin: 0.5 * sections[0].contact_diameter,
     };
-    let failure = FailureParameters {
+    let mut domain = Domain::assemble(material, sections, nodes, elements, contact, no_failure(), None, 1e-9);
+    domain.rebuild_neighbours().unwrap();
+    domain
+}
+
+/// Failure off (the seed's shear strength kept for a test that turns it on).
+pub fn no_failure() -> FailureParameters {
+    FailureParameters {
         shear_strength: 0.7672e9,
         enabled: false,
         shear_measure: ShearMeasure::Element,
         unload: crate::failure::Unload::AtBreak,
-    };
-    let mut domain = Domain::assemble(material, sections, nodes, elements, contact, failure, None, 1e-9);
-    domain.rebuild_neighbours().unwrap();
-    domain
+    }
 }
 
 /// The overlap of the pair of list entry `k` of node `i` [m].
