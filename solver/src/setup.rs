@@ -423,6 +423,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         shear_strength,
         enabled: !matches!(strength, Strength::None),
         shear_measure: resolved_shear_measure,
+        tension_measure: resolved.tension_measure,
         unload: resolved.unload,
     };
     let resolved = resolved.projectile.clone();

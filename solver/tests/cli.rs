@@ -291,6 +291,7 @@ fn check_prints_the_resolved_case() {
     assert_eq!(printed["resolved"]["fibre_friction_spring"], "anchored");
     assert_eq!(printed["resolved"]["unload"], "at_break");
     assert_eq!(printed["resolved"]["rest_angle_law"], "cone");
+    assert_eq!(printed["resolved"]["tension_measure"], "element");
 }
 
 #[test]

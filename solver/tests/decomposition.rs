@@ -582,6 +582,33 @@ fn the_projected_fibre_friction_spring_gives_the_same_bits_on_any_ranks_and_afte
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The tension gauge reads strains `ceil(L/l0)` elements each way: alone (shear measured
+/// per element) it widens the chain stencil, and the breaks it decides are the same on any
+/// partition and after a restart. It acts: the element strain breaks other elements.
+#[test]
+fn a_long_tension_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
+    let mut value = serde_json::to_value(panel_case()).unwrap();
+    value["target"]["element_length_ratio"] = 0.25.into();
+    value["failure"]["shear_measure"] = "element".into();
+    value["run"]["end_time_s"] = 1.2e-6.into();
+    let dir = scratch("tension-gauge");
+    let element: Case = serde_json::from_value(value.clone()).unwrap();
+    let seeds = run_on(&element, 1, &dir.join("element"));
+    value["failure"]["tension_measure"] = "gauge".into();
+    value["failure"]["tension_gauge_diameters"] = 3.0.into();
+    let case: Case = serde_json::from_value(value).unwrap();
+    let reference = run_on(&case, 1, &dir.join("1"));
+    let tension = |s: &Summary| s.broken_elements_tension + s.broken_elements_combined;
+    assert!(tension(&reference) > 0, "elements break in tension");
+    assert_ne!(tension(&reference), tension(&seeds), "the gauge acts");
+    run_local(3, |comm| {
+        let state = build(&case, comm, Method::KWay, None).unwrap();
+        assert_eq!(state.domain.chain_stencil(), dea_core::CHAIN_STENCIL + 12);
+    });
+    assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_long_shear_gauge_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     let mut value = serde_json::to_value(panel_case()).unwrap();

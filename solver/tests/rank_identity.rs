@@ -5,7 +5,7 @@
 //! The cases vary what has broken rank identity before or could: panel size (down to a
 //! panel the 17-grain FSP nearly spans), layers, digital fibres per yarn, a hybrid fine disc,
 //! fixed edges or the clamp, the projectile (FSP, sphere, cylinder), its speed, obliquity
-//! and yaw, deterministic or Weibull strengths and their seed, the shear measure; each runs
+//! and yaw, deterministic or Weibull strengths and their seed, the shear and tension measures; each runs
 //! long enough for contact, failure, fragments and many list rebuilds.
 //!
 //! `DEA_RANK_IDENTITY_CASES` (default 3) and `DEA_RANK_IDENTITY_SEED` (default 34) choose
@@ -82,6 +82,9 @@ fn random_case(rng: &mut ChaCha8Rng, index: u64) -> serde_json::Value {
     if rng.random_bool(0.3) {
         failure["shear_measure"] = "element".into();
     }
+    if rng.random_bool(0.3) {
+        failure["tension_measure"] = "gauge".into();
+    }
     case["run"]["end_time_s"] = rng.random_range(8e-6..1.2e-5).into();
     case["run"]["snapshot_interval_steps"] = 1000.into();
     case
@@ -114,14 +117,16 @@ fn small_random_cases_give_the_same_bits_on_one_to_four_ranks() {
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("1/summary.json")).unwrap()).unwrap();
         eprintln!(
-            "case {index}: {} nodes, {} steps, {} rebuilds, broken {}/{}/{}, perforated {}",
+            "case {index}: {} nodes, {} steps, {} rebuilds, broken {}/{}/{}, perforated {}; shear {}, tension {}",
             summary["nodes"],
             summary["steps"],
             summary["neighbour_rebuilds"],
             summary["broken_elements_tension"],
             summary["broken_elements_shear"],
             summary["broken_elements_combined"],
-            summary["perforated"]
+            summary["perforated"],
+            value["failure"]["shear_measure"].as_str().unwrap_or("gauge"),
+            value["failure"]["tension_measure"].as_str().unwrap_or("element")
         );
         let mut differing = Vec::new();
         for ranks in 2..=4 {

@@ -19,6 +19,7 @@ const NO_FAILURE: FailureParameters = FailureParameters {
     shear_strength: 0.7672e9,
     enabled: false,
     shear_measure: ShearMeasure::Element,
+    tension_measure: dea_core::tension_gauge::TensionMeasure::Element,
     unload: dea_core::failure::Unload::AtBreak,
 };
 

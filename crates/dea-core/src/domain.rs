@@ -28,7 +28,7 @@ use crate::{FibreId, FibreMaterial, FibreSection, GlobalNodeId, Vec3, NONE};
 
 /// Nodes on each side of an owned node that its step reads with the seed's shear measure:
 /// tension and bending need 2, and the failure test of the element after a rank's last node
-/// (to book released energy once) needs 3. A gauge shear measure reads further
+/// (to book released energy once) needs 3. A gauge measure of shear or tension reads further
 /// ([`Domain::chain_stencil`]).
 pub const CHAIN_STENCIL: u32 = 3;
 
@@ -240,6 +240,9 @@ pub struct Domain {
     /// the failure stage's section hats and gauge moments (scratch of
     /// [`failure::break_elements`])
     measured_moment: crate::shear_gauge::GaugeScratch,
+    /// the failure stage's gauge strains (scratch of [`failure::break_elements`]; unused
+    /// under the element tension measure)
+    measured_strain: crate::tension_gauge::StrainGaugeScratch,
     /// the last step's closing kick of the owned nodes, left for the next step's opening one
     /// to apply in the same pass ([`Self::defer_kick`]): its half step [s]. While it waits,
     /// `nodes.velocity` is half a step behind the positions, and [`Self::velocity`] gives
@@ -331,6 +334,7 @@ impl Domain {
             newly_broken: Vec::new(),
             chain_force_set: Vec::new(),
             measured_moment: Default::default(),
+            measured_strain: Default::default(),
             deferred_kick: None,
         }
     }
@@ -818,7 +822,7 @@ impl Domain {
     }
 
     /// Nodes on each side of an owned node that its step reads along its fibre: the
-    /// [`CHAIN_STENCIL`] and the reach of the failure stage's shear gauge. Every rank holds
+    /// [`CHAIN_STENCIL`] and the reach of the failure stage's gauges. Every rank holds
     /// these as ghosts (chosen by topology), so each decides its elements from the same window.
     pub fn chain_stencil(&self) -> u32 {
         CHAIN_STENCIL + self.failure.stencil_beyond_element(&self.sections)
@@ -841,6 +845,7 @@ impl Domain {
             &mut self.broken,
             &mut self.newly_broken,
             &mut self.measured_moment,
+            &mut self.measured_strain,
             &self.firing.active,
         );
     }

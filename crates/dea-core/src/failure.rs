@@ -1,5 +1,6 @@
 //! Combined tension–shear failure of rod elements, seed eq. (5-6):
 //! `(sigma/sigma_u)^2 + (tau/tau_u)^2 > 1`, with `sigma = E eps` (4-16) and `tau = 4Q/(3A)` (5-5),
+//! each measured as the parameters say ([`TensionMeasure`], [`ShearMeasure`]),
 //! and the failure stage of a step: which owned elements break now, and the strain and bending
 //! energy they release.
 
@@ -7,6 +8,7 @@ use crate::bending::{element_shear_force, max_shear_stress, spring_energy, Bendi
 use crate::nodes::{Elements, FailureMode, Nodes};
 use crate::rod::axial_energy;
 use crate::shear_gauge::{gauge_moments, GaugeScratch, ShearMeasure};
+use crate::tension_gauge::{gauge_strains, StrainGaugeScratch, TensionMeasure};
 use crate::{FibreMaterial, FibreSection, Vec3};
 
 /// Failure parameters shared by all elements (the tensile strength is per element).
@@ -18,6 +20,8 @@ pub struct FailureParameters {
     pub enabled: bool,
     /// how an element's shear force is measured ([`ShearMeasure`])
     pub shear_measure: ShearMeasure,
+    /// how an element's tension is measured ([`TensionMeasure`])
+    pub tension_measure: TensionMeasure,
     /// when an element that breaks stops acting ([`Unload`])
     pub unload: Unload,
 }
@@ -55,12 +59,16 @@ impl Unload {
 
 impl FailureParameters {
     /// How many positions along a fibre, beyond the element's own two and the next element's,
-    /// the failure stage reads about an owned element: the widest gauge reach over `sections`.
+    /// the failure stage reads about an owned element: the widest gauge reach over `sections`
+    /// (a tension gauge reaching `q` elements reads `q - 1` positions beyond those, a shear
+    /// gauge reaching `r` nodes `r`; the larger count serves both).
     pub fn stencil_beyond_element(&self, sections: &[FibreSection]) -> u32 {
         if !self.enabled {
             return 0;
         }
-        sections.iter().map(|s| self.shear_measure.reach_in_nodes(s)).max().unwrap_or(0)
+        let reach =
+            |s: &FibreSection| self.shear_measure.reach_in_nodes(s).max(self.tension_measure.reach_in_elements(s));
+        sections.iter().map(reach).max().unwrap_or(0)
     }
 }
 
@@ -111,10 +119,10 @@ impl BrokenCount {
 
 /// The failure stage: applies the combined criterion (5-6) to the owned elements in `firing`
 /// (ascending ranges of local indices: all of them, or at a multi-rate instant those of the
-/// sections whose terms fire, [`crate::multi_rate`]; the gauge moments are taken over the
-/// same ranges) with this
-/// step's strains (`elements`) and moments (`bending`, taken as the parameters' shear measure
-/// says into the scratch `measured_moment`), counts the broken ones in `broken`, books the
+/// sections whose terms fire, [`crate::multi_rate`]; the gauges are taken over the same
+/// ranges) with this step's strains (`elements`, taken as the parameters' tension measure says
+/// into the scratch `measured_strain`) and moments (`bending`, taken as the parameters' shear
+/// measure says into the scratch `measured_moment`), counts the broken ones in `broken`, books the
 /// strain and bending energy each releases in `fracture_released` [J] at its first node, and
 /// then marks them broken. `newly_broken` is scratch. The decisions read only this step's
 /// state, so every rank that holds an element's stencil decides it alike.
@@ -130,6 +138,7 @@ pub fn break_elements(
     broken: &mut BrokenCount,
     newly_broken: &mut Vec<(u32, FailureMode)>,
     measured_moment: &mut GaugeScratch,
+    measured_strain: &mut StrainGaugeScratch,
     firing: &[std::ops::Range<usize>],
 ) {
     newly_broken.clear();
@@ -143,9 +152,17 @@ pub fn break_elements(
             &measured_moment.gauge_moment
         }
     };
+    if parameters.tension_measure != TensionMeasure::Element {
+        gauge_strains(nodes, elements, sections, parameters.tension_measure, measured_strain, firing);
+    }
+    let strain: &[f64] = match parameters.tension_measure {
+        TensionMeasure::Element => &elements.strain,
+        TensionMeasure::Gauge { .. } => &measured_strain.gauge_strain,
+    };
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
-    let breaks_now =
-        |elements: &Elements, i: usize| element_breaks(nodes, elements, moment, sections, modulus, shear_strength, i);
+    let breaks_now = |elements: &Elements, i: usize| {
+        element_breaks(nodes, elements, strain, moment, sections, modulus, shear_strength, i)
+    };
     let mut book_if_broken = |i: usize| {
         if let Some(mode) = breaks_now(elements, i) {
             newly_broken.push((i as u32, mode));
@@ -160,6 +177,7 @@ pub fn break_elements(
             let Some(candidates) = crate::in_avx2_lanes!(may_break_in_lanes(
                 nodes,
                 elements,
+                strain,
                 moment,
                 sections,
                 modulus,
@@ -198,12 +216,15 @@ pub fn break_elements(
     }
 }
 
-/// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) and the
+/// How element `i` breaks now under (5-6), if it does: tension `E_L eps` (4-16) of its
+/// `strain` [-] (the elements' own, or the gauge strains of [`gauge_strains`]) and the
 /// shear stress (5-5) of its shear force, the jump of `moment` [N m] along it (5-4: the
 /// springs' moments, or the gauge moments of [`gauge_moments`]), against its strengths [Pa].
+#[allow(clippy::too_many_arguments)]
 pub fn element_breaks(
     nodes: &Nodes,
     elements: &Elements,
+    strain: &[f64],
     moment: &[Vec3],
     sections: &[FibreSection],
     longitudinal_modulus: f64,
@@ -213,7 +234,7 @@ pub fn element_breaks(
     if !elements.is_intact(nodes, i) {
         return None;
     }
-    let sigma = longitudinal_modulus * elements.strain[i]; // (4-16)
+    let sigma = longitudinal_modulus * strain[i]; // (4-16)
     let area = sections[nodes.section[i] as usize].area;
     let tau = max_shear_stress(element_shear_force(nodes, elements, moment, i), area);
     combined_criterion(sigma, elements.tensile_strength[i], tau, shear_strength)
@@ -226,9 +247,11 @@ pub fn element_breaks(
 /// scalar test keeps, and the same elements break.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
 fn may_break_in_lanes(
     nodes: &Nodes,
     elements: &Elements,
+    strain: &[f64],
     moment: &[Vec3],
     sections: &[FibreSection],
     longitudinal_modulus: f64,
@@ -239,7 +262,7 @@ fn may_break_in_lanes(
     let plain = (0..4)
         .filter(|&l| nodes.next[i + l] == (i + l) as u32 + 1 && elements.failure[i + l] == FailureMode::Intact)
         .fold(0, |bits, l| bits | 1 << l);
-    let sigma = F4::splat(longitudinal_modulus).mul(F4::load(&elements.strain, i));
+    let sigma = F4::splat(longitudinal_modulus).mul(F4::load(strain, i));
     let tension = sigma.max_with(F4::splat(0.0)).div(F4::load(&elements.tensile_strength, i));
     // (5-4), (5-5): the shear force from the jump of the moment along the element
     let jump = V4::load(moment, i).sub(V4::load(moment, i + 1));
@@ -387,6 +410,7 @@ mod tests {
             let bits = crate::in_avx2_lanes!(may_break_in_lanes(
                 &nodes,
                 &elements,
+                &elements.strain,
                 &bending.moment,
                 &sections,
                 material.longitudinal_modulus,
@@ -398,6 +422,7 @@ mod tests {
                 let breaks = element_breaks(
                     &nodes,
                     &elements,
+                    &elements.strain,
                     &bending.moment,
                     &sections,
                     material.longitudinal_modulus,

@@ -77,6 +77,7 @@ pub fn no_failure() -> FailureParameters {
         shear_strength: 0.7672e9,
         enabled: false,
         shear_measure: ShearMeasure::Element,
+        tension_measure: crate::tension_gauge::TensionMeasure::Element,
         unload: crate::failure::Unload::AtBreak,
     }
 }

@@ -32,6 +32,7 @@ pub mod rod;
 pub mod shear_gauge;
 pub mod stability;
 pub mod surface;
+pub mod tension_gauge;
 pub mod tie;
 pub mod weibull;
 

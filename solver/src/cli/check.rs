@@ -136,6 +136,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             "projectile_friction_spring": resolved.projectile_friction_spring.name(),
             "fibre_friction_spring": resolved.fibre_friction_spring.name(),
             "unload": resolved.unload.name(),
+            "tension_measure": resolved.tension_measure.name(),
             "rest_angle_law": resolved.rest_angle_law.name(),
             "relaxation": problem.relaxation,
             "fibres": fibres,

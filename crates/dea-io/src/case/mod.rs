@@ -627,6 +627,14 @@ pub struct FailureSpec {
     /// gauge length of the "gauge" shear measure in digital fibre diameters [-] (default 1)
     #[serde(default)]
     pub shear_gauge_diameters: Option<f64>,
+    /// how an element's tension (4-16) is measured: "element" (the default: the element's own
+    /// strain, the seed's form) or "gauge" (the strain averaged over a gauge of
+    /// `tension_gauge_diameters` digital fibre diameters, docs/theory.md I9c)
+    #[serde(default)]
+    pub tension_measure: Option<String>,
+    /// gauge length of the "gauge" tension measure in digital fibre diameters [-] (default 1)
+    #[serde(default)]
+    pub tension_gauge_diameters: Option<f64>,
     /// when a broken element stops acting: "at_break" (the default: its forces leave the
     /// step of its break) or "next_step" (they stay for that step, the order of every result
     /// before the choice was named; docs/theory.md I7)
@@ -1209,6 +1217,8 @@ pub fn default_case() -> Case {
             shear_strength_pa: Some(0.7672e9),
             shear_measure: None,
             shear_gauge_diameters: None,
+            tension_measure: None,
+            tension_gauge_diameters: None,
             unload: None,
             weibull: None,
             seed: 1,
@@ -1508,6 +1518,54 @@ mod tests {
                 v["failure"]["shear_gauge_diameters"] = 1.0.into();
             },
             "failure.shear_gauge_diameters",
+            "no gauge",
+        );
+    }
+
+    #[test]
+    fn the_tension_measure_is_the_elements_unless_a_gauge_is_asked_for() {
+        use dea_core::tension_gauge::TensionMeasure;
+        let measure = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut value = serde_json::to_value(default_case()).unwrap();
+            edit(&mut value);
+            parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.tension_measure)
+        };
+        assert_eq!(measure(&|_| {}).unwrap(), TensionMeasure::Element);
+        assert_eq!(
+            measure(&|v| v["failure"]["tension_measure"] = "gauge".into()).unwrap(),
+            TensionMeasure::Gauge { diameters: resolve::DEFAULT_TENSION_GAUGE_DIAMETERS }
+        );
+        assert_eq!(
+            measure(&|v| {
+                v["failure"]["tension_measure"] = "gauge".into();
+                v["failure"]["tension_gauge_diameters"] = 2.5.into();
+            })
+            .unwrap(),
+            TensionMeasure::Gauge { diameters: 2.5 }
+        );
+        let refused = |edit: &dyn Fn(&mut serde_json::Value), field: &str, words: &str| {
+            let e = measure(edit).unwrap_err();
+            assert_eq!(e.path, field, "{e}");
+            assert!(e.to_string().contains(words), "{e}");
+        };
+        let gauge = |diameters: f64| {
+            move |v: &mut serde_json::Value| {
+                v["failure"]["tension_measure"] = "gauge".into();
+                v["failure"]["tension_gauge_diameters"] = diameters.into();
+            }
+        };
+        refused(
+            &|v| v["failure"]["tension_measure"] = "nodal".into(),
+            "failure.tension_measure",
+            "\"element\" or \"gauge\"",
+        );
+        refused(&gauge(0.0), "failure.tension_gauge_diameters", "got 0");
+        refused(&gauge(-1.0), "failure.tension_gauge_diameters", "got -1");
+        refused(&gauge(50.0), "failure.tension_gauge_diameters", "at most 8");
+        // a gauge length without the gauge would be silently ignored
+        refused(
+            &|v| v["failure"]["tension_gauge_diameters"] = 1.0.into(),
+            "failure.tension_gauge_diameters",
             "no gauge",
         );
     }

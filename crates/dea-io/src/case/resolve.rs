@@ -7,6 +7,7 @@ use dea_core::bending::RestAngleLaw;
 use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
 use dea_core::shear_gauge::ShearMeasure;
+use dea_core::tension_gauge::TensionMeasure;
 use dea_fabric::panel::FineRegion;
 use dea_fabric::relax::RelaxOptions;
 
@@ -38,6 +39,14 @@ pub const DEFAULT_SHEAR_GAUGE_DIAMETERS: f64 = 1.0;
 /// away the bending a projectile's nose imposes.
 pub const MOST_SHEAR_GAUGE_DIAMETERS: f64 = 8.0;
 
+/// The gauge length of the tension measure "gauge" in digital fibre diameters, unless a
+/// case gives one (docs/theory.md I9c).
+pub const DEFAULT_TENSION_GAUGE_DIAMETERS: f64 = 1.0;
+
+/// The longest tension gauge a case may ask for, in fibre diameters: as the shear gauge's
+/// (each diameter adds `d / l0` chain ghosts on each side of a rank's nodes).
+pub const MOST_TENSION_GAUGE_DIAMETERS: f64 = MOST_SHEAR_GAUGE_DIAMETERS;
+
 /// A case resolved: every value checked and given its default, the material's overrides
 /// applied, the weaves made. Set-up builds from this and the case's own fields, and checks
 /// only what needs the built fabric: the skin against the fine section's contact diameter, a
@@ -64,6 +73,8 @@ pub struct ResolvedCase {
     pub shear_strength: f64,
     /// how the failure criterion measures an element's shear force
     pub shear_measure: ShearMeasure,
+    /// how the failure criterion measures an element's tension
+    pub tension_measure: TensionMeasure,
     /// when a broken element stops acting
     pub unload: Unload,
     /// what a spring bent at rest stores below its rest angle (docs/theory.md F4b)
@@ -412,6 +423,37 @@ impl Case {
         }
     }
 
+    /// The tension measure of the failure criterion: the element's own strain unless "gauge"
+    /// is asked for, over `tension_gauge_diameters` (default 1) digital fibre diameters.
+    pub(super) fn tension_measure(&self) -> Result<TensionMeasure, CaseError> {
+        let diameters = self.failure.tension_gauge_diameters;
+        match self.failure.tension_measure.as_deref() {
+            Some("gauge") => {
+                let diameters = match diameters {
+                    None => DEFAULT_TENSION_GAUGE_DIAMETERS,
+                    Some(d) => positive("failure.tension_gauge_diameters", d)?,
+                };
+                if diameters > MOST_TENSION_GAUGE_DIAMETERS {
+                    return Err(invalid(
+                        "failure.tension_gauge_diameters",
+                        format!("must be at most {MOST_TENSION_GAUGE_DIAMETERS} fibre diameters, got {diameters}"),
+                    ));
+                }
+                Ok(TensionMeasure::Gauge { diameters })
+            }
+            None | Some("element") => match diameters {
+                None => Ok(TensionMeasure::Element),
+                Some(_) => Err(invalid(
+                    "failure.tension_gauge_diameters",
+                    "applies only to failure.tension_measure \"gauge\"; the \"element\" measure (the default) has no gauge",
+                )),
+            },
+            Some(other) => {
+                Err(invalid("failure.tension_measure", format!("must be \"element\" or \"gauge\", got \"{other}\"")))
+            }
+        }
+    }
+
     /// Projectile resolved from its preset or explicit shape.
     pub(super) fn projectile(&self) -> Result<ResolvedProjectile, CaseError> {
         let p = &self.projectile;
@@ -610,6 +652,7 @@ impl Case {
         let strength = self.strength()?;
         let shear_strength = self.shear_strength()?;
         let shear_measure = self.shear_measure()?;
+        let tension_measure = self.tension_measure()?;
         let unload = self.unload()?;
         let projectile_friction_spring = self.projectile_friction_spring()?;
         let fibre_friction_spring = self.fibre_friction_spring()?;
@@ -884,6 +927,7 @@ impl Case {
             strength,
             shear_strength,
             shear_measure,
+            tension_measure,
             unload,
             rest_angle_law,
             projectile,

@@ -1,0 +1,304 @@
+//! The tension measure of the failure criterion (5-6): the seed's element strain (4-16) or
+//! the strain averaged over a gauge of physical length (docs/theory.md, I9c).
+//!
+//! The seed tests each element's own strain. Where a fibre is pulled over an edge or the front
+//! of a transverse wave passes, the strain peaks over a length set by the loading, and a
+//! shorter element samples that peak more sharply: on the 1 in probe of validation.md the
+//! ballistic outcome moved by +4.6 m/s from l0/d 0.5 to 0.25 with the element strain, by
+//! −1.1 m/s with the strain taken over one fibre diameter. The gauge measure gives an
+//! element the strain averaged along its fibre with a hat of half-width `L` (the gauge
+//! length) centred on the element's middle,
+//! `ε̄_i = Σ_j w_j ε_j / Σ_j w_j`, `w_j = l0_j (1 − |s_j − s_i| / L)`, over the elements `j`
+//! of the same unbroken piece with `|s_j − s_i| < L` (`s` the rest arc length of an
+//! element's middle). The weights are normalised, so a uniform strain is unchanged (also
+//! where the window is cut by a broken element or a chain end), and a strain that varies
+//! linearly along the window keeps its value at the middle; a one-element spike is spread
+//! over `2L` of fibre at most `l0 / L` of its height (with the window whole).
+
+use crate::ids::NONE;
+use crate::nodes::{Elements, Nodes};
+use crate::FibreSection;
+
+/// How the failure criterion measures an element's tension.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum TensionMeasure {
+    /// the seed's (4-16) as written: `σ = E ε` of the element's own strain (the default;
+    /// every result before the choice was named)
+    #[default]
+    Element,
+    /// the strain averaged over a hat of half-width `diameters` digital fibre diameters
+    Gauge {
+        /// the gauge length in digital fibre diameters of the element's section [-]
+        diameters: f64,
+    },
+}
+
+impl TensionMeasure {
+    /// The name a case gives it (`failure.tension_measure`).
+    pub fn name(self) -> &'static str {
+        match self {
+            TensionMeasure::Element => "element",
+            TensionMeasure::Gauge { .. } => "gauge",
+        }
+    }
+
+    /// How many elements beyond its own an element's gauge reaches along its fibre in
+    /// `section`: `ceil(L / l0)` (0 for the element measure). The walk stops there even when
+    /// rest lengths shorter than the nominal one would let it go on, so the reach is a count
+    /// and every rank that holds the chain stencil sees the same window.
+    pub fn reach_in_elements(&self, section: &FibreSection) -> u32 {
+        match *self {
+            TensionMeasure::Element => 0,
+            TensionMeasure::Gauge { diameters } => {
+                (diameters * section.diameter / section.element_length).ceil() as u32
+            }
+        }
+    }
+
+    /// The gauge length `L` of `section` [m] (0 for the element measure).
+    pub fn gauge_length(&self, section: &FibreSection) -> f64 {
+        match *self {
+            TensionMeasure::Element => 0.0,
+            TensionMeasure::Gauge { diameters } => diameters * section.diameter,
+        }
+    }
+}
+
+/// What [`gauge_strains`] keeps between steps: each section's gauge length [m] and reach
+/// (taken on the first call for the sections and measure it is given) and the gauge strains
+/// [-] of the local elements.
+#[derive(Clone, Debug, Default)]
+pub struct StrainGaugeScratch {
+    windows: Vec<(f64, u32)>,
+    /// the measure `windows` were taken for
+    measure: Option<TensionMeasure>,
+    /// `ε̄` of each local element (indexed by its first node) [-]
+    pub gauge_strain: Vec<f64>,
+}
+
+/// The gauge strains `ε̄` [-] of the local elements whose first node is in `ranges` (every
+/// element, or at a multi-rate instant those of the sections whose terms fire,
+/// [`crate::multi_rate`]; a gauge stays on its fibre, so on its section) into
+/// `scratch.gauge_strain`, from the strains of [`crate::rod::compute_element_tension`]. An
+/// element's window ends at a broken element, a chain end or a node not held here; only the
+/// elements whose window the chain stencil holds are right, which are all the failure stage
+/// reads. A broken element keeps its own strain (the criterion does not read it). Each sum
+/// runs from the element outwards, the lower positions first, so an element's value has the
+/// same bits on every rank that holds its window.
+pub fn gauge_strains(
+    nodes: &Nodes,
+    elements: &Elements,
+    sections: &[FibreSection],
+    measure: TensionMeasure,
+    scratch: &mut StrainGaugeScratch,
+    ranges: &[std::ops::Range<usize>],
+) {
+    let StrainGaugeScratch { windows, measure: windows_of, gauge_strain } = scratch;
+    gauge_strain.resize(nodes.len(), 0.0);
+    // each section's gauge and reach: taken once for a domain's sections and measure (both
+    // fixed for its life), not in the step loop
+    if windows.len() != sections.len() || *windows_of != Some(measure) {
+        windows.clear();
+        windows.extend(sections.iter().map(|s| (measure.gauge_length(s), measure.reach_in_elements(s))));
+        *windows_of = Some(measure);
+    }
+    for range in ranges {
+        for i in range.clone() {
+            gauge_strain[i] = element_gauge_strain(nodes, elements, windows, i);
+        }
+    }
+}
+
+/// The gauge strain of local element `i` [-] ([`gauge_strains`]).
+#[inline]
+fn element_gauge_strain(nodes: &Nodes, elements: &Elements, windows: &[(f64, u32)], i: usize) -> f64 {
+    let (gauge, reach) = windows[nodes.section[i] as usize];
+    if gauge <= 0.0 || !elements.is_intact(nodes, i) {
+        return elements.strain[i];
+    }
+    let rest = &elements.rest_length;
+    let mut weighted = rest[i] * elements.strain[i];
+    let mut total = rest[i];
+    // towards lower positions: the element before element j ends at j
+    let mut add_side = |neighbour: &dyn Fn(usize) -> u32| {
+        let (mut j, mut distance) = (i, 0.0);
+        for _ in 0..reach {
+            let k = neighbour(j);
+            if k == NONE || !elements.is_intact(nodes, k as usize) {
+                break;
+            }
+            let k = k as usize;
+            // from middle to middle
+            distance += 0.5 * (rest[j] + rest[k]);
+            if distance >= gauge {
+                break;
+            }
+            let weight = rest[k] * (1.0 - distance / gauge);
+            weighted += weight * elements.strain[k];
+            total += weight;
+            j = k;
+        }
+    };
+    add_side(&|j| nodes.prev[j]);
+    // towards higher positions: element j is intact, so the element after it starts at its
+    // second node
+    add_side(&|j| nodes.next[j]);
+    weighted / total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{FibreMaterial, InertiaModel};
+    use crate::nodes::FailureMode;
+    use crate::{FibreId, GlobalNodeId, Vec3};
+
+    /// One straight fibre of `count` nodes, digital fibre diameter `diameter` [m] and
+    /// elements `l0` [m], each element's strain set to `strain(k)` (positions are not read).
+    fn fibre(
+        count: u32,
+        l0: f64,
+        diameter: f64,
+        strain: impl Fn(usize) -> f64,
+    ) -> (Nodes, Elements, Vec<FibreSection>) {
+        let material = FibreMaterial::kevlar_km2();
+        let area = std::f64::consts::PI * diameter * diameter / 4.0;
+        let sections = vec![FibreSection::new(
+            &material,
+            area,
+            l0,
+            InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
+        )];
+        let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
+        for along in 0..count {
+            let position = Vec3::new(along as f64 * l0, 0.0, 0.0);
+            nodes.push(GlobalNodeId(along as u64), position, Vec3::zeros(), 1e-12, FibreId(0), along, 0, false, false);
+            elements.push(l0, 3.8e9, FailureMode::Intact);
+        }
+        nodes.n_owned = nodes.len();
+        nodes.link_chains();
+        for k in 0..count as usize {
+            elements.strain[k] = strain(k);
+        }
+        (nodes, elements, sections)
+    }
+
+    fn measured(nodes: &Nodes, elements: &Elements, sections: &[FibreSection], diameters: f64) -> Vec<f64> {
+        let mut scratch = StrainGaugeScratch::default();
+        let measure = TensionMeasure::Gauge { diameters };
+        gauge_strains(nodes, elements, sections, measure, &mut scratch, &[0..nodes.len()]);
+        scratch.gauge_strain
+    }
+
+    #[test]
+    fn a_uniform_or_linear_strain_is_kept_and_a_spike_is_spread_by_the_hat() {
+        let diameter = 12e-6;
+        for ratio in [0.5, 0.25, 0.125, 0.3] {
+            let l0 = ratio * diameter;
+            let count = 81;
+            // uniform: unchanged everywhere, the windows cut by the chain's ends too
+            let (nodes, elements, sections) = fibre(count, l0, diameter, |_| 0.02);
+            let gauge = measured(&nodes, &elements, &sections, 1.0);
+            for i in 0..count as usize - 1 {
+                assert!((gauge[i] - 0.02).abs() <= 1e-15, "l0/d {ratio}, element {i}: {}", gauge[i]);
+            }
+            // linear along the fibre: kept where the window is whole (the hat is symmetric)
+            let (nodes, elements, sections) = fibre(count, l0, diameter, |k| 0.01 + 1e-4 * k as f64);
+            let gauge = measured(&nodes, &elements, &sections, 1.0);
+            let whole = TensionMeasure::Gauge { diameters: 1.0 }.reach_in_elements(&sections[0]) as usize;
+            for i in whole..count as usize - 1 - whole {
+                assert!((gauge[i] - elements.strain[i]).abs() <= 1e-15, "l0/d {ratio}, element {i}");
+            }
+            // one element at 0.03 amid zeros: its own gauge reads 0.03 l0 / Σ w, and every
+            // element whose middle lies within L of its middle reads its share by the hat
+            let spike = 40;
+            let (nodes, elements, sections) = fibre(count, l0, diameter, |k| if k == spike { 0.03 } else { 0.0 });
+            let gauge = measured(&nodes, &elements, &sections, 1.0);
+            let weight = |k: usize| (1.0 - k as f64 * l0 / diameter).max(0.0);
+            let sum: f64 = l0 * (weight(0) + 2.0 * (1..=whole).map(weight).sum::<f64>());
+            for i in spike - whole - 2..=spike + whole + 2 {
+                let expected = 0.03 * l0 * weight(i.abs_diff(spike)) / sum;
+                assert!(
+                    (gauge[i] - expected).abs() <= 1e-15,
+                    "l0/d {ratio}, element {i}: {} against {expected}",
+                    gauge[i]
+                );
+            }
+            // the spike's peak falls as the elements shorten (l0/L of it with integer L/l0)
+            if ratio == 0.5 || ratio == 0.25 {
+                assert!((gauge[spike] - 0.03 * ratio).abs() <= 1e-15, "l0/d {ratio}: {}", gauge[spike]);
+            }
+        }
+    }
+
+    #[test]
+    fn the_gauge_of_a_strain_peak_converges_as_the_elements_halve() {
+        // a peak of fixed physical width (a Gaussian of 2 diameters' standard deviation at
+        // s = 0, 2 % over a 1 % base): the element strain samples it ever closer to its top,
+        // the gauge strain tends to its hat average, which is below the top
+        let diameter = 12e-6;
+        let peak = |s: f64| 0.01 + 0.02 * (-(s / (0.5 * diameter)).powi(2) / 2.0).exp();
+        let mut element_peaks = Vec::new();
+        let mut gauge_peaks = Vec::new();
+        for ratio in [1.0, 0.5, 0.25, 0.125, 0.0625] {
+            let l0 = ratio * diameter;
+            let count = (16.0 / ratio) as u32 + 1;
+            // an element's strain: the mean of the field over it, its middle at (k + 1/2) l0
+            // from the fibre's middle shifted by a third of an element (no node on the top)
+            let middle = |k: usize| (k as f64 + 0.5 - (count - 1) as f64 / 2.0 + 1.0 / 3.0) * l0;
+            let mean = |k: usize| {
+                let n = 64;
+                (0..n).map(|q| peak(middle(k) + ((q as f64 + 0.5) / n as f64 - 0.5) * l0)).sum::<f64>() / n as f64
+            };
+            let (nodes, elements, sections) = fibre(count, l0, diameter, mean);
+            let gauge = measured(&nodes, &elements, &sections, 1.0);
+            element_peaks.push(elements.strain[..count as usize - 1].iter().copied().fold(0.0, f64::max));
+            gauge_peaks.push(gauge[..count as usize - 1].iter().copied().fold(0.0, f64::max));
+        }
+        // the hat average of the field about its top, by the midpoint rule on 20,000 slices
+        let n = 20_000;
+        let hat_average = (0..n)
+            .map(|q| {
+                let s = ((q as f64 + 0.5) / n as f64 * 2.0 - 1.0) * diameter;
+                (1.0 - s.abs() / diameter) * peak(s) * 2.0 * diameter / n as f64 / diameter
+            })
+            .sum::<f64>();
+        // the element strain climbs toward the top (0.03) by more than 10 % of the peak from
+        // l0/d 1 to 1/16; the gauge strain's changes shrink about fourfold a halving (0.9e-3,
+        // 1.9e-4, 4.6e-5, 1.1e-5 when written), toward the hat average, below the top
+        assert!(element_peaks[4] - element_peaks[0] > 0.002, "{element_peaks:?}");
+        let steps: Vec<f64> = gauge_peaks.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+        assert!(steps[3] < 0.1 * steps[1], "{gauge_peaks:?}");
+        assert!((gauge_peaks[4] - hat_average).abs() < 2e-5, "{gauge_peaks:?} against {hat_average}");
+        assert!(hat_average < 0.026, "{hat_average}");
+    }
+
+    #[test]
+    fn a_window_ends_at_a_broken_element() {
+        let diameter = 12e-6;
+        let l0 = 0.25 * diameter;
+        let (nodes, mut elements, sections) = fibre(41, l0, diameter, |k| if k < 20 { 0.05 } else { 0.01 });
+        elements.failure[20] = FailureMode::Tension;
+        let gauge = measured(&nodes, &elements, &sections, 1.0);
+        // the two pieces do not read each other across the break
+        for i in 15..20 {
+            assert!((gauge[i] - 0.05).abs() <= 1e-15, "element {i}: {}", gauge[i]);
+        }
+        for i in 21..26 {
+            assert!((gauge[i] - 0.01).abs() <= 1e-15, "element {i}: {}", gauge[i]);
+        }
+        // the broken element keeps its own strain
+        assert_eq!(gauge[20], elements.strain[20]);
+    }
+
+    #[test]
+    fn the_element_measure_reaches_nothing_and_the_gauge_its_length_over_l0() {
+        let (_, _, mut sections) = fibre(3, 0.3e-6, 1.2e-6, |_| 0.0);
+        // lengths whose ratios are exact in binary
+        (sections[0].diameter, sections[0].element_length) = (1.0, 0.25);
+        assert_eq!(TensionMeasure::Element.reach_in_elements(&sections[0]), 0);
+        assert_eq!(TensionMeasure::Gauge { diameters: 1.0 }.reach_in_elements(&sections[0]), 4);
+        assert_eq!(TensionMeasure::Gauge { diameters: 1.1 }.reach_in_elements(&sections[0]), 5);
+        assert_eq!(TensionMeasure::Gauge { diameters: 2.0 }.gauge_length(&sections[0]), 2.0);
+    }
+}
