@@ -462,6 +462,10 @@ def entry(c, campaigns=(), report=None):
         "fibre_friction_spring": c.case["contact"].get("fibre_friction_spring") or "anchored",
         # and when broken elements stop acting (docs/theory.md I7)
         "unload": (c.case.get("failure") or {}).get("unload") or "at_break",
+        # what a crimped spring stores below its rest angle (docs/theory.md F4b)
+        "rest_angle_law": target.get("rest_angle_law") or "cone",
+        # how the failure criterion measures tension (docs/theory.md I9c)
+        "tension_measure": (c.case.get("failure") or {}).get("tension_measure") or "element",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,
