@@ -152,12 +152,12 @@ pub fn break_elements(
             &measured_moment.gauge_moment
         }
     };
-    if parameters.tension_measure != TensionMeasure::Element {
-        gauge_strains(nodes, elements, sections, parameters.tension_measure, measured_strain, firing);
-    }
     let strain: &[f64] = match parameters.tension_measure {
         TensionMeasure::Element => &elements.strain,
-        TensionMeasure::Gauge { .. } => &measured_strain.gauge_strain,
+        measure => {
+            gauge_strains(nodes, elements, sections, measure, measured_strain, firing);
+            &measured_strain.gauge_strain
+        }
     };
     let (modulus, shear_strength) = (material.longitudinal_modulus, parameters.shear_strength);
     let breaks_now = |elements: &Elements, i: usize| {

@@ -88,3 +88,37 @@ pub fn contact_overlap(domain: &Domain, i: usize, k: usize) -> f64 {
     crate::neighbour::contact_distance(&domain.sections, &domain.nodes, i, j)
         - (domain.nodes.position[j] - domain.nodes.position[i]).norm()
 }
+
+/// One fibre of digital fibre diameter `diameter` [m] and elements `l0` [m] laid along
+/// `shape` (arc length to position), from arc length `-half` to `half` [m].
+pub fn fibre_along(
+    shape: impl Fn(f64) -> Vec3,
+    half: f64,
+    l0: f64,
+    diameter: f64,
+) -> (Nodes, Elements, Vec<FibreSection>) {
+    let material = FibreMaterial::kevlar_km2();
+    let area = std::f64::consts::PI * diameter * diameter / 4.0;
+    let sections =
+        vec![FibreSection::new(&material, area, l0, InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3))];
+    let count = (2.0 * half / l0).round() as u32 + 1;
+    let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
+    for along in 0..count {
+        let s = -half + along as f64 * l0;
+        nodes.push(
+            GlobalNodeId(along as u64),
+            shape(s),
+            Vec3::zeros(),
+            1e-12,
+            FibreId(0),
+            along,
+            0,
+            false,
+            along + 1 == count,
+        );
+        elements.push(l0, 3.8e9, FailureMode::Intact);
+    }
+    nodes.n_owned = nodes.len();
+    nodes.link_chains();
+    (nodes, elements, sections)
+}

@@ -116,42 +116,62 @@ fn element_gauge_strain(nodes: &Nodes, elements: &Elements, windows: &[(f64, u32
     if gauge <= 0.0 || !elements.is_intact(nodes, i) {
         return elements.strain[i];
     }
-    let rest = &elements.rest_length;
-    let mut weighted = rest[i] * elements.strain[i];
-    let mut total = rest[i];
+    let rest = elements.rest_length[i];
+    let mut sums = (rest * elements.strain[i], rest);
+    let side = Side { nodes, elements, from: i, reach, gauge };
     // towards lower positions: the element before element j ends at j
-    let mut add_side = |neighbour: &dyn Fn(usize) -> u32| {
-        let (mut j, mut distance) = (i, 0.0);
-        for _ in 0..reach {
+    side.add(&mut sums, |j| nodes.prev[j]);
+    // towards higher positions: element j is intact, so the element after it starts at its
+    // second node
+    side.add(&mut sums, |j| nodes.next[j]);
+    sums.0 / sums.1
+}
+
+/// One element's window, walked one way at a time.
+struct Side<'a> {
+    nodes: &'a Nodes,
+    elements: &'a Elements,
+    /// the element the window is centred on
+    from: usize,
+    /// elements reached at most each way
+    reach: u32,
+    /// half-width L [m]
+    gauge: f64,
+}
+
+impl Side<'_> {
+    /// Adds to `(Σ w ε, Σ w)` the hat-weighted strains one way along the fibre, up to the
+    /// reach, the gauge or a broken element; `neighbour` gives the next element that way (a
+    /// generic, so the failure stage calls it without dynamic dispatch).
+    #[inline]
+    fn add(&self, (weighted, total): &mut (f64, f64), neighbour: impl Fn(usize) -> u32) {
+        let (elements, rest) = (self.elements, &self.elements.rest_length);
+        let (mut j, mut distance) = (self.from, 0.0);
+        for _ in 0..self.reach {
             let k = neighbour(j);
-            if k == NONE || !elements.is_intact(nodes, k as usize) {
+            if k == NONE || !elements.is_intact(self.nodes, k as usize) {
                 break;
             }
             let k = k as usize;
             // from middle to middle
             distance += 0.5 * (rest[j] + rest[k]);
-            if distance >= gauge {
+            if distance >= self.gauge {
                 break;
             }
-            let weight = rest[k] * (1.0 - distance / gauge);
-            weighted += weight * elements.strain[k];
-            total += weight;
+            let weight = rest[k] * (1.0 - distance / self.gauge);
+            *weighted += weight * elements.strain[k];
+            *total += weight;
             j = k;
         }
-    };
-    add_side(&|j| nodes.prev[j]);
-    // towards higher positions: element j is intact, so the element after it starts at its
-    // second node
-    add_side(&|j| nodes.next[j]);
-    weighted / total
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{FibreMaterial, InertiaModel};
+    use crate::fixtures::fibre_along;
     use crate::nodes::FailureMode;
-    use crate::{FibreId, GlobalNodeId, Vec3};
+    use crate::Vec3;
 
     /// One straight fibre of `count` nodes, digital fibre diameter `diameter` [m] and
     /// elements `l0` [m], each element's strain set to `strain(k)` (positions are not read).
@@ -161,22 +181,8 @@ mod tests {
         diameter: f64,
         strain: impl Fn(usize) -> f64,
     ) -> (Nodes, Elements, Vec<FibreSection>) {
-        let material = FibreMaterial::kevlar_km2();
-        let area = std::f64::consts::PI * diameter * diameter / 4.0;
-        let sections = vec![FibreSection::new(
-            &material,
-            area,
-            l0,
-            InertiaModel::Effective { k1: 0.8, k2: 1.0 }.with_friction(0.3),
-        )];
-        let (mut nodes, mut elements) = (Nodes::default(), Elements::default());
-        for along in 0..count {
-            let position = Vec3::new(along as f64 * l0, 0.0, 0.0);
-            nodes.push(GlobalNodeId(along as u64), position, Vec3::zeros(), 1e-12, FibreId(0), along, 0, false, false);
-            elements.push(l0, 3.8e9, FailureMode::Intact);
-        }
-        nodes.n_owned = nodes.len();
-        nodes.link_chains();
+        let half = 0.5 * (count - 1) as f64 * l0;
+        let (nodes, mut elements, sections) = fibre_along(|s| Vec3::new(s, 0.0, 0.0), half, l0, diameter);
         for k in 0..count as usize {
             elements.strain[k] = strain(k);
         }

@@ -43,9 +43,22 @@ pub const MOST_SHEAR_GAUGE_DIAMETERS: f64 = 8.0;
 /// case gives one (docs/theory.md I9c).
 pub const DEFAULT_TENSION_GAUGE_DIAMETERS: f64 = 1.0;
 
-/// The longest tension gauge a case may ask for, in fibre diameters: as the shear gauge's
-/// (each diameter adds `d / l0` chain ghosts on each side of a rank's nodes).
-pub const MOST_TENSION_GAUGE_DIAMETERS: f64 = MOST_SHEAR_GAUGE_DIAMETERS;
+/// A gauge's length in fibre diameters, `given` at `path` or `default`: positive and at
+/// most [`MOST_SHEAR_GAUGE_DIAMETERS`] (for tension too: each diameter adds `d / l0` chain
+/// ghosts on each side of a rank's nodes, whichever term reads them).
+fn gauge_diameters(path: &str, given: Option<f64>, default: f64) -> Result<f64, CaseError> {
+    let diameters = match given {
+        None => default,
+        Some(d) => positive(path, d)?,
+    };
+    if diameters > MOST_SHEAR_GAUGE_DIAMETERS {
+        return Err(invalid(
+            path,
+            format!("must be at most {MOST_SHEAR_GAUGE_DIAMETERS} fibre diameters, got {diameters}"),
+        ));
+    }
+    Ok(diameters)
+}
 
 /// A case resolved: every value checked and given its default, the material's overrides
 /// applied, the weaves made. Set-up builds from this and the case's own fields, and checks
@@ -398,16 +411,8 @@ impl Case {
         let diameters = self.failure.shear_gauge_diameters;
         match self.failure.shear_measure.as_deref() {
             None | Some("gauge") => {
-                let diameters = match diameters {
-                    None => DEFAULT_SHEAR_GAUGE_DIAMETERS,
-                    Some(d) => positive("failure.shear_gauge_diameters", d)?,
-                };
-                if diameters > MOST_SHEAR_GAUGE_DIAMETERS {
-                    return Err(invalid(
-                        "failure.shear_gauge_diameters",
-                        format!("must be at most {MOST_SHEAR_GAUGE_DIAMETERS} fibre diameters, got {diameters}"),
-                    ));
-                }
+                let diameters =
+                    gauge_diameters("failure.shear_gauge_diameters", diameters, DEFAULT_SHEAR_GAUGE_DIAMETERS)?;
                 Ok(ShearMeasure::Gauge { diameters })
             }
             Some("element") => match diameters {
@@ -429,16 +434,8 @@ impl Case {
         let diameters = self.failure.tension_gauge_diameters;
         match self.failure.tension_measure.as_deref() {
             Some("gauge") => {
-                let diameters = match diameters {
-                    None => DEFAULT_TENSION_GAUGE_DIAMETERS,
-                    Some(d) => positive("failure.tension_gauge_diameters", d)?,
-                };
-                if diameters > MOST_TENSION_GAUGE_DIAMETERS {
-                    return Err(invalid(
-                        "failure.tension_gauge_diameters",
-                        format!("must be at most {MOST_TENSION_GAUGE_DIAMETERS} fibre diameters, got {diameters}"),
-                    ));
-                }
+                let diameters =
+                    gauge_diameters("failure.tension_gauge_diameters", diameters, DEFAULT_TENSION_GAUGE_DIAMETERS)?;
                 Ok(TensionMeasure::Gauge { diameters })
             }
             None | Some("element") => match diameters {
