@@ -292,6 +292,25 @@ fn check_prints_the_resolved_case() {
     assert_eq!(printed["resolved"]["unload"], "at_break");
     assert_eq!(printed["resolved"]["rest_angle_law"], "cone");
     assert_eq!(printed["resolved"]["tension_measure"], "element");
+    assert!(printed["resolved"]["tension_gauge_diameters"].is_null());
+    assert_eq!(printed["resolved"]["shear_measure"], "gauge");
+    assert_eq!(printed["resolved"]["shear_gauge_diameters"], 1.0);
+    // the measures a case names are printed with their gauge lengths
+    let dir = scratch("measures");
+    let mut case = case_file("single_fibre_short.json");
+    case["failure"]["shear_measure"] = "element".into();
+    case["failure"]["tension_measure"] = "gauge".into();
+    case["failure"]["tension_gauge_diameters"] = 2.0.into();
+    let path = dir.join("measures.json");
+    std::fs::write(&path, case.to_string()).unwrap();
+    let out = dea(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(printed["resolved"]["shear_measure"], "element");
+    assert!(printed["resolved"]["shear_gauge_diameters"].is_null());
+    assert_eq!(printed["resolved"]["tension_measure"], "gauge");
+    assert_eq!(printed["resolved"]["tension_gauge_diameters"], 2.0);
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

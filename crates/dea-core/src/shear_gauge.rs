@@ -34,6 +34,22 @@ pub enum ShearMeasure {
 }
 
 impl ShearMeasure {
+    /// The name a case gives it (`failure.shear_measure`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ShearMeasure::Element => "element",
+            ShearMeasure::Gauge { .. } => "gauge",
+        }
+    }
+
+    /// The gauge's half-width in digital fibre diameters [-], none for the element measure.
+    pub fn gauge_diameters(self) -> Option<f64> {
+        match self {
+            ShearMeasure::Element => None,
+            ShearMeasure::Gauge { diameters } => Some(diameters),
+        }
+    }
+
     /// How many nodes beyond its own a node's gauge reaches along its fibre in `section`:
     /// `ceil(L / l0)` (0 for the element measure). The walk stops there even when rest
     /// lengths shorter than the nominal one would let it go on, so the reach is a count of

@@ -55,6 +55,14 @@ impl TensionMeasure {
         }
     }
 
+    /// The gauge's half-width in digital fibre diameters [-], none for the element measure.
+    pub fn gauge_diameters(self) -> Option<f64> {
+        match self {
+            TensionMeasure::Element => None,
+            TensionMeasure::Gauge { diameters } => Some(diameters),
+        }
+    }
+
     /// The gauge length `L` of `section` [m] (0 for the element measure).
     pub fn gauge_length(&self, section: &FibreSection) -> f64 {
         match *self {
