@@ -9,7 +9,9 @@ use dea_projectile::elastic::ElasticModel;
 use dea_projectile::import::{read_mesh, read_surface};
 
 use crate::deformable::DeformableProjectile;
-use dea_core::stability::{design_contact_stiffness, stable_time_step};
+use dea_core::stability::{
+    bending_zigzag_frequency, design_contact_stiffness, run_time_step, stable_time_step, BENDING_ZIGZAG_LIMIT,
+};
 use dea_core::weibull::element_strength;
 use std::path::Path;
 use std::sync::Arc;
@@ -65,6 +67,9 @@ pub struct Problem {
     pub deformable: Option<DeformableProjectile>,
     /// [s]
     pub time_step: f64,
+    /// the stable step of `run.time_step_safety` that the bending zigzag's bound shortened
+    /// (docs/theory.md I11c), none where that bound does not hold [s]
+    pub zigzag_shortened: Option<f64>,
     /// each fibre section's rate: its terms fire every this many steps (docs/theory.md T1;
     /// all 1 without `run.multi_rate`) [-]
     pub rates: Vec<u32>,
@@ -456,7 +461,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Fabric::Tiled(panel) => 1.25 * dea_fabric::relax::largest_overlap_ratio(&panel.cell),
         Fabric::Straight(_) => 0.0,
     };
-    let mut time_step = stable_time_step(
+    let (mut time_step, shortened_from) = run_time_step(
         &material,
         &sections,
         &contact.law,
@@ -498,6 +503,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         aim,
         deformable,
         time_step,
+        zigzag_shortened: shortened_from,
         rates,
         reach,
         guides,
@@ -520,9 +526,15 @@ fn section_rates(
         return Ok(vec![1; sections.len()]);
     }
     let mu = contact.friction_coefficient.max(contact.projectile_friction_coefficient);
+    // each section's step at safety 1, within the bending zigzag's bound taken back to safety 1
+    // (the run's step is `safety` times the finest), so no section's zigzag steps past it
+    let safety = case.run.time_step_safety;
     let limits: Vec<f64> = sections
         .iter()
-        .map(|s| stable_time_step(material, std::slice::from_ref(s), &contact.law, mu, starting_strain, 1.0))
+        .map(|s| {
+            let stable = stable_time_step(material, std::slice::from_ref(s), &contact.law, mu, starting_strain, 1.0);
+            stable.min(BENDING_ZIGZAG_LIMIT / (safety * bending_zigzag_frequency(material, s)))
+        })
         .collect();
     let finest = limits.iter().copied().fold(f64::INFINITY, f64::min);
     let rates = dea_core::multi_rate::rates_for(&limits, finest);
@@ -943,6 +955,15 @@ pub fn build_adjusted<C: Comm>(
             );
         }
     }
+    if let (Some(stable), Rank(0)) = (problem.zigzag_shortened, comm.rank()) {
+        tracing::info!(
+            "case {:?}: the step is {:.3e} s, the bending zigzag's bound (omega dt {BENDING_ZIGZAG_LIMIT}; docs/theory.md I11c), shorter than run.time_step_safety {} gives ({:.3e} s): the elements are short enough for the bending springs to take most of the stiffness",
+            case.name,
+            problem.time_step,
+            case.run.time_step_safety,
+            stable
+        );
+    }
     let mut run = assemble(problem, comm, method, segment_positions, adjust)?;
     match &case.run.settle {
         Some(settle) => {
@@ -1238,6 +1259,35 @@ mod tests {
         assert!(error.contains("run.multi_rate") && error.contains("every term would fire at every step"), "{error}");
         woven.run.multi_rate = false;
         assert_eq!(problem(&woven).unwrap().rates, vec![1]);
+    }
+
+    #[test]
+    fn the_bending_zigzag_bounds_the_run_step_and_each_sections_rate() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/hybrid_disc_two_layer_settle.json");
+        let mut value: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        value["run"]["multi_rate"] = true.into();
+        let built = |value: &serde_json::Value| {
+            problem(&dea_io::case::parse_case(&value.to_string(), "hybrid.json").unwrap()).unwrap()
+        };
+        // l0/d 0.5: the stable step holds
+        let as_shipped = built(&value);
+        assert_eq!((as_shipped.zigzag_shortened, as_shipped.rates.clone()), (None, vec![1, 2]));
+        // l0/d 0.125 in the disc: the zigzag's bound, on the run's step and on each section's
+        value["target"]["weave"]["element_length_ratio"] = 0.125.into();
+        value["target"]["hybrid"]["element_length_ratio"] = 0.5.into();
+        value["run"]["history_interval_steps"] = 32.into();
+        value["run"]["snapshot_interval_steps"] = 320.into();
+        let fine = built(&value);
+        let stable = fine.zigzag_shortened.expect("the bound holds at l0/d 0.125");
+        assert!(fine.time_step < stable);
+        let sections = fine.fabric.sections(&fine.material);
+        let zigzag = |(section, rate): (&FibreSection, &u32)| {
+            *rate as f64 * fine.time_step * bending_zigzag_frequency(&fine.material, section)
+        };
+        let products: Vec<f64> = sections.iter().zip(&fine.rates).map(zigzag).collect();
+        assert!((products[0] - BENDING_ZIGZAG_LIMIT).abs() < 1e-12, "{products:?}");
+        assert!(products.iter().all(|&p| p <= BENDING_ZIGZAG_LIMIT * (1.0 + 1e-12)), "{products:?}");
+        assert_eq!(fine.rates, vec![1, 16], "the coarse yarns take more of the shorter steps");
     }
 
     #[test]

@@ -1056,6 +1056,9 @@ fn energies_that_are_not_finite_stop_every_rank_with_the_same_error() {
 fn a_time_step_too_long_for_the_contact_stiffness_stops_every_rank_with_the_same_error() {
     let mut case = stretched_case();
     case.run.time_step_safety = 1.0;
+    // fibres without bending rigidity: at safety 1 the bending zigzag's bound (docs/theory.md
+    // I11c) would otherwise shorten the step below what the crushed contacts violate
+    case.bending = dea_core::material::InertiaModel::None {};
     // the layers pushed into each other to a tenth of their spacing: contacts far deeper than the
     // 30 % transverse strain the time step was chosen for
     let crush = |nodes: &mut dea_core::Nodes| nodes.position.iter_mut().for_each(|p| p.z *= 0.1);

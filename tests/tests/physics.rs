@@ -49,7 +49,8 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
     );
     let built = bundle.build_all(&material);
     let contact = elastic_frictionless(&material);
-    let dt = stable_time_step(
+    // the run's step: at l0/d 0.125 the bending zigzag's bound (docs/theory.md I11c)
+    let (dt, _) = dea_core::stability::run_time_step(
         &material,
         &built.sections,
         &contact.law,

@@ -156,6 +156,7 @@ pub fn main(Args { case: path, ranks, ranks_per_host }: Args) -> ExitCode {
             },
             "cost": cost,
             "time_step_s": problem.time_step,
+            "time_step_bound": if problem.zigzag_shortened.is_some() { "bending_zigzag" } else { "stability" },
             "section_rates": problem.rates,
             "steps": shot_steps,
             "skin_m": problem.contact.skin,
