@@ -461,7 +461,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         Fabric::Tiled(panel) => 1.25 * dea_fabric::relax::largest_overlap_ratio(&panel.cell),
         Fabric::Straight(_) => 0.0,
     };
-    let (mut time_step, shortened_from) = run_time_step(
+    let stable = stable_time_step(
         &material,
         &sections,
         &contact.law,
@@ -469,6 +469,7 @@ pub fn problem(case: &Case) -> Result<Problem, SetupError> {
         starting_strain,
         case.run.time_step_safety,
     );
+    let (mut time_step, shortened_from) = run_time_step(&material, &sections, stable);
     if let Some(body) = &mut deformable {
         // one layer of fibre nodes, each a contact diameter wide and an element long
         let per_area = (1.0 + contact.projectile_friction_coefficient)

@@ -49,8 +49,7 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
     );
     let built = bundle.build_all(&material);
     let contact = elastic_frictionless(&material);
-    // the run's step: at l0/d 0.125 the bending zigzag's bound (docs/theory.md I11c)
-    let (dt, _) = dea_core::stability::run_time_step(
+    let stable = stable_time_step(
         &material,
         &built.sections,
         &contact.law,
@@ -58,6 +57,8 @@ fn single_fibre(element_length_ratio: f64, with_sphere: bool, inertia: InertiaMo
         dea_core::stability::DESIGN_CONTACT_STRAIN,
         0.5,
     );
+    // the run's step: at l0/d 0.125 the bending zigzag's bound (docs/theory.md I11c)
+    let (dt, _) = dea_core::stability::run_time_step(&material, &built.sections, stable);
     let projectile = with_sphere.then(|| {
         let radius = 5.56e-3 / 2.0;
         let start = radius + 0.5 * built.sections[0].contact_diameter + 1e-7;
