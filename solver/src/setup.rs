@@ -10,7 +10,7 @@ use dea_projectile::import::{read_mesh, read_surface};
 
 use crate::deformable::DeformableProjectile;
 use dea_core::stability::{
-    bending_zigzag_frequency, design_contact_stiffness, run_time_step, stable_time_step, BENDING_ZIGZAG_LIMIT,
+    design_contact_stiffness, run_time_step, stable_time_step, zigzag_step_limit, BENDING_ZIGZAG_LIMIT,
 };
 use dea_core::weibull::element_strength;
 use std::path::Path;
@@ -536,7 +536,7 @@ fn section_rates(
         .iter()
         .map(|s| {
             let stable = stable_time_step(material, std::slice::from_ref(s), &contact.law, mu, starting_strain, 1.0);
-            stable.min(BENDING_ZIGZAG_LIMIT / (safety * bending_zigzag_frequency(material, s)))
+            stable.min(zigzag_step_limit(material, s) / safety)
         })
         .collect();
     let finest = limits.iter().copied().fold(f64::INFINITY, f64::min);
@@ -1170,6 +1170,7 @@ pub fn projectile_top(projectile: &RigidProjectile) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dea_core::stability::bending_zigzag_frequency;
     use dea_io::case::TargetSpec;
 
     #[test]

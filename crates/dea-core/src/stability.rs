@@ -62,6 +62,12 @@ pub fn bending_zigzag_frequency(material: &FibreMaterial, section: &FibreSection
     (16.0 * section.torsional_stiffness / (l0 * l0) / section.node_mass(material)).sqrt()
 }
 
+/// The longest step the bending zigzag of `section` allows, [`BENDING_ZIGZAG_LIMIT`] over its
+/// [`bending_zigzag_frequency`] [s] (infinite for fibres without bending rigidity).
+pub fn zigzag_step_limit(material: &FibreMaterial, section: &FibreSection) -> f64 {
+    BENDING_ZIGZAG_LIMIT / bending_zigzag_frequency(material, section)
+}
+
 /// Effective stiffness of a node's chain in its highest mode, `4 k_axial + 16 K_t / l0^2`
 /// [N/m] (see [`highest_frequency`]).
 pub fn chain_stiffness(material: &FibreMaterial, section: &FibreSection) -> f64 {
@@ -97,9 +103,9 @@ pub fn stable_time_step(
 /// bound holds, the stable step it shortened. Where it does not, the step is `stable` to the
 /// bit.
 pub fn run_time_step(material: &FibreMaterial, sections: &[FibreSection], stable: f64) -> (f64, Option<f64>) {
-    let zigzag = sections.iter().map(|s| bending_zigzag_frequency(material, s)).fold(0.0, f64::max);
-    if zigzag * stable > BENDING_ZIGZAG_LIMIT {
-        (BENDING_ZIGZAG_LIMIT / zigzag, Some(stable))
+    let bound = sections.iter().map(|s| zigzag_step_limit(material, s)).fold(f64::INFINITY, f64::min);
+    if stable > bound {
+        (bound, Some(stable))
     } else {
         (stable, None)
     }
