@@ -67,7 +67,7 @@ impl FailureParameters {
             return 0;
         }
         let reach =
-            |s: &FibreSection| self.shear_measure.reach_in_nodes(s).max(self.tension_measure.reach_in_elements(s));
+            |s: &FibreSection| self.shear_measure.reach(s).max(self.tension_measure.reach(s));
         sections.iter().map(reach).max().unwrap_or(0)
     }
 }

@@ -22,6 +22,7 @@ pub mod integrate;
 #[cfg(target_arch = "x86_64")]
 pub mod lanes;
 pub mod material;
+pub mod measure;
 pub mod multi_rate;
 pub mod neighbour;
 pub mod nodes;

@@ -16,59 +16,14 @@
 //! keeps linear fields).
 
 use crate::ids::NONE;
+use crate::measure::Measure;
 use crate::nodes::{Elements, Nodes};
 use crate::{FibreSection, Vec3};
 
-/// How the failure criterion measures an element's shear force.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ShearMeasure {
-    /// the seed's (5-4) as written: `Q = |M_i - M_j| / l0` from the springs at the element's
-    /// two ends (does not converge at a kink; kept to reproduce the seed and earlier results)
-    Element,
-    /// the moment averaged over a hat of half-width `diameters` digital fibre diameters, its
-    /// jump along the element (converges as `l0` shrinks)
-    Gauge {
-        /// the gauge length in digital fibre diameters of the element's section [-]
-        diameters: f64,
-    },
-}
-
-impl ShearMeasure {
-    /// The name a case gives it (`failure.shear_measure`).
-    pub fn name(self) -> &'static str {
-        match self {
-            ShearMeasure::Element => "element",
-            ShearMeasure::Gauge { .. } => "gauge",
-        }
-    }
-
-    /// The gauge's half-width in digital fibre diameters [-], none for the element measure.
-    pub fn gauge_diameters(self) -> Option<f64> {
-        match self {
-            ShearMeasure::Element => None,
-            ShearMeasure::Gauge { diameters } => Some(diameters),
-        }
-    }
-
-    /// How many nodes beyond its own a node's gauge reaches along its fibre in `section`:
-    /// `ceil(L / l0)` (0 for the element measure). The walk stops there even when rest
-    /// lengths shorter than the nominal one would let it go on, so the reach is a count of
-    /// nodes and every rank that holds the chain stencil sees the same window.
-    pub fn reach_in_nodes(&self, section: &FibreSection) -> u32 {
-        match *self {
-            ShearMeasure::Element => 0,
-            ShearMeasure::Gauge { diameters } => (diameters * section.diameter / section.element_length).ceil() as u32,
-        }
-    }
-
-    /// The gauge length `L` of `section` [m] (0 for the element measure).
-    pub fn gauge_length(&self, section: &FibreSection) -> f64 {
-        match *self {
-            ShearMeasure::Element => 0.0,
-            ShearMeasure::Gauge { diameters } => diameters * section.diameter,
-        }
-    }
-}
+/// How the failure criterion measures an element's shear force: the seed's (5-4) from the
+/// springs at the element's two ends ([`Measure::Element`]), or the jump of the moment
+/// averaged over the gauge ([`Measure::Gauge`], the default of a case).
+pub type ShearMeasure = Measure;
 
 /// The gauge moments `M̄` [N m] of the local nodes in `ranges` (every node, or at a
 /// multi-rate instant those of the sections whose terms fire, [`crate::multi_rate`]: the
@@ -134,7 +89,7 @@ struct Window {
 impl Window {
     fn of(measure: ShearMeasure, section: &FibreSection) -> Self {
         let gauge = measure.gauge_length(section);
-        Self { gauge, reach: measure.reach_in_nodes(section), scale: section.element_length / gauge }
+        Self { gauge, reach: measure.reach(section), scale: section.element_length / gauge }
     }
 }
 

@@ -16,61 +16,14 @@
 //! over `2L` of fibre at most `l0 / L` of its height (with the window whole).
 
 use crate::ids::NONE;
+use crate::measure::Measure;
 use crate::nodes::{Elements, Nodes};
 use crate::FibreSection;
 
-/// How the failure criterion measures an element's tension.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum TensionMeasure {
-    /// the seed's (4-16) as written: `σ = E ε` of the element's own strain (the default;
-    /// every result before the choice was named)
-    #[default]
-    Element,
-    /// the strain averaged over a hat of half-width `diameters` digital fibre diameters
-    Gauge {
-        /// the gauge length in digital fibre diameters of the element's section [-]
-        diameters: f64,
-    },
-}
-
-impl TensionMeasure {
-    /// The name a case gives it (`failure.tension_measure`).
-    pub fn name(self) -> &'static str {
-        match self {
-            TensionMeasure::Element => "element",
-            TensionMeasure::Gauge { .. } => "gauge",
-        }
-    }
-
-    /// How many elements beyond its own an element's gauge reaches along its fibre in
-    /// `section`: `ceil(L / l0)` (0 for the element measure). The walk stops there even when
-    /// rest lengths shorter than the nominal one would let it go on, so the reach is a count
-    /// and every rank that holds the chain stencil sees the same window.
-    pub fn reach_in_elements(&self, section: &FibreSection) -> u32 {
-        match *self {
-            TensionMeasure::Element => 0,
-            TensionMeasure::Gauge { diameters } => {
-                (diameters * section.diameter / section.element_length).ceil() as u32
-            }
-        }
-    }
-
-    /// The gauge's half-width in digital fibre diameters [-], none for the element measure.
-    pub fn gauge_diameters(self) -> Option<f64> {
-        match self {
-            TensionMeasure::Element => None,
-            TensionMeasure::Gauge { diameters } => Some(diameters),
-        }
-    }
-
-    /// The gauge length `L` of `section` [m] (0 for the element measure).
-    pub fn gauge_length(&self, section: &FibreSection) -> f64 {
-        match *self {
-            TensionMeasure::Element => 0.0,
-            TensionMeasure::Gauge { diameters } => diameters * section.diameter,
-        }
-    }
-}
+/// How the failure criterion measures an element's tension: the seed's (4-16) of the
+/// element's own strain ([`Measure::Element`], the default of a case; every result before
+/// the choice was named), or the strain averaged over the gauge ([`Measure::Gauge`]).
+pub type TensionMeasure = Measure;
 
 /// What [`gauge_strains`] keeps between steps: each section's gauge length [m] and reach
 /// (taken on the first call for the sections and measure it is given) and the gauge strains
@@ -107,7 +60,7 @@ pub fn gauge_strains(
     // fixed for its life), not in the step loop
     if windows.len() != sections.len() || *windows_of != Some(measure) {
         windows.clear();
-        windows.extend(sections.iter().map(|s| (measure.gauge_length(s), measure.reach_in_elements(s))));
+        windows.extend(sections.iter().map(|s| (measure.gauge_length(s), measure.reach(s))));
         *windows_of = Some(measure);
     }
     for range in ranges {
@@ -219,7 +172,7 @@ mod tests {
             // linear along the fibre: kept where the window is whole (the hat is symmetric)
             let (nodes, elements, sections) = fibre(count, l0, diameter, |k| 0.01 + 1e-4 * k as f64);
             let gauge = measured(&nodes, &elements, &sections, 1.0);
-            let whole = TensionMeasure::Gauge { diameters: 1.0 }.reach_in_elements(&sections[0]) as usize;
+            let whole = TensionMeasure::Gauge { diameters: 1.0 }.reach(&sections[0]) as usize;
             for i in whole..count as usize - 1 - whole {
                 assert!((gauge[i] - elements.strain[i]).abs() <= 1e-15, "l0/d {ratio}, element {i}");
             }
@@ -303,16 +256,5 @@ mod tests {
         }
         // the broken element keeps its own strain
         assert_eq!(gauge[20], elements.strain[20]);
-    }
-
-    #[test]
-    fn the_element_measure_reaches_nothing_and_the_gauge_its_length_over_l0() {
-        let (_, _, mut sections) = fibre(3, 0.3e-6, 1.2e-6, |_| 0.0);
-        // lengths whose ratios are exact in binary
-        (sections[0].diameter, sections[0].element_length) = (1.0, 0.25);
-        assert_eq!(TensionMeasure::Element.reach_in_elements(&sections[0]), 0);
-        assert_eq!(TensionMeasure::Gauge { diameters: 1.0 }.reach_in_elements(&sections[0]), 4);
-        assert_eq!(TensionMeasure::Gauge { diameters: 1.1 }.reach_in_elements(&sections[0]), 5);
-        assert_eq!(TensionMeasure::Gauge { diameters: 2.0 }.gauge_length(&sections[0]), 2.0);
     }
 }

@@ -6,6 +6,7 @@ use super::*;
 use dea_core::bending::RestAngleLaw;
 use dea_core::failure::Unload;
 use dea_core::friction::{FibreFrictionSpring, FrictionSpring};
+use dea_core::measure::Measure;
 use dea_core::shear_gauge::ShearMeasure;
 use dea_core::tension_gauge::TensionMeasure;
 use dea_fabric::panel::FineRegion;
@@ -58,6 +59,40 @@ fn gauge_diameters(path: &str, given: Option<f64>, default: f64) -> Result<f64, 
         ));
     }
     Ok(diameters)
+}
+
+/// One term's measure from `failure.<term>_measure` (`name`) and
+/// `failure.<term>_gauge_diameters` (`diameters`): `default` when the case names none, a
+/// gauge of the given length or else of `gauge_default` diameters, and a gauge length given
+/// to the element measure is an error rather than ignored.
+fn failure_measure(
+    term: &str,
+    name: Option<&str>,
+    diameters: Option<f64>,
+    default: Measure,
+    gauge_default: f64,
+) -> Result<Measure, CaseError> {
+    let (name_path, diameters_path) = (format!("failure.{term}_measure"), format!("failure.{term}_gauge_diameters"));
+    let default_name = default.name();
+    match name.unwrap_or(default_name) {
+        "gauge" => Ok(Measure::Gauge { diameters: gauge_diameters(&diameters_path, diameters, gauge_default)? }),
+        "element" => match diameters {
+            None => Ok(Measure::Element),
+            Some(_) => {
+                let default_note = if default_name == "element" { " (the default)" } else { "" };
+                Err(invalid(
+                    &diameters_path,
+                    format!(
+                        "applies only to {name_path} \"gauge\"; the \"element\" measure{default_note} has no gauge"
+                    ),
+                ))
+            }
+        },
+        other => {
+            let other_name = if default_name == "element" { "gauge" } else { "element" };
+            Err(invalid(&name_path, format!("must be \"{default_name}\" or \"{other_name}\", got \"{other}\"")))
+        }
+    }
 }
 
 /// A case resolved: every value checked and given its default, the material's overrides
@@ -408,47 +443,16 @@ impl Case {
     /// The shear measure of the failure criterion: the gauge of `shear_gauge_diameters`
     /// (default 1) digital fibre diameters unless "element" is asked for.
     pub(super) fn shear_measure(&self) -> Result<ShearMeasure, CaseError> {
-        let diameters = self.failure.shear_gauge_diameters;
-        match self.failure.shear_measure.as_deref() {
-            None | Some("gauge") => {
-                let diameters =
-                    gauge_diameters("failure.shear_gauge_diameters", diameters, DEFAULT_SHEAR_GAUGE_DIAMETERS)?;
-                Ok(ShearMeasure::Gauge { diameters })
-            }
-            Some("element") => match diameters {
-                None => Ok(ShearMeasure::Element),
-                Some(_) => Err(invalid(
-                    "failure.shear_gauge_diameters",
-                    "applies only to failure.shear_measure \"gauge\"; the \"element\" measure has no gauge",
-                )),
-            },
-            Some(other) => {
-                Err(invalid("failure.shear_measure", format!("must be \"gauge\" or \"element\", got \"{other}\"")))
-            }
-        }
+        let (name, diameters) = (self.failure.shear_measure.as_deref(), self.failure.shear_gauge_diameters);
+        let gauge = DEFAULT_SHEAR_GAUGE_DIAMETERS;
+        failure_measure("shear", name, diameters, Measure::Gauge { diameters: gauge }, gauge)
     }
 
     /// The tension measure of the failure criterion: the element's own strain unless "gauge"
     /// is asked for, over `tension_gauge_diameters` (default 1) digital fibre diameters.
     pub(super) fn tension_measure(&self) -> Result<TensionMeasure, CaseError> {
-        let diameters = self.failure.tension_gauge_diameters;
-        match self.failure.tension_measure.as_deref() {
-            Some("gauge") => {
-                let diameters =
-                    gauge_diameters("failure.tension_gauge_diameters", diameters, DEFAULT_TENSION_GAUGE_DIAMETERS)?;
-                Ok(TensionMeasure::Gauge { diameters })
-            }
-            None | Some("element") => match diameters {
-                None => Ok(TensionMeasure::Element),
-                Some(_) => Err(invalid(
-                    "failure.tension_gauge_diameters",
-                    "applies only to failure.tension_measure \"gauge\"; the \"element\" measure (the default) has no gauge",
-                )),
-            },
-            Some(other) => {
-                Err(invalid("failure.tension_measure", format!("must be \"element\" or \"gauge\", got \"{other}\"")))
-            }
-        }
+        let (name, diameters) = (self.failure.tension_measure.as_deref(), self.failure.tension_gauge_diameters);
+        failure_measure("tension", name, diameters, Measure::Element, DEFAULT_TENSION_GAUGE_DIAMETERS)
     }
 
     /// Projectile resolved from its preset or explicit shape.
