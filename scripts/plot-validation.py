@@ -17,6 +17,7 @@ Residual velocities of the mesh series at one speed are printed, not plotted.
 import argparse
 import json
 import os
+import textwrap
 
 import matplotlib
 
@@ -203,9 +204,12 @@ layer_axes.set_ylim(0, 700)
 layer_axes.grid(alpha=0.3)
 # below the axes: the layer series sit low at 4 and 8 layers, where a legend inside would hide them
 layer_axes.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14))
-if pending:
-    figure.text(0.01, 0.01, "not yet decided: " + "; ".join(pending), fontsize=6, wrap=True)
-figure.tight_layout(rect=(0, 0.05 if pending else 0, 1, 1))
+# wrapped here rather than by matplotlib, whose wrap ran past the figure's right edge; the
+# axes give up as much height as the lines take
+footnote = textwrap.wrap("not yet decided: " + "; ".join(pending), width=250) if pending else []
+if footnote:
+    figure.text(0.01, 0.01, "\n".join(footnote), fontsize=6, va="bottom")
+figure.tight_layout(rect=(0, 0.015 + 0.013 * len(footnote), 1, 1))
 figure.savefig(args.out, dpi=130)
 print(args.out)
 for e in (e for e in entries if e["series"] == "mesh"):
