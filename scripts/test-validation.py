@@ -284,6 +284,34 @@ class Run(unittest.TestCase):
             self.assertEqual(validation.run_until_stopped(args, [c], stop), 75)
         self.assertIn("layers-t: stopped by a signal before its next shot", errors.getvalue())
 
+    def run_firing_nothing(self, edit):
+        """run_until_stopped with a `dea-mpi v50` that fires no shot, on a campaign whose file
+        `edit` changes after it was loaded: the message it ends with."""
+        with tempfile.TemporaryDirectory() as scratch:
+            c = campaign("layers-t", FIXTURE_CASE, {"kind": "up_and_down", "shots": 12}, [])
+            c.path = os.path.join(scratch, "layers-t.json")
+            with open(c.path, "w") as f:
+                validation.json.dump(edit(copy.deepcopy(c.spec)), f)
+            c.refresh = lambda: None
+            stop = validation.StopForwarder()
+            stop.call = lambda _command: 0
+            args = types.SimpleNamespace(only=None, max_shots=None, commit=False)
+            with mock.patch.object(validation, "take_on_held", lambda _: None), \
+                    mock.patch.object(validation, "shot_command", lambda _a, _c: ["true"]), \
+                    contextlib.redirect_stdout(io.StringIO()), self.assertRaises(SystemExit) as ended:
+                validation.run_until_stopped(args, [c], stop)
+            return str(ended.exception.code)
+
+    def test_a_design_edited_while_the_script_ran_is_named_not_reported_as_no_shot(self):
+        def cut(spec):
+            spec["design"]["shots"] = 4
+            return spec
+        message = self.run_firing_nothing(cut)
+        self.assertIn("layers-t.json changed while this script ran", message)
+        self.assertIn("run again", message)
+        self.assertIn("layers-t: dea-mpi v50 fired no shot and the design is not complete",
+                      self.run_firing_nothing(lambda spec: spec))
+
 
 def at(velocity, outcome, index, replicate):
     """A shot record with its place in the campaign, as `dea-mpi v50` writes it."""

@@ -939,6 +939,13 @@ def run_until_stopped(args, campaigns, stop):
                 print(f"{c.name}: dea-mpi v50 exited {code}; the shots on record are kept", file=sys.stderr)
                 return code
             if not new and not c.complete:
+                with open(c.path) as f:
+                    edited = json.load(f) != c.spec
+                if edited:
+                    # `dea-mpi v50` read the file as it is now; this script planned by the file
+                    # it loaded (a design cut while a shot ran, say)
+                    sys.exit(f"{c.name}: {c.path} changed while this script ran, and dea-mpi v50 "
+                             f"fired no shot by it; run again to plan by the file as it is now")
                 sys.exit(f"{c.name}: dea-mpi v50 fired no shot and the design is not complete")
     if args.only:
         left = [c.name for c in load_all(args) if not c.complete and args.only not in c.name]
