@@ -242,19 +242,26 @@ fn panel_sizes(entries: Option<Vec<serde_json::Value>>) -> String {
         .iter()
         .filter(|e| e["series"] == "panel_size")
         .filter_map(|e| {
-            let side = 1e3 * e["side_m"].as_f64()?;
+            // the series share the hybrid mesh (a fine disc about the aim point); one without
+            // a fine region is a different mesh at the same side, and says so
+            let mesh = match (e["fine_radius_m"].is_null(), e["fibres_per_yarn"].as_u64()) {
+                (true, Some(1)) => " with 1 fibre per yarn throughout".to_string(),
+                (true, Some(fibres)) => format!(" with {fibres} fibres per yarn throughout"),
+                _ => String::new(),
+            };
+            let side = format!("{:.1} mm{mesh}", 1e3 * e["side_m"].as_f64()?);
             if let (Some(low), Some(high)) = (e["v50_low_m_s"].as_f64(), e["v50_high_m_s"].as_f64()) {
                 // validation.py's own reading: the low end still moving at its end time (a
                 // re-fire's note in the method may say "undecided" of a shot since settled)
                 let undecided = e["v50_low_established"] == false;
                 return Some(format!(
-                    "{side:.1} mm {low:.0}-{high:.0} m/s{}",
+                    "{side} {low:.0}-{high:.0} m/s{}",
                     if undecided { " (low end undecided)" } else { "" }
                 ));
             }
             // validation.py's own reading, which counts shots a low-end campaign fired again
             if let Some(below) = e["v50_below_m_s"].as_f64() {
-                return Some(format!("{side:.1} mm below {below:.0} m/s (every shot so far perforated)"));
+                return Some(format!("{side} below {below:.0} m/s (every shot so far perforated)"));
             }
             let shots = e["shot_records"].as_array()?;
             let slowest = shots
@@ -263,7 +270,7 @@ fn panel_sizes(entries: Option<Vec<serde_json::Value>>) -> String {
                 .filter_map(|s| s["velocity_m_s"].as_f64())
                 .fold(f64::INFINITY, f64::min);
             (!shots.is_empty() && shots.iter().all(|s| s["perforated"] == true))
-                .then(|| format!("{side:.1} mm below {slowest:.0} m/s (every shot so far perforated)"))
+                .then(|| format!("{side} below {slowest:.0} m/s (every shot so far perforated)"))
         })
         .collect();
     if sizes.is_empty() {
@@ -292,11 +299,13 @@ mod tests {
             { "series": "mesh", "side_m": 0.0762, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
             { "series": "panel_size", "side_m": 0.01, "v50_low_m_s": null, "v50_high_m_s": null, "method": "", "shot_records": [] },
             { "series": "panel_size", "side_m": 0.02, "v50_low_m_s": null, "v50_high_m_s": null, "v50_below_m_s": 75.0, "method": "",
-              "shot_records": [{ "velocity_m_s": 75.0, "perforated": false }] }
+              "shot_records": [{ "velocity_m_s": 75.0, "perforated": false }] },
+            { "series": "panel_size", "side_m": 0.0254, "fibres_per_yarn": 4, "fine_radius_m": null, "v50_low_m_s": null, "v50_high_m_s": null,
+              "v50_below_m_s": 112.5, "method": "", "shot_records": [] }
         ]);
         let text = panel_sizes(serde_json::from_value(entries).ok());
         assert!(
-            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided), 10.0 mm 50-75 m/s, 20.0 mm below 75 m/s (every shot so far perforated); the seed's Table 6-1"),
+            text.contains("25.4 mm below 125 m/s (every shot so far perforated), 76.2 mm 200-250 m/s (low end undecided), 10.0 mm 50-75 m/s, 20.0 mm below 75 m/s (every shot so far perforated), 25.4 mm with 4 fibres per yarn throughout below 112 m/s (every shot so far perforated); the seed's Table 6-1"),
             "{text}"
         );
         assert!(panel_sizes(None).contains("docs/validation.md") && !panel_sizes(None).contains("panel side"));
