@@ -110,6 +110,17 @@ pub struct ShotRecord {
     /// order there was
     #[serde(default = "unload_before_it_was_named")]
     pub unload: String,
+    /// how the failure criterion measured tension, "gauge" or "element"
+    /// (`failure.tension_measure`); a record written before the measure was named was fired
+    /// with what its case named, else "element", the default of that time
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tension_measure: Option<String>,
+    /// what a spring bent at rest stored below its rest angle, "smooth" or "cone"
+    /// (`target.rest_angle_law`), on a panel whose springs rest bent; a record written before
+    /// the law was named was fired with what its case named, else "cone", the default of
+    /// that time
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rest_angle_law: Option<String>,
     /// the run's energy balance at its end, `|E − E0| / E0` of its initial energy [-]
     /// (docs/theory.md I11b: above [`crate::run::ENERGY_BUDGET`] the step is suspect); a
     /// record written before it was kept has none
@@ -126,10 +137,38 @@ fn unload_before_it_was_named() -> String {
 /// without it, the name on record, the name the campaign asks for now).
 type Choice<'a> = (&'a str, &'a str, &'a str, &'a str, &'a str, &'static str);
 
+/// The tension measure and rest-angle law a shot `record` was fired with: its own names, or,
+/// on a record written before they were named, those of its case as fired (`shot`, the
+/// campaign's case as it stands, which names the choices it has kept since) with the
+/// defaults of that time where it left them unsaid (`Case::with_earlier_defaults_named`).
+pub(crate) fn fired_measures(record: &ShotRecord, shot: &Case) -> (String, Option<String>) {
+    let earlier = shot.with_earlier_defaults_named();
+    let tension = record.tension_measure.clone().or_else(|| earlier.failure.tension_measure.clone());
+    let law = record.rest_angle_law.clone().or_else(|| earlier.named_rest_angle_law().map(str::to_string));
+    (tension.unwrap_or_default(), law)
+}
+
 /// The choices of a shot `record` against those `shot` asks for: the first that differs is
 /// an error, since shots fired with two choices must not be pooled in one V50.
 fn check_choices(out: &Path, id: &str, record: &ShotRecord, shot: &Case) -> Result<(), CampaignError> {
     let anchored = FrictionSpring::Anchored.name();
+    let (fired_tension, fired_law) = fired_measures(record, shot);
+    let named = shot.with_named_choices();
+    let (asked_tension, asked_law) =
+        (named.failure.tension_measure.clone().unwrap_or_default(), named.named_rest_angle_law().map(str::to_string));
+    let measures = [
+        ("tension measure", "failure.tension_measure", "gauge", "element", fired_tension, Some(asked_tension)),
+        ("rest-angle law", "target.rest_angle_law", "smooth", "cone", fired_law.unwrap_or_default(), asked_law),
+    ];
+    for (what, field, default, before, fired, asked) in measures {
+        let Some(asked) = asked else { continue };
+        if fired != asked {
+            return Err(CampaignError::Output(format!(
+                "{}: shot {id} on record was fired with the {what} \"{fired}\", but the campaign now asks for \"{asked}\" ({field}, \"{default}\" unless the case names another; a case that left it unsaid before 2026-12-03 was fired with \"{before}\"): its shots must not be mixed; give it another --out, or set {field} to \"{fired}\"",
+                out.display(),
+            )));
+        }
+    }
     let choices: [Choice; 3] = [
         (
             "fibre–projectile friction spring",
@@ -334,6 +373,8 @@ fn fire<C: Comm>(
         projectile_friction_spring: friction_spring_of(&case)?.to_string(),
         fibre_friction_spring: fibre_friction_spring_of(&case)?.to_string(),
         unload: unload_of(&case)?.to_string(),
+        tension_measure: case.with_named_choices().failure.tension_measure,
+        rest_angle_law: case.with_named_choices().named_rest_angle_law().map(str::to_string),
         energy_balance_error: Some(outcome[4]),
     };
     if state.comm.rank() == Rank(0) {
@@ -530,7 +571,8 @@ pub fn write_report(
         "git_commit": GIT_COMMIT,
         "campaign_file": campaign_text,
         "campaign": campaign,
-        "case": case,
+        // the choices whose defaults changed named, so that a later binary reads what was fired
+        "case": case.with_named_choices(),
         "shots": report.shots.iter().map(|s| serde_json::json!({ "id": s.id, "velocity_m_s": s.velocity_m_s, "seed": s.seed, "perforated": s.perforated, "residual_velocity_m_s": s.residual_velocity_m_s, "run": format!("shots/{}", s.id) })).collect::<Vec<_>>(),
     });
     std::fs::write(

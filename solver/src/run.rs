@@ -631,7 +631,7 @@ pub fn write_checkpoint<C: Comm>(
     let mut placed = Ok(());
     if is_root {
         let global = dea_io::checkpoint::GlobalState {
-            case_json: naming_unload(options.case_json, run.domain.failure.unload),
+            case_json: naming_choices(options.case_json),
             parts: run.comm.size() as u32,
             nodes: counts[0] as u64,
             step: run.domain.step,
@@ -728,22 +728,54 @@ pub enum RunError {
     Interrupted(std::path::PathBuf),
 }
 
-/// The case JSON a checkpoint stores: `failure.unload` named as the run steps it, so a
-/// checkpoint without the name is one written before the choice existed (`setup::restore`).
-fn naming_unload(case_json: &str, unload: dea_core::failure::Unload) -> String {
-    let Ok(mut case) = serde_json::from_str::<serde_json::Value>(case_json) else { return case_json.to_string() };
-    match case.get_mut("failure").and_then(|f| f.as_object_mut()) {
-        Some(failure) => {
-            failure.insert("unload".into(), unload.name().into());
-            case.to_string()
+/// The case JSON a checkpoint stores: the choices whose defaults have changed named as the
+/// run steps them (`Case::with_named_choices`: `failure.unload`, `failure.tension_measure`,
+/// a crimped panel's `target.rest_angle_law`), so a checkpoint without a name is one written
+/// before it was named (`setup::restore` gives it the default of that time). Only those
+/// fields are added; the rest of the text is kept as given.
+fn naming_choices(case_json: &str) -> String {
+    let Ok(mut value) = serde_json::from_str::<serde_json::Value>(case_json) else { return case_json.to_string() };
+    let Ok(case) = serde_json::from_value::<dea_io::case::Case>(value.clone()) else { return case_json.to_string() };
+    let named = serde_json::to_value(case.with_named_choices()).expect("a case serialises");
+    for (section, field) in [("failure", "unload"), ("failure", "tension_measure"), ("target", "rest_angle_law")] {
+        if let (Some(object), Some(name)) =
+            (value.get_mut(section).and_then(|s| s.as_object_mut()), named[section].get(field))
+        {
+            if !name.is_null() {
+                object.insert(field.into(), name.clone());
+            }
         }
-        None => case_json.to_string(),
     }
+    value.to_string()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_checkpoints_case_names_the_choices_whose_defaults_changed_and_keeps_the_rest() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../cases/km2_706_patch.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let stored: serde_json::Value = serde_json::from_str(&naming_choices(&text)).unwrap();
+        assert_eq!(stored["failure"]["unload"], "at_break");
+        assert_eq!(stored["failure"]["tension_measure"], "gauge");
+        assert_eq!(stored["target"]["rest_angle_law"], "smooth");
+        // what the case names stays; nothing else is added
+        let mut given: serde_json::Value = serde_json::from_str(&text).unwrap();
+        given["failure"]["tension_measure"] = "element".into();
+        given["target"]["rest_angle_law"] = "cone".into();
+        let stored: serde_json::Value = serde_json::from_str(&naming_choices(&given.to_string())).unwrap();
+        assert_eq!(stored["failure"]["tension_measure"], "element");
+        assert_eq!(stored["target"]["rest_angle_law"], "cone");
+        given["failure"]["unload"] = "at_break".into();
+        assert_eq!(stored, given);
+        // a crimp-free weave has no law to name
+        let mut straight: serde_json::Value = serde_json::from_str(&text).unwrap();
+        straight["target"]["weave"]["bending_at_rest"] = "straight".into();
+        let stored: serde_json::Value = serde_json::from_str(&naming_choices(&straight.to_string())).unwrap();
+        assert_eq!(stored["target"].get("rest_angle_law"), None);
+    }
 
     #[test]
     fn a_balance_beyond_the_budget_is_named_with_its_size_and_one_within_is_not() {

@@ -1085,12 +1085,14 @@ pub fn restore<C: Comm>(directory: &Path, comm: C, method: Method) -> Result<Res
     let global = agree_on(&comm, global, unreadable_checkpoint)?;
     let mut case = parse_case(&global.case_json, &manifest_path(directory).display().to_string())
         .map_err(|e| SetupError::Checkpoint(e.to_string()))?;
-    // a checkpoint names how broken elements unload (Case::with_named_unload); one without
+    // a checkpoint names how broken elements unload (Case::with_named_choices); one without
     // the name was stepped before the choice existed, when they acted for one more step,
-    // and continues so
+    // and continues so; one without the tension measure or the rest-angle law was stepped
+    // before they were named, with the element strain and the cone
     if case.failure.unload.is_none() {
         case.failure.unload = Some(dea_core::failure::Unload::NextStep.name().to_string());
     }
+    let case = case.with_earlier_defaults_named();
     let mut problem = shared_problem(&comm, &case)?;
     let partition = shared_partition(&comm, &problem, method, None)?;
     let me = comm.rank();

@@ -232,6 +232,51 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
         std::fs::write(&path, other.to_string()).unwrap();
     }
     run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None).unwrap());
+    // and the tension measure and rest-angle law, whose defaults changed on 2026-12-03: a
+    // record names them; one from before was fired with "element" and "cone" where its case
+    // left them unsaid, which a campaign may go on with only by naming them
+    let mut value: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&record).unwrap()).unwrap();
+    assert_eq!((&value["tension_measure"], &value["rest_angle_law"]), (&"gauge".into(), &"smooth".into()));
+    let mut element = next_step.clone();
+    element.failure.tension_measure = Some("element".into());
+    let refused = run_local(1, |comm| run_group(&campaign, &element, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("fired with the tension measure \"gauge\", but the campaign now asks for \"element\"")
+            && message.contains("failure.tension_measure"),
+        "{message}"
+    );
+    value.as_object_mut().unwrap().remove("tension_measure");
+    std::fs::write(&record, value.to_string()).unwrap();
+    let refused = run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("r000-00000")
+            && message.contains("fired with the tension measure \"element\", but the campaign now asks for \"gauge\"")
+            && message.contains("before 2026-12-03"),
+        "{message}"
+    );
+    value.as_object_mut().unwrap().remove("rest_angle_law");
+    std::fs::write(&record, value.to_string()).unwrap();
+    let refused = run_local(1, |comm| run_group(&campaign, &element, comm, group, &out, None, None));
+    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("fired with the rest-angle law \"cone\", but the campaign now asks for \"smooth\"")
+            && message.contains("target.rest_angle_law"),
+        "{message}"
+    );
+    let records = std::fs::read_dir(out.join("shots")).unwrap().map(|e| e.unwrap().path());
+    for path in records.filter(|p| p.extension().is_some_and(|e| e == "json")) {
+        let mut other: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        other.as_object_mut().unwrap().remove("tension_measure");
+        other.as_object_mut().unwrap().remove("rest_angle_law");
+        std::fs::write(&path, other.to_string()).unwrap();
+    }
+    let mut as_before = element.clone();
+    if let dea_io::case::TargetSpec::WovenPanel { rest_angle_law, .. } = &mut as_before.target {
+        *rest_angle_law = Some("cone".into());
+    }
+    run_local(1, |comm| run_group(&campaign, &as_before, comm, group, &out, None, None).unwrap());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

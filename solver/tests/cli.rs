@@ -290,9 +290,10 @@ fn check_prints_the_resolved_case() {
     assert!(printed["case"]["contact"]["fibre_friction_spring"].is_null());
     assert_eq!(printed["resolved"]["fibre_friction_spring"], "anchored");
     assert_eq!(printed["resolved"]["unload"], "at_break");
+    // a straight fibre's springs all rest straight, where the two rest laws coincide
     assert_eq!(printed["resolved"]["rest_angle_law"], "cone");
-    assert_eq!(printed["resolved"]["tension_measure"], "element");
-    assert!(printed["resolved"]["tension_gauge_diameters"].is_null());
+    assert_eq!(printed["resolved"]["tension_measure"], "gauge");
+    assert_eq!(printed["resolved"]["tension_gauge_diameters"], 1.0);
     assert_eq!(printed["resolved"]["shear_measure"], "gauge");
     assert_eq!(printed["resolved"]["shear_gauge_diameters"], 1.0);
     // the measures a case names are printed with their gauge lengths
@@ -310,6 +311,11 @@ fn check_prints_the_resolved_case() {
     assert!(printed["resolved"]["shear_gauge_diameters"].is_null());
     assert_eq!(printed["resolved"]["tension_measure"], "gauge");
     assert_eq!(printed["resolved"]["tension_gauge_diameters"], 2.0);
+    // a woven panel's springs bent at rest take the smooth law unless the case names another
+    let out = dea(&["check", "../cases/default.json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(printed["resolved"]["rest_angle_law"], "smooth");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

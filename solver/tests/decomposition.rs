@@ -158,21 +158,29 @@ fn the_verlet_skin_changes_no_result() {
 fn assert_strikes_like_the_rigid_body(case: &Case, reference: &Summary, dir: &Path) {
     let mut rigid = case.clone();
     rigid.projectile.deformable = None;
-    let rigid = run_on(&rigid, 1, &dir.join("rigid"));
+    let rigid_summary = run_on(&rigid, 1, &dir.join("rigid"));
     let relative = |a: f64, b: f64| (a / b - 1.0).abs();
     assert!(
-        relative(reference.max_projectile_force_n, rigid.max_projectile_force_n) < 0.03
-            && reference.max_projectile_force_n <= 1.005 * rigid.max_projectile_force_n,
+        relative(reference.max_projectile_force_n, rigid_summary.max_projectile_force_n) < 0.03,
         "{} vs {}",
         reference.max_projectile_force_n,
-        rigid.max_projectile_force_n
+        rigid_summary.max_projectile_force_n
     );
     assert!(
-        relative(reference.residual_velocity_m_s, rigid.residual_velocity_m_s) < 0.03,
+        relative(reference.residual_velocity_m_s, rigid_summary.residual_velocity_m_s) < 0.03,
         "{} vs {}",
         reference.residual_velocity_m_s,
-        rigid.residual_velocity_m_s
+        rigid_summary.residual_velocity_m_s
     );
+    // where nothing breaks, the body's compliance can only soften the blow; with failure the
+    // peak follows which element breaks first (0.9 % above the rigid body's under the tension
+    // gauge on four_layer_deformable_sphere), so the one-sided bound is taken intact
+    let intact = |mut case: Case, name: &str| {
+        case.failure = serde_json::from_value(serde_json::json!({ "mode": "none" })).unwrap();
+        run_on(&case, 1, &dir.join(name)).max_projectile_force_n
+    };
+    let (deformable, rigid) = (intact(case.clone(), "intact"), intact(rigid, "intact-rigid"));
+    assert!(deformable <= 1.005 * rigid && relative(deformable, rigid) < 0.03, "intact: {deformable} vs {rigid}");
 }
 
 /// Asserts that `case`, run to `dir/1` on one rank, gives the same bits on 3 ranks
@@ -556,11 +564,15 @@ fn a_crimped_panel_pulled_taut_keeps_its_energy_under_the_smooth_rest_law_and_no
 #[test]
 fn the_smooth_rest_law_gives_the_same_bits_on_any_ranks_and_after_a_restart() {
     let dir = scratch("smooth-rest-law");
-    run_on(&crimped_panel(None), 1, &dir.join("cone"));
-    let case = crimped_panel(Some("smooth"));
+    run_on(&crimped_panel(Some("cone")), 1, &dir.join("cone"));
+    let case = crimped_panel(None);
     run_on(&case, 1, &dir.join("1"));
     let differences = compare_results(&dir.join("1/results.h5"), &dir.join("cone/results.h5")).unwrap();
     assert!(!differences.is_empty(), "the law acts: the cone gives the same results");
+    // the default, left unsaid, is the smooth law named
+    run_on(&crimped_panel(Some("smooth")), 1, &dir.join("smooth"));
+    let differences = compare_results(&dir.join("1/results.h5"), &dir.join("smooth/results.h5")).unwrap();
+    assert!(differences.is_empty(), "the default is the smooth law: {differences:#?}");
     assert_same_bits_on_three_ranks_and_after_a_restart(&case, &dir);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -3,11 +3,13 @@
 //! `tests/golden/<case>/`. A change of any result fails here, whatever the rank count.
 //!
 //! Each case runs twice: as shipped (its results in `tests/golden/<case>/`) and with the seed's
-//! forms as written where the defaults depart from them, `failure.shear_measure` "element",
-//! `contact.projectile_friction_spring` "anchored" and `failure.unload` "next_step" (in
-//! `tests/golden/<case>/seed/`: the results every case gave before the gauge measure, the
-//! rotating spring and the unloading at the break became the defaults, kept to show that the
-//! named options reproduce them bit for bit; docs/theory.md I9b, I6c, I7).
+//! forms as written where the defaults depart from them, `failure.shear_measure` and
+//! `failure.tension_measure` "element", `contact.projectile_friction_spring` "anchored",
+//! `failure.unload` "next_step" and a woven panel's `target.rest_angle_law` "cone" (in
+//! `tests/golden/<case>/seed/`: the results every case gave before the gauges, the rotating
+//! spring, the unloading at the break and the smooth rest-angle law became the defaults, kept
+//! to show that the named options reproduce them bit for bit; docs/theory.md I9b, I9c, I6c,
+//! I7, F4b).
 //!
 //! To re-bless after a change that is meant to change results, run
 //! `DEA_BLESS_GOLDEN=1 cargo test --release -p dea-mpi --test golden` and commit the new files
@@ -78,6 +80,11 @@ fn the_golden_cases_keep_their_bits() {
             value["failure"]["shear_measure"] = serde_json::Value::from("element");
             value["contact"]["projectile_friction_spring"] = serde_json::Value::from("anchored");
             value["failure"]["unload"] = serde_json::Value::from("next_step");
+            value["failure"]["tension_measure"] = serde_json::Value::from("element");
+            // a woven panel's springs rest bent (as woven): the seed's cone below the rest angle
+            if value["target"]["kind"] == "woven_panel" {
+                value["target"]["rest_angle_law"] = serde_json::Value::from("cone");
+            }
             case_path = scratch.join(format!("{case}-{variant}.json"));
             std::fs::write(&case_path, serde_json::to_string_pretty(&value).unwrap()).unwrap();
         }

@@ -1,7 +1,8 @@
 //! Shear failure as a user meets it (issue 31, item 1; docs/theory.md I9b): the binary runs
 //! shipped cases with a field or two changed. Under the gauge shear measure (the default) a
-//! blunt sphere below its perforation speed breaks nothing in shear at any element length,
-//! where the seed's element measure does; and the 17-grain FSP's 50 µm edge still cuts in
+//! blunt sphere below its perforation speed breaks nothing in shear at any element length
+//! with tension taken on the element (a small minority with the tension gauge), where the
+//! seed's element measure does; and the 17-grain FSP's 50 µm edge still cuts in
 //! shear.
 
 use std::path::{Path, PathBuf};
@@ -39,24 +40,35 @@ fn run(case: &str, label: &str, edit: impl Fn(&mut serde_json::Value)) -> ([u64;
 #[test]
 fn a_blunt_sphere_below_its_perforation_speed_breaks_nothing_in_shear_at_any_element_length() {
     // cases/four_layer_panel.json's 0.8 mm sphere at 200 m/s: stopped to about 40 m/s within 4 µs
-    let slow = |measure: &'static str, ratio: f64| {
+    // with tension taken on the element's own strain, as when the shear gauge was built
+    let slow = |measure: &'static str, ratio: f64, tension: &'static str| {
         move |v: &mut serde_json::Value| {
             v["projectile"]["velocity_m_s"] = 200.0.into();
             v["run"]["end_time_s"] = 4e-6.into();
             v["target"]["element_length_ratio"] = ratio.into();
             v["failure"]["shear_measure"] = measure.into();
+            v["failure"]["tension_measure"] = tension.into();
         }
     };
     for ratio in [0.5, 0.25] {
         let ([tension, shear, _], residual) =
-            run("four_layer_panel.json", &format!("gauge-{ratio}"), slow("gauge", ratio));
+            run("four_layer_panel.json", &format!("gauge-{ratio}"), slow("gauge", ratio, "element"));
         assert!(residual < 100.0, "l0/d {ratio}: the sphere is being stopped ({residual} m/s)");
         assert!(tension > 0, "l0/d {ratio}: fibres under the nose break in tension");
         assert_eq!(shear, 0, "l0/d {ratio}: the gauge measure breaks nothing in shear under a blunt nose");
     }
     // the seed's element measure does, which is what the gauge measure is for
-    let ([_, shear, _], _) = run("four_layer_panel.json", "element-0.5", slow("element", 0.5));
+    let ([_, shear, _], _) = run("four_layer_panel.json", "element-0.5", slow("element", 0.5, "element"));
     assert!(shear > 0, "the element measure breaks fibres in shear under a blunt nose");
+    // under the tension gauge too (the default since 2026-12-03) a few break in shear, 2 and 6
+    // against 21 and 16 in tension at l0/d 0.5 and 0.25 (theory I9c, an open question): held
+    // here to a small minority, so that a change that lets shear decide again shows
+    for ratio in [0.5, 0.25] {
+        let ([tension, shear, _], residual) =
+            run("four_layer_panel.json", &format!("both-gauges-{ratio}"), slow("gauge", ratio, "gauge"));
+        assert!(residual < 100.0, "l0/d {ratio}, both gauges: the sphere is being stopped ({residual} m/s)");
+        assert!(2 * shear < tension, "l0/d {ratio}, both gauges: {shear} in shear against {tension} in tension");
+    }
 }
 
 #[test]

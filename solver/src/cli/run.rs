@@ -215,14 +215,13 @@ fn outcome_words(summary: &dea_mpi::run::Summary) -> String {
 }
 
 /// Where the built-in default case stands among the validation set's results (issue 31): it
-/// is the first shot of the 1 in panel series under the default friction spring and
-/// unloading, and the V50
+/// is the first shot of the 1 in panel series under today's defaults, and the V50
 /// each panel size gave is read from
 /// `validation/summary.json` beside the sources (or in the working directory) when there is
 /// one, so the words never outlive the results.
 fn default_case_context() -> String {
     let text = String::from(
-        "default case: the first shot of the validation set's 1 in panel series (jobs/campaigns/validation/panel-1in-4-layers.json) under the rotating fibre-projectile friction spring and with broken elements unloaded in the step of their break, where the series was fired with the seed's anchored spring and with them acting one more step (docs/theory.md I6c, I7)",
+        "default case: the first shot of the validation set's 1 in panel series (jobs/campaigns/validation/panel-1in-4-layers.json) under today's defaults: the rotating fibre-projectile friction spring, broken elements unloaded in the step of their break, tension measured over one fibre diameter and the smooth rest law, where the series was fired with the seed's anchored spring, broken elements acting one more step, the element's own strain and the cone (docs/theory.md I6c, I7, I9c, F4b)",
     );
     let candidates = [
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../validation/summary.json"),

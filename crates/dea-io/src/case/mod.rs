@@ -209,8 +209,9 @@ pub enum TargetSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         hybrid: Option<Box<HybridSpec>>,
         /// what a spring bent at rest (`weave.bending_at_rest` "as_woven", or a cell file's)
-        /// stores below its rest angle: "cone" (the default, `K_t (theta - theta_0)^2 / 2` down
-        /// to straight) or "smooth" (a quartic through straight; docs/theory.md F4b)
+        /// stores below its rest angle: "smooth" (the default, a quartic through straight) or
+        /// "cone" (the seed's `K_t (theta - theta_0)^2 / 2` down to straight, the default
+        /// before 2026-12-03; docs/theory.md F4b)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         rest_angle_law: Option<String>,
     },
@@ -250,8 +251,9 @@ pub enum TargetSpec {
         #[serde(default = "default_boundary")]
         boundary: BoundarySpec,
         /// what a spring bent at rest (`weave.bending_at_rest` "as_woven", or a cell file's)
-        /// stores below its rest angle: "cone" (the default, `K_t (theta - theta_0)^2 / 2` down
-        /// to straight) or "smooth" (a quartic through straight; docs/theory.md F4b)
+        /// stores below its rest angle: "smooth" (the default, a quartic through straight) or
+        /// "cone" (the seed's `K_t (theta - theta_0)^2 / 2` down to straight, the default
+        /// before 2026-12-03; docs/theory.md F4b)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         rest_angle_law: Option<String>,
     },
@@ -627,9 +629,10 @@ pub struct FailureSpec {
     /// gauge length of the "gauge" shear measure in digital fibre diameters [-] (default 1)
     #[serde(default)]
     pub shear_gauge_diameters: Option<f64>,
-    /// how an element's tension (4-16) is measured: "element" (the default: the element's own
-    /// strain, the seed's form) or "gauge" (the strain averaged over a gauge of
-    /// `tension_gauge_diameters` digital fibre diameters, docs/theory.md I9c)
+    /// how an element's tension (4-16) is measured: "gauge" (the default: the strain averaged
+    /// over a gauge of `tension_gauge_diameters` digital fibre diameters, docs/theory.md I9c)
+    /// or "element" (the element's own strain, the seed's form and the default before
+    /// 2026-12-03)
     #[serde(default)]
     pub tension_measure: Option<String>,
     /// gauge length of the "gauge" tension measure in digital fibre diameters [-] (default 1)
@@ -1268,6 +1271,27 @@ mod tests {
         let mut named = case.clone();
         named.failure.unload = Some("at_break".into());
         assert_eq!(case.continued_by(&named), Ok(case.clone()));
+        // and so with every choice whose default changed, named at today's defaults
+        let named = case.with_named_choices();
+        assert_eq!(named.failure.tension_measure.as_deref(), Some("gauge"));
+        assert!(matches!(&named.target, TargetSpec::WovenPanel { rest_angle_law: Some(law), .. } if law == "smooth"));
+        assert_eq!(case.continued_by(&named), Ok(case.clone()));
+        assert_eq!(named.continued_by(&case), Ok(named.clone()));
+        // a checkpoint from before the choices were named was stepped with the earlier
+        // defaults, which today's case does not continue
+        let earlier = case.with_earlier_defaults_named();
+        assert_eq!(earlier.failure.tension_measure.as_deref(), Some("element"));
+        assert!(matches!(&earlier.target, TargetSpec::WovenPanel { rest_angle_law: Some(law), .. } if law == "cone"));
+        assert_eq!(earlier.continued_by(&case), Err("failure.tension_measure".to_string()));
+        let mut seeds = case.clone();
+        seeds.failure.tension_measure = Some("element".into());
+        assert_eq!(earlier.continued_by(&seeds), Err("target.rest_angle_law".to_string()));
+        if let TargetSpec::WovenPanel { rest_angle_law, .. } = &mut seeds.target {
+            *rest_angle_law = Some("cone".into());
+        }
+        assert_eq!(earlier.continued_by(&seeds), Ok(earlier.clone()));
+        // one that named them keeps its names
+        assert_eq!(named.with_earlier_defaults_named(), named);
         let mut other = longer.clone();
         other.run.history_interval_steps += 1;
         assert_eq!(case.continued_by(&other), Err("run.history_interval_steps".to_string()));
@@ -1476,11 +1500,11 @@ mod tests {
         assert_eq!(e.path, "failure.unload", "{e}");
         assert!(e.to_string().contains("\"at_break\" or \"next_step\", got \"later\""), "{e}");
         // naming the default changes nothing but the name (a --restart with its case file)
-        let case = default_case().with_named_unload();
+        let case = default_case().with_named_choices();
         assert_eq!(case.failure.unload.as_deref(), Some("at_break"));
-        let mut next = default_case();
+        let mut next = default_case().with_named_choices();
         next.failure.unload = Some("next_step".into());
-        assert_eq!(next.with_named_unload(), next);
+        assert_eq!(next.with_named_choices(), next);
     }
 
     #[test]
@@ -1523,17 +1547,20 @@ mod tests {
     }
 
     #[test]
-    fn the_tension_measure_is_the_elements_unless_a_gauge_is_asked_for() {
+    fn the_tension_measure_is_the_gauge_unless_the_seeds_element_form_is_asked_for() {
         use dea_core::tension_gauge::TensionMeasure;
         let measure = |edit: &dyn Fn(&mut serde_json::Value)| {
             let mut value = serde_json::to_value(default_case()).unwrap();
             edit(&mut value);
             parse_case(&value.to_string(), "x.json").and_then(|case| case.resolve()).map(|r| r.tension_measure)
         };
-        assert_eq!(measure(&|_| {}).unwrap(), TensionMeasure::Element);
+        let gauge = TensionMeasure::Gauge { diameters: resolve::DEFAULT_TENSION_GAUGE_DIAMETERS };
+        assert_eq!(measure(&|_| {}).unwrap(), gauge);
+        assert_eq!(measure(&|v| v["failure"]["tension_measure"] = "gauge".into()).unwrap(), gauge);
+        assert_eq!(measure(&|v| v["failure"]["tension_measure"] = "element".into()).unwrap(), TensionMeasure::Element);
         assert_eq!(
-            measure(&|v| v["failure"]["tension_measure"] = "gauge".into()).unwrap(),
-            TensionMeasure::Gauge { diameters: resolve::DEFAULT_TENSION_GAUGE_DIAMETERS }
+            measure(&|v| v["failure"]["tension_gauge_diameters"] = 2.5.into()).unwrap(),
+            TensionMeasure::Gauge { diameters: 2.5 }
         );
         assert_eq!(
             measure(&|v| {
@@ -1557,14 +1584,17 @@ mod tests {
         refused(
             &|v| v["failure"]["tension_measure"] = "nodal".into(),
             "failure.tension_measure",
-            "\"element\" or \"gauge\"",
+            "\"gauge\" or \"element\"",
         );
         refused(&gauge(0.0), "failure.tension_gauge_diameters", "got 0");
         refused(&gauge(-1.0), "failure.tension_gauge_diameters", "got -1");
         refused(&gauge(50.0), "failure.tension_gauge_diameters", "at most 8");
         // a gauge length without the gauge would be silently ignored
         refused(
-            &|v| v["failure"]["tension_gauge_diameters"] = 1.0.into(),
+            &|v| {
+                v["failure"]["tension_measure"] = "element".into();
+                v["failure"]["tension_gauge_diameters"] = 1.0.into();
+            },
             "failure.tension_gauge_diameters",
             "no gauge",
         );
@@ -1776,12 +1806,20 @@ mod tests {
             f(&mut v);
             parse_case(&v.to_string(), "case.json").unwrap().resolve().unwrap().rest_angle_law
         };
-        assert_eq!(law_of(&|_| {}), RestAngleLaw::Cone);
+        assert_eq!(law_of(&|_| {}), RestAngleLaw::Smooth);
         assert_eq!(law_of(&with("cone")), RestAngleLaw::Cone);
         assert_eq!(law_of(&with("smooth")), RestAngleLaw::Smooth);
         let e = error_for(with("quartic"));
         assert_eq!(e.path, "target.rest_angle_law");
-        assert!(e.message.contains("\"cone\" or \"smooth\", got \"quartic\""), "{e}");
+        assert!(e.message.contains("\"smooth\" or \"cone\", got \"quartic\""), "{e}");
+        // where every spring rests straight the laws coincide: nothing to default, nothing named
+        let straight = |v: &mut serde_json::Value| v["target"]["weave"]["bending_at_rest"] = "straight".into();
+        assert_eq!(law_of(&straight), RestAngleLaw::Cone);
+        let mut v = default_json();
+        straight(&mut v);
+        let case = parse_case(&v.to_string(), "case.json").unwrap();
+        assert!(!case.takes_rest_angle_law());
+        assert_eq!(serde_json::to_value(case.with_named_choices()).unwrap()["target"].get("rest_angle_law"), None);
         let e = error_for(|v| {
             with("smooth")(v);
             v["target"]["weave"]["bending_at_rest"] = "straight".into();

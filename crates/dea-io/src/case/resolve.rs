@@ -44,6 +44,15 @@ pub const MOST_SHEAR_GAUGE_DIAMETERS: f64 = 8.0;
 /// case gives one (docs/theory.md I9c).
 pub const DEFAULT_TENSION_GAUGE_DIAMETERS: f64 = 1.0;
 
+/// The tension measure a case that names none gets: the strain over a gauge of one digital
+/// fibre diameter (docs/theory.md I9c; the element's own strain, the seed's form, before
+/// 2026-12-03).
+pub const DEFAULT_TENSION_MEASURE: TensionMeasure = Measure::Gauge { diameters: DEFAULT_TENSION_GAUGE_DIAMETERS };
+
+/// The rest-angle law of a panel whose springs rest bent that names none (docs/theory.md
+/// F4b; the seed's cone before 2026-12-03).
+pub const DEFAULT_REST_ANGLE_LAW: RestAngleLaw = RestAngleLaw::Smooth;
+
 /// A gauge's length in fibre diameters, `given` at `path` or `default`: positive and at
 /// most [`MOST_SHEAR_GAUGE_DIAMETERS`] (for tension too: each diameter adds `d / l0` chain
 /// ghosts on each side of a rank's nodes, whichever term reads them).
@@ -364,29 +373,49 @@ impl Case {
         }
     }
 
+    /// The rest-angle law a woven panel names, and whether its springs may rest bent (a
+    /// generated weave "as_woven", or a cell file, which carries its rest angles whichever
+    /// way it was relaxed); `None` for a target without such a field.
+    fn rest_angle_law_field(&self) -> Option<(&Option<String>, bool)> {
+        match &self.target {
+            TargetSpec::WovenPanel { weave, cell_file, rest_angle_law, .. } => {
+                Some((rest_angle_law, cell_file.is_some() || weave.bending_at_rest != BendingAtRest::Straight))
+            }
+            TargetSpec::ThreeDWovenPanel { weave, rest_angle_law, .. } => Some((
+                rest_angle_law,
+                weave.as_ref().is_none_or(|w| w.bending_at_rest != BendingAtRest::Straight),
+            )),
+            _ => None,
+        }
+    }
+
+    /// The rest-angle law the case names, if its target takes the field and names one.
+    pub fn named_rest_angle_law(&self) -> Option<&str> {
+        self.rest_angle_law_field().and_then(|(law, _)| law.as_deref())
+    }
+
+    /// Whether the target has springs bent at rest, for which `target.rest_angle_law` says
+    /// something (elsewhere every spring rests straight and the laws coincide).
+    pub fn takes_rest_angle_law(&self) -> bool {
+        self.rest_angle_law_field().is_some_and(|(_, bent)| bent)
+    }
+
     /// What a spring bent at rest stores below its rest angle: a woven panel's
-    /// `target.rest_angle_law`, "cone" unless "smooth" is asked for (docs/theory.md F4b). A
-    /// choice where every spring rests straight is an error rather than a setting without
-    /// effect.
+    /// `target.rest_angle_law`, "smooth" unless the seed's "cone" is asked for
+    /// (docs/theory.md F4b). Where every spring rests straight the two coincide, nothing is
+    /// named and the law is reported as "cone"; a choice there is an error rather than a
+    /// setting without effect.
     pub fn rest_angle_law(&self) -> Result<RestAngleLaw, CaseError> {
         let path = "target.rest_angle_law";
-        let (chosen, bending_at_rest) = match &self.target {
-            // a cell file carries its rest angles, whichever way it was relaxed
-            TargetSpec::WovenPanel { weave, cell_file, rest_angle_law, .. } => {
-                (rest_angle_law, if cell_file.is_some() { None } else { Some(weave.bending_at_rest) })
-            }
-            TargetSpec::ThreeDWovenPanel { weave, rest_angle_law, .. } => {
-                (rest_angle_law, weave.as_ref().map(|w| w.bending_at_rest))
-            }
-            _ => return Ok(RestAngleLaw::Cone),
-        };
+        let Some((chosen, bent)) = self.rest_angle_law_field() else { return Ok(RestAngleLaw::Cone) };
         let law = match chosen.as_deref() {
+            None if bent => return Ok(DEFAULT_REST_ANGLE_LAW),
             None => return Ok(RestAngleLaw::Cone),
             Some("cone") => RestAngleLaw::Cone,
             Some("smooth") => RestAngleLaw::Smooth,
-            Some(other) => return Err(invalid(path, format!("must be \"cone\" or \"smooth\", got \"{other}\""))),
+            Some(other) => return Err(invalid(path, format!("must be \"smooth\" or \"cone\", got \"{other}\""))),
         };
-        if bending_at_rest == Some(BendingAtRest::Straight) {
+        if !bent {
             return Err(invalid(
                 path,
                 format!("\"{}\" says how a spring bent at rest behaves below its rest angle, but target.weave.bending_at_rest is \"straight\": every spring rests straight; leave rest_angle_law out, or set bending_at_rest to \"as_woven\"", law.name()),
@@ -395,13 +424,39 @@ impl Case {
         Ok(law)
     }
 
-    /// The case with `failure.unload` named where it was left to the default, so a case
-    /// that names the default compares equal to one that leaves it unsaid (`run --restart`
-    /// with a case file; a checkpoint stores the name, `run::naming_unload`).
-    pub fn with_named_unload(&self) -> Case {
+    /// The case with the model choices whose defaults have changed named where it left them
+    /// to the default: `failure.unload`, `failure.tension_measure` and, where springs rest
+    /// bent, `target.rest_angle_law`. A case that names the defaults then compares equal to
+    /// one that leaves them unsaid (`run --restart` with a case file), and a checkpoint or a
+    /// campaign's provenance that stores it says what it was stepped with under any later
+    /// default (`run::naming_choices`).
+    pub fn with_named_choices(&self) -> Case {
         let mut case = self.clone();
-        if case.failure.unload.is_none() {
-            case.failure.unload = Some(Unload::AtBreak.name().to_string());
+        case.failure.unload.get_or_insert_with(|| Unload::AtBreak.name().to_string());
+        case.failure.tension_measure.get_or_insert_with(|| DEFAULT_TENSION_MEASURE.name().to_string());
+        if self.takes_rest_angle_law() {
+            if let TargetSpec::WovenPanel { rest_angle_law, .. } | TargetSpec::ThreeDWovenPanel { rest_angle_law, .. } =
+                &mut case.target
+            {
+                rest_angle_law.get_or_insert_with(|| DEFAULT_REST_ANGLE_LAW.name().to_string());
+            }
+        }
+        case
+    }
+
+    /// A case stored by a binary that did not yet name `failure.tension_measure` and
+    /// `target.rest_angle_law` (a checkpoint's or a campaign provenance's, written before
+    /// 2026-12-03): where it left them unsaid it was stepped with the element strain and the
+    /// cone, the defaults of that time, and this names them so.
+    pub fn with_earlier_defaults_named(&self) -> Case {
+        let mut case = self.clone();
+        case.failure.tension_measure.get_or_insert_with(|| Measure::Element.name().to_string());
+        if self.takes_rest_angle_law() {
+            if let TargetSpec::WovenPanel { rest_angle_law, .. } | TargetSpec::ThreeDWovenPanel { rest_angle_law, .. } =
+                &mut case.target
+            {
+                rest_angle_law.get_or_insert_with(|| RestAngleLaw::Cone.name().to_string());
+            }
         }
         case
     }
@@ -420,10 +475,11 @@ impl Case {
     /// `asked`'s run length, so a shot undecided at its end time runs on to a later one
     /// (`run --restart` with a case file, a campaign shot resumed after the campaign's end
     /// time was raised). `Err` names the first field, other than the run length and a
-    /// defaulted `failure.unload`, in which the two differ: such a checkpoint does not continue.
+    /// choice one names and the other leaves to the same default, in which the two differ:
+    /// such a checkpoint does not continue.
     pub fn continued_by(&self, asked: &Case) -> Result<Case, String> {
         let continued = self.with_run_length_of(asked);
-        let value = |case: &Case| serde_json::to_value(case.with_named_unload()).expect("a case serialises");
+        let value = |case: &Case| serde_json::to_value(case.with_named_choices()).expect("a case serialises");
         match super::first_difference(&value(&continued), &value(asked), "") {
             Some(field) => Err(field),
             None => Ok(continued),
@@ -448,11 +504,11 @@ impl Case {
         failure_measure("shear", name, diameters, Measure::Gauge { diameters: gauge }, gauge)
     }
 
-    /// The tension measure of the failure criterion: the element's own strain unless "gauge"
-    /// is asked for, over `tension_gauge_diameters` (default 1) digital fibre diameters.
+    /// The tension measure of the failure criterion: the gauge of `tension_gauge_diameters`
+    /// (default 1) digital fibre diameters unless the seed's "element" is asked for.
     pub(super) fn tension_measure(&self) -> Result<TensionMeasure, CaseError> {
         let (name, diameters) = (self.failure.tension_measure.as_deref(), self.failure.tension_gauge_diameters);
-        failure_measure("tension", name, diameters, Measure::Element, DEFAULT_TENSION_GAUGE_DIAMETERS)
+        failure_measure("tension", name, diameters, DEFAULT_TENSION_MEASURE, DEFAULT_TENSION_GAUGE_DIAMETERS)
     }
 
     /// Projectile resolved from its preset or explicit shape.
