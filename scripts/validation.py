@@ -462,10 +462,12 @@ def entry(c, campaigns=(), report=None):
         "fibre_friction_spring": c.case["contact"].get("fibre_friction_spring") or "anchored",
         # and when broken elements stop acting (docs/theory.md I7)
         "unload": (c.case.get("failure") or {}).get("unload") or "at_break",
-        # what a crimped spring stores below its rest angle (docs/theory.md F4b)
-        "rest_angle_law": target.get("rest_angle_law") or "cone",
-        # how the failure criterion measures tension (docs/theory.md I9c)
-        "tension_measure": (c.case.get("failure") or {}).get("tension_measure") or "element",
+        # what a crimped spring stores below its rest angle (docs/theory.md F4b): "smooth"
+        # unless named on a woven panel whose springs rest bent; where every spring rests
+        # straight the laws coincide and the solver reports "cone"
+        "rest_angle_law": target.get("rest_angle_law") or ("smooth" if rests_bent(target) else "cone"),
+        # how the failure criterion measures tension (docs/theory.md I9c), "gauge" unless named
+        "tension_measure": (c.case.get("failure") or {}).get("tension_measure") or "gauge",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,
@@ -490,6 +492,14 @@ def entry(c, campaigns=(), report=None):
     if seed_reference:
         out["seed_reference"] = seed_reference
     return out
+
+
+def rests_bent(target):
+    """Whether a case's target has springs bent at rest: a woven panel woven "as_woven" (the
+    default) or read from a cell file, which carries its rest angles (Case::takes_rest_angle_law)."""
+    woven = target.get("kind") in ("woven_panel", "three_d_woven_panel")
+    crimped = (target.get("weave") or {}).get("bending_at_rest", "as_woven") != "straight"
+    return woven and (bool(target.get("cell_file")) or crimped)
 
 
 def step_of(name):
