@@ -106,8 +106,23 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     unnamed.case_json = stored.to_string();
     let manifest_path = dea_io::checkpoint::manifest_path(&checkpoint);
     dea_io::checkpoint::write_manifest(&manifest_path, &unnamed).unwrap();
-    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    // the error a group of `shot` is refused with on the records so far ("" if it runs)
+    let refusal = |shot: &dea_io::case::Case| {
+        let refused = run_local(1, |comm| run_group(&campaign, shot, comm, group, &out, None, None));
+        refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default()
+    };
+    // every shot record as written before it named `keys`
+    let strip_records = |keys: &[&str]| {
+        let records = std::fs::read_dir(out.join("shots")).unwrap().map(|e| e.unwrap().path());
+        for path in records.filter(|p| p.extension().is_some_and(|e| e == "json")) {
+            let mut record: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            for key in keys {
+                record.as_object_mut().unwrap().remove(*key);
+            }
+            std::fs::write(&path, record.to_string()).unwrap();
+        }
+    };
+    let message = refusal(&case);
     assert!(message.contains(r#"stepped with failure.unload "next_step""#), "{message}");
     dea_io::checkpoint::write_manifest(&manifest_path, &manifest).unwrap();
     assert_eq!(report(&campaign, &out).unwrap().shots.len(), 2, "two shots on record");
@@ -140,8 +155,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     // ...but under nothing else the campaign changed since it was written
     let mut rougher = case.clone();
     rougher.contact.friction_coefficient += 0.1;
-    let refused = run_local(1, |comm| run_group(&campaign, &rougher, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&rougher);
     assert!(message.contains("stepped with another contact.friction_coefficient"), "{message}");
     stop.store(false, Ordering::SeqCst);
     run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, Some(stop.clone())).unwrap());
@@ -177,8 +191,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     // with, and a record from before the spring was named counts as the seed's anchored one
     let mut other_spring = case.clone();
     other_spring.contact.projectile_friction_spring = Some("anchored".into());
-    let refused = run_local(1, |comm| run_group(&campaign, &other_spring, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&other_spring);
     assert!(
         message.contains("r000-00000")
             && message.contains("fired with the fibre–projectile friction spring \"rotating\"")
@@ -191,8 +204,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert_eq!(value["projectile_friction_spring"], "rotating");
     value.as_object_mut().unwrap().remove("projectile_friction_spring");
     std::fs::write(&record, value.to_string()).unwrap();
-    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&case);
     assert!(message.contains("fired with the fibre–projectile friction spring \"anchored\""), "{message}");
     // the fibre–fibre spring likewise: the record names the seed's anchored one, and a case
     // asking for the projected one is refused
@@ -201,8 +213,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     std::fs::write(&record, value.to_string()).unwrap();
     let mut projected = case.clone();
     projected.contact.fibre_friction_spring = Some("projected".into());
-    let refused = run_local(1, |comm| run_group(&campaign, &projected, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&projected);
     assert!(
         message.contains("r000-00000")
             && message.contains("fired with the fibre–fibre friction spring \"anchored\"")
@@ -214,23 +225,16 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert_eq!(value["unload"], "at_break");
     let mut next_step = case.clone();
     next_step.failure.unload = Some("next_step".into());
-    let refused = run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&next_step);
     assert!(
         message.contains("unloading of broken elements \"at_break\"") && message.contains("failure.unload"),
         "{message}"
     );
     value.as_object_mut().unwrap().remove("unload");
     std::fs::write(&record, value.to_string()).unwrap();
-    let refused = run_local(1, |comm| run_group(&campaign, &case, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&case);
     assert!(message.contains("\"next_step\", but the campaign now asks for \"at_break\""), "{message}");
-    let records = std::fs::read_dir(out.join("shots")).unwrap().map(|e| e.unwrap().path());
-    for path in records.filter(|p| p.extension().is_some_and(|e| e == "json")) {
-        let mut other: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        other.as_object_mut().unwrap().remove("unload");
-        std::fs::write(&path, other.to_string()).unwrap();
-    }
+    strip_records(&["unload"]);
     run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None).unwrap());
     // and the tension measure and rest-angle law, whose defaults changed on 2026-12-03: a
     // record names them; one from before was fired with "element" and "cone" where its case
@@ -239,8 +243,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     assert_eq!((&value["tension_measure"], &value["rest_angle_law"]), (&"gauge".into(), &"smooth".into()));
     let mut element = next_step.clone();
     element.failure.tension_measure = Some("element".into());
-    let refused = run_local(1, |comm| run_group(&campaign, &element, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&element);
     assert!(
         message.contains("fired with the tension measure \"gauge\", but the campaign now asks for \"element\"")
             && message.contains("failure.tension_measure"),
@@ -248,8 +251,7 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     );
     value.as_object_mut().unwrap().remove("tension_measure");
     std::fs::write(&record, value.to_string()).unwrap();
-    let refused = run_local(1, |comm| run_group(&campaign, &next_step, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&next_step);
     assert!(
         message.contains("r000-00000")
             && message.contains("fired with the tension measure \"element\", but the campaign now asks for \"gauge\"")
@@ -258,20 +260,13 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     );
     value.as_object_mut().unwrap().remove("rest_angle_law");
     std::fs::write(&record, value.to_string()).unwrap();
-    let refused = run_local(1, |comm| run_group(&campaign, &element, comm, group, &out, None, None));
-    let message = refused[0].as_ref().err().map(|e| e.to_string()).unwrap_or_default();
+    let message = refusal(&element);
     assert!(
         message.contains("fired with the rest-angle law \"cone\", but the campaign now asks for \"smooth\"")
             && message.contains("target.rest_angle_law"),
         "{message}"
     );
-    let records = std::fs::read_dir(out.join("shots")).unwrap().map(|e| e.unwrap().path());
-    for path in records.filter(|p| p.extension().is_some_and(|e| e == "json")) {
-        let mut other: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        other.as_object_mut().unwrap().remove("tension_measure");
-        other.as_object_mut().unwrap().remove("rest_angle_law");
-        std::fs::write(&path, other.to_string()).unwrap();
-    }
+    strip_records(&["tension_measure", "rest_angle_law"]);
     let mut as_before = element.clone();
     if let dea_io::case::TargetSpec::WovenPanel { rest_angle_law, .. } = &mut as_before.target {
         *rest_angle_law = Some("cone".into());
