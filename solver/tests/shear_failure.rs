@@ -1,9 +1,9 @@
 //! Shear failure as a user meets it (issue 31, item 1; docs/theory.md I9b): the binary runs
 //! shipped cases with a field or two changed. Under the gauge shear measure (the default) a
 //! blunt sphere below its perforation speed breaks nothing in shear at any element length
-//! with tension taken on the element (a small minority with the tension gauge), where the
-//! seed's element measure does; and the 17-grain FSP's 50 µm edge still cuts in
-//! shear.
+//! with tension taken on the element (with the tension gauge a small minority, in fragments
+//! buckled by their own recoil, theory I9c), where the seed's element measure cuts intact
+//! fibres; and the 17-grain FSP's 50 µm edge still cuts in shear.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -19,9 +19,32 @@ fn run(case: &str, label: &str, edit: impl Fn(&mut serde_json::Value)) -> ([u64;
     (breaks, residual)
 }
 
-/// The shear breaks of a one-rank run's snapshots (`out`) whose fibre had no break in tension
-/// or combined at an earlier snapshot, as (element gid, snapshot).
-fn shear_breaks_in_intact_fibres(out: &Path) -> Vec<(u64, String)> {
+/// Where a one-rank run's shear breaks fall, read from its snapshots (`out`), each as
+/// (element gid, snapshot).
+#[derive(Debug)]
+struct ShearBreaks {
+    /// those whose fibre had no break in tension or combined at an earlier snapshot
+    in_intact_fibres: Vec<(u64, String)>,
+    /// those with no element of their fibre within `RECOIL_REACH_M` compressed beyond
+    /// `RECOIL_STRAIN` at any snapshot in the `RECOIL_WINDOW_S` before the one that first
+    /// lists them
+    without_compression: Vec<(u64, String)>,
+}
+
+/// How far from a shear break [m] its fibre is searched for recoil compression: four digital
+/// fibre diameters of `four_layer_panel.json` (7 fibres in a 600 denier yarn: 91.8 µm),
+/// about one Euler half-wave of a fibre compressed by its breaking strain,
+/// `pi d / (4 sqrt(epsilon))` (theory I9c).
+const RECOIL_REACH_M: f64 = 4.0 * 91.8e-6;
+/// The compressive strain that counts as recoil [-]: more than half the breaking strain.
+const RECOIL_STRAIN: f64 = -0.015;
+/// How long before the snapshot that lists a shear break [s] its compression is looked for:
+/// the break happened up to one snapshot interval (0.12 µs at l0/d 0.5) before it is listed,
+/// and a stub of a few hundred µm between a break and the clamp rings axially with a period
+/// `4 L / c` of about 0.15 µs, its buckles bending it on the way back out of compression.
+const RECOIL_WINDOW_S: f64 = 0.3e-6;
+
+fn shear_breaks(out: &Path) -> ShearBreaks {
     let file = hdf5::File::open(out.join("fields/ranks-00001-part-00000.h5")).unwrap();
     let mut snapshots = file.member_names().unwrap();
     snapshots.retain(|name| name.starts_with("snapshot-"));
@@ -48,21 +71,55 @@ fn shear_breaks_in_intact_fibres(out: &Path) -> Vec<(u64, String)> {
         .zip(connectivity.rows())
         .map(|(&gid, row)| (gid, root(&mut parent, row[0] as usize)))
         .collect();
-    let (mut torn, mut seen, mut intact_shear) =
-        (std::collections::HashSet::new(), std::collections::HashSet::new(), vec![]);
-    for name in &snapshots {
+    // each snapshot's unbroken elements: gid -> (fibre, middle [m], strain)
+    let state = |name: &str| -> std::collections::HashMap<u64, (usize, [f64; 3], f64)> {
+        let group = file.group(name).unwrap();
+        let connectivity = group.dataset("connectivity").unwrap().read_2d::<u32>().unwrap();
+        let gids = group.dataset("element_gid").unwrap().read_raw::<u64>().unwrap();
+        let strain = group.dataset("strain").unwrap().read_raw::<f64>().unwrap();
+        let position = group.dataset("position").unwrap().read_2d::<f64>().unwrap();
+        let middle = |a: u32, b: u32| -> [f64; 3] {
+            std::array::from_fn(|k| 0.5 * (position[[a as usize, k]] + position[[b as usize, k]]))
+        };
+        gids.iter()
+            .zip(connectivity.rows())
+            .zip(strain)
+            .map(|((&gid, row), strain)| (gid, (fibre_of[&gid], middle(row[0], row[1]), strain)))
+            .collect()
+    };
+    let time = |name: &str| file.group(name).unwrap().dataset("time").unwrap().read_raw::<f64>().unwrap()[0];
+    let compressed_near = |name: &str, gid: u64, at: [f64; 3]| {
+        state(name).values().any(|&(fibre, middle, strain)| {
+            let distance = (0..3).map(|k| (middle[k] - at[k]).powi(2)).sum::<f64>().sqrt();
+            fibre == fibre_of[&gid] && distance < RECOIL_REACH_M && strain < RECOIL_STRAIN
+        })
+    };
+    let (mut torn, mut seen) = (std::collections::HashSet::new(), std::collections::HashSet::new());
+    let mut found = ShearBreaks { in_intact_fibres: vec![], without_compression: vec![] };
+    for (k, name) in snapshots.iter().enumerate() {
         let broken = file.group(&format!("{name}/broken")).unwrap();
         let gids = broken.dataset("element_gid").unwrap().read_raw::<u64>().unwrap();
         let modes = broken.dataset("failure").unwrap().read_raw::<u8>().unwrap();
         let fresh: Vec<(u64, u8)> = gids.into_iter().zip(modes).filter(|(gid, _)| seen.insert(*gid)).collect();
         for &(gid, mode) in &fresh {
-            if mode == 2 && !torn.contains(&fibre_of[&gid]) {
-                intact_shear.push((gid, name.clone()));
+            if mode != 2 {
+                continue;
+            }
+            if !torn.contains(&fibre_of[&gid]) {
+                found.in_intact_fibres.push((gid, name.clone()));
+            }
+            // where the element was at the snapshot before, the last that holds it unbroken
+            // (a fragment moves a few tens of µm in the window, against a reach of 367 µm)
+            let at = state(&snapshots[k.saturating_sub(1)]).get(&gid).map(|&(_, middle, _)| middle);
+            let mut recent = snapshots[..=k].iter().filter(|earlier| time(name) - time(earlier) <= RECOIL_WINDOW_S);
+            let compressed = at.is_some_and(|at| recent.any(|earlier| compressed_near(earlier, gid, at)));
+            if !compressed {
+                found.without_compression.push((gid, name.clone()));
             }
         }
         torn.extend(fresh.iter().filter(|(_, mode)| *mode != 2).map(|(gid, _)| fibre_of[gid]));
     }
-    intact_shear
+    found
 }
 
 /// [`run`], with `read` given the output directory before it is removed.
@@ -107,6 +164,9 @@ fn a_blunt_sphere_below_its_perforation_speed_breaks_nothing_in_shear_at_any_ele
             v["target"]["element_length_ratio"] = ratio.into();
             v["failure"]["shear_measure"] = measure.into();
             v["failure"]["tension_measure"] = tension.into();
+            // snapshots every 50 steps (about 50 ns at l0/d 0.5), to catch a fragment's
+            // recoil, which swings from tension to compression within a few of them
+            v["run"]["snapshot_interval_steps"] = 50.into();
         }
     };
     for ratio in [0.5, 0.25] {
@@ -117,28 +177,37 @@ fn a_blunt_sphere_below_its_perforation_speed_breaks_nothing_in_shear_at_any_ele
         assert_eq!(shear, 0, "l0/d {ratio}: the gauge measure breaks nothing in shear under a blunt nose");
     }
     // the seed's element measure does, which is what the gauge measure is for
-    let ([_, shear, _], _, intact) = run_and_read(
-        "four_layer_panel.json",
-        "element-0.5",
-        slow("element", 0.5, "element"),
-        shear_breaks_in_intact_fibres,
-    );
+    let ([_, shear, _], _, element) =
+        run_and_read("four_layer_panel.json", "element-0.5", slow("element", 0.5, "element"), shear_breaks);
     assert!(shear > 0, "the element measure breaks fibres in shear under a blunt nose");
-    assert!(!intact.is_empty(), "the element measure cuts intact fibres in shear under a blunt nose");
+    assert!(!element.in_intact_fibres.is_empty(), "the element measure cuts intact fibres in shear under a blunt nose");
     // under the tension gauge too (the default since 2026-12-03) a few break in shear, 2 and 6
     // against 21 and 16 in tension at l0/d 0.5 and 0.25, each in a fibre that broke in
-    // tension before it: a recoiling fragment, not an intact fibre under the nose (theory I9c)
+    // tension before it, where the fragment recoils into compression and buckles: not an
+    // intact fibre under the nose (theory I9c)
     for ratio in [0.5, 0.25] {
-        let ([tension, shear, _], residual, intact) = run_and_read(
+        let ([tension, shear, _], residual, found) = run_and_read(
             "four_layer_panel.json",
             &format!("both-gauges-{ratio}"),
             slow("gauge", ratio, "gauge"),
-            shear_breaks_in_intact_fibres,
+            shear_breaks,
         );
         assert!(residual < 100.0, "l0/d {ratio}, both gauges: the sphere is being stopped ({residual} m/s)");
         assert!(2 * shear < tension, "l0/d {ratio}, both gauges: {shear} in shear against {tension} in tension");
-        assert!(intact.is_empty(), "l0/d {ratio}, both gauges: shear breaks in fibres intact before: {intact:?}");
+        assert!(
+            found.in_intact_fibres.is_empty(),
+            "l0/d {ratio}, both gauges: shear breaks in fibres intact before: {:?}",
+            found.in_intact_fibres
+        );
+        assert!(
+            found.without_compression.is_empty(),
+            "l0/d {ratio}, both gauges: shear breaks with no recoil compression near them: {:?}",
+            found.without_compression
+        );
     }
+    // and the element measure's cuts under the nose are not recoil: some have no compression
+    // near them, so the check above can tell the two apart
+    assert!(!element.without_compression.is_empty(), "the element measure's shear breaks: {element:?}");
 }
 
 #[test]
