@@ -7,7 +7,7 @@ Left: V50 (bracket or interval as an error bar) of the 4-layer panels against th
 with the experiment's 245 m/s and the seed's modified DEA 305 m/s for 4 layers of a
 15 in panel (markers at its 12 in free span, lines across); a campaign whose every shot so far perforated is drawn as an upper bound (a
 hollow downward triangle at its slowest shot, an arrow beneath), one whose every shot was
-stopped as a lower bound (an upward triangle at its fastest, an arrow above). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), from
+stopped as a lower bound (an upward triangle at its fastest, an arrow above). Right: V50 against layers beside Table 6-1 (experiment and modified DEA), coloured by the failure model (tension measure and rest law) each series ran under, from
 the layer series where it has results; a finer series about a first one's limit is drawn
 pooled with it (validation.py's `pooled_from`), not alone; a mesh series' V50 (another fibre
 count, element length or stepping on a layer series' panel) stands to the right of its layer
@@ -37,7 +37,7 @@ args = parser.parse_args()
 with open(os.path.join(ROOT, "validation", "summary.json")) as f:
     entries = json.load(f)
 
-figure, (size_axes, layer_axes) = plt.subplots(1, 2, figsize=(11.0, 5.8))
+figure, (size_axes, layer_axes) = plt.subplots(1, 2, figsize=(12.0, 7.5))
 pending = []
 
 
@@ -155,15 +155,32 @@ def estimate_words(method):
     raise ValueError(f"a layer series' V50 of an unknown kind: {method!r}")
 
 
+MODEL_WORDS = {("element", "cone"): "the seed's element measure",
+               ("gauge", "cone"): "tension gauge",
+               ("gauge", "smooth"): "tension gauge + smooth rest law (defaults)"}
+
+
 def layer_label(e):
     # named always: one label per campaign, so that a lone campaign of its layer count is not
-    # read as the legend of every point
-    return f"dea-mpi, {1000 * e['side_m']:.0f} mm panel, {e['name']} ({estimate_words(e['method'])})"
+    # read as the legend of every point; the model is said in words beside its colour
+    model = MODEL_WORDS.get((e.get("tension_measure"), e.get("rest_angle_law")),
+                            f"{e.get('tension_measure')} measure, {e.get('rest_angle_law')} rest law")
+    # the panel is said once, in the title: every layer series here is the 3 in panel
+    return f"{e['name']}: {model} ({estimate_words(e['method'])})"
 
 
-if not draw(layer_axes, layers, layer_position, layer_label,
-            lambda e: ("tab:blue", "tab:green", "tab:purple")[alongside[e["name"]].index(e["name"]) % 3]
-            if e["name"] in alongside[e["name"]] else "tab:gray"):
+# coloured by the failure model a series ran under, so that the series of one model read as
+# one curve against layers: the seed's literal element measure and cone rest law, the tension
+# gauge alone, and the two defaults since 2026-12-03 (theory I9c, I9d)
+MODEL_COLOURS = {("element", "cone"): "tab:blue", ("gauge", "cone"): "tab:purple",
+                 ("gauge", "smooth"): "tab:green"}
+
+
+def model_colour(e):
+    return MODEL_COLOURS.get((e.get("tension_measure"), e.get("rest_angle_law")), "tab:gray")
+
+
+if not draw(layer_axes, layers, layer_position, layer_label, model_colour):
     layer_axes.text(0.5, 0.08, "no layer series has a V50 yet", transform=layer_axes.transAxes, ha="center", fontsize=8)
 # the mesh series' limits beside the layer series' (to the right of their layer count): how far
 # the fibre count, the coarse element length or multi-rate stepping move the V50
@@ -190,7 +207,7 @@ def mesh_label(e):
         # a pooled entry shares its first campaign's mesh: without this its label repeats that
         # campaign's and the legend would show only one of the two points
         words.append(f"{len(e['pooled_from'])} series pooled")
-    return f"dea-mpi, {1000 * e['side_m']:.0f} mm panel, {', '.join(words)} ({estimate_words(e['method'])})"
+    return f"{1000 * e['side_m']:.0f} mm panel, {', '.join(words)} ({estimate_words(e['method'])})"
 
 
 MESH_COLOURS = ("tab:orange", "tab:brown", "tab:pink", "tab:olive")
@@ -198,12 +215,15 @@ draw(layer_axes, meshes, lambda e: e["layers"] + 1.0 + 0.6 * meshes.index(e), me
      lambda e: MESH_COLOURS[meshes.index(e) % len(MESH_COLOURS)])
 layer_axes.set_xlabel("layers")
 layer_axes.set_ylabel("V50 [m/s]")
-layer_axes.set_title("V50 against layers")
+sides = sorted({e["side_m"] for e in layers + meshes})
+layer_axes.set_title("V50 against layers; dea-mpi on "
+                     + ", ".join(f"{1000 * side:.0f} mm" for side in sides) + " panels")
 layer_axes.set_xlim(0, 30)
 layer_axes.set_ylim(0, 700)
 layer_axes.grid(alpha=0.3)
-# below the axes: the layer series sit low at 4 and 8 layers, where a legend inside would hide them
-layer_axes.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14))
+# below the axes, ending at their right edge and reaching left under the panel-size axes:
+# the layer series sit low at 4 and 8 layers, where a legend inside would hide them
+layer_axes.legend(fontsize=7, loc="upper right", bbox_to_anchor=(1.0, -0.10))
 # wrapped here rather than by matplotlib, whose wrap ran past the figure's right edge; the
 # axes give up as much height as the lines take
 footnote = textwrap.wrap("not yet decided: " + "; ".join(pending), width=250) if pending else []
