@@ -438,10 +438,19 @@ class Begun(unittest.TestCase):
             with mock.patch.object(validation, "RESULTS", results):
                 started = validation.begun("layers-t")
             self.assertEqual([s[0] for s in started], ["r000-00001", "r000-00002"])
-            self.assertEqual(validation.begun_words([("r000-00001", 3.7e-6, 2.5e-4, True),
-                                                     ("r000-00002", 1.2e-5, 2.5e-4, False)]),
+            self.assertEqual([s[4] for s in started], [None, None])
+            self.assertEqual(validation.begun_words([("r000-00001", 3.7e-6, 2.5e-4, True, None),
+                                                     ("r000-00002", 1.2e-5, 2.5e-4, False, None)]),
                              "r000-00001 at 3.7 of 250 us, goes on from its checkpoint; "
                              "r000-00002 at 12.0 of 250 us, no checkpoint: starts again")
+            # where progress.json names its checkpoint, status says where the shot goes on from
+            # (an 8-layer shot said "at 28.4 us, goes on from its checkpoint", which was at 19.8)
+            with open(os.path.join(shots_dir, "r000-00001", "progress.json"), "w") as f:
+                f.write('{"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4, "checkpoint_time_s": 1.98e-5}')
+            with mock.patch.object(validation, "RESULTS", results):
+                started = validation.begun("layers-t")
+            self.assertEqual(validation.begun_words(started[:1]),
+                             "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us")
 
 
 class UpAndDown(unittest.TestCase):

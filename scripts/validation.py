@@ -184,8 +184,9 @@ def resumable(directory):
 
 def begun(name):
     """The shots of campaign `name` begun on this machine and not on record: [(id, simulated
-    time [s], end time [s], whether a checkpoint is there to go on from)], from each run
-    directory's progress.json (rank 0 rewrites it as the shot runs)."""
+    time [s], end time [s], whether a checkpoint is there to go on from, its simulated time
+    [s] or None where progress.json does not say)], from each run directory's progress.json
+    (rank 0 rewrites it as the shot runs, and names each checkpoint it writes)."""
     found = []
     for directory in sorted(glob.glob(os.path.join(RESULTS, name, "shots", "r*-*"))):
         shot_id = os.path.basename(directory)
@@ -195,17 +196,24 @@ def begun(name):
             with open(os.path.join(directory, "progress.json")) as f:
                 progress = json.load(f)
             time_s, end_s = float(progress["simulated_time_s"]), float(progress["end_time_s"])
-        except (OSError, ValueError, KeyError, TypeError):
+            checkpoint_s = progress.get("checkpoint_time_s")
+            checkpoint_s = None if checkpoint_s is None else float(checkpoint_s)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
             continue
-        found.append((shot_id, time_s, end_s, resumable(directory)))
+        found.append((shot_id, time_s, end_s, resumable(directory), checkpoint_s))
     return found
 
 
 def begun_words(shots):
     """What `status` says of the shots `begun` gave."""
-    return "; ".join(f"{shot_id} at {1e6 * time_s:.1f} of {1e6 * end_s:.0f} us, "
-                     + ("goes on from its checkpoint" if resumable else "no checkpoint: starts again")
-                     for shot_id, time_s, end_s, resumable in shots)
+    def goes_on(resumable, checkpoint_s):
+        if not resumable:
+            return "no checkpoint: starts again"
+        if checkpoint_s is None:
+            return "goes on from its checkpoint"
+        return f"goes on from its checkpoint at {1e6 * checkpoint_s:.1f} us"
+    return "; ".join(f"{shot_id} at {1e6 * time_s:.1f} of {1e6 * end_s:.0f} us, " + goes_on(resumable, checkpoint_s)
+                     for shot_id, time_s, end_s, resumable, checkpoint_s in shots)
 
 
 def status(campaigns):

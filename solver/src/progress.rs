@@ -134,6 +134,9 @@ pub struct ProgressReport {
     pub projectile_speed_m_s: f64,
     /// |E - E0| / E0 at the last history sample [-]
     pub energy_balance_error: f64,
+    /// the simulated time of the checkpoint a rerun would go on from: the last one this job
+    /// wrote, or the one it was restarted from; absent (null) while there is none [s]
+    pub checkpoint_time_s: Option<f64>,
     /// `running`, or `finished` once the run has taken its last step
     pub state: &'static str,
     /// when finished: the outcome (`perforated`, `stopped`, `rebounded`, `undecided`)
@@ -156,11 +159,15 @@ pub struct Progress {
     last_flight: Option<(f64, f64)>,
     /// the latest estimate of the wall time to the decision [s]
     decision_eta: f64,
+    /// the simulated time of the checkpoint to go on from, if any [s]
+    checkpoint_time: Option<f64>,
 }
 
 impl Progress {
-    /// `start_time` is the simulated time this job begins at (after a restart, not zero).
-    pub fn new(out: &std::path::Path, start_time: f64, end_time: f64, mode: ProgressMode) -> Self {
+    /// `start_time` is the simulated time this job begins at (after a restart, not zero);
+    /// `restarted` says it goes on from a checkpoint, which stays the one to go on from until
+    /// [`Self::checkpointed`] names a newer one.
+    pub fn new(out: &std::path::Path, start_time: f64, end_time: f64, restarted: bool, mode: ProgressMode) -> Self {
         let bar = mode.draws_bar().then(|| {
             // drawn on stderr whatever it is (indicatif's own stderr target hides itself
             // when stderr is not a terminal, as under mpirun)
@@ -180,7 +187,16 @@ impl Progress {
             finished: None,
             last_flight: None,
             decision_eta: f64::NAN,
+            checkpoint_time: restarted.then_some(start_time),
         }
+    }
+
+    /// Records that a checkpoint of simulated time `time` [s] is complete on disk, so that
+    /// `progress.json` says where a rerun goes on from rather than only where the run was.
+    pub fn checkpointed(&mut self, time: f64) {
+        self.checkpoint_time = Some(time);
+        // the next update writes it, however soon
+        self.last_report = None;
     }
 
     /// Reports the state after a step; cheap unless a report is due.
@@ -235,6 +251,7 @@ impl Progress {
             decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
+            checkpoint_time_s: self.checkpoint_time,
             state: if self.finished.is_some() { "finished" } else { "running" },
             outcome: self.finished.clone(),
         };
@@ -394,6 +411,40 @@ mod tests {
         assert_eq!(speed_words(9.3, 0.4), "9.3 m/s (0.4 m/s along the shot line)");
         // turned back
         assert_eq!(speed_words(9.3, -2.0), "9.3 m/s (-2.0 m/s along the shot line)");
+    }
+
+    #[test]
+    fn progress_names_the_checkpoint_a_rerun_goes_on_from() {
+        let dir = std::env::temp_dir().join(format!("dea-progress-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let read = || -> serde_json::Value {
+            serde_json::from_str(&std::fs::read_to_string(dir.join("progress.json")).unwrap()).unwrap()
+        };
+        // a fresh run: nothing to go on from until its first checkpoint
+        let mut fresh = Progress::new(&dir, 0.0, 1e-4, false, ProgressMode::Lines);
+        fresh.update(10, 1e-6, 300.0, 0.0, Flight::default());
+        assert!(read()["checkpoint_time_s"].is_null(), "{}", read());
+        // a checkpoint is written into progress.json at the next update, however soon
+        fresh.checkpointed(2e-6);
+        fresh.update(20, 2e-6, 299.0, 0.0, Flight::default());
+        assert_eq!(read()["checkpoint_time_s"].as_f64(), Some(2e-6));
+        // later reports keep it while the run goes past it (an 8-layer shot said "at 28.4 us,
+        // goes on from its checkpoint", which was at 19.8 us)
+        fresh.checkpointed(2e-6);
+        fresh.update(30, 3e-6, 298.0, 0.0, Flight::default());
+        fresh.finish(40, 4e-6, 297.0, 0.0, "perforated");
+        assert_eq!(
+            (read()["simulated_time_s"].as_f64(), read()["checkpoint_time_s"].as_f64()),
+            (Some(4e-6), Some(2e-6))
+        );
+        // a restarted run goes on from the checkpoint it began at
+        let mut restarted = Progress::new(&dir, 5e-6, 1e-4, true, ProgressMode::Lines);
+        restarted.update(60, 6e-6, 290.0, 0.0, Flight::default());
+        assert_eq!(
+            (read()["simulated_time_s"].as_f64(), read()["checkpoint_time_s"].as_f64()),
+            (Some(6e-6), Some(5e-6))
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -376,7 +376,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
     let mut stopped_by = "end_time_s".to_string();
     let mut decided = Outcome::Undecided;
     let judge = Judge::new(run, normal, options.fibres, back_face);
-    let mut progress = is_root.then(|| Progress::new(options.out, run.domain.time, options.end_time, options.progress));
+    let mut progress = is_root.then(|| {
+        Progress::new(options.out, run.domain.time, options.end_time, restarted_at.is_some(), options.progress)
+    });
     let floor = energy_floor(run.domain.projectile.as_ref().map_or(0.0, |p| p.mass));
     let balance = |histories: &Histories| energy_balance_error(histories, initial_energy, floor);
     let speed = |run: &Distributed<C>| run.domain.projectile.as_ref().map_or(0.0, |p| p.velocity.norm());
@@ -427,7 +429,15 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
             let directory = write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
             last_checkpoint = Instant::now();
             checkpointed_at = Some(run.domain.step);
+            if let Some(progress) = &mut progress {
+                progress.checkpointed(run.domain.time);
+            }
             if stop {
+                // the interrupted run's progress.json names the checkpoint just written
+                if let Some(progress) = &mut progress {
+                    let flight = run.domain.projectile.as_ref().map_or(Flight::default(), |p| judge.flight(p));
+                    progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories), flight);
+                }
                 return Err(RunError::Interrupted(directory));
             }
         }
@@ -442,6 +452,9 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
         run.timer.start();
         let resume = resume_at(&histories, max_force, judge.back_face);
         write_checkpoint(run, options, &resume).map_err(RunError::Output)?;
+        if let Some(progress) = &mut progress {
+            progress.checkpointed(run.domain.time);
+        }
         run.timer.stamp(Stage::Output);
     }
     if !run.domain.step.is_multiple_of(options.history_interval) {

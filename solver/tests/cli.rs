@@ -355,6 +355,7 @@ fn run_writes_summary_and_hdf5_histories() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("progress.json")).unwrap()).unwrap();
     assert_eq!((progress["state"].as_str(), progress["eta_s"].as_f64()), (Some("finished"), Some(0.0)), "{progress}");
     assert_eq!(progress["outcome"], summary["outcome"]);
+    assert!(progress["checkpoint_time_s"].is_null(), "no checkpoint was written: {progress}");
     // what made the outputs, and what each file is
     let provenance: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("provenance.json")).unwrap()).unwrap();
@@ -809,6 +810,12 @@ fn an_output_directory_belongs_to_one_run_and_a_checkpoint_to_its_case() {
     let c = case_path.to_str().unwrap();
     let first = dea(&["run", c, "--out", o]);
     assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    // progress.json names the last checkpoint, which a rerun would go on from
+    let progress: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("progress.json")).unwrap()).unwrap();
+    let (checkpoint_s, steps) = (progress["checkpoint_time_s"].as_f64().unwrap(), progress["step"].as_u64().unwrap());
+    let last = (steps / 200 * 200) as f64 / steps as f64 * progress["simulated_time_s"].as_f64().unwrap();
+    assert!((checkpoint_s - last).abs() < 1e-6 * last, "{checkpoint_s} against {last}: {progress}");
     // a part an earlier run on 3 ranks left behind
     let stale = out.join("fields/ranks-00003-part-00002.h5");
     std::fs::write(&stale, "stale").unwrap();
