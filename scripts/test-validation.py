@@ -439,8 +439,10 @@ class Begun(unittest.TestCase):
                 started = validation.begun("layers-t")
             self.assertEqual([s[0] for s in started], ["r000-00001", "r000-00002"])
             self.assertEqual([s[4] for s in started], [None, None])
-            self.assertEqual(validation.begun_words([("r000-00001", 3.7e-6, 2.5e-4, True, None),
-                                                     ("r000-00002", 1.2e-5, 2.5e-4, False, None)]),
+            # no state in progress.json: not stepping, however fresh the file
+            self.assertEqual([s[5] for s in started], [False, False])
+            self.assertEqual(validation.begun_words([("r000-00001", 3.7e-6, 2.5e-4, True, None, False),
+                                                     ("r000-00002", 1.2e-5, 2.5e-4, False, None, False)]),
                              "r000-00001 at 3.7 of 250 us, goes on from its checkpoint; "
                              "r000-00002 at 12.0 of 250 us, no checkpoint: starts again")
             # where progress.json names its checkpoint, status says where the shot goes on from
@@ -450,6 +452,20 @@ class Begun(unittest.TestCase):
             with mock.patch.object(validation, "RESULTS", results):
                 started = validation.begun("layers-t")
             self.assertEqual(validation.begun_words(started[:1]),
+                             "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us")
+            # a shot stepping now (state "running", rewritten moments ago) is said to be so,
+            # not to go on from its checkpoint; left alone longer than a few minutes in state
+            # "running", it was stopped (a SIGKILL or a lost node writes no other state)
+            path = os.path.join(shots_dir, "r000-00001", "progress.json")
+            with open(path, "w") as f:
+                f.write('{"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4, "checkpoint_time_s": 1.98e-5, '
+                        '"state": "running"}')
+            written = os.path.getmtime(path)
+            with mock.patch.object(validation, "RESULTS", results):
+                now = validation.begun("layers-t", now=written + 30.0)
+                later = validation.begun("layers-t", now=written + validation.RUNNING_WITHIN_S + 1.0)
+            self.assertEqual(validation.begun_words(now[:1]), "r000-00001 at 28.4 of 250 us, stepping now")
+            self.assertEqual(validation.begun_words(later[:1]),
                              "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us")
 
 

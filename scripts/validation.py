@@ -182,11 +182,18 @@ def resumable(directory):
     return os.path.exists(os.path.join(directory, "checkpoint", "manifest.h5"))
 
 
-def begun(name):
+# progress.json of a shot that is stepping is rewritten every few tens of seconds (or at
+# each checkpoint); one in state "running" left alone longer than this was stopped
+RUNNING_WITHIN_S = 180.0
+
+
+def begun(name, now=None):
     """The shots of campaign `name` begun on this machine and not on record: [(id, simulated
     time [s], end time [s], whether a checkpoint is there to go on from, its simulated time
-    [s] or None where progress.json does not say)], from each run directory's progress.json
-    (rank 0 rewrites it as the shot runs, and names each checkpoint it writes)."""
+    [s] or None where progress.json does not say, whether it is stepping now)], from each run
+    directory's progress.json (rank 0 rewrites it as the shot runs, and names each checkpoint
+    it writes; state "running" and rewritten within RUNNING_WITHIN_S of `now`: stepping)."""
+    now = time.time() if now is None else now
     found = []
     for directory in sorted(glob.glob(os.path.join(RESULTS, name, "shots", "r*-*"))):
         shot_id = os.path.basename(directory)
@@ -198,27 +205,33 @@ def begun(name):
             time_s, end_s = float(progress["simulated_time_s"]), float(progress["end_time_s"])
             checkpoint_s = progress.get("checkpoint_time_s")
             checkpoint_s = None if checkpoint_s is None else float(checkpoint_s)
+            age_s = now - os.path.getmtime(os.path.join(directory, "progress.json"))
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             continue
-        found.append((shot_id, time_s, end_s, resumable(directory), checkpoint_s))
+        running = progress.get("state") == "running" and age_s < RUNNING_WITHIN_S
+        found.append((shot_id, time_s, end_s, resumable(directory), checkpoint_s, running))
     return found
 
 
 def begun_words(shots):
     """What `status` says of the shots `begun` gave."""
-    def goes_on(resumable, checkpoint_s):
+    def goes_on(resumable, checkpoint_s, running):
+        if running:
+            return "stepping now"
         if not resumable:
             return "no checkpoint: starts again"
         if checkpoint_s is None:
             return "goes on from its checkpoint"
         return f"goes on from its checkpoint at {1e6 * checkpoint_s:.1f} us"
-    return "; ".join(f"{shot_id} at {1e6 * time_s:.1f} of {1e6 * end_s:.0f} us, " + goes_on(resumable, checkpoint_s)
-                     for shot_id, time_s, end_s, resumable, checkpoint_s in shots)
+    return "; ".join(f"{shot_id} at {1e6 * time_s:.1f} of {1e6 * end_s:.0f} us, " + goes_on(resumable, checkpoint_s, running)
+                     for shot_id, time_s, end_s, resumable, checkpoint_s, running in shots)
 
 
 def status(campaigns):
     total = 0.0
-    print(f"{'campaign':<36} {'nodes':>9} {'shots':>7} {'left':>5} {'core-h/shot':>12}  state")
+    # the name column as wide as the longest name, so that every row's figures line up
+    width = max([len("campaign")] + [len(c.name) for c in campaigns])
+    print(f"{'campaign':<{width}} {'nodes':>9} {'shots':>7} {'left':>5} {'core-h/shot':>12}  state")
     for c in campaigns:
         per_shot, how = c.per_shot_core_hours()
         total += c.left() * per_shot
@@ -226,7 +239,7 @@ def status(campaigns):
         started = begun(c.name)
         if started and not c.complete:
             state += f" ({begun_words(started)})"
-        print(f"{c.name:<36} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
+        print(f"{c.name:<{width}} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
     print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours")
     print("  m: the mean of the campaign's finished shots; w: the cost model's price to the end time times\n"
           "  the highest factor whole shots of its kind have cost (docs/benchmarks/whole-shots.json);\n"
