@@ -63,11 +63,89 @@ pub fn gauge_strains(
         windows.extend(sections.iter().map(|s| (measure.gauge_length(s), measure.reach(s))));
         *windows_of = Some(measure);
     }
+    let windows: &[(f64, u32)] = windows;
     for range in ranges {
-        for i in range.clone() {
+        let mut i = range.start;
+        if let Some(done) =
+            crate::in_avx2_lanes!(strain_gauge_in_lanes(nodes, elements, windows, gauge_strain, range.clone()))
+        {
+            i = done;
+        }
+        for i in i..range.end {
             gauge_strain[i] = element_gauge_strain(nodes, elements, windows, i);
         }
     }
+}
+
+/// [`gauge_strains`] four elements at a time over `range`, with the scalar walk's bits, where
+/// the four share a section and their windows lie on one chain stored in order (almost
+/// everywhere; the other groups take [`element_gauge_strain`]). Each lane walks its own
+/// window as the scalar code does, in the same order of operations, a lane stopping at a
+/// broken element or the gauge's end while the others go on; a broken element keeps its own
+/// strain. Returns where the scalar code takes over (the last group's end).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn strain_gauge_in_lanes(
+    nodes: &Nodes,
+    elements: &Elements,
+    windows: &[(f64, u32)],
+    gauge_strain: &mut [f64],
+    range: std::ops::Range<usize>,
+) -> usize {
+    use crate::lanes::F4;
+    use crate::nodes::FailureMode;
+    let n = nodes.len();
+    let (rest, strain) = (&elements.rest_length, &elements.strain);
+    let intact = |k: usize| if elements.failure[k] == FailureMode::Intact { 1.0 } else { 0.0 };
+    let mut i = range.start;
+    while i + 4 <= range.end {
+        let section = nodes.section[i];
+        let (gauge, reach) = windows[section as usize];
+        let r = reach as usize;
+        // elements i - r ..= i + 3 + r on one chain in memory order, each with its second
+        // node (so an element there is intact exactly when its failure state says so)
+        let in_order = gauge > 0.0
+            && i >= r
+            && i + 4 + r < n
+            && (i..i + 4).all(|k| nodes.section[k] == section)
+            && (i - r..=i + 3 + r).all(|k| nodes.next[k] == k as u32 + 1)
+            && (i - r + 1..=i + 3 + r).all(|k| nodes.prev[k] == k as u32 - 1);
+        if !in_order {
+            for k in i..i + 4 {
+                gauge_strain[k] = element_gauge_strain(nodes, elements, windows, k);
+            }
+            i += 4;
+            continue;
+        }
+        let (one, zero, half) = (F4::splat(1.0), F4::splat(0.0), F4::splat(0.5));
+        let gauge_lanes = F4::splat(gauge);
+        let own = F4::load(strain, i);
+        let mut weighted = F4::load(rest, i).mul(own);
+        let mut total = F4::load(rest, i);
+        // lower positions: element i + l - s after element i + l - s + 1; then higher ones:
+        // element i + l + s after element i + l + s - 1
+        for side in [-1isize, 1] {
+            let mut distance = zero;
+            let mut walking = one.eq(one);
+            for step in 1..=r {
+                let (element, before) = if side < 0 { (i - step, i - step + 1) } else { (i + step, i + step - 1) };
+                walking = walking.and(F4::gather(element, intact).eq(one));
+                let (rest_before, rest_here) = (F4::load(rest, before), F4::load(rest, element));
+                distance = F4::select(walking, distance.add(half.mul(rest_before.add(rest_here))), distance);
+                walking = walking.and(distance.lt(gauge_lanes));
+                if walking.bits() == 0 {
+                    break;
+                }
+                let weight = rest_here.mul(one.sub(distance.div(gauge_lanes)));
+                weighted = F4::select(walking, weighted.add(weight.mul(F4::load(strain, element))), weighted);
+                total = F4::select(walking, total.add(weight), total);
+            }
+        }
+        let centre_intact = F4::gather(i, intact).eq(one);
+        F4::select(centre_intact, weighted.div(total), own).store(gauge_strain, i);
+        i += 4;
+    }
+    i
 }
 
 /// The gauge strain of local element `i` [-] ([`gauge_strains`]).
@@ -238,6 +316,47 @@ mod tests {
         assert!(steps[3] < 0.1 * steps[1], "{gauge_peaks:?}");
         assert!((gauge_peaks[4] - hat_average).abs() < 2e-5, "{gauge_peaks:?} against {hat_average}");
         assert!(hat_average < 0.026, "{hat_average}");
+    }
+
+    #[test]
+    fn the_lanes_give_the_gauge_strains_of_the_scalar_walk_with_its_bits() {
+        use crate::bending::tests::{assert_same_bits, fibres_on_every_path};
+        use crate::material::FibreMaterial;
+        let (nodes, mut elements, sections) = fibres_on_every_path();
+        crate::rod::compute_element_tension(&nodes, &mut elements, &sections, &FibreMaterial::kevlar_km2());
+        // two reaches per section (the fixture's sections differ in diameter), and ranges that
+        // split the elements where a group of four would not
+        for diameters in [1.0, 2.5] {
+            let measure = TensionMeasure::Gauge { diameters };
+            let windows: Vec<(f64, u32)> =
+                sections.iter().map(|s| (measure.gauge_length(s), measure.reach(s))).collect();
+            let walked: Vec<f64> =
+                (0..nodes.len()).map(|i| element_gauge_strain(&nodes, &elements, &windows, i)).collect();
+            for ranges in [vec![0..nodes.len()], vec![0..7, 9..nodes.len() - 3]] {
+                let mut scratch = StrainGaugeScratch { gauge_strain: vec![0.0; nodes.len()], ..Default::default() };
+                gauge_strains(&nodes, &elements, &sections, measure, &mut scratch, &ranges);
+                for range in &ranges {
+                    assert_same_bits("gauge strain", &scratch.gauge_strain[range.clone()], &walked[range.clone()]);
+                }
+            }
+            // the lanes' paths were taken: a group in order whose windows a broken element
+            // cuts, one with a broken element of its own, and one across two sections or off
+            // the chain's memory order; and the hat changed some strain (the test can fail)
+            let reach = |i: usize| windows[nodes.section[i] as usize].1 as usize;
+            let in_order = |i: usize| {
+                i >= reach(i)
+                    && i + 4 + reach(i) < nodes.len()
+                    && (i..i + 4).all(|k| nodes.section[k] == nodes.section[i])
+                    && (i - reach(i)..=i + 3 + reach(i)).all(|k| nodes.next[k] == k as u32 + 1)
+            };
+            let groups: Vec<usize> = (0..nodes.len() / 4).map(|g| 4 * g).collect();
+            let broken_in =
+                |range: std::ops::RangeInclusive<usize>| range.into_iter().any(|k| !elements.is_intact(&nodes, k));
+            assert!(groups.iter().any(|&i| in_order(i) && broken_in(i - reach(i)..=i + 3 + reach(i))));
+            assert!(groups.iter().any(|&i| in_order(i) && broken_in(i..=i + 3)));
+            assert!(groups.iter().any(|&i| !in_order(i)));
+            assert!((0..nodes.len()).any(|i| walked[i] != elements.strain[i]));
+        }
     }
 
     #[test]
