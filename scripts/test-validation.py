@@ -228,6 +228,35 @@ class Run(unittest.TestCase):
                 self.assertIn(os.path.join(directory, "") + ("dea-mpi" if given else "target"), str(stop.exception.code))
                 self.assertIn(says, str(stop.exception.code))
 
+    def test_a_campaign_file_is_checked_once_until_it_the_binary_or_the_ranks_change(self):
+        with tempfile.TemporaryDirectory() as directory, mock.patch.dict(validation.CHECKED, clear=True):
+            program, path = os.path.join(directory, "dea-mpi"), os.path.join(directory, "c.json")
+            for name, text in ((program, ""), (path, '{"name": "c"}')):
+                with open(name, "w") as f:
+                    f.write(text)
+            calls = []
+
+            def dea_mpi(command, **_):
+                calls.append(command)
+                return types.SimpleNamespace(returncode=0, stdout=f'{{"checks": {len(calls)}}}', stderr="")
+
+            args = types.SimpleNamespace(binary=program, ranks=2)
+            with mock.patch.object(validation.subprocess, "run", dea_mpi):
+                first = validation.check(args, path)
+                first["checks"] = 99  # a caller's edit does not reach the next answer
+                self.assertEqual(validation.check(args, path), {"checks": 1})
+                self.assertEqual(len(calls), 1)
+                with open(path, "w") as f:
+                    f.write('{"name": "c", "design": {}}')
+                self.assertEqual(validation.check(args, path), {"checks": 2})
+                args.ranks = 1
+                self.assertEqual(validation.check(args, path), {"checks": 3})
+                built = os.stat(program).st_mtime_ns
+                os.utime(program, ns=(built + 10**9, built + 10**9))
+                self.assertEqual(validation.check(args, path), {"checks": 4})
+                self.assertEqual(validation.check(args, path), {"checks": 4})
+            self.assertEqual([c[1:] for c in calls], [["check", path, "--ranks", r] for r in ("2", "2", "1", "1")])
+
     def test_a_shot_is_not_bound_to_the_cores_another_loop_holds(self):
         c = campaign("layers-t", FIXTURE_CASE, BISECTION, [])
         c.path = "jobs/campaigns/validation/layers-t.json"
