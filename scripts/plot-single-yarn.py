@@ -9,7 +9,8 @@ Fig. 5-6), and the 64-fibre yarn's V50 against the fibre-fibre friction coeffici
 The seed's Table 5-2 rows (I0: filaments bend freely, the upper bound; I_inf: the bundle
 bends as one rod, the lower bound) beside this code's bisection brackets for the same two
 bending models and for the effective inertia (5-10) with k1 = 0.8, k2 = 1, which the seed
-found flat in the fibre count. The second figure sets Table 5-3 (64 fibres, I0, the
+found flat in the fibre count, each under the seed's failure measures; k1 = 0.8 also under
+today's (both gauges), apart. The second figure sets Table 5-3 (64 fibres, I0, the
 cylinder's own friction 0.3) beside the brackets of the `yarn-64-d-i0` campaigns by their
 fibre-fibre friction coefficient. A campaign without a bracket yet is listed under the plot,
 and one whose every shot so far perforated is drawn as a bound (a filled downward triangle
@@ -27,10 +28,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import validation  # noqa: E402  (scripts/validation.py: the seed's tables, kept once)
 
 ROOT = validation.ROOT
+# bending model, the failure measures both terms of (5-6) use (the seed's "element", or
+# today's "gauge", docs/theory.md I9b, I9c), label, colour, offset along the axis
 MODELS = (
-    ("free", "I0 (filaments free)", "tab:green"),
-    ("locked", "I_inf (bundle locked)", "tab:red"),
-    ("effective", "I_e, k1 = 0.8, k2 = 1", "tab:blue"),
+    ("free", "element", "I0 (filaments free)", "tab:green", -1.2),
+    ("locked", "element", "I_inf (bundle locked)", "tab:red", 1.2),
+    ("effective", "element", "I_e, k1 = 0.8, k2 = 1", "tab:blue", 0.0),
+    ("effective", "gauge", "I_e, k1 = 0.8, k2 = 1, both gauges (today's defaults)", "tab:purple", 2.4),
 )
 
 parser = argparse.ArgumentParser()
@@ -78,12 +82,13 @@ counts = sorted(validation.TABLE_5_2_I0)
 axes.plot(counts, [validation.TABLE_5_2_I0[n] for n in counts], "g^--", mfc="white", label="seed Table 5-2, I0")
 axes.plot(counts, [validation.TABLE_5_2_I_INF[n] for n in counts], "rv--", mfc="white", label="seed Table 5-2, I_inf")
 pending = []
-for shift, (model, label, colour) in zip((-1.2, 1.2, 0.0), MODELS):
+for model, measure, label, colour, shift in MODELS:
     chosen = sorted(
         # Table 5-2 is at mu = 0.3; the friction series of Table 5-3 is not drawn here, nor the
         # opt-in projected fibre-fibre friction spring (docs/theory.md I6d); the series was
         # fired with broken elements acting one more step (failure.unload "next_step", I7)
         (e for e in entries if (e.get("seed_reference") or {}).get("bending", {}).get("model") == model
+         and e.get("tension_measure") == measure and e.get("shear_measure") == measure
          and (e.get("seed_reference") or {}).get("friction_coefficient", 0.3) == 0.3
          and e.get("fibre_friction_spring", "anchored") == "anchored"
          and e.get("unload", "next_step") == "next_step"),
@@ -113,6 +118,7 @@ def draw_friction(entries, out):
         # the series fired with the seed's anchored spring and unloading, as Table 5-2's
         (e for e in entries if e["fibres_per_yarn"] == 64
          and (e.get("seed_reference") or {}).get("bending", {}).get("model") == "free"
+         and e.get("tension_measure") == "element" and e.get("shear_measure") == "element"
          and e.get("fibre_friction_spring", "anchored") == "anchored"
          and e.get("unload", "next_step") == "next_step"),
         key=lambda e: e["seed_reference"]["friction_coefficient"],

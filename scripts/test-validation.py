@@ -161,18 +161,21 @@ class FixtureLowEnds(unittest.TestCase):
 
 
 class Choices(unittest.TestCase):
-    def test_an_entry_names_the_tension_measure_and_rest_angle_law_as_the_solver_reads_them(self):
+    def test_an_entry_names_the_failure_measures_and_rest_angle_law_as_the_solver_reads_them(self):
         panel = {"name": "p", "target": {"kind": "woven_panel", "side_m": 0.01, "layers": 4}, "contact": {},
                  "failure": {}, "projectile": {"preset": "fsp_17_grain"}, "run": {"end_time_s": 1e-4}}
         design = {"kind": "velocities", "velocities_m_s": [200.0]}
         entry = validation.entry(campaign("p", panel, design, [shot(200.0, "S")]))
         # unsaid: the defaults since 2026-12-03, the gauge measure and, on crimped springs, smooth
-        self.assertEqual((entry["tension_measure"], entry["rest_angle_law"]), ("gauge", "smooth"))
+        self.assertEqual((entry["tension_measure"], entry["shear_measure"], entry["rest_angle_law"]),
+                         ("gauge", "gauge", "smooth"))
         named = copy.deepcopy(panel)
         named["failure"]["tension_measure"] = "element"
+        named["failure"]["shear_measure"] = "element"
         named["target"]["rest_angle_law"] = "cone"
         entry = validation.entry(campaign("p", named, design, [shot(200.0, "S")]))
-        self.assertEqual((entry["tension_measure"], entry["rest_angle_law"]), ("element", "cone"))
+        self.assertEqual((entry["tension_measure"], entry["shear_measure"], entry["rest_angle_law"]),
+                         ("element", "element", "cone"))
         # springs resting straight: the laws coincide and the solver reports the cone
         straight = copy.deepcopy(panel)
         straight["target"]["weave"] = {"bending_at_rest": "straight"}

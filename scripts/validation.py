@@ -511,6 +511,8 @@ def entry(c, campaigns=(), report=None):
         "rest_angle_law": target.get("rest_angle_law") or ("smooth" if rests_bent(target) else "cone"),
         # how the failure criterion measures tension (docs/theory.md I9c), "gauge" unless named
         "tension_measure": (c.case.get("failure") or {}).get("tension_measure") or "gauge",
+        # and shear (docs/theory.md I9b), "gauge" unless named
+        "shear_measure": (c.case.get("failure") or {}).get("shear_measure") or "gauge",
         "shots": len(c.shots),
         "complete": c.complete,
         "v50_m_s": v50,
