@@ -60,7 +60,8 @@ check panic-aborts-the-job bash -c 'start=$(date +%s); timeout 120 bash -c "mpi 
 sed 's/"end_time_s": 3e-6/"end_time_s": 3e-5, "stop_on_perforation": false/' cases/four_layer_panel.json >"$work/long.json"
 check long-reference bash -c 'mpi 2 run $work/long.json --out $work/reference'
 check sigterm-checkpoints-and-exits-75 bash -c 'mpi 2 run $work/long.json --out $work/term 2>$work/term.err & runner=$!; sleep 3;     pkill -TERM -f "^$bin run $work/long.json --out $work/term"; wait $runner; code=$?; echo "exit $code"; cat $work/term.err;     test $code -eq 75 && test -f $work/term/checkpoint/manifest.h5 && test ! -e $work/term/results.h5 \
-    && grep -q "checkpoint written at step [0-9]*, t = " $work/term.err'
+    && grep -q "checkpoint written at step [0-9]*, t = " $work/term.err \
+    && grep -q "\"state\": \"interrupted\"" $work/term/progress.json'
 check restart-on-three-ranks-is-identical bash -c 'mpi 3 run --restart $work/term/checkpoint --out $work/term     && $bin compare $work/reference/results.h5 $work/term/results.h5'
 check sigusr1-through-mpirun bash -c '$MPIRUN_LINE -np 2 $bin run $work/long.json --out $work/usr1 & runner=$!; sleep 3;     kill -USR1 $runner; wait $runner; code=$?; echo "exit $code"; test $code -eq 75 && test -f $work/usr1/checkpoint/manifest.h5'
 # Ctrl-C at a terminal checkpoints and exits 75 too; a SIGTERM or Ctrl-C sent to mpirun itself

@@ -499,6 +499,15 @@ class Begun(unittest.TestCase):
             self.assertEqual(validation.begun_words(now[:1]), "r000-00001 at 28.4 of 250 us, stepping now")
             self.assertEqual(validation.begun_words(later[:1]),
                              "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us")
+            # a shot a signal stopped says so at once ("interrupted"), however fresh the file
+            with open(path, "w") as f:
+                f.write('{"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4, "checkpoint_time_s": 2.84e-5, '
+                        '"state": "interrupted"}')
+            written = os.path.getmtime(path)
+            with mock.patch.object(validation, "RESULTS", results):
+                stopped = validation.begun("layers-t", now=written + 1.0)
+            self.assertEqual(validation.begun_words(stopped[:1]),
+                             "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 28.4 us")
 
 
 class UpAndDown(unittest.TestCase):

@@ -205,7 +205,8 @@ def resumable(directory):
 
 
 # progress.json of a shot that is stepping is rewritten every few tens of seconds (or at
-# each checkpoint); one in state "running" left alone longer than this was stopped
+# each checkpoint); one in state "running" left alone longer than this was stopped without
+# a word (SIGKILL, a lost node): a signal's checkpoint stop writes state "interrupted"
 RUNNING_WITHIN_S = 180.0
 
 

@@ -137,7 +137,9 @@ pub struct ProgressReport {
     /// the simulated time of the checkpoint a rerun would go on from: the last one this job
     /// wrote, or the one it was restarted from; absent (null) while there is none [s]
     pub checkpoint_time_s: Option<f64>,
-    /// `running`, or `finished` once the run has taken its last step
+    /// `running`; `finished` once the run has taken its last step; `interrupted` once a
+    /// signal stopped it at the checkpoint `checkpoint_time_s` names (a rerun goes on from
+    /// it), so that a reader need not guess from the file's age whether it still steps
     pub state: &'static str,
     /// when finished: the outcome (`perforated`, `stopped`, `rebounded`, `undecided`)
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -155,6 +157,8 @@ pub struct Progress {
     path: PathBuf,
     /// set by [`Self::finish`]: the run's outcome
     finished: Option<String>,
+    /// set by [`Self::interrupted`]: a signal stopped the run at a checkpoint
+    interrupted: bool,
     /// simulated time and forward speed at the last report (for the deceleration)
     last_flight: Option<(f64, f64)>,
     /// the latest estimate of the wall time to the decision [s]
@@ -185,6 +189,7 @@ impl Progress {
             bar,
             path: out.join("progress.json"),
             finished: None,
+            interrupted: false,
             last_flight: None,
             decision_eta: f64::NAN,
             checkpoint_time: restarted.then_some(start_time),
@@ -236,6 +241,8 @@ impl Progress {
         let wall_per_simulated = elapsed / (time - self.start_time);
         self.decision_eta = if self.finished.is_some() {
             0.0
+        } else if self.interrupted {
+            f64::NAN
         } else if to_end.is_some() {
             time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
         } else {
@@ -247,15 +254,27 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            eta_s: if self.finished.is_some() { 0.0 } else { to_end.unwrap_or(f64::NAN) },
+            eta_s: if self.finished.is_some() {
+                0.0
+            } else if self.interrupted {
+                f64::NAN
+            } else {
+                to_end.unwrap_or(f64::NAN)
+            },
             decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
             checkpoint_time_s: self.checkpoint_time,
-            state: if self.finished.is_some() { "finished" } else { "running" },
+            state: if self.finished.is_some() {
+                "finished"
+            } else if self.interrupted {
+                "interrupted"
+            } else {
+                "running"
+            },
             outcome: self.finished.clone(),
         };
-        if self.bar.is_none() && self.finished.is_none() {
+        if self.bar.is_none() && self.finished.is_none() && !self.interrupted {
             let eta = if report.eta_s.is_finite() && report.decision_eta_s.is_finite() {
                 format!(
                     "{:.0} s to the end time, about {:.0} s to the decision at the present deceleration",
@@ -285,6 +304,26 @@ impl Progress {
             if std::fs::write(&temporary, text + "\n").is_ok() {
                 let _ = std::fs::rename(&temporary, &self.path);
             }
+        }
+    }
+
+    /// Clears the bar and writes `progress.json` for a run a signal stopped after its
+    /// checkpoint at `time` [s] ([`Self::checkpointed`] first): interrupted, nothing to
+    /// foresee until a rerun goes on.
+    pub fn interrupted(
+        &mut self,
+        step: u64,
+        time: f64,
+        projectile_speed: f64,
+        energy_balance_error: f64,
+        flight: Flight,
+    ) {
+        self.interrupted = true;
+        self.last_report = None;
+        self.last_bar = None;
+        self.update(step, time, projectile_speed, energy_balance_error, flight);
+        if let Some(bar) = self.bar.take() {
+            bar.abandon();
         }
     }
 

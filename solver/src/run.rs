@@ -433,10 +433,11 @@ pub fn run<C: Comm>(run: &mut Distributed<C>, options: &RunOptions) -> Result<Op
                 progress.checkpointed(run.domain.time);
             }
             if stop {
-                // the interrupted run's progress.json names the checkpoint just written
+                // the interrupted run's progress.json says so and names the checkpoint just
+                // written, which a rerun goes on from
                 if let Some(progress) = &mut progress {
                     let flight = run.domain.projectile.as_ref().map_or(Flight::default(), |p| judge.flight(p));
-                    progress.update(run.domain.step, run.domain.time, speed(run), balance(&histories), flight);
+                    progress.interrupted(run.domain.step, run.domain.time, speed(run), balance(&histories), flight);
                 }
                 return Err(RunError::Interrupted(directory));
             }

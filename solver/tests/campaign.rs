@@ -93,6 +93,12 @@ fn an_interrupted_campaign_resumes_to_the_same_shots() {
     );
     let checkpoint = out.join("shots/r000-00002/checkpoint");
     assert!(checkpoint.join("manifest.h5").exists(), "the third shot left a checkpoint");
+    // and its progress.json says it was stopped there, not that it still steps
+    let progress: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("shots/r000-00002/progress.json")).unwrap()).unwrap();
+    assert_eq!(progress["state"], "interrupted", "{progress}");
+    assert_eq!(progress["checkpoint_time_s"], progress["simulated_time_s"], "{progress}");
+    assert!(progress["eta_s"].is_null(), "{progress}");
     let first_segment = dea_io::checkpoint::read_manifest(&checkpoint).unwrap().run_scalars[3];
     assert!(first_segment > 0.0, "the checkpoint keeps the wall time so far");
     // a checkpoint names the unloading of broken elements it was stepped with; one that does
