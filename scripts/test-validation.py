@@ -819,8 +819,32 @@ class Status(unittest.TestCase):
     def priced(self, name, shots, whole):
         c = validation.Campaign.__new__(validation.Campaign)
         c.name, c.nodes, c.shots, c.planned, c.complete = name, 1000, shots, 4, False
-        c.bound_core_hours, c.whole_core_hours = 1.0, whole
+        c.bound_core_hours, c.whole_core_hours, c.sibling_core_hours = 1.0, whole, None
+        c.spec, c.case = {"design": {"kind": "up_and_down"}}, {"run": {"end_time_s": 2.5e-4}}
         return c
+
+    def test_an_unstarted_series_is_priced_by_the_shots_of_its_siblings(self):
+        # the element series fired two shots of 2 and 4 core-hours at the same mesh, design
+        # kind and end time: the defaults' series is priced at their mean, not the model's 9
+        element = self.priced("layers-12-t", [dict(shot(400.0, "P"), wall_s=3600.0, ranks=2),
+                                              dict(shot(375.0, "S"), wall_s=7200.0, ranks=2)], 9.0)
+        defaults = self.priced("layers-12-t-gauge", [], 9.0)
+        longer = self.priced("layers-12-t-longer", [], 9.0)
+        longer.case = {"run": {"end_time_s": 5e-4}}
+        other_mesh = self.priced("layers-8-t", [], 9.0)
+        other_mesh.nodes = 2000
+        bisection = self.priced("layers-12-t-bisection", [], 9.0)
+        bisection.spec = {"design": {"kind": "bisection"}}
+        everyone = [element, defaults, longer, other_mesh, bisection]
+        validation.price_by_siblings(everyone)
+        self.assertEqual(defaults.per_shot_core_hours(), (3.0, "siblings"))
+        self.assertEqual(element.per_shot_core_hours(), (3.0, "measured"))
+        for apart in (longer, other_mesh, bisection):
+            self.assertEqual(apart.per_shot_core_hours(), (9.0, "whole shots"), apart.name)
+        printed = io.StringIO()
+        with mock.patch.object(validation, "begun", lambda name: []), contextlib.redirect_stdout(printed):
+            validation.status([defaults])
+        self.assertIn("3.00 (s)", printed.getvalue().splitlines()[1])
 
     def test_an_unstarted_campaign_is_priced_by_whole_shots_of_its_kind_where_measured(self):
         measured = self.priced("panel-t", [], 1.98)

@@ -22,7 +22,9 @@ end time, when the campaign's end time has since been raised and the shot's chec
 still on the machine, has its record withdrawn and goes on from there (`held_to_take_on`).
 
 Campaigns run cheapest first. The estimate of what is left is, per shot, the mean cost of the
-campaign's finished shots (wall time x ranks) when it has any ("m"), otherwise the price
+campaign's finished shots (wall time x ranks) when it has any ("m"), otherwise that of the
+finished shots of campaigns at the same mesh with the same kind of design and end time
+("s": a series that changes only a model or the speeds), otherwise the price
 `dea-mpi check --ranks R` gives a shot (the cost model calibrated on the reference shot,
 docs/theory.md C1: steps to the end time after the settle at the reference window's rates)
 times the highest factor whole shots of its target's kind have cost over that price ("w",
@@ -163,6 +165,9 @@ class Campaign:
         self.whole_core_hours = whole["core_hours_high"] if whole else None
         # the shots check prices the design at (dea_ballistic::Design::expected_shots)
         self.planned = resolved["cost"]["campaign"]["shots"]
+        # the mean cost of finished shots fired at the same mesh by the same kind of design to
+        # the same end time in other campaigns (`price_by_siblings`), None where there are none
+        self.sibling_core_hours = None
         self.refresh()
 
     def refresh(self):
@@ -181,6 +186,8 @@ class Campaign:
     def per_shot_core_hours(self):
         if self.shots:
             return sum(s["wall_s"] * s["ranks"] for s in self.shots) / len(self.shots) / 3600.0, "measured"
+        if self.sibling_core_hours is not None:
+            return self.sibling_core_hours, "siblings"
         if self.whole_core_hours is not None:
             return self.whole_core_hours, "whole shots"
         return self.bound_core_hours, "bound"
@@ -189,9 +196,33 @@ class Campaign:
         return 0 if self.complete else max(1, self.planned - len(self.shots))
 
 
+def siblings(c, campaigns):
+    """The other campaigns that fire at `c`'s mesh (as many nodes) with the same kind of
+    design and the same end time: a series that changes only the failure or friction model
+    or the speeds (the 12-layer series under today's defaults beside the element series)."""
+    def key(k):
+        return (k.nodes, k.spec["design"]["kind"], k.case["run"].get("end_time_s"))
+    return [o for o in campaigns if o is not c and key(o) == key(c)]
+
+
+def price_by_siblings(campaigns):
+    """Prices each campaign without finished shots by the mean cost of its siblings' finished
+    shots (`siblings`). The cost model's whole-shot price runs every shot to the end time at
+    the dearest factor measured, an upper figure (8.4 core-hours a shot for the 12-layer
+    series whose element twin cost 2.9 a shot); shots stop when decided, and a sibling's
+    shots stop much where this one's will. Series under other failure models cost within
+    about a fifth of each other (the 8-layer series: 3.1 against 2.6 core-hours a shot)."""
+    for c in campaigns:
+        fired = [s for o in siblings(c, campaigns) for s in o.shots]
+        c.sibling_core_hours = (sum(s["wall_s"] * s["ranks"] for s in fired) / len(fired) / 3600.0
+                                if fired and not c.shots else None)
+
+
 def load(args):
     paths = sorted(glob.glob(os.path.join(CAMPAIGNS, "*.json")))
     campaigns = [Campaign(args, p) for p in paths]
+    # priced against every campaign, not only those --only keeps
+    price_by_siblings(campaigns)
     if args.only:
         campaigns = [c for c in campaigns if args.only in c.name]
     # cheapest first: the small results come early, the long runs after
@@ -264,9 +295,10 @@ def status(campaigns):
             state += f" ({begun_words(started)})"
         print(f"{c.name:<{width}} {c.nodes:>9} {len(c.shots):>3}/{c.planned:<3} {c.left():>5} {per_shot:>8.2f} ({how[0]}) {state}")
     print(f"left: {sum(c.left() for c in campaigns)} shot(s), about {total:.1f} core-hours")
-    print("  m: the mean of the campaign's finished shots; w: the cost model's price to the end time times\n"
-          "  the highest factor whole shots of its kind have cost (docs/benchmarks/whole-shots.json);\n"
-          "  b: the bare price, for a kind never measured")
+    print("  m: the mean of the campaign's finished shots; s: the mean of the finished shots of campaigns\n"
+          "  at the same mesh with the same kind of design and end time; w: the cost model's price to the\n"
+          "  end time times the highest factor whole shots of its kind have cost\n"
+          "  (docs/benchmarks/whole-shots.json); b: the bare price, for a kind never measured")
 
 
 def same_shot_but_speed(case, other):
