@@ -6,6 +6,7 @@ only: run with /usr/bin/python3 scripts/test-validation.py."""
 import contextlib
 import copy
 import io
+import json
 import importlib.util
 import os
 import tempfile
@@ -488,26 +489,23 @@ class Begun(unittest.TestCase):
             # a shot stepping now (state "running", rewritten moments ago) is said to be so,
             # not to go on from its checkpoint; left alone longer than a few minutes in state
             # "running", it was stopped (a SIGKILL or a lost node writes no other state)
-            path = os.path.join(shots_dir, "r000-00001", "progress.json")
-            with open(path, "w") as f:
-                f.write('{"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4, "checkpoint_time_s": 1.98e-5, '
-                        '"state": "running"}')
-            written = os.path.getmtime(path)
-            with mock.patch.object(validation, "RESULTS", results):
-                now = validation.begun("layers-t", now=written + 30.0)
-                later = validation.begun("layers-t", now=written + validation.RUNNING_WITHIN_S + 1.0)
-            self.assertEqual(validation.begun_words(now[:1]), "r000-00001 at 28.4 of 250 us, stepping now")
-            self.assertEqual(validation.begun_words(later[:1]),
-                             "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us")
+            def said(state, checkpoint_s, *ages_s):
+                """What status says of r000-00001 with `state` and `checkpoint_s` in its
+                progress.json, that many seconds after the file was written."""
+                path = os.path.join(shots_dir, "r000-00001", "progress.json")
+                with open(path, "w") as f:
+                    json.dump({"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4,
+                               "checkpoint_time_s": checkpoint_s, "state": state}, f)
+                written = os.path.getmtime(path)
+                with mock.patch.object(validation, "RESULTS", results):
+                    return [validation.begun_words(validation.begun("layers-t", now=written + age)[:1])
+                            for age in ages_s]
+            self.assertEqual(said("running", 1.98e-5, 30.0, validation.RUNNING_WITHIN_S + 1.0),
+                             ["r000-00001 at 28.4 of 250 us, stepping now",
+                              "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 19.8 us"])
             # a shot a signal stopped says so at once ("interrupted"), however fresh the file
-            with open(path, "w") as f:
-                f.write('{"simulated_time_s": 2.84e-5, "end_time_s": 2.5e-4, "checkpoint_time_s": 2.84e-5, '
-                        '"state": "interrupted"}')
-            written = os.path.getmtime(path)
-            with mock.patch.object(validation, "RESULTS", results):
-                stopped = validation.begun("layers-t", now=written + 1.0)
-            self.assertEqual(validation.begun_words(stopped[:1]),
-                             "r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 28.4 us")
+            self.assertEqual(said("interrupted", 2.84e-5, 1.0),
+                             ["r000-00001 at 28.4 of 250 us, goes on from its checkpoint at 28.4 us"])
 
 
 class UpAndDown(unittest.TestCase):
