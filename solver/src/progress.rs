@@ -239,14 +239,18 @@ impl Progress {
             .map_or(0.0, |(then, forward)| (forward - flight.forward) / (time - then));
         self.last_flight = Some((time, flight.forward));
         let wall_per_simulated = elapsed / (time - self.start_time);
-        self.decision_eta = if self.finished.is_some() {
-            0.0
-        } else if self.interrupted {
-            f64::NAN
-        } else if to_end.is_some() {
-            time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
-        } else {
-            f64::NAN
+        let state = match (&self.finished, self.interrupted) {
+            (Some(_), _) => "finished",
+            (None, true) => "interrupted",
+            (None, false) => "running",
+        };
+        // nothing left to wait for once finished; nothing to foresee once interrupted
+        self.decision_eta = match state {
+            "finished" => 0.0,
+            "running" if to_end.is_some() => {
+                time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
+            }
+            _ => f64::NAN,
         };
         let report = ProgressReport {
             step,
@@ -254,27 +258,19 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            eta_s: if self.finished.is_some() {
-                0.0
-            } else if self.interrupted {
-                f64::NAN
-            } else {
-                to_end.unwrap_or(f64::NAN)
+            eta_s: match state {
+                "finished" => 0.0,
+                "running" => to_end.unwrap_or(f64::NAN),
+                _ => f64::NAN,
             },
             decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
             checkpoint_time_s: self.checkpoint_time,
-            state: if self.finished.is_some() {
-                "finished"
-            } else if self.interrupted {
-                "interrupted"
-            } else {
-                "running"
-            },
+            state,
             outcome: self.finished.clone(),
         };
-        if self.bar.is_none() && self.finished.is_none() && !self.interrupted {
+        if self.bar.is_none() && state == "running" {
             let eta = if report.eta_s.is_finite() && report.decision_eta_s.is_finite() {
                 format!(
                     "{:.0} s to the end time, about {:.0} s to the decision at the present deceleration",
