@@ -146,6 +146,27 @@ pub struct ProgressReport {
     pub outcome: Option<String>,
 }
 
+/// Where a run stands, as `progress.json`'s `state` names it.
+#[derive(Clone, Debug, PartialEq)]
+enum RunState {
+    /// stepping
+    Running,
+    /// a signal stopped it after a checkpoint, which a rerun goes on from
+    Interrupted,
+    /// it took its last step, with this outcome
+    Finished(String),
+}
+
+impl RunState {
+    fn name(&self) -> &'static str {
+        match self {
+            RunState::Running => "running",
+            RunState::Interrupted => "interrupted",
+            RunState::Finished(_) => "finished",
+        }
+    }
+}
+
 /// Rank 0's progress display.
 pub struct Progress {
     start: Instant,
@@ -155,10 +176,9 @@ pub struct Progress {
     last_bar: Option<Instant>,
     bar: Option<ProgressBar>,
     path: PathBuf,
-    /// set by [`Self::finish`]: the run's outcome
-    finished: Option<String>,
-    /// set by [`Self::interrupted`]: a signal stopped the run at a checkpoint
-    interrupted: bool,
+    /// stepping, stopped by a signal at a checkpoint ([`Self::interrupted`]) or finished
+    /// with its outcome ([`Self::finish`])
+    state: RunState,
     /// simulated time and forward speed at the last report (for the deceleration)
     last_flight: Option<(f64, f64)>,
     /// the latest estimate of the wall time to the decision [s]
@@ -188,8 +208,7 @@ impl Progress {
             last_bar: None,
             bar,
             path: out.join("progress.json"),
-            finished: None,
-            interrupted: false,
+            state: RunState::Running,
             last_flight: None,
             decision_eta: f64::NAN,
             checkpoint_time: restarted.then_some(start_time),
@@ -239,15 +258,10 @@ impl Progress {
             .map_or(0.0, |(then, forward)| (forward - flight.forward) / (time - then));
         self.last_flight = Some((time, flight.forward));
         let wall_per_simulated = elapsed / (time - self.start_time);
-        let state = match (&self.finished, self.interrupted) {
-            (Some(_), _) => "finished",
-            (None, true) => "interrupted",
-            (None, false) => "running",
-        };
         // nothing left to wait for once finished; nothing to foresee once interrupted
-        self.decision_eta = match state {
-            "finished" => 0.0,
-            "running" if to_end.is_some() => {
+        self.decision_eta = match self.state {
+            RunState::Finished(_) => 0.0,
+            RunState::Running if to_end.is_some() => {
                 time_to_decision(flight.forward, deceleration, flight.to_exit) * wall_per_simulated
             }
             _ => f64::NAN,
@@ -258,19 +272,22 @@ impl Progress {
             end_time_s: self.end_time,
             percent: 100.0 * time / self.end_time,
             elapsed_s: elapsed,
-            eta_s: match state {
-                "finished" => 0.0,
-                "running" => to_end.unwrap_or(f64::NAN),
-                _ => f64::NAN,
+            eta_s: match self.state {
+                RunState::Finished(_) => 0.0,
+                RunState::Running => to_end.unwrap_or(f64::NAN),
+                RunState::Interrupted => f64::NAN,
             },
             decision_eta_s: self.decision_eta,
             projectile_speed_m_s: projectile_speed,
             energy_balance_error,
             checkpoint_time_s: self.checkpoint_time,
-            state,
-            outcome: self.finished.clone(),
+            state: self.state.name(),
+            outcome: match &self.state {
+                RunState::Finished(outcome) => Some(outcome.clone()),
+                _ => None,
+            },
         };
-        if self.bar.is_none() && state == "running" {
+        if self.bar.is_none() && self.state == RunState::Running {
             let eta = if report.eta_s.is_finite() && report.decision_eta_s.is_finite() {
                 format!(
                     "{:.0} s to the end time, about {:.0} s to the decision at the present deceleration",
@@ -314,7 +331,7 @@ impl Progress {
         energy_balance_error: f64,
         flight: Flight,
     ) {
-        self.interrupted = true;
+        self.state = RunState::Interrupted;
         self.last_report = None;
         self.last_bar = None;
         self.update(step, time, projectile_speed, energy_balance_error, flight);
@@ -326,7 +343,7 @@ impl Progress {
     /// Clears the bar and writes the final `progress.json`: finished, with the run's
     /// `outcome`, nothing left to wait for.
     pub fn finish(&mut self, step: u64, time: f64, projectile_speed: f64, energy_balance_error: f64, outcome: &str) {
-        self.finished = Some(outcome.to_string());
+        self.state = RunState::Finished(outcome.to_string());
         self.last_report = None;
         self.last_bar = None;
         self.update(step, time, projectile_speed, energy_balance_error, Flight::default());
