@@ -1515,12 +1515,33 @@ impl SharedCubes {
 
 /// For each candidate point, whether it lies closer than `reach` to any target point: which
 /// nodes another rank sends are within contact reach of this rank's own nodes.
+///
+/// The larger of the two sets is first cut, one lookup a point, to the cells next to the
+/// smaller's ([`CellsNextTo`]): when two ranks' regions interleave, most of a rank's nodes
+/// lie far from the few another sends, and binning or querying them all would cost the most.
 pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) -> Vec<bool> {
+    let mut found = vec![false; candidates.len()];
     if targets.is_empty() || candidates.is_empty() {
-        return vec![false; candidates.len()];
+        return found;
     }
-    let (low, high) = bounding_box(targets);
-    let grid = HashedGrid::new(targets.len(), low, high, reach);
+    // cells a hair over the reach: two points closer than it lie in the same cell or in
+    // neighbouring ones whatever the rounding
+    let cell = reach * (1.0 + 1e-9);
+    let (targets, queried): (std::borrow::Cow<[Vec3]>, Vec<usize>) = if targets.len() <= candidates.len() {
+        let next_to_targets = CellsNextTo::new(targets, cell);
+        (targets.into(), (0..candidates.len()).filter(|&i| next_to_targets.holds(&candidates[i])).collect())
+    } else {
+        let next_to_candidates = CellsNextTo::new(candidates, cell);
+        (
+            targets.iter().filter(|x| next_to_candidates.holds(x)).copied().collect::<Vec<_>>().into(),
+            (0..candidates.len()).collect(),
+        )
+    };
+    if targets.is_empty() || queried.is_empty() {
+        return found;
+    }
+    let (low, high) = bounding_box(&targets);
+    let grid = HashedGrid::new(targets.len(), low, high, cell);
     let slot_of: Vec<usize> = targets.iter().map(|x| grid.slot(grid.coordinates(x))).collect();
     let mut start = Vec::new();
     count_rows(grid.slots(), slot_of.iter().copied(), &mut start);
@@ -1530,22 +1551,65 @@ pub fn within_reach_of_any(targets: &[Vec3], candidates: &[Vec3], reach: f64) ->
         sorted[fill[c] as usize] = *x;
         fill[c] += 1;
     }
-    candidates
-        .iter()
-        .map(|x| {
-            let [cx, cy, cz] = grid.coordinates(x);
-            (-1..=1).any(|dx| {
-                (-1..=1).any(|dy| {
-                    (-1..=1).any(|dz| {
-                        let c = grid.slot([cx + dx, cy + dy, cz + dz]);
-                        sorted[start[c] as usize..start[c + 1] as usize]
-                            .iter()
-                            .any(|t| (t - x).norm_squared() < reach * reach)
-                    })
+    for i in queried {
+        let x = &candidates[i];
+        let [cx, cy, cz] = grid.coordinates(x);
+        found[i] = (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dz| {
+                    let c = grid.slot([cx + dx, cy + dy, cz + dz]);
+                    sorted[start[c] as usize..start[c + 1] as usize]
+                        .iter()
+                        .any(|t| (t - x).norm_squared() < reach * reach)
                 })
             })
-        })
-        .collect()
+        });
+    }
+    found
+}
+
+/// The cells of a grid over some points that hold one of them or touch one that does: a
+/// point outside them is farther than a cell from every one of the points. Cells folded onto
+/// one slot of the table share its mark, which lets a far point through, never stops a near
+/// one; a point beyond the grid's box by more than a cell is stopped outright.
+struct CellsNextTo {
+    grid: HashedGrid,
+    /// one bit per slot
+    marked: Vec<u64>,
+}
+
+impl CellsNextTo {
+    /// The cells of side `cell` [m] next to `points` (not empty).
+    fn new(points: &[Vec3], cell: f64) -> Self {
+        let (low, high) = bounding_box(points);
+        let grid = HashedGrid::new(points.len(), low, high, cell);
+        let mut marked = vec![0u64; grid.slots().div_ceil(64)];
+        for x in points {
+            let [cx, cy, cz] = grid.coordinates(x);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let slot = grid.slot([cx + dx, cy + dy, cz + dz]);
+                        marked[slot / 64] |= 1 << (slot % 64);
+                    }
+                }
+            }
+        }
+        Self { grid, marked }
+    }
+
+    /// Whether `x` lies in a cell next to one of the points (or in a folded cell that shares
+    /// such a cell's slot).
+    #[inline]
+    fn holds(&self, x: &Vec3) -> bool {
+        let c = self.grid.coordinates(x);
+        // the points' cells run from 0 to `cells - 3` along each axis (the grid's box is theirs)
+        if (0..3).any(|k| c[k] < -1 || c[k] > self.grid.cells[k] as i64 - 2) {
+            return false;
+        }
+        let slot = self.grid.slot(c);
+        self.marked[slot / 64] & (1 << (slot % 64)) != 0
+    }
 }
 
 /// A node's place on its chain: its fibre in the high half, its position along it in the low
@@ -1862,15 +1926,36 @@ mod tests {
     #[test]
     fn reach_filter_matches_brute_force() {
         let (nodes, _) = random_cloud(500, 11);
-        let (targets, candidates) = nodes.position.split_at(200);
         let reach = 3e-5;
-        let found = within_reach_of_any(targets, candidates, reach);
-        for (c, &hit) in candidates.iter().zip(&found) {
-            assert_eq!(hit, targets.iter().any(|t| (t - c).norm() < reach));
+        // either set the larger (each is then cut to the cells next to the other), and a
+        // larger set mostly far from the smaller (the cloud's half beyond a plane, shifted)
+        let far = |points: &[Vec3]| -> Vec<Vec3> {
+            points.iter().map(|x| if x.x > 2e-4 { x + Vec3::new(3e-4, 0.0, 0.0) } else { *x }).collect()
+        };
+        for split in [200, 300, 40, 460] {
+            let (first, second) = nodes.position.split_at(split);
+            for (targets, candidates) in
+                [(first.to_vec(), second.to_vec()), (far(first), second.to_vec()), (first.to_vec(), far(second))]
+            {
+                let found = within_reach_of_any(&targets, &candidates, reach);
+                for (c, &hit) in candidates.iter().zip(&found) {
+                    assert_eq!(hit, targets.iter().any(|t| (t - c).norm() < reach), "split {split}, candidate {c:?}");
+                }
+                assert!(found.iter().any(|&h| h) && found.iter().any(|&h| !h), "split {split}");
+            }
         }
-        assert!(found.iter().any(|&h| h) && found.iter().any(|&h| !h));
-        // a candidate far outside the targets' box (folded onto the same slots) is not hit
-        assert_eq!(within_reach_of_any(targets, &[Vec3::new(1.0, 1.0, 1.0)], reach), vec![false]);
+        let (targets, candidates) = nodes.position.split_at(200);
+        // a pair a hair inside the reach, along an axis and a diagonal, is found
+        for direction in [Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0).normalize()] {
+            let near = targets[7] + direction * reach * (1.0 - 1e-12);
+            assert_eq!(within_reach_of_any(targets, &[near], reach), vec![true]);
+            assert!(within_reach_of_any(&[near], targets, reach)[7]);
+        }
+        // a point far outside the other set's box (folded onto the same slots) is not hit,
+        // as a candidate or as a target
+        let distant = [Vec3::new(1.0, 1.0, 1.0)];
+        assert_eq!(within_reach_of_any(targets, &distant, reach), vec![false]);
+        assert!(within_reach_of_any(&distant, candidates, reach).iter().all(|&h| !h));
     }
 
     #[test]
