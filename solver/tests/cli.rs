@@ -839,14 +839,18 @@ fn an_output_directory_belongs_to_one_run_and_a_checkpoint_to_its_case() {
     std::fs::write(&other_path, other.to_string()).unwrap();
     let wrong = stderr_of_exit(3, &["run", other_path.to_str().unwrap(), "--restart", k, "--out", o]);
     assert!(wrong.contains("continues case") && wrong.contains("differ in projectile.velocity_m_s"), "{wrong}");
-    let continued = dea(&["run", c, "--restart", k, "--out", o]);
-    assert!(continued.status.success(), "{}", String::from_utf8_lossy(&continued.stderr));
-    // ...but for how long it runs: a run ended early goes on to the case file's later end
-    // time, with the bits of a run straight through
+    // a checkpoint at or past the case file's end time has nothing left to run
     let mut shorter = case.clone();
     shorter["run"]["end_time_s"] = (0.6 * case["run"]["end_time_s"].as_f64().unwrap()).into();
     let shorter_path = dir.join("shorter.json");
     std::fs::write(&shorter_path, shorter.to_string()).unwrap();
+    assert!(checkpoint_s > shorter["run"]["end_time_s"].as_f64().unwrap());
+    let passed = stderr_of_exit(3, &["run", shorter_path.to_str().unwrap(), "--restart", k, "--out", o]);
+    assert!(passed.contains("nothing is left to run") && passed.contains("shorter.json's run.end_time_s"), "{passed}");
+    let continued = dea(&["run", c, "--restart", k, "--out", o]);
+    assert!(continued.status.success(), "{}", String::from_utf8_lossy(&continued.stderr));
+    // ...but for how long it runs: a run ended early goes on to the case file's later end
+    // time, with the bits of a run straight through
     let early = dir.join("early");
     let e = early.to_str().unwrap();
     let first = dea(&["run", shorter_path.to_str().unwrap(), "--out", e]);

@@ -32,7 +32,8 @@ pub struct Args {
     /// continue from a checkpoint directory (OUT/checkpoint of an earlier run), on any
     /// number of ranks; the case comes from the checkpoint (a CASE given too must be the
     /// checkpoint's: a job script's leftover checkpoint cannot continue another case; but its
-    /// run.end_time_s and checkpoint intervals apply, so an undecided run can go on longer)
+    /// run.end_time_s and checkpoint intervals apply, so an undecided run can go on longer;
+    /// a checkpoint at or past the end time is refused: nothing is left to run)
     #[arg(long)]
     pub restart: Option<PathBuf>,
     /// delete the outputs of an earlier run in OUT first (without it, a fresh run into a
@@ -115,6 +116,24 @@ pub fn main(Args { case, out, method, restart, overwrite, log_dir, progress, pan
                             )
                         }
                     };
+                }
+                // a checkpoint at or past the end time has nothing left to run: going on would
+                // write a run of no steps over the outputs as if it had been continued
+                let (time, time_step, end) =
+                    (restored.run.domain.time, restored.run.domain.time_step, restored.case.run.end_time_s);
+                if time + 0.5 * time_step >= end {
+                    let source = match &case {
+                        Some(path) => format!("{}'s", path.display()),
+                        None => "the checkpoint's own".to_string(),
+                    };
+                    return fail_all(
+                        &session,
+                        Exit::BadCase,
+                        format!(
+                            "{}: this checkpoint is at t = {time:.4e} s, not before {source} run.end_time_s = {end:.4e} s: nothing is left to run; give a case file with a later run.end_time_s to go on",
+                            directory.display()
+                        ),
+                    );
                 }
                 let resume = dea_mpi::run::Resume::from_checkpoint(&restored.global);
                 if resume.is_none() {
