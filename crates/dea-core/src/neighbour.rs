@@ -227,15 +227,7 @@ impl BuildScratch {
             wanted.clear();
             wanted.resize(grid.slots().div_ceil(64), 0);
             for (x, _) in positions.iter().zip(marked).filter(|(_, &m)| m) {
-                let [cx, cy, cz] = grid.coordinates(x);
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            let slot = grid.slot([cx + dx, cy + dy, cz + dz]);
-                            wanted[slot / 64] |= 1 << (slot % 64);
-                        }
-                    }
-                }
+                grid.mark_around(x, wanted);
             }
             for c in &mut self.cell_of {
                 if wanted[*c as usize / 64] & (1 << (*c % 64)) == 0 {
@@ -1438,6 +1430,20 @@ impl HashedGrid {
         [c(0), c(1), c(2)]
     }
 
+    /// Sets in `bits` (one a slot) the slots of the cell of `x` and of its 26 neighbours.
+    #[inline]
+    fn mark_around(&self, x: &Vec3, bits: &mut [u64]) {
+        let [cx, cy, cz] = self.coordinates(x);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let slot = self.slot([cx + dx, cy + dy, cz + dz]);
+                    bits[slot / 64] |= 1 << (slot % 64);
+                }
+            }
+        }
+    }
+
     #[inline]
     fn slot(&self, [x, y, z]: [i64; 3]) -> usize {
         let linear = (x as u64)
@@ -1585,15 +1591,7 @@ impl CellsNextTo {
         let grid = HashedGrid::new(points.len(), low, high, cell);
         let mut marked = vec![0u64; grid.slots().div_ceil(64)];
         for x in points {
-            let [cx, cy, cz] = grid.coordinates(x);
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let slot = grid.slot([cx + dx, cy + dy, cz + dz]);
-                        marked[slot / 64] |= 1 << (slot % 64);
-                    }
-                }
-            }
+            grid.mark_around(x, &mut marked);
         }
         Self { grid, marked }
     }
